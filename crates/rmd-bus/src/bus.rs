@@ -1,0 +1,129 @@
+//! The `CanBus` trait: what the loop needs from a CAN interface, and nothing more.
+
+use rmd_protocol::CanFrame;
+
+use crate::Timestamp;
+
+/// A CAN interface the loop can drive: the simulator, Linux SocketCAN, or a wrapper around either
+/// (a recorder, a fault injector).
+///
+/// Both methods are called from the real-time thread, so implementations must not allocate and
+/// must not block, except `recv_until`, which waits at most until its absolute deadline.
+pub trait CanBus {
+    /// Queues `frame` for transmission and returns at once.
+    ///
+    /// A full transmit queue is [`BusError::TxQueueFull`]: the frame was not sent, and the caller
+    /// decides what to do (a frame is never dropped silently).
+    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError>;
+
+    /// Returns the next received frame or bus event, waiting for it at most until `deadline`
+    /// (an absolute time on the bus's clock). `Ok(None)` means the deadline passed with nothing
+    /// received. A deadline in the past polls: anything already received is returned, else `None`.
+    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError>;
+}
+
+impl<B: CanBus + ?Sized> CanBus for &mut B {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        (**self).send(frame)
+    }
+    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
+        (**self).recv_until(deadline)
+    }
+}
+
+impl<B: CanBus + ?Sized> CanBus for Box<B> {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        (**self).send(frame)
+    }
+    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
+        (**self).recv_until(deadline)
+    }
+}
+
+/// Something that came off the bus, with the time it was received.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Received {
+    /// When it was received, on the bus's clock (for SocketCAN: the kernel's receive timestamp
+    /// converted to that clock).
+    pub at: Timestamp,
+    /// What was received.
+    pub message: BusMessage,
+}
+
+/// A received item: a data frame, or a controller/bus state event.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum BusMessage {
+    /// A data frame.
+    Frame(CanFrame),
+    /// A bus or controller event (from a CAN error frame on SocketCAN).
+    Event(BusEvent),
+}
+
+/// A change of state of the CAN controller or the bus, reported in band with the frames.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum BusEvent {
+    /// The controller went bus-off (too many transmit errors): nothing is sent until it restarts.
+    BusOff,
+    /// The controller is error-passive (error counters at or above 128).
+    ErrorPassive,
+    /// The error counters reached the warning level (96).
+    ErrorWarning,
+    /// The controller is back to error-active.
+    ErrorActive,
+    /// The controller was restarted after bus-off.
+    Restarted,
+    /// A transmission lost arbitration.
+    ArbitrationLost,
+    /// A transmission timed out (no acknowledgement, e.g. nobody else on the bus).
+    TxTimeout,
+    /// The controller's or the socket's receive buffer overflowed: frames were lost.
+    RxOverflow,
+    /// A protocol violation (bit, form, stuff error) was detected on the bus.
+    ProtocolViolation,
+    /// No acknowledgement was received for a transmitted frame.
+    NoAck,
+    /// A bus wiring error was reported by the transceiver.
+    TransceiverError,
+}
+
+impl core::fmt::Display for BusEvent {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            BusEvent::BusOff => "bus-off",
+            BusEvent::ErrorPassive => "error-passive",
+            BusEvent::ErrorWarning => "error-warning",
+            BusEvent::ErrorActive => "error-active",
+            BusEvent::Restarted => "controller restarted",
+            BusEvent::ArbitrationLost => "arbitration lost",
+            BusEvent::TxTimeout => "transmit timeout",
+            BusEvent::RxOverflow => "receive overflow",
+            BusEvent::ProtocolViolation => "protocol violation",
+            BusEvent::NoAck => "no acknowledgement",
+            BusEvent::TransceiverError => "transceiver error",
+        })
+    }
+}
+
+/// Why a bus operation failed. `Copy` and allocation-free: it is returned on the real-time path.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum BusError {
+    /// The transmit queue is full; the frame was not sent.
+    #[error("CAN transmit queue full: the frame was not sent (raise txqueuelen or send less)")]
+    TxQueueFull,
+    /// The controller is bus-off; nothing can be sent until it restarts.
+    #[error(
+        "CAN controller is bus-off: check wiring, termination and bit rate, then restart it \
+         (e.g. `ip link set can0 type can restart-ms 100`)"
+    )]
+    BusOff,
+    /// The interface went down or disappeared.
+    #[error(
+        "CAN interface is down or gone: bring it up (`ip link set can0 up type can bitrate 1000000`)"
+    )]
+    InterfaceDown,
+    /// Any other operating-system error, by errno.
+    #[error("CAN I/O error (errno {0})")]
+    Io(i32),
+}

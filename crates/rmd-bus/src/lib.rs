@@ -1,0 +1,11 @@
+//! The bus layer of rmd-rt: the [`CanBus`] trait every transport implements (the simulator,
+//! Linux SocketCAN) and the [`Clock`] that lets everything run in real or virtual time.
+
+pub mod bus;
+pub mod clock;
+pub mod time;
+
+pub use bus::{BusError, BusEvent, BusMessage, CanBus, Received};
+pub use clock::{Clock, MonotonicClock, VirtualClock};
+pub use rmd_protocol::CanFrame;
+pub use time::Timestamp;

@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# The one command that runs every test of rmd-rt (unit, integration, property, doc tests).
+# Usage: ./tests/run-all.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if cargo nextest --version >/dev/null 2>&1; then
+  cargo nextest run --workspace --no-fail-fast
+else
+  cargo test --workspace --no-fail-fast
+fi
+# nextest does not run doc tests.
+cargo test --workspace --doc
