@@ -85,6 +85,10 @@ pub enum BusEvent {
     NoAck,
     /// A bus wiring error was reported by the transceiver.
     TransceiverError,
+    /// The controller's transmit buffer overflowed: a frame queued to it was lost.
+    TxOverflow,
+    /// The controller reported a problem it did not specify further.
+    ControllerProblem,
 }
 
 impl core::fmt::Display for BusEvent {
@@ -101,6 +105,8 @@ impl core::fmt::Display for BusEvent {
             BusEvent::ProtocolViolation => "protocol violation",
             BusEvent::NoAck => "no acknowledgement",
             BusEvent::TransceiverError => "transceiver error",
+            BusEvent::TxOverflow => "transmit overflow",
+            BusEvent::ControllerProblem => "unspecified controller problem",
         })
     }
 }

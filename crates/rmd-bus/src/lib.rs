@@ -5,6 +5,9 @@ pub mod bus;
 pub mod clock;
 pub mod time;
 
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
+pub mod socketcan;
+
 pub use bus::{BusError, BusEvent, BusMessage, CanBus, Received};
 pub use clock::{Clock, MonotonicClock, VirtualClock};
 pub use rmd_protocol::CanFrame;

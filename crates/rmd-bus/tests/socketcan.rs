@@ -1,0 +1,1 @@
+//! SocketCAN kernel tests (being written).
