@@ -11,8 +11,13 @@
 //!   interface works.
 //! - **Non-blocking send**: [`CanBus::send`] never waits. A full transmit path (the
 //!   interface's queue, `ENOBUFS`, or the socket's send buffer, `EAGAIN`) is
-//!   [`BusError::TxQueueFull`], or [`BusError::BusOff`] while the controller is known to be
-//!   bus-off; a downed interface is [`BusError::InterfaceDown`].
+//!   [`BusError::TxQueueFull`]; a downed interface is [`BusError::InterfaceDown`].
+//! - **Bus-off**: after a [`BusEvent::BusOff`] has been received, `send` refuses with
+//!   [`BusError::BusOff`] without trying. The kernel would accept the frame and silently drop
+//!   it (a bus-off controller has no carrier; the kernel's "no carrier" queue discards frames
+//!   and reports success). The refusal ends with the next sign of a working controller: a
+//!   [`BusEvent::Restarted`] or any other controller-state event, any data frame received, or
+//!   a receive overflow (events may have been lost, so the state is unknown).
 //! - **Deadline receive**: [`CanBus::recv_until`] waits with `ppoll`, whose nanosecond timeout
 //!   runs on the kernel's high-resolution timers (not `SO_RCVTIMEO`, which rounds to
 //!   scheduler ticks). The deadline is absolute on [`MonotonicClock`]; it is never returned
@@ -24,7 +29,13 @@
 //!   driver's error frames arrive in band as [`BusMessage::Event`]s (bus-off, error-passive,
 //!   warning, restarted, lost arbitration, TX timeout, overflows, ...; see
 //!   [`error_frame`]). Frames the socket itself had to drop because the process read too
-//!   slowly (`SO_RXQ_OVFL`) are reported as [`BusEvent::RxOverflow`] too.
+//!   slowly (`SO_RXQ_OVFL`) are reported as [`BusEvent::RxOverflow`] too, just before the
+//!   first frame the kernel queued after the loss (the kernel attaches the drop count to
+//!   that frame).
+//! - **Interface down or removed**: the kernel reports it once as a socket error, which the
+//!   next `send` or `recv_until` returns as [`BusError::InterfaceDown`]; while the interface
+//!   stays down every `send` keeps failing that way, and `recv_until` simply receives
+//!   nothing.
 //! - **Draining at open**: frames queued while the socket was being set up, and whatever
 //!   arrives during the [drain window](SocketCanOptions::drain_window), are discarded, so the
 //!   loop never acts on stale replies (a USB adapter can deliver old frames after a
@@ -127,7 +138,9 @@ pub struct SocketCanBus {
 impl SocketCanBus {
     /// Opens `iface` (e.g. `"can0"`, `"vcan0"`) with `options`, then drains it.
     ///
-    /// Not real-time: it inspects the interface, allocates, and waits for the drain window.
+    /// Not real-time: it inspects the interface, allocates, and waits for the drain window. An
+    /// interface that is up but not running (just brought up, or bus-off) gets two seconds to
+    /// start running before the open fails with [`OpenError::NotRunning`].
     ///
     /// Errors: an [`OpenError`] saying what is wrong and how to fix it (missing interface,
     /// interface down or not running, not a CAN interface, permission denied, no CAN support in
@@ -176,8 +189,9 @@ impl SocketCanBus {
         self.stats
     }
 
-    /// Whether the last controller-state event received was bus-off (cleared by a restart or
-    /// any later state event).
+    /// Whether the controller is known to be bus-off: a [`BusEvent::BusOff`] was received and
+    /// no sign of recovery since (a restart or other state event, a received data frame, or a
+    /// receive overflow). While it is, `send` refuses with [`BusError::BusOff`].
     pub fn is_bus_off(&self) -> bool {
         self.bus_off
     }
@@ -225,15 +239,20 @@ impl SocketCanBus {
             && drops != self.stats.kernel_drops
         {
             self.stats.kernel_drops = drops;
+            self.track_state(BusEvent::RxOverflow);
             self.queue(at, BusMessage::Event(BusEvent::RxOverflow));
         }
         match datagram.frame.map(|bytes| wire::decode(&bytes)) {
             Some(RawFrame::Data(frame)) if keep_frames => {
+                self.bus_off = false;
                 self.stats.frames_received += 1;
                 self.queue(at, BusMessage::Frame(frame));
                 Ok(Pumped::Queued)
             }
-            Some(RawFrame::Data(_)) => Ok(Pumped::Discarded),
+            Some(RawFrame::Data(_)) => {
+                self.bus_off = false;
+                Ok(Pumped::Discarded)
+            }
             Some(RawFrame::Error { classes, data }) => {
                 self.stats.error_frames += 1;
                 for &event in decode_error_frame(classes, &data).as_slice() {
@@ -261,14 +280,14 @@ impl SocketCanBus {
             BusEvent::Restarted
             | BusEvent::ErrorActive
             | BusEvent::ErrorWarning
-            | BusEvent::ErrorPassive => self.bus_off = false,
+            | BusEvent::ErrorPassive
+            | BusEvent::RxOverflow => self.bus_off = false,
             _ => {}
         }
     }
 
     fn tx_error(&mut self, errno: Errno) -> BusError {
         match errno {
-            Errno::EAGAIN | Errno::ENOBUFS if self.bus_off => BusError::BusOff,
             Errno::EAGAIN | Errno::ENOBUFS => {
                 self.stats.tx_queue_full += 1;
                 BusError::TxQueueFull
@@ -292,6 +311,9 @@ enum Pumped {
 
 impl CanBus for SocketCanBus {
     fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        if self.bus_off {
+            return Err(BusError::BusOff);
+        }
         io::write_frame(self.socket.as_fd(), &wire::encode(frame)).map_err(|e| self.tx_error(e))
     }
 
@@ -334,34 +356,45 @@ fn bus_error_to_io(error: BusError) -> std::io::Error {
     }
 }
 
+/// How long [`check_link`] waits for an interface that is up but not yet running: the kernel
+/// updates the operational state asynchronously (up to a second after a carrier change).
+const RUNNING_GRACE: Duration = Duration::from_secs(2);
+
 /// Checks that `iface` exists, is a CAN interface, and is up and running.
 fn check_link(iface: &str) -> Result<(), OpenError> {
-    let state = link::inspect(iface)
-        .map_err(|errno| classify(iface, "listing interfaces", errno.into()))?;
-    let Some(state) = state else {
-        return Err(OpenError::InterfaceMissing {
-            iface: iface.to_owned(),
-        });
-    };
-    if let Some(link_type) = state.link_type
-        && link_type != link::ARPHRD_CAN
-    {
-        return Err(OpenError::NotCan {
-            iface: iface.to_owned(),
-            link_type,
-        });
+    let give_up = MonotonicClock.now() + RUNNING_GRACE;
+    loop {
+        let state = link::inspect(iface)
+            .map_err(|errno| classify(iface, "listing interfaces", errno.into()))?;
+        let Some(state) = state else {
+            return Err(OpenError::InterfaceMissing {
+                iface: iface.to_owned(),
+            });
+        };
+        if let Some(link_type) = state.link_type
+            && link_type != link::ARPHRD_CAN
+        {
+            return Err(OpenError::NotCan {
+                iface: iface.to_owned(),
+                link_type,
+            });
+        }
+        if !state.up {
+            return Err(OpenError::InterfaceDown {
+                iface: iface.to_owned(),
+            });
+        }
+        if state.running {
+            return Ok(());
+        }
+        // Just brought up (or bus-off): give the kernel's link state a moment to settle.
+        if MonotonicClock.now() >= give_up {
+            return Err(OpenError::NotRunning {
+                iface: iface.to_owned(),
+            });
+        }
+        std::thread::sleep(Duration::from_millis(20));
     }
-    if !state.up {
-        return Err(OpenError::InterfaceDown {
-            iface: iface.to_owned(),
-        });
-    }
-    if !state.running {
-        return Err(OpenError::NotRunning {
-            iface: iface.to_owned(),
-        });
-    }
-    Ok(())
 }
 
 /// Applies the socket options; on failure, what was being done and the error.

@@ -128,7 +128,8 @@ fn up_hint(iface: &str) -> String {
     } else {
         format!(
             "bring it up with `ip link set {iface} up type can bitrate 1000000 restart-ms 100` \
-             (RMD motors default to 1 Mbit/s)"
+             (RMD motors default to 1 Mbit/s; a virtual interface needs only \
+             `ip link set {iface} up`)"
         )
     }
 }
