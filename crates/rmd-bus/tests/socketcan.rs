@@ -379,26 +379,40 @@ fn vcan_never_fills_its_transmit_path() {
     assert_eq!(bus.stats().tx_queue_full, 0);
 }
 
-#[test]
-fn a_full_transmit_queue_is_a_typed_error_and_clears_when_the_adapter_catches_up() {
-    let slcan = Slcan::up();
-    let mut bus = open(&slcan.name);
-    let request = frame(0x141, &[0xA1, 0, 0, 0, 0x10, 0, 0, 0]);
-
-    // Nobody reads the adapter's serial line: the line backs up, the driver stops its queue,
-    // the interface's queue fills.
+/// Sends `request` until the transmit path refuses; returns how many were accepted.
+fn fill_transmit_path(bus: &mut SocketCanBus, request: &CanFrame) -> u32 {
     let mut sent = 0u32;
     let error = loop {
-        match bus.send(&request) {
+        match bus.send(request) {
             Ok(()) => sent += 1,
             Err(error) => break error,
         }
         assert!(sent < 1_000_000, "the transmit path never filled up");
     };
     assert_eq!(error, BusError::TxQueueFull);
+    sent
+}
+
+#[test]
+fn a_full_transmit_queue_is_a_typed_error_and_clears_when_the_adapter_catches_up() {
+    let slcan = Slcan::up();
+    let mut bus = open(&slcan.name);
+    let request = frame(0x141, &[0xA1, 0, 0, 0, 0x10, 0, 0, 0]);
+
+    // Nobody reads the adapter's serial line: the driver holds one frame it cannot finish
+    // writing and stops its queue, then the interface's queue (txqueuelen) fills.
+    let sent = fill_transmit_path(&mut bus, &request);
     assert!(sent > 0);
+    println!("slcan took {sent} frames before its transmit path was full");
     assert_eq!(bus.send(&request), Err(BusError::TxQueueFull));
     assert_eq!(bus.stats().tx_queue_full, 2);
+
+    // The refusal comes from the interface's queue: 30 more places, 30 more frames.
+    let bigger = Slcan::up();
+    support::ip(&["link", "set", &bigger.name, "qlen", "40"]);
+    let mut bigger_bus = open(&bigger.name);
+    let sent_bigger = fill_transmit_path(&mut bigger_bus, &request);
+    assert_eq!(sent_bigger, sent + 30);
 
     // The adapter reads its line again: the queue drains and sending works again.
     let mut wire = Vec::new();
