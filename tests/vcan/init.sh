@@ -24,8 +24,10 @@ ip link set lo up
   { echo "vm: cannot create vcan0"; finish 126; }
 
 # Environment and command line of the program, written by run-in-vm.sh.
+# shellcheck disable=SC1091
 . /rmd/env
+# shellcheck disable=SC1091
 . /rmd/command
-cd /tmp
+cd /tmp || finish 126
 "$@"
 finish "$?"

@@ -1,3 +1,4 @@
+# shellcheck shell=bash
 # Shared helpers of the SocketCAN kernel-test harness (sourced, not run).
 #
 # Everything the VM needs comes from Debian's archive through apt, unpacked into a cache folder
@@ -58,10 +59,12 @@ vcan_fetch_kernel() {
   vcan_log "fetching $package"
   rm -rf "$dir" && mkdir -p "$dir/debs" "$dir/root"
   (cd "$dir/debs" && vcan_apt download "$package")
-  deb="$(ls "$dir"/debs/*.deb | head -n 1)"
+  local debs=("$dir"/debs/*.deb)
+  deb="${debs[0]}"
   dpkg-deb --fsys-tarfile "$deb" | tar -x -C "$dir/root" --wildcards './boot/vmlinuz-*' \
     './lib/modules/*/kernel/net/can/*' './lib/modules/*/kernel/drivers/net/can/*'
-  vmlinuz="$(ls "$dir"/root/boot/vmlinuz-* | head -n 1)"
+  local images=("$dir"/root/boot/vmlinuz-*)
+  vmlinuz="${images[0]}"
   # The bzImage carries the kernel as an xz stream; booting that ELF directly skips the
   # decompressor (about half the boot time under TCG).
   offset="$(LC_ALL=C grep -obUaP '\xfd7zXZ\x00' "$vmlinuz" | head -n 1 | cut -d: -f1)"
@@ -107,6 +110,7 @@ vcan_fetch() {
   vcan_fetch_tools
 }
 
+# shellcheck disable=SC2034 # VCAN_QEMU is this function's result
 # Sets VCAN_QEMU to the qemu command (an env(1) call carrying the unpacked libraries and the
 # firmware search path when qemu comes from the cache).
 vcan_qemu_command() {

@@ -494,6 +494,14 @@ fn bus_off_is_reported_refuses_sends_and_stops_new_opens() {
     assert!(matches!(error, OpenError::NotRunning { .. }), "{error}");
     assert!(error.to_string().contains("restart-ms"), "{error}");
 
+    // Why `send` refuses: the kernel itself accepts a frame on a bus-off interface (another
+    // program's send succeeds) and never transmits it.
+    let _ = slcan.adapter_reads();
+    let peer = Peer::open(&slcan.name);
+    peer.send(0x141, &[0x9C; 8]);
+    std::thread::sleep(Duration::from_millis(200));
+    assert_eq!(slcan.adapter_reads(), b"");
+
     // The controller recovers (here: the adapter reports error-active again).
     slcan.adapter_says("sa000000");
     assert_eq!(events_of(&until_quiet(&mut bus)), [BusEvent::ErrorActive]);
