@@ -13,9 +13,10 @@
 //!   interface's queue, `ENOBUFS`, or the socket's send buffer, `EAGAIN`) is
 //!   [`BusError::TxQueueFull`]; a downed interface is [`BusError::InterfaceDown`].
 //! - **Bus-off**: after a [`BusEvent::BusOff`] has been received, `send` refuses with
-//!   [`BusError::BusOff`] without trying. The kernel would accept the frame and silently drop
-//!   it (a bus-off controller has no carrier; the kernel's "no carrier" queue discards frames
-//!   and reports success). The refusal ends with the next sign of a working controller: a
+//!   [`BusError::BusOff`] without trying. The kernel would accept the frame and never
+//!   transmit it (a bus-off controller has no carrier; Linux discards frames queued to an
+//!   interface without carrier and still reports success). The refusal ends with the next
+//!   sign of a working controller: a
 //!   [`BusEvent::Restarted`] or any other controller-state event, any data frame received, or
 //!   a receive overflow (events may have been lost, so the state is unknown).
 //! - **Deadline receive**: [`CanBus::recv_until`] waits with `ppoll`, whose nanosecond timeout
