@@ -25,7 +25,7 @@
 //!   before it (the only lateness is the thread's timer slack, 50 µs by default and 0 for
 //!   real-time threads, plus scheduling latency).
 //! - **Kernel receive timestamps** (`SO_TIMESTAMPNS`) on every frame, converted to the
-//!   [`MonotonicClock`] time line: see [`rx_time`](self#receive-timestamps) below.
+//!   [`MonotonicClock`] time line: see [Receive timestamps](self#receive-timestamps) below.
 //! - **Error frames as events**: with [`SocketCanOptions::error_events`] (default on), the
 //!   driver's error frames arrive in band as [`BusMessage::Event`]s (bus-off, error-passive,
 //!   warning, restarted, lost arbitration, TX timeout, overflows, ...; see
@@ -465,6 +465,12 @@ fn classify(iface: &str, action: &'static str, error: std::io::Error) -> OpenErr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_bus_can_move_to_the_real_time_thread() {
+        fn assert_send<T: Send>() {}
+        assert_send::<SocketCanBus>();
+    }
 
     #[test]
     fn errnos_map_to_typed_bus_errors() {

@@ -1,7 +1,7 @@
 //! Test fixtures on the real kernel: private vcan interfaces, a peer socket, and an slcan
 //! interface driven through a pseudo-terminal. They need CAP_NET_ADMIN (root in the test VM).
 
-#![allow(dead_code, unreachable_pub)]
+#![allow(unreachable_pub)]
 
 pub mod alloc_counter;
 pub mod slcan;
