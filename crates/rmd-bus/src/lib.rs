@@ -4,6 +4,7 @@
 pub mod bus;
 pub mod clock;
 pub mod time;
+pub mod wire;
 
 pub use bus::{BusError, BusEvent, BusMessage, CanBus, Received};
 pub use clock::{Clock, MonotonicClock, VirtualClock};
