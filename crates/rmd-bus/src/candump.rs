@@ -137,6 +137,11 @@ pub enum CandumpError {
         /// The number of data bytes on the line.
         bytes: usize,
     },
+    /// The line has none of candump's layouts.
+    #[error(
+        "not a candump line: expected `ID#DATA`, `(time) interface ID#DATA` or `interface ID [N] DATA`"
+    )]
+    Unrecognized,
     /// Something follows the frame that candump does not write there.
     #[error("unexpected `{0}` after the frame")]
     Trailing(String),
@@ -199,11 +204,14 @@ pub fn parse_line(line: &str) -> Result<CandumpLine, CandumpError> {
         // candump -x writes two flag columns after the direction: BRS (`B`/`-`), ESI (`E`/`-`).
         i += 3;
     }
-    let id_text = tokens.get(i).ok_or(CandumpError::MissingFrame)?;
+    // Without an `ID [N]` pair this is no candump line at all; say so rather than blame a token.
+    let (Some(id_text), Some(len_text)) = (tokens.get(i), tokens.get(i + 1)) else {
+        return Err(CandumpError::Unrecognized);
+    };
+    if !len_text.starts_with('[') {
+        return Err(CandumpError::Unrecognized);
+    }
     let id = parse_id(id_text)?;
-    let len_text = tokens
-        .get(i + 1)
-        .ok_or_else(|| CandumpError::BadLength(String::new()))?;
     let len = parse_length(len_text)?;
     let after_len = &tokens[i + 2..];
     if after_len.first() == Some(&"remote") {
@@ -215,9 +223,11 @@ pub fn parse_line(line: &str) -> Result<CandumpLine, CandumpError> {
         .take_while(|t| !t.starts_with('\''))
         .collect();
     let ascii = &after_len[byte_tokens.len()..];
-    if !ascii.is_empty()
-        && !(ascii[0].starts_with('\'') && ascii.last().is_some_and(|t| t.ends_with('\'')))
-    {
+    let is_ascii_column = |t: &[&str]| {
+        t.first().is_some_and(|f| f.starts_with('\''))
+            && t.last().is_some_and(|l| l.ends_with('\''))
+    };
+    if !ascii.is_empty() && !is_ascii_column(ascii) {
         return Err(CandumpError::Trailing(ascii.join(" ")));
     }
     if byte_tokens.len() > 8 {
@@ -264,7 +274,7 @@ pub fn parse_compact_frame(text: &str) -> Result<CanFrame, CandumpError> {
         return Err(CandumpError::RemoteFrame(id_text.to_string()));
     }
     let digits: String = data_text.chars().filter(|&c| c != '.').collect();
-    if digits.len() % 2 != 0 || !digits.chars().all(|c| c.is_ascii_hexdigit()) {
+    if !digits.len().is_multiple_of(2) || !digits.chars().all(|c| c.is_ascii_hexdigit()) {
         return Err(CandumpError::BadData(data_text.to_string()));
     }
     if digits.len() > 16 {
@@ -510,8 +520,11 @@ mod tests {
             ("141#00 X", CandumpError::Trailing("X".into())),
             ("can0 141#00 T R", CandumpError::Trailing("T R".into())),
             ("can0  141   [9]  00", CandumpError::BadLength("[9]".into())),
-            ("can0  141   8  00", CandumpError::BadLength("8".into())),
-            ("can0  141", CandumpError::BadLength(String::new())),
+            ("can0  141   8  00", CandumpError::Unrecognized),
+            ("can0  141", CandumpError::Unrecognized),
+            ("this is not a frame", CandumpError::Unrecognized),
+            ("can0  14X   [1]  00", CandumpError::BadCanId("14X".into())),
+            ("can0  141   [x]  00", CandumpError::BadLength("[x]".into())),
             (
                 "can0  141   [8]  9C 00",
                 CandumpError::LengthMismatch { len: 8, bytes: 2 },
@@ -526,7 +539,7 @@ mod tests {
                 "can0  141   [1]  00 'x' trailing",
                 CandumpError::Trailing("'x' trailing".into()),
             ),
-            ("can0", CandumpError::MissingFrame),
+            ("can0", CandumpError::Unrecognized),
         ];
         for (line, err) in cases {
             assert_eq!(parse_line(line).as_ref(), Err(err), "line {line:?}");
