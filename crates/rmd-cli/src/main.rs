@@ -17,7 +17,7 @@ use clap::{Parser, Subcommand};
 
 /// Tools for GYEMS / MyActuator RMD servo motors on CAN.
 #[derive(Parser, Debug)]
-#[command(name = "rmd", version, about, propagate_version = true)]
+#[command(name = "rmd", version, propagate_version = true)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
