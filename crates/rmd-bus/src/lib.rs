@@ -2,8 +2,10 @@
 //! Linux SocketCAN) and the [`Clock`] that lets everything run in real or virtual time.
 
 pub mod bus;
+pub mod candump;
 pub mod clock;
 pub mod time;
+pub mod wire;
 
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod socketcan;
