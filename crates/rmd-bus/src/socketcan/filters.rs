@@ -7,8 +7,8 @@
 //! 0x160). Every mask also includes `CAN_EFF_FLAG | CAN_RTR_FLAG` with those bits clear in the
 //! id, so only standard data frames match: extended and remote frames never reach the process.
 
+use super::kernel_frame::{CAN_EFF_FLAG, CAN_RTR_FLAG, CAN_SFF_MASK};
 use super::options::{IdFilter, RMD_REPLY_IDS, SocketCanOptions};
-use super::wire::{CAN_EFF_FLAG, CAN_RTR_FLAG, CAN_SFF_MASK};
 
 /// `CAN_RAW_FILTER_MAX`: the most filters the kernel accepts on one socket.
 pub(crate) const MAX_KERNEL_FILTERS: usize = 512;

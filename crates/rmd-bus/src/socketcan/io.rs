@@ -12,8 +12,8 @@ use nix::poll::{PollFd, PollFlags, ppoll};
 use nix::sys::socket::{ControlMessageOwned, MsgFlags, recvmsg, send};
 use nix::sys::time::TimeSpec;
 
+use super::kernel_frame::CAN_MTU;
 use super::rx_time::timespec_nanos;
-use super::wire::CAN_MTU;
 
 /// Longest single `ppoll` wait; longer waits loop (keeps the `timespec` in range).
 const MAX_SINGLE_WAIT: Duration = Duration::from_secs(3600);

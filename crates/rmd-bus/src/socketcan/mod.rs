@@ -75,12 +75,12 @@
 pub mod error_frame;
 mod filters;
 mod io;
+mod kernel_frame;
 mod link;
 mod open_error;
 mod options;
 mod pending;
 mod rx_time;
-mod wire;
 
 use core::time::Duration;
 use std::os::fd::{AsFd, BorrowedFd};
@@ -97,9 +97,9 @@ pub use open_error::OpenError;
 pub use options::{DEFAULT_DRAIN_WINDOW, IdFilter, RMD_REPLY_IDS, SocketCanOptions};
 
 use filters::FilterProblem;
+use kernel_frame::RawFrame;
 use pending::Pending;
 use rx_time::ClockSample;
-use wire::RawFrame;
 
 /// Counters of what a [`SocketCanBus`] has seen, for diagnostics.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
@@ -243,7 +243,7 @@ impl SocketCanBus {
             self.track_state(BusEvent::RxOverflow);
             self.queue(at, BusMessage::Event(BusEvent::RxOverflow));
         }
-        match datagram.frame.map(|bytes| wire::decode(&bytes)) {
+        match datagram.frame.map(|bytes| kernel_frame::decode(&bytes)) {
             Some(RawFrame::Data(frame)) if keep_frames => {
                 self.bus_off = false;
                 self.stats.frames_received += 1;
@@ -315,7 +315,8 @@ impl CanBus for SocketCanBus {
         if self.bus_off {
             return Err(BusError::BusOff);
         }
-        io::write_frame(self.socket.as_fd(), &wire::encode(frame)).map_err(|e| self.tx_error(e))
+        io::write_frame(self.socket.as_fd(), &kernel_frame::encode(frame))
+            .map_err(|e| self.tx_error(e))
     }
 
     fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
