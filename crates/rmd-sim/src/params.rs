@@ -133,7 +133,10 @@ impl MotorParams {
             self.viscous_friction_nm_per_rad_s,
         )?;
         non_negative("coulomb_friction_nm", self.coulomb_friction_nm)?;
-        positive("thermal_resistance_k_per_w", self.thermal_resistance_k_per_w)?;
+        positive(
+            "thermal_resistance_k_per_w",
+            self.thermal_resistance_k_per_w,
+        )?;
         positive(
             "thermal_capacitance_j_per_k",
             self.thermal_capacitance_j_per_k,
@@ -141,7 +144,10 @@ impl MotorParams {
         finite("ambient_temperature_c", self.ambient_temperature_c)?;
         non_negative("supply_voltage_v", self.supply_voltage_v)?;
         non_negative("supply_resistance_ohm", self.supply_resistance_ohm)?;
-        finite("encoder_mount_offset_turns", self.encoder_mount_offset_turns)?;
+        finite(
+            "encoder_mount_offset_turns",
+            self.encoder_mount_offset_turns,
+        )?;
         if self.pole_pairs == 0 {
             return Err(ConfigError::InvalidParameter {
                 name: "pole_pairs",

@@ -108,9 +108,9 @@ impl Plant {
         }
         let inertia_kg_m2 = params.rotor_inertia_kg_m2
             + load.output_inertia_total_kg_m2() / (params.gear_ratio * params.gear_ratio);
-        let thermal_decay =
-            (-SUBSTEP_S / (params.thermal_resistance_k_per_w * params.thermal_capacitance_j_per_k))
-                .exp();
+        let thermal_decay = (-SUBSTEP_S
+            / (params.thermal_resistance_k_per_w * params.thermal_capacitance_j_per_k))
+            .exp();
         let state = PlantState {
             motor_angle_rad: output_angle_rad * params.gear_ratio,
             motor_speed_rad_s: 0.0,
@@ -207,8 +207,10 @@ impl Plant {
         }
 
         // 2. Mechanics, motor side.
-        let external =
-            self.load.gravity_torque_nm(s.motor_angle_rad / p.gear_ratio) / p.gear_ratio;
+        let external = self
+            .load
+            .gravity_torque_nm(s.motor_angle_rad / p.gear_ratio)
+            / p.gear_ratio;
         let driving = p.torque_constant_nm_per_a * s.current_a + external;
         let coulomb = p.coulomb_friction_nm;
         let w = s.motor_speed_rad_s;

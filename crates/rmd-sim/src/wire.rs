@@ -126,9 +126,9 @@ impl Wire {
         }
     }
 
-    /// The timing model.
-    pub(crate) fn timing(&self) -> WireTiming {
-        self.timing
+    /// Depth of the host's transmit queue.
+    pub(crate) fn host_capacity(&self) -> usize {
+        self.host_queue_len
     }
 
     /// Queues a host frame that became ready at `ready`.
@@ -153,8 +153,7 @@ impl Wire {
         frame: CanFrame,
     ) -> Result<(), QueueFull> {
         let queued = self.motor_queue.iter().filter(|p| p.motor == motor).count();
-        if queued >= self.motor_mailboxes || self.motor_queue.len() == self.motor_queue.capacity()
-        {
+        if queued >= self.motor_mailboxes || self.motor_queue.len() == self.motor_queue.capacity() {
             return Err(QueueFull::Motor);
         }
         self.seq += 1;
@@ -317,7 +316,10 @@ mod tests {
         let da = frame_duration(&a, 1_000_000);
         assert_eq!(txs[0].start, Timestamp::ZERO);
         assert_eq!(txs[0].end, Timestamp::ZERO + da);
-        assert_eq!(txs[0].end - txs[0].delivered, bits_to_duration(3, 1_000_000));
+        assert_eq!(
+            txs[0].end - txs[0].delivered,
+            bits_to_duration(3, 1_000_000)
+        );
         // FIFO host queue: b starts when a's intermission ends.
         assert_eq!(txs[1].frame, b);
         assert_eq!(txs[1].start, txs[0].end);
@@ -342,7 +344,10 @@ mod tests {
         let mut wire = Wire::new(WireTiming::Instant, 2, 1, 1, Timestamp::ZERO);
         wire.push_host(Timestamp::ZERO, f(1, 0)).unwrap();
         wire.push_host(Timestamp::ZERO, f(2, 0)).unwrap();
-        assert_eq!(wire.push_host(Timestamp::ZERO, f(3, 0)), Err(QueueFull::Host));
+        assert_eq!(
+            wire.push_host(Timestamp::ZERO, f(3, 0)),
+            Err(QueueFull::Host)
+        );
         wire.push_motor(1, Timestamp::ZERO, f(0x141, 0)).unwrap();
         assert_eq!(
             wire.push_motor(1, Timestamp::ZERO, f(0x141, 0)),
