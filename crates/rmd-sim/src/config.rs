@@ -50,12 +50,18 @@ pub struct FirmwareParams {
     pub max_speed_dps: f64,
     /// "Max Angle": 0xA3 / 0xA4 targets are clamped to ±this, motor side, degrees. Default none.
     pub max_angle_deg: Option<f64>,
-    /// Low-voltage protection: the flag is raised while the supply is below this, V. Default
+    /// Low-voltage protection: the flag is raised when the supply falls below this, V. Default
     /// 36 V (75 % of the 48 V nominal) `[estimate]`.
     pub low_voltage_threshold_v: f64,
-    /// Over-temperature protection: the flag is raised while the winding is at or above this,
-    /// °C. Default 80 °C `[estimate]`.
+    /// Low-voltage hysteresis: the cause persists (a clear fails) until the supply is back
+    /// above threshold + this, V. Default 1 V `[estimate]`.
+    pub low_voltage_hysteresis_v: f64,
+    /// Over-temperature protection: the flag is raised when the winding reaches this, °C.
+    /// Default 80 °C `[estimate]`.
     pub over_temperature_threshold_c: f64,
+    /// Over-temperature hysteresis: the cause persists (a clear fails) until the winding is
+    /// back below threshold - this, °C. Default 5 °C `[estimate]`.
+    pub over_temperature_hysteresis_c: f64,
     /// Command byte of the reply to 0x9B.
     pub clear_error_reply: ClearErrorReply,
 }
@@ -78,7 +84,9 @@ impl Default for FirmwareParams {
             max_speed_dps: 7_200.0,
             max_angle_deg: None,
             low_voltage_threshold_v: 36.0,
+            low_voltage_hysteresis_v: 1.0,
             over_temperature_threshold_c: 80.0,
+            over_temperature_hysteresis_c: 5.0,
             clear_error_reply: ClearErrorReply::Echo,
         }
     }
@@ -102,6 +110,14 @@ impl FirmwareParams {
         non_negative(
             "firmware.low_voltage_threshold_v",
             self.low_voltage_threshold_v,
+        )?;
+        non_negative(
+            "firmware.low_voltage_hysteresis_v",
+            self.low_voltage_hysteresis_v,
+        )?;
+        non_negative(
+            "firmware.over_temperature_hysteresis_c",
+            self.over_temperature_hysteresis_c,
         )?;
         if !self.over_temperature_threshold_c.is_finite() {
             return Err(ConfigError::InvalidParameter {

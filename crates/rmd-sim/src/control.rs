@@ -8,18 +8,23 @@
 //!   the motor's `current_time_constant_s` x 50 / `iqPidKp` (a PI current loop tuned by
 //!   pole-zero cancellation has a bandwidth proportional to its Kp); `iqPidKi` is kept but has
 //!   no further effect;
-//! - speed loop: an I-P controller (integral on the error, proportional on the measured speed),
-//!   `i = Ki ∫(w_ref - w) dt - Kp w` with `Kp = speedPidKp x 0.0067 A/(rad/s)` and
+//! - speed loop: a PI controller with setpoint weighting,
+//!   `i = Kp (w_ref_weight x w_ref - w) + Ki ∫(w_ref - w) dt`, `Kp = speedPidKp x 0.0067 A/(rad/s)`,
 //!   `Ki = speedPidKi x 0.44 A/rad`. With the defaults (50, 40) and the default inertia the
-//!   closed loop is `b / (s² + a s + b)` with `a = Kp Kt / J = 299 /s`, `b = Ki Kt / J = 15 700
-//!   /s²`: damping 1.19, no zero, so a speed step through the acceleration ramp never overshoots
-//!   the ramp's acceleration. The output is clamped to the max torque current, with the
-//!   integrator held at the clamp (anti-windup);
+//!   closed loop has `a = Kp Kt / J = 299 /s`, `b = Ki Kt / J = 15 700 /s²` (poles at -68 and
+//!   -231 /s, damping 1.19). In speed mode the weight is 0.7: the zero `b / (0.7 a)` then lies
+//!   beyond the slow pole, so the response to the acceleration ramp rises monotonically and
+//!   never exceeds the ramp's acceleration; the ramped reference is also kept within the loop's
+//!   steady ramp lag (`0.3 Kp / Ki` x acceleration) of the measured speed, so that a rotor held
+//!   by stiction does not wind the loop up. In position mode the weight is 1 (plain PI). The
+//!   output is clamped to the max torque current, the integrator held at the clamp
+//!   (anti-windup);
 //! - position loop: a motion profile (trapezoidal: the max speed and the acceleration limit)
 //!   moves a reference from the current position to the target; the speed loop gets the
 //!   profile's speed plus `angleKp x (reference - position)` with `angleKp = anglePidKp x 0.3 /s`,
-//!   limited to the max speed. `anglePidKi` is kept but has no effect (the speed loop's integral
-//!   removes the steady-state error, gravity included).
+//!   limited to the max speed, and the profile's acceleration is fed forward through the rotor's
+//!   own inertia (the firmware knows its motor, not the load). `anglePidKi` is kept but has no
+//!   effect (the speed loop's integral removes the steady-state error, gravity included).
 //!
 //! The speed the loops use is the plant's exact speed: the firmware's filtered encoder
 //! derivative is modelled as perfect.
@@ -56,6 +61,18 @@ impl Gains {
     }
 }
 
+impl Gains {
+    /// The speed loop's steady-state lag behind a reference ramping at 1 rad/s², in seconds:
+    /// `(1 - weight) Kp / Ki` (independent of the inertia). Infinite without an integral.
+    pub(crate) fn ramp_lag_s(&self, setpoint_weight: f64) -> f64 {
+        if self.speed_ki > 0.0 {
+            (1.0 - setpoint_weight) * self.speed_kp / self.speed_ki
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
 /// State of the speed and position loops.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub(crate) struct LoopState {
@@ -71,10 +88,16 @@ pub(crate) struct LoopState {
 
 impl LoopState {
     /// Bumpless start from the measured state: no jump of speed reference or current.
-    pub(crate) fn start(position: f64, speed: f64, current_a: f64, gains: &Gains) -> Self {
+    pub(crate) fn start(
+        position: f64,
+        speed: f64,
+        current_a: f64,
+        setpoint_weight: f64,
+        gains: &Gains,
+    ) -> Self {
         Self {
             speed_ref: speed,
-            integral_a: current_a + gains.speed_kp * speed,
+            integral_a: current_a + gains.speed_kp * (1.0 - setpoint_weight) * speed,
             profile_pos: position,
             profile_vel: speed,
         }
@@ -86,20 +109,28 @@ pub(crate) fn ramp(value: f64, target: f64, max_step: f64) -> f64 {
     value + (target - value).clamp(-max_step, max_step)
 }
 
-/// One step of the I-P speed loop; returns the current reference, A.
+/// Weight of the speed reference in the proportional term of the speed loop (2-DOF PI) in
+/// speed mode: with 0.7 the response to the acceleration ramp has no overshoot.
+pub(crate) const SPEED_MODE_SETPOINT_WEIGHT: f64 = 0.7;
+/// The same in position mode, where the profile's acceleration is fed forward: a plain PI.
+pub(crate) const POSITION_MODE_SETPOINT_WEIGHT: f64 = 1.0;
+
+/// One step of the speed loop (a PI with setpoint weighting); returns the current reference, A.
 pub(crate) fn speed_loop(
     state: &mut LoopState,
     reference: f64,
     measured: f64,
+    setpoint_weight: f64,
     gains: &Gains,
     max_current_a: f64,
     dt: f64,
 ) -> f64 {
     state.integral_a += gains.speed_ki * (reference - measured) * dt;
-    let unclamped = state.integral_a - gains.speed_kp * measured;
+    let proportional = gains.speed_kp * (setpoint_weight * reference - measured);
+    let unclamped = state.integral_a + proportional;
     let out = unclamped.clamp(-max_current_a, max_current_a);
     if out != unclamped {
-        state.integral_a = out + gains.speed_kp * measured;
+        state.integral_a = out - proportional;
     }
     out
 }
@@ -197,11 +228,11 @@ mod tests {
         };
         let mut s = LoopState::default();
         for _ in 0..10_000 {
-            let i = speed_loop(&mut s, 100.0, 0.0, &gains, 5.0, 50e-6);
+            let i = speed_loop(&mut s, 100.0, 0.0, 0.7, &gains, 5.0, 50e-6);
             assert!(i <= 5.0);
         }
         // Held at the clamp: as soon as the error reverses, the output leaves the clamp.
-        let i = speed_loop(&mut s, 0.0, 1.0, &gains, 5.0, 50e-6);
+        let i = speed_loop(&mut s, 0.0, 1.0, 0.7, &gains, 5.0, 50e-6);
         assert!(i < 5.0);
     }
 }

@@ -21,10 +21,11 @@
 //! - **Off / stop / run.** 0x80 turns the output off and forgets the mode; 0x81 turns the output
 //!   off but keeps the mode; 0x88 resumes the kept mode (nothing after 0x80). 0x81 lets the
 //!   rotor coast (no braking).
-//! - **Protection.** The low-voltage flag (bit 0) is raised while the supply is below the
-//!   threshold, the over-temperature flag (bit 3) while the winding is at or above its threshold.
+//! - **Protection.** The low-voltage flag (bit 0) is raised when the supply falls below the
+//!   threshold, the over-temperature flag (bit 3) when the winding reaches its threshold.
 //!   Flags latch. Raising one turns the motor off (as 0x80); while any flag is set, control
-//!   commands are answered but not obeyed. 0x9B clears only the flags whose cause is gone.
+//!   commands are answered but not obeyed. 0x9B clears only the flags whose cause is gone: the
+//!   supply back above threshold + hysteresis, the winding back below threshold - hysteresis.
 //! - **Replies** carry the state sampled at the last control-loop step before the request.
 
 use core::f64::consts::PI;
@@ -35,7 +36,10 @@ use rmd_protocol::{
 };
 
 use crate::config::{ClearErrorReply, FirmwareParams};
-use crate::control::{Gains, LoopState, profile_step, ramp, speed_loop};
+use crate::control::{
+    Gains, LoopState, POSITION_MODE_SETPOINT_WEIGHT, SPEED_MODE_SETPOINT_WEIGHT, profile_step,
+    ramp, speed_loop,
+};
 use crate::encoder::Encoder;
 use crate::physics::{Drive, Plant, SUBSTEP_S};
 
@@ -87,6 +91,9 @@ pub(crate) struct Firmware {
     loops: LoopState,
     errors: ErrorState,
     nominal_current_time_constant_s: f64,
+    /// The rotor's inertia over the torque constant, A per rad/s²: the firmware knows its own
+    /// motor (not the load) and feeds accelerations forward with it in position mode.
+    rotor_inertia_per_kt: f64,
 }
 
 impl Firmware {
@@ -112,6 +119,8 @@ impl Firmware {
             loops: LoopState::default(),
             errors: ErrorState::NONE,
             nominal_current_time_constant_s: plant.params().current_time_constant_s,
+            rotor_inertia_per_kt: plant.params().rotor_inertia_kg_m2
+                / plant.params().torque_constant_nm_per_a,
         };
         fw.power_up(plant);
         fw
@@ -276,7 +285,7 @@ impl Firmware {
             },
             Request::ReadStatus1 => Reply::ReadStatus1(self.status1(plant)),
             Request::ClearError => {
-                let causes = self.causes(plant);
+                let causes = self.causes(plant, true);
                 self.errors = ErrorState::from_raw(self.errors.raw() & causes.raw());
                 let status = self.status1(plant);
                 match self.params.clear_error_reply {
@@ -298,7 +307,7 @@ impl Firmware {
             Request::MotorRun => {
                 if self.stopped {
                     self.stopped = false;
-                    self.loops = self.bumpless_start(plant);
+                    self.loops = self.bumpless_start(self.mode, plant);
                 }
                 Reply::MotorRun
             }
@@ -392,31 +401,47 @@ impl Firmware {
         }
         let same_kind = core::mem::discriminant(&mode) == core::mem::discriminant(&self.mode);
         if !same_kind || self.stopped {
-            self.loops = self.bumpless_start(plant);
+            self.loops = self.bumpless_start(mode, plant);
         }
         self.mode = mode;
         self.stopped = false;
     }
 
-    fn bumpless_start(&self, plant: &Plant) -> LoopState {
+    fn bumpless_start(&self, mode: ControlMode, plant: &Plant) -> LoopState {
+        let weight = match mode {
+            ControlMode::Position { .. } => POSITION_MODE_SETPOINT_WEIGHT,
+            _ => SPEED_MODE_SETPOINT_WEIGHT,
+        };
         LoopState::start(
             self.position_rad(plant),
             plant.state().motor_speed_rad_s,
             plant.state().current_a,
+            weight,
             &self.gains(),
         )
     }
 
     // ---- Protection ------------------------------------------------------------------------
 
-    /// The flags whose cause is present now.
-    fn causes(&self, plant: &Plant) -> ErrorState {
+    /// The flags whose cause is present now. Raising a flag takes the threshold itself;
+    /// `persisting` asks whether the cause is still there for a clear, i.e. not yet back past
+    /// the threshold by the hysteresis.
+    fn causes(&self, plant: &Plant, persisting: bool) -> ErrorState {
         let s = plant.state();
+        let p = &self.params;
+        let (volts, celsius) = if persisting {
+            (
+                p.low_voltage_threshold_v + p.low_voltage_hysteresis_v,
+                p.over_temperature_threshold_c - p.over_temperature_hysteresis_c,
+            )
+        } else {
+            (p.low_voltage_threshold_v, p.over_temperature_threshold_c)
+        };
         let mut causes = ErrorState::NONE;
-        if s.bus_voltage_v < self.params.low_voltage_threshold_v {
+        if s.bus_voltage_v < volts {
             causes = causes | ErrorState::LOW_VOLTAGE;
         }
-        if s.winding_temperature_c >= self.params.over_temperature_threshold_c {
+        if s.winding_temperature_c >= celsius {
             causes = causes | ErrorState::OVER_TEMPERATURE;
         }
         causes
@@ -424,7 +449,7 @@ impl Firmware {
 
     /// Raises the flags whose cause is present; a new flag turns the motor off.
     pub(crate) fn supervise(&mut self, plant: &Plant) {
-        let causes = self.causes(plant);
+        let causes = self.causes(plant, false);
         let raised = causes.raw() & !self.errors.raw();
         if raised != 0 {
             self.errors = ErrorState::from_raw(self.errors.raw() | raised);
@@ -454,20 +479,46 @@ impl Firmware {
             ControlMode::Off => 0.0,
             ControlMode::Torque { current_a } => current_a,
             ControlMode::Speed { target_dps } => {
-                self.loops.speed_ref = ramp(self.loops.speed_ref, target_dps * DEG, max_accel * dt);
+                // The reference ramps at the acceleration limit but never leads the measured
+                // speed by more than the loop's steady lag on such a ramp, so that a rotor held
+                // by stiction does not wind the loop up (and then catch up faster than allowed).
+                let lead = gains.ramp_lag_s(SPEED_MODE_SETPOINT_WEIGHT) * max_accel;
+                self.loops.speed_ref = ramp(self.loops.speed_ref, target_dps * DEG, max_accel * dt)
+                    .clamp(speed - lead, speed + lead);
                 let reference = self.loops.speed_ref;
-                speed_loop(&mut self.loops, reference, speed, &gains, limit, dt)
+                speed_loop(
+                    &mut self.loops,
+                    reference,
+                    speed,
+                    SPEED_MODE_SETPOINT_WEIGHT,
+                    &gains,
+                    limit,
+                    dt,
+                )
             }
             ControlMode::Position {
                 target_deg,
                 max_speed_dps,
             } => {
                 let max_speed = max_speed_dps.max(0.0) * DEG;
+                let previous_vel = self.loops.profile_vel;
                 profile_step(&mut self.loops, target_deg * DEG, max_speed, max_accel, dt);
                 let error = self.loops.profile_pos - self.position_rad(plant);
                 let reference =
                     (self.loops.profile_vel + gains.angle_kp * error).clamp(-max_speed, max_speed);
-                speed_loop(&mut self.loops, reference, speed, &gains, limit, dt)
+                // Feed the profile's acceleration forward through the rotor's own inertia.
+                let feedforward =
+                    self.rotor_inertia_per_kt * (self.loops.profile_vel - previous_vel) / dt;
+                let feedback = speed_loop(
+                    &mut self.loops,
+                    reference,
+                    speed,
+                    POSITION_MODE_SETPOINT_WEIGHT,
+                    &gains,
+                    limit,
+                    dt,
+                );
+                (feedback + feedforward).clamp(-limit, limit)
             }
         };
         Drive::Current {
