@@ -47,12 +47,12 @@ impl Encoder {
     }
 
     /// A full-resolution count as the u16 wire field carries it.
-    pub(crate) fn to_wire(&self, count: i64) -> EncoderValue {
+    pub(crate) fn wire_value(&self, count: i64) -> EncoderValue {
         EncoderValue::from_raw((count.rem_euclid(self.counts) >> self.shift) as u16)
     }
 
     /// A wire value as a full-resolution count.
-    pub(crate) fn from_wire(&self, value: EncoderValue) -> i64 {
+    pub(crate) fn count_of(&self, value: EncoderValue) -> i64 {
         i64::from(value.raw()) << self.shift
     }
 }
@@ -76,11 +76,11 @@ mod tests {
         assert_eq!(abs, 16_384);
         assert_eq!(e14.raw(abs), 0);
         assert_eq!(e14.raw(-1), 16_383);
-        assert_eq!(e14.to_wire(16_383).raw(), 16_383);
+        assert_eq!(e14.wire_value(16_383).raw(), 16_383);
 
         let e18 = Encoder::new(EncoderWidth::new(18).unwrap(), 0.0);
         assert_eq!(e18.counts(), 262_144);
-        assert_eq!(e18.to_wire(262_143).raw(), 65_535);
-        assert_eq!(e18.from_wire(EncoderValue::from_raw(1)), 4);
+        assert_eq!(e18.wire_value(262_143).raw(), 65_535);
+        assert_eq!(e18.count_of(EncoderValue::from_raw(1)), 4);
     }
 }

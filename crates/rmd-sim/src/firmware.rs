@@ -106,7 +106,7 @@ impl Firmware {
         let rom = Memory {
             pid: params.pid,
             accel: params.accel,
-            offset: encoder.from_wire(params.encoder_offset),
+            offset: encoder.count_of(params.encoder_offset),
         };
         let mut fw = Self {
             params,
@@ -216,7 +216,7 @@ impl Firmware {
             temperature: temperature(plant),
             iq: Iq::from_amps_saturating(s.current_a),
             speed: Speed::from_dps_saturating(s.motor_speed_rad_s / DEG),
-            encoder: self.encoder.to_wire(self.encoder_counts(plant)),
+            encoder: self.encoder.wire_value(self.encoder_counts(plant)),
         }
     }
 
@@ -259,22 +259,22 @@ impl Firmware {
             Request::ReadEncoder => {
                 let raw = self.encoder.raw(self.absolute_count(plant));
                 Reply::ReadEncoder {
-                    encoder: self.encoder.to_wire(self.encoder_counts(plant)),
-                    encoder_raw: self.encoder.to_wire(raw),
-                    encoder_offset: self.encoder.to_wire(self.ram.offset),
+                    encoder: self.encoder.wire_value(self.encoder_counts(plant)),
+                    encoder_raw: self.encoder.wire_value(raw),
+                    encoder_offset: self.encoder.wire_value(self.ram.offset),
                 }
             }
             Request::WriteEncoderOffset { encoder_offset } => {
                 encoder_offset.check(self.params.encoder_width).ok()?;
-                self.ram.offset = self.encoder.from_wire(encoder_offset);
+                self.ram.offset = self.encoder.count_of(encoder_offset);
                 Reply::WriteEncoderOffset {
-                    encoder_offset: self.encoder.to_wire(self.ram.offset),
+                    encoder_offset: self.encoder.wire_value(self.ram.offset),
                 }
             }
             Request::WriteZeroRom => {
                 self.rom.offset = self.encoder.raw(self.absolute_count(plant));
                 Reply::WriteZeroRom {
-                    encoder_offset: self.encoder.to_wire(self.rom.offset),
+                    encoder_offset: self.encoder.wire_value(self.rom.offset),
                 }
             }
             Request::ReadMultiTurnAngle => Reply::ReadMultiTurnAngle {
