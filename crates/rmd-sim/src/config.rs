@@ -222,20 +222,25 @@ impl Default for BusConfig {
 impl BusConfig {
     /// Checks every value is meaningful.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        let check = |name, v: usize| {
-            if v == 0 {
+        let check = |name, v: usize, max: usize, expected| {
+            if v == 0 || v > max {
                 Err(ConfigError::InvalidParameter {
                     name,
-                    value: 0.0,
-                    expected: "at least 1",
+                    value: v as f64,
+                    expected,
                 })
             } else {
                 Ok(())
             }
         };
-        check("bus.tx_queue_len", self.tx_queue_len)?;
-        check("bus.rx_queue_len", self.rx_queue_len)?;
-        check("bus.motor_mailboxes", self.motor_mailboxes)?;
+        check("bus.tx_queue_len", self.tx_queue_len, 1 << 16, "1..=65536")?;
+        check(
+            "bus.rx_queue_len",
+            self.rx_queue_len,
+            1 << 20,
+            "1..=1048576",
+        )?;
+        check("bus.motor_mailboxes", self.motor_mailboxes, 64, "1..=64")?;
         if self.timing == WireTiming::Bitrate(0) {
             return Err(ConfigError::InvalidParameter {
                 name: "bus.timing bitrate",
@@ -349,6 +354,10 @@ mod tests {
         let mut c = SimConfig::with_motors(1);
         c.bus.tx_queue_len = 0;
         assert!(c.validate().is_err());
+        c.bus.tx_queue_len = 10;
+        c.bus.motor_mailboxes = usize::MAX;
+        assert!(c.validate().is_err());
+        c.bus.motor_mailboxes = 3;
         c.bus.tx_queue_len = 1;
         c.bus.timing = WireTiming::Bitrate(0);
         assert!(c.validate().is_err());

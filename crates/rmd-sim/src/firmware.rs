@@ -482,7 +482,13 @@ impl Firmware {
                 // The reference ramps at the acceleration limit but never leads the measured
                 // speed by more than the loop's steady lag on such a ramp, so that a rotor held
                 // by stiction does not wind the loop up (and then catch up faster than allowed).
-                let lead = gains.ramp_lag_s(SPEED_MODE_SETPOINT_WEIGHT) * max_accel;
+                // (At least 1 ms of lead, so that a loop without proportional gain still
+                // gets a reference to follow.)
+                let lead = if max_accel.is_finite() {
+                    gains.ramp_lag_s(SPEED_MODE_SETPOINT_WEIGHT).max(1e-3) * max_accel
+                } else {
+                    f64::INFINITY
+                };
                 self.loops.speed_ref = ramp(self.loops.speed_ref, target_dps * DEG, max_accel * dt)
                     .clamp(speed - lead, speed + lead);
                 let reference = self.loops.speed_ref;

@@ -207,11 +207,13 @@ impl SimMotor {
             .turnaround_jitter
             .as_nanos()
             .min(u128::from(u64::MAX)) as u64;
-        let extra = if jitter == 0 {
-            0
-        } else {
-            self.jitter.next_u64() % (jitter + 1)
+        let extra = match jitter.checked_add(1) {
+            _ if jitter == 0 => 0,
+            Some(range) => self.jitter.next_u64() % range,
+            None => self.jitter.next_u64(),
         };
-        self.config.turnaround + Duration::from_nanos(extra)
+        self.config
+            .turnaround
+            .saturating_add(Duration::from_nanos(extra))
     }
 }

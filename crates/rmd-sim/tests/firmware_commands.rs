@@ -911,3 +911,51 @@ fn malformed_frames_are_ignored_and_the_rest_still_handled() {
     let good = CanFrame::with_data(0x141, STATUS2).unwrap();
     assert_eq!(motors.handle(&good, t).count(), 1);
 }
+
+#[test]
+fn extreme_settings_never_panic() {
+    // Zero and maximal gains, zero and huge limits, huge jitter: whatever the host writes, the
+    // firmware keeps running (badly tuned loops may oscillate, but nothing breaks).
+    let mut config = SimConfig::with_motors(2);
+    config.motors[0].turnaround_jitter = Duration::MAX;
+    config.motors[1].turnaround = Duration::MAX;
+    let mut motors = SimMotors::new(&config, Timestamp::ZERO).unwrap();
+    let mut t = Timestamp::ZERO;
+    for pid in [
+        [0u8; 6],
+        [255; 6],
+        [0, 0, 0, 255, 0, 0],
+        [255, 0, 0, 0, 255, 255],
+    ] {
+        for accel in [0i32, -1, 1, i32::MAX] {
+            for command in [
+                [0xA2, 0, 0, 0, 0x00, 0x00, 0x00, 0x80], // i32::MIN hundredths of dps
+                [0xA3, 0, 0, 0, 0xFF, 0xFF, 0xFF, 0x7F],
+                [0xA4, 0, 0, 0, 0x00, 0x00, 0x00, 0x80], // max speed 0
+                [0xA6, 1, 0xFF, 0xFF, 0x9F, 0x8C, 0, 0],
+                [0xA1, 0, 0, 0, 0xD0, 0x07, 0, 0],
+            ] {
+                for id in [0x141u16, 0x142] {
+                    let p = pid;
+                    let setup = [
+                        [0x31, 0, p[0], p[1], p[2], p[3], p[4], p[5]],
+                        {
+                            let a = accel.to_le_bytes();
+                            [0x34, 0, 0, 0, a[0], a[1], a[2], a[3]]
+                        },
+                        command,
+                    ];
+                    for data in setup {
+                        t += Duration::from_millis(3);
+                        let frame = CanFrame::with_data(id, data).unwrap();
+                        for reply in motors.handle(&frame, t) {
+                            assert_eq!(reply.frame.dlc(), 8);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let s = motors.snapshot_at(id1(), t).unwrap();
+    assert!(s.motor_angle_deg.is_finite() && s.current_a.is_finite());
+}
