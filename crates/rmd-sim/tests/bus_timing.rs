@@ -264,3 +264,20 @@ fn the_same_code_runs_in_real_time() {
     }
     assert!(clock.now() >= deadline);
 }
+
+#[test]
+fn a_simulated_bus_can_move_to_the_loop_thread() {
+    fn assert_send<T: Send>() {}
+    assert_send::<SimBus<VirtualClock>>();
+    assert_send::<SimBus<MonotonicClock>>();
+    assert_send::<rmd_sim::SimMotors>();
+    let (clock, bus) = sim_bus(SimConfig::with_motors(4));
+    let handle = std::thread::spawn(move || {
+        let mut bus = bus;
+        bus.send(&exchange_frame()).unwrap();
+        let deadline = bus.clock().now() + ms(1);
+        frames(&collect(&mut bus, deadline)).len()
+    });
+    assert_eq!(handle.join().unwrap(), 4);
+    assert!(clock.now() > Timestamp::from_nanos(1_000_000));
+}
