@@ -2,6 +2,7 @@
 //! Linux SocketCAN) and the [`Clock`] that lets everything run in real or virtual time.
 
 pub mod bus;
+pub mod candump;
 pub mod clock;
 pub mod time;
 pub mod wire;

@@ -33,6 +33,7 @@ impl DecodedRequest {
 }
 
 /// The 8 data bytes, or [`ProtocolError::WrongDlc`].
+#[inline]
 fn data8(frame: &CanFrame) -> Result<&[u8; 8], ProtocolError> {
     frame.data8().ok_or(ProtocolError::WrongDlc {
         can_id: frame.id(),
@@ -41,6 +42,7 @@ fn data8(frame: &CanFrame) -> Result<&[u8; 8], ProtocolError> {
 }
 
 /// The command in DATA\[0\], or [`ProtocolError::UnknownCommand`].
+#[inline]
 fn command_of(frame: &CanFrame, d: &[u8; 8]) -> Result<Command, ProtocolError> {
     Command::from_code(d[0]).ok_or(ProtocolError::UnknownCommand {
         can_id: frame.id(),
@@ -62,6 +64,7 @@ fn command_of(frame: &CanFrame, d: &[u8; 8]) -> Result<Command, ProtocolError> {
 /// assert_eq!(motor.get(), 1);
 /// assert!(matches!(request, Request::Torque { iq_control } if iq_control.raw() == 100));
 /// ```
+#[inline]
 pub fn decode_request(frame: &CanFrame) -> Result<DecodedRequest, ProtocolError> {
     if frame.id() == MULTI_TORQUE_CAN_ID {
         let d = data8(frame)?;
@@ -85,6 +88,7 @@ pub fn decode_request(frame: &CanFrame) -> Result<DecodedRequest, ProtocolError>
 /// the command byte, the field ranges. Reserved bytes are ignored. A frame with DATA\[0\] = 0x9A
 /// decodes as [`Reply::ReadStatus1`]; use [`decode_reply_to`] to read it as the answer to a
 /// pending 0x9B.
+#[inline]
 pub fn decode_reply(frame: &CanFrame) -> Result<(MotorId, Reply), ProtocolError> {
     let motor = MotorId::from_can_id(frame.id())?;
     let d = data8(frame)?;
@@ -111,6 +115,7 @@ pub fn decode_reply(frame: &CanFrame) -> Result<(MotorId, Reply), ProtocolError>
 ///     Err(ProtocolError::ReplyMismatch { .. })
 /// ));
 /// ```
+#[inline]
 pub fn decode_reply_to(
     frame: &CanFrame,
     pending: Command,

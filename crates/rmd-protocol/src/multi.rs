@@ -40,6 +40,7 @@ impl MultiTorque {
     }
 
     /// The 8 data bytes.
+    #[inline]
     pub const fn to_data(&self) -> [u8; 8] {
         let mut d = [0u8; 8];
         put_i16::<0>(&mut d, self.iq_control[0].raw());
@@ -50,11 +51,13 @@ impl MultiTorque {
     }
 
     /// The frame: CAN ID 0x280, DLC 8.
+    #[inline]
     pub const fn encode(&self) -> CanFrame {
         CanFrame::rmd(MULTI_TORQUE_CAN_ID, self.to_data())
     }
 
     /// Decodes the 8 data bytes; every value must be in -2000..=2000.
+    #[inline]
     pub(crate) fn from_data(d: &[u8; 8]) -> Result<Self, crate::ProtocolError> {
         Ok(Self::new([
             IqControl::new(i16_at::<0>(d).into())?,

@@ -106,6 +106,7 @@ pub enum Reply {
 
 impl Reply {
     /// The command this reply answers.
+    #[inline]
     pub const fn command(&self) -> Command {
         match self {
             Reply::ReadPid(_) => Command::ReadPid,
@@ -135,6 +136,7 @@ impl Reply {
     }
 
     /// The status-2 fields of a 0x9C or 0xA1..=0xA6 reply, else `None`.
+    #[inline]
     pub const fn status2(&self) -> Option<Status2> {
         match *self {
             Reply::ReadStatus2(s)
@@ -157,6 +159,7 @@ impl Reply {
     }
 
     /// The 8 data bytes of this reply (reserved bytes 0).
+    #[inline]
     pub const fn to_data(&self) -> [u8; 8] {
         let mut d = [0u8; 8];
         d[0] = self.command().code();
@@ -214,6 +217,7 @@ impl Reply {
 
     /// The frame `motor` sends with this reply (CAN ID 0x140 + id, DLC 8). The simulator answers
     /// with it.
+    #[inline]
     pub const fn encode(&self, motor: MotorId) -> CanFrame {
         CanFrame::rmd(motor.can_id(), self.to_data())
     }
@@ -248,6 +252,7 @@ impl Reply {
 
     /// Decodes the reply carried by `d` for `command` (DATA\[0\] already read and matched).
     /// Reserved bytes are ignored.
+    #[inline]
     pub(crate) fn from_data(command: Command, d: &[u8; 8]) -> Result<Self, ProtocolError> {
         let pid = || PidParams {
             angle_pid_kp: d[2],

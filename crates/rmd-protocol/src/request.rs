@@ -104,6 +104,7 @@ pub enum Request {
 
 impl Request {
     /// The command this request carries.
+    #[inline]
     pub const fn command(&self) -> Command {
         match self {
             Request::ReadPid => Command::ReadPid,
@@ -154,6 +155,7 @@ impl Request {
     }
 
     /// The 8 data bytes of this request (reserved bytes 0).
+    #[inline]
     pub const fn to_data(&self) -> [u8; 8] {
         let mut d = [0u8; 8];
         d[0] = self.command().code();
@@ -202,6 +204,7 @@ impl Request {
     }
 
     /// The frame that sends this request to `motor` (CAN ID 0x140 + id, DLC 8).
+    #[inline]
     pub const fn encode(&self, motor: MotorId) -> CanFrame {
         CanFrame::rmd(motor.can_id(), self.to_data())
     }
@@ -219,6 +222,7 @@ impl Request {
 
     /// Decodes the request carried by `d` for `command` (DATA\[0\] already read). Reserved
     /// bytes are ignored.
+    #[inline]
     pub(crate) fn from_data(command: Command, d: &[u8; 8]) -> Result<Self, ProtocolError> {
         let pid = || PidParams {
             angle_pid_kp: d[2],

@@ -1,0 +1,59 @@
+//! The protocol's share of one control tick: encode one 0x280 multi-motor torque frame and
+//! decode the four 0xA1 replies of motors 1..=4. Target: under 50 ns for the whole set.
+//!
+//! Run: `cargo bench --bench protocol`
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use rmd_rt::protocol::{
+    CanFrame, Command, EncoderValue, Iq, IqControl, MotorId, MultiTorque, Reply, Speed, Status2,
+    Temperature, decode_reply_to,
+};
+
+fn replies() -> [CanFrame; 4] {
+    core::array::from_fn(|i| {
+        let status = Status2 {
+            temperature: Temperature::saturating(30 + i as i64),
+            iq: Iq::saturating(100 * i as i64 - 150),
+            speed: Speed::saturating(-200 + 37 * i as i64),
+            encoder: EncoderValue::from_raw(4000 * i as u16 + 17),
+        };
+        // Ids 1..=4 always exist.
+        let motor = MotorId::new(i as u8 + 1).expect("motor ids 1..=4 are valid");
+        Reply::Torque(status).encode(motor)
+    })
+}
+
+fn tick(c: &mut Criterion) {
+    let replies = replies();
+    let command = MultiTorque::new([
+        IqControl::saturating(120),
+        IqControl::saturating(-340),
+        IqControl::saturating(5),
+        IqControl::saturating(2000),
+    ]);
+    c.bench_function("encode 0x280 + decode 4 replies", |b| {
+        b.iter(|| {
+            let frame = black_box(&command).encode();
+            let mut speed_sum = i32::from(frame.data()[0]);
+            for reply in black_box(&replies) {
+                if let Ok((_, r)) = decode_reply_to(reply, Command::Torque)
+                    && let Some(s) = r.status2()
+                {
+                    speed_sum += i32::from(s.speed.raw());
+                }
+            }
+            black_box((frame, speed_sum))
+        })
+    });
+    c.bench_function("decode 1 reply (0xA1)", |b| {
+        b.iter(|| decode_reply_to(black_box(&replies[1]), Command::Torque))
+    });
+    c.bench_function("encode 1 frame (0x280)", |b| {
+        b.iter(|| black_box(&command).encode())
+    });
+}
+
+criterion_group!(benches, tick);
+criterion_main!(benches);

@@ -1,0 +1,78 @@
+//! How the CLI reports errors: one line on stderr, nothing on stdout, a non-zero exit code.
+
+use std::process::ExitCode;
+
+/// Exit code for a usage error (bad or missing argument), as clap uses.
+pub(crate) const USAGE: u8 = 2;
+/// Exit code when the command ran but something failed (a bad input line, an I/O error).
+pub(crate) const FAILURE: u8 = 1;
+
+/// Prints `error: <message>` on stderr and returns the usage-error exit code.
+pub(crate) fn usage_error(message: impl std::fmt::Display) -> ExitCode {
+    eprintln!("error: {message}");
+    ExitCode::from(USAGE)
+}
+
+/// Prints `error: <message>` on stderr and returns the failure exit code.
+pub(crate) fn failure(message: impl std::fmt::Display) -> ExitCode {
+    eprintln!("error: {message}");
+    ExitCode::from(FAILURE)
+}
+
+/// Reports a clap error: help and version go to stdout as usual (exit 0); a usage error is
+/// condensed into one line on stderr (clap's message without its usage block and tips).
+pub(crate) fn clap_error(err: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    match err.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+            let _ = err.print();
+            ExitCode::SUCCESS
+        }
+        ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            let _ = err.print();
+            ExitCode::from(USAGE)
+        }
+        _ => {
+            eprintln!("{}", one_line(&err.render().to_string()));
+            ExitCode::from(USAGE)
+        }
+    }
+}
+
+/// clap's multi-line message as one line: the lines before `Usage:`, without tips and the
+/// "For more information" hint, joined.
+fn one_line(message: &str) -> String {
+    message
+        .lines()
+        .take_while(|l| !l.starts_with("Usage:"))
+        .map(str::trim)
+        .filter(|l| {
+            !l.is_empty() && !l.starts_with("tip:") && !l.starts_with("For more information")
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::one_line;
+
+    #[test]
+    fn condenses_clap_messages() {
+        let msg = "error: the following required arguments were not provided:\n  --id <ID>\n\n\
+                   Usage: rmd encode torque --id <ID>\n\nFor more information, try '--help'.\n";
+        assert_eq!(
+            one_line(msg),
+            "error: the following required arguments were not provided: --id <ID>"
+        );
+        let msg = "error: unexpected argument '--foo' found\n\n  tip: to pass '--foo' as a value, \
+                   use '-- --foo'\n\nUsage: rmd encode\n";
+        assert_eq!(one_line(msg), "error: unexpected argument '--foo' found");
+        let msg = "error: invalid value '33' for '--id <ID>': invalid motor id 33\n\n\
+                   For more information, try '--help'.\n";
+        assert_eq!(
+            one_line(msg),
+            "error: invalid value '33' for '--id <ID>': invalid motor id 33"
+        );
+    }
+}

@@ -1,0 +1,328 @@
+//! `rmd decode`: every input format, direction pairing, forced modes, bad lines.
+
+use assert_cmd::Command;
+use serde_json::{Value, json};
+
+struct Run {
+    code: Option<i32>,
+    objects: Vec<Value>,
+    stderr: Vec<String>,
+}
+
+/// Runs `rmd decode ARGS` with `input` on stdin.
+fn decode(args: &[&str], input: &str) -> Run {
+    let out = Command::cargo_bin("rmd")
+        .unwrap()
+        .arg("decode")
+        .args(args)
+        .write_stdin(input)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    Run {
+        code: out.status.code(),
+        objects: stdout
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{l}: {e}")))
+            .collect(),
+        stderr: String::from_utf8(out.stderr)
+            .unwrap()
+            .lines()
+            .map(String::from)
+            .collect(),
+    }
+}
+
+fn ok(args: &[&str], input: &str) -> Vec<Value> {
+    let run = decode(args, input);
+    assert_eq!(run.code, Some(0), "stderr: {:?}", run.stderr);
+    assert!(run.stderr.is_empty());
+    run.objects
+}
+
+#[test]
+fn compact_form_request_and_reply() {
+    let out = ok(&[], "141#A100000064000000\n141#A11900080A00FF3F\n");
+    assert_eq!(
+        out[0],
+        json!({"id": 1, "can_id": "0x141", "direction": "request", "command": "torque",
+               "iq_control": 100, "iq_control_amps": 1.6})
+    );
+    assert_eq!(
+        out[1],
+        json!({"id": 1, "can_id": "0x141", "direction": "reply", "command": "torque",
+               "temperature": 25, "temperature_celsius": 25.0, "iq": 2048, "iq_amps": 33.0,
+               "speed": 10, "speed_dps": 10.0, "encoder": 16383,
+               "encoder_degrees": 16383.0 * 360.0 / 16384.0})
+    );
+}
+
+#[test]
+fn log_form_with_multi_torque_exchange() {
+    let input = "\
+(1700000000.010000) can0 280#64009CFF0000D007
+(1700000000.010120) can0 141#A11E3E000A000010
+(1700000000.010240) can0 142#A11FC2FFF6FF0020
+(1700000000.010360) can0 143#A120000000000030
+(1700000000.010480) can0 144#A121E0076400FF3F
+";
+    let out = ok(&[], input);
+    assert_eq!(out.len(), 5);
+    assert_eq!(
+        out[0],
+        json!({"timestamp": 1700000000.01, "interface": "can0", "can_id": "0x280",
+               "direction": "request", "command": "multi-torque",
+               "iq_control": [100, -100, 0, 2000], "iq_control_amps": [1.6, -1.6, 0.0, 32.0]})
+    );
+    for (i, o) in out[1..].iter().enumerate() {
+        assert_eq!(o["id"], json!(i + 1));
+        assert_eq!(o["direction"], "reply");
+        assert_eq!(o["command"], "torque");
+        assert_eq!(o["interface"], "can0");
+    }
+    assert_eq!(out[1]["iq"], 62);
+    assert_eq!(out[2]["speed_dps"], -10.0);
+    assert_eq!(out[4]["iq"], 2016);
+}
+
+#[test]
+fn default_text_form() {
+    let input =
+        "  can0  141   [8]  9A 00 00 00 00 00 00 00\n  can0  141   [8]  9A F6 00 E0 01 00 00 09\n";
+    let out = ok(&[], input);
+    assert_eq!(out[0]["direction"], "request");
+    assert_eq!(out[0]["command"], "read-status-1");
+    assert_eq!(
+        out[1],
+        json!({"interface": "can0", "id": 1, "can_id": "0x141", "direction": "reply",
+               "command": "read-status-1", "temperature": -10, "temperature_celsius": -10.0,
+               "voltage": 480, "voltage_volts": 48.0, "error_state": 9,
+               "low_voltage": true, "over_temperature": true})
+    );
+}
+
+#[test]
+fn direction_markers_decide() {
+    // Default text with -x: a TX torque whose reply is lost, then another TX, then its RX reply.
+    let input = "\
+  can0  TX - -  141   [8]  A1 00 00 00 64 00 00 00
+  can0  TX - -  141   [8]  A1 00 00 00 64 00 00 00
+  can0  RX - -  141   [8]  A1 19 00 08 0A 00 FF 3F
+";
+    let out = ok(&[], input);
+    let dirs: Vec<&str> = out
+        .iter()
+        .map(|o| o["direction"].as_str().unwrap())
+        .collect();
+    assert_eq!(dirs, ["request", "request", "reply"]);
+    // Without markers, pairing would take the second frame for the reply of the first.
+    let unmarked = "141#A100000064000000\n141#A100000064000000\n";
+    let out = ok(&[], unmarked);
+    assert_eq!(out[1]["direction"], "reply");
+    // -L lines with -x markers (T / R).
+    let input = "(1.000000) can0 142#9C00000000000000 T\n(1.000150) can0 142#9C2000FC0A000020 R\n";
+    let out = ok(&[], input);
+    assert_eq!(out[0]["direction"], "request");
+    assert_eq!(out[1]["direction"], "reply");
+    assert_eq!(out[1]["iq_amps"], -16.5);
+}
+
+#[test]
+fn clear_error_answered_with_status1_byte() {
+    let out = ok(&[], "143#9B00000000000000\n143#9A2100F000000000\n");
+    assert_eq!(out[1]["direction"], "reply");
+    assert_eq!(out[1]["command"], "clear-error");
+    assert_eq!(out[1]["voltage_volts"], 24.0);
+}
+
+#[test]
+fn every_reply_layout_has_its_fields() {
+    let input = "\
+141#3000000000000000
+141#30006432281E140A
+141#3300000000000000
+141#3300000010270000
+141#9000000000000000
+141#9000E8038813A00F
+141#1900000000000000
+141#190000000000FF3F
+141#9200000000000000
+141#92606CFFFFFFFFFF
+141#9400000000000000
+141#9400000000007869
+141#9D00000000000000
+141#9D004000E0FFE0FF
+";
+    let out = ok(&[], input);
+    assert_eq!(out[1]["angle_pid_kp"], 100);
+    assert_eq!(out[1]["iq_pid_ki"], 10);
+    assert_eq!(out[3]["accel"], 10000);
+    assert_eq!(out[3]["accel_dps_per_s"], 10000.0);
+    assert_eq!(out[5]["encoder"], 1000);
+    assert_eq!(out[5]["encoder_raw"], 5000);
+    assert_eq!(out[5]["encoder_offset"], 4000);
+    assert_eq!(out[7]["encoder_offset"], 16383);
+    // 0xFFFFFFFFFF6C60 sign-extended = -37792.
+    assert_eq!(out[9]["motor_angle"], -37792);
+    assert_eq!(out[9]["motor_angle_degrees"], -377.92);
+    assert_eq!(out[11]["circle_angle_degrees"], 270.0);
+    assert_eq!(out[13]["i_a_amps"], 1.0);
+    assert_eq!(out[13]["i_c"], -32);
+    for o in out.iter().skip(1).step_by(2) {
+        assert_eq!(o["direction"], "reply");
+    }
+}
+
+#[test]
+fn request_fields() {
+    let input = "\
+141#A50100009F8C0000
+141#A600680128230000
+141#A400F40150460000
+141#A2000000A08C0000
+141#9100000000003412
+";
+    let out = ok(&["--as", "request"], input);
+    assert_eq!(out[0]["spin_direction"], 1);
+    assert_eq!(out[0]["spin_direction_name"], "ccw");
+    assert_eq!(out[0]["angle_control"], 35999);
+    assert_eq!(out[1]["max_speed"], 360);
+    assert_eq!(out[1]["angle_control_degrees"], 90.0);
+    assert_eq!(out[2]["angle_control"], 18000);
+    assert_eq!(out[3]["speed_control_dps"], 360.0);
+    assert_eq!(out[4]["encoder_offset"], 0x1234);
+}
+
+#[test]
+fn forced_modes() {
+    let frame = "141#9C00000000000000\n";
+    assert!(
+        ok(&["--as", "reply"], &frame.repeat(2))
+            .iter()
+            .all(|o| o["direction"] == "reply")
+    );
+    assert!(
+        ok(&["--as", "request"], &frame.repeat(2))
+            .iter()
+            .all(|o| o["direction"] == "request")
+    );
+}
+
+#[test]
+fn bad_lines_are_reported_and_the_rest_decoded() {
+    let input = "\
+141#9C00000000000000
+this is not a frame
+141#9C000000000000
+123#9C00000000000000
+
+141#5500000000000000
+141#A1000000D1070000
+141#9C00000000000000
+280#64009CFF
+can0  141   [8]  9C 00
+141#9C2000FC0A000020
+";
+    let run = decode(&[], input);
+    assert_eq!(run.code, Some(1));
+    assert_eq!(
+        run.stderr,
+        [
+            "line 2: not a candump line: expected `ID#DATA`, `(time) interface ID#DATA` or `interface ID [N] DATA`",
+            "line 3: CAN ID 0x141: DLC 7, every RMD frame has DLC 8",
+            "line 4: CAN ID 0x123 is not an RMD ID (0x141..=0x160 or 0x280)",
+            "line 6: CAN ID 0x141: unknown command byte 0x55",
+            "line 7: iq_control 2001 is out of range -2000..=2000",
+            "line 9: CAN ID 0x280: DLC 4, every RMD frame has DLC 8",
+            "line 10: length [8] but 2 data bytes",
+        ]
+    );
+    // Decoded: lines 1, 8 and 11. Line 3 was taken for line 1's reply (same ID and command) and
+    // failed; line 9's 0x280, though too short, leaves 0xA1 pending on 0x141..=0x144, so the
+    // 0x9C of line 11 is a new request.
+    let summary: Vec<(String, String)> = run
+        .objects
+        .iter()
+        .map(|o| {
+            (
+                o["command"].as_str().unwrap().to_string(),
+                o["direction"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    let request = ("read-status-2".to_string(), "request".to_string());
+    assert_eq!(summary, [request.clone(), request.clone(), request]);
+}
+
+#[test]
+fn reply_values_out_of_range_and_encoder_width() {
+    let run = decode(
+        &["--as", "reply"],
+        "141#A100010800000000\n141#9C00000000000040\n",
+    );
+    assert_eq!(run.code, Some(1));
+    assert_eq!(
+        run.stderr[0],
+        "line 1: iq 2049 is out of range -2048..=2048"
+    );
+    assert_eq!(
+        run.stderr[1],
+        "line 2: encoder value 16384 is out of range 0..=16383 for a 14-bit encoder (see --encoder-bits)"
+    );
+    let out = ok(
+        &["--as", "reply", "--encoder-bits", "16"],
+        "141#9C00000000000040\n",
+    );
+    assert_eq!(out[0]["encoder"], 16384);
+    assert_eq!(out[0]["encoder_degrees"], 90.0);
+}
+
+#[test]
+fn reads_a_file_and_reports_a_missing_one() {
+    let dir = std::env::temp_dir().join(format!("rmd-decode-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("in.log");
+    std::fs::write(&path, "141#9C00000000000000\n").unwrap();
+    let run = decode(&[path.to_str().unwrap()], "");
+    assert_eq!(run.code, Some(0));
+    assert_eq!(run.objects.len(), 1);
+    let missing = dir.join("missing.log");
+    let run = decode(&[missing.to_str().unwrap()], "");
+    assert_eq!(run.code, Some(1));
+    assert!(run.objects.is_empty());
+    assert_eq!(run.stderr.len(), 1);
+    assert!(
+        run.stderr[0].starts_with("error: cannot read "),
+        "{:?}",
+        run.stderr
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn sample_log_decodes_cleanly() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/sample-leg.log");
+    let run = decode(&[path], "");
+    assert_eq!(run.code, Some(0), "{:?}", run.stderr);
+    let lines = std::fs::read_to_string(path).unwrap().lines().count();
+    assert_eq!(run.objects.len(), lines);
+    // Every 0x280 is followed by four torque replies from motors 1..=4.
+    for (i, o) in run.objects.iter().enumerate() {
+        if o["command"] == "multi-torque" {
+            for k in 1..=4 {
+                let r = &run.objects[i + k];
+                assert_eq!(
+                    (r["id"].as_u64(), r["direction"].as_str()),
+                    (Some(k as u64), Some("reply"))
+                );
+            }
+        }
+    }
+    assert_eq!(
+        run.objects
+            .iter()
+            .filter(|o| o["command"] == "multi-torque")
+            .count(),
+        3
+    );
+}

@@ -1,0 +1,257 @@
+//! `rmd encode`: every command, with expected frames worked out by hand from the spec, and the
+//! error contract (non-zero exit, one line on stderr, nothing on stdout).
+
+use assert_cmd::Command;
+
+fn rmd() -> Command {
+    Command::cargo_bin("rmd").unwrap()
+}
+
+/// Runs `rmd encode ARGS` and returns stdout, asserting success and a silent stderr.
+fn encode(args: &str) -> String {
+    let out = rmd()
+        .arg("encode")
+        .args(args.split_whitespace())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "rmd encode {args}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.stderr.is_empty(), "stderr for {args}");
+    String::from_utf8(out.stdout).unwrap()
+}
+
+#[test]
+fn issue_example() {
+    assert_eq!(
+        encode("torque --id 1 --iq-control 100"),
+        "141#A100000064000000\n"
+    );
+}
+
+#[test]
+fn every_command() {
+    let cases = [
+        ("read-pid --id 1", "141#3000000000000000"),
+        ("read-accel --id 4", "144#3300000000000000"),
+        (
+            "write-accel-ram --id 1 --accel 10000",
+            "141#3400000010270000",
+        ),
+        ("read-encoder --id 1", "141#9000000000000000"),
+        (
+            "write-encoder-offset --id 1 --encoder-offset 4660",
+            "141#9100000000003412",
+        ),
+        ("write-zero-rom --id 1", "141#1900000000000000"),
+        ("read-multi-turn-angle --id 1", "141#9200000000000000"),
+        ("read-single-turn-angle --id 1", "141#9400000000000000"),
+        ("read-status-1 --id 1", "141#9A00000000000000"),
+        ("clear-error --id 1", "141#9B00000000000000"),
+        ("read-status-2 --id 1", "141#9C00000000000000"),
+        ("read-status-3 --id 1", "141#9D00000000000000"),
+        ("motor-off --id 1", "141#8000000000000000"),
+        ("motor-stop --id 1", "141#8100000000000000"),
+        ("motor-run --id 32", "160#8800000000000000"),
+        ("torque --id 32 --iq-control -100", "160#A10000009CFF0000"),
+        ("torque --id 1 --amps 1.6", "141#A100000064000000"),
+        ("speed --id 1 --speed-control 36000", "141#A2000000A08C0000"),
+        ("speed --id 1 --dps -0.01", "141#A2000000FFFFFFFF"),
+        (
+            "position-1 --id 1 --angle-control -9000",
+            "141#A3000000D8DCFFFF",
+        ),
+        ("position-1 --id 1 --deg -90", "141#A3000000D8DCFFFF"),
+        (
+            "position-2 --id 1 --max-speed 500 --angle-control 18000",
+            "141#A400F40150460000",
+        ),
+        (
+            "position-3 --id 1 --spin-direction ccw --angle-control 35999",
+            "141#A50100009F8C0000",
+        ),
+        (
+            "position-4 --id 1 --spin-direction cw --max-speed 360 --angle-control 9000",
+            "141#A600680128230000",
+        ),
+        (
+            "position-4 --id 1 --spin-direction cw --max-speed 360 --deg 90",
+            "141#A600680128230000",
+        ),
+        (
+            "multi-torque --iq-control 100,-100,0,2000",
+            "280#64009CFF0000D007",
+        ),
+        (
+            "multi-torque --amps -32,0.016,-0.016,8",
+            "280#30F80100FFFFF401",
+        ),
+    ];
+    for (args, expected) in cases {
+        assert_eq!(encode(args), format!("{expected}\n"), "rmd encode {args}");
+    }
+}
+
+#[test]
+fn write_pid_commands() {
+    // DATA[2..=7] = anglePidKp, anglePidKi, speedPidKp, speedPidKi, iqPidKp, iqPidKi.
+    assert_eq!(
+        encode(
+            "write-pid-ram --id 2 --angle-pid-kp 100 --angle-pid-ki 50 --speed-pid-kp 40 \
+             --speed-pid-ki 30 --iq-pid-kp 20 --iq-pid-ki 10"
+        ),
+        "142#31006432281E140A\n"
+    );
+    assert_eq!(
+        encode(
+            "write-pid-rom --id 3 --angle-pid-kp 1 --angle-pid-ki 2 --speed-pid-kp 3 \
+             --speed-pid-ki 4 --iq-pid-kp 5 --iq-pid-ki 255"
+        ),
+        "143#32000102030405FF\n"
+    );
+}
+
+#[test]
+fn negative_values_with_equals_sign() {
+    assert_eq!(
+        encode("torque --id 1 --iq-control=-100"),
+        "141#A10000009CFF0000\n"
+    );
+}
+
+/// Runs `rmd encode ARGS`, asserting the error contract; returns the stderr line.
+fn encode_error(args: &str) -> String {
+    let out = rmd()
+        .arg("encode")
+        .args(args.split_whitespace())
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "rmd encode {args} should fail");
+    assert!(out.stdout.is_empty(), "stdout for {args}: {:?}", out.stdout);
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(
+        stderr.lines().count(),
+        1,
+        "one stderr line for {args}: {stderr:?}"
+    );
+    assert!(stderr.ends_with('\n'));
+    stderr
+}
+
+#[test]
+fn errors_are_one_line_on_stderr() {
+    let cases = [
+        (
+            "torque --id 1 --iq-control 2001",
+            "iq_control 2001 is out of range -2000..=2000",
+        ),
+        (
+            "torque --id 1 --iq-control -2500",
+            "iq_control -2500 is out of range -2000..=2000",
+        ),
+        (
+            "torque --id 1 --amps 32.5",
+            "iq_control 2031 is out of range",
+        ),
+        (
+            "torque --id 1 --amps nan",
+            "iq_control must be a finite number",
+        ),
+        ("torque --id 1", "--iq-control"),
+        ("torque --iq-control 5", "--id"),
+        (
+            "torque --id 0 --iq-control 5",
+            "invalid motor id 0: must be 1..=32",
+        ),
+        (
+            "torque --id 33 --iq-control 5",
+            "invalid motor id 33: must be 1..=32",
+        ),
+        (
+            "torque --id 1 --iq-control 5 --amps 1",
+            "cannot be used with",
+        ),
+        ("torque --id 1 --iq-control abc", "`abc` is not an integer"),
+        (
+            "position-3 --id 1 --spin-direction ccw --angle-control 36000",
+            "angle_control 36000 is out of range 0..=35999",
+        ),
+        (
+            "position-3 --id 1 --spin-direction up --angle-control 0",
+            "invalid value 'up'",
+        ),
+        (
+            "position-4 --id 1 --spin-direction cw --angle-control 0",
+            "--max-speed",
+        ),
+        (
+            "position-2 --id 1 --max-speed 70000 --angle-control 0",
+            "max_speed 70000 is out of range 0..=65535",
+        ),
+        (
+            "write-encoder-offset --id 1 --encoder-offset 16384",
+            "encoder value 16384 is out of range 0..=16383 for a 14-bit encoder",
+        ),
+        (
+            "write-encoder-offset --id 1 --encoder-offset 4096 --encoder-bits 12",
+            "encoder value 4096 is out of range 0..=4095 for a 12-bit encoder",
+        ),
+        (
+            "write-encoder-offset --id 1 --encoder-offset 1 --encoder-bits 20",
+            "encoder width (bits) 20 is out of range 12..=18",
+        ),
+        (
+            "write-pid-ram --id 1 --angle-pid-kp 256 --angle-pid-ki 0 --speed-pid-kp 0 \
+             --speed-pid-ki 0 --iq-pid-kp 0 --iq-pid-ki 0",
+            "256",
+        ),
+        ("write-pid-ram --id 1 --angle-pid-kp 1", "--angle-pid-ki"),
+        (
+            "write-accel-ram --id 1 --accel 3000000000",
+            "accel 3000000000 is out of range",
+        ),
+        (
+            "multi-torque --iq-control 1,2,3",
+            "expected 4 comma-separated values (motors 1..=4), got 3",
+        ),
+        (
+            "multi-torque --iq-control 1,2,3,2001",
+            "iq_control 2001 is out of range",
+        ),
+        (
+            "multi-torque --id 1 --iq-control 1,2,3,4",
+            "unexpected argument '--id'",
+        ),
+        ("frobnicate --id 1", "unrecognized subcommand 'frobnicate'"),
+    ];
+    for (args, needle) in cases {
+        let stderr = encode_error(args);
+        assert!(stderr.starts_with("error: "), "{args}: {stderr}");
+        assert!(
+            stderr.contains(needle),
+            "{args}: {stderr:?} lacks {needle:?}"
+        );
+    }
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    let out = rmd()
+        .args(["encode", "torque", "--id", "1", "--iq-control", "9999"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn help_lists_every_command() {
+    let out = rmd().args(["encode", "--help"]).output().unwrap();
+    assert!(out.status.success());
+    let help = String::from_utf8(out.stdout).unwrap();
+    for name in rmd_protocol::Command::ALL.map(|c| c.name()) {
+        assert!(help.contains(name), "{name} missing from help");
+    }
+    assert!(help.contains("multi-torque"));
+}
