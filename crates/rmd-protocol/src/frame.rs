@@ -58,6 +58,13 @@ impl CanFrame {
         Ok(Self { id, len: 8, data })
     }
 
+    /// An 8-byte frame on one of the protocol's own identifiers (all standard: at most 0x280),
+    /// for the encoders, which cannot fail.
+    pub(crate) const fn rmd(id: u16, data: [u8; 8]) -> Self {
+        debug_assert!(id <= MAX_STANDARD_ID);
+        Self { id, len: 8, data }
+    }
+
     /// The 11-bit identifier.
     pub const fn id(&self) -> u16 {
         self.id
