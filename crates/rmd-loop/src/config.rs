@@ -114,8 +114,9 @@ pub struct LoopConfig {
     pub overrun: OverrunPolicy,
     /// Consecutive ticks without fresh feedback from one motor that make a fault.
     pub missing_reply_fault_after: u32,
-    /// Ticks allowed at start (sending zero torque) for every motor to answer once.
-    pub startup_ticks: u32,
+    /// Start-up probe exchanges (zero torque, each waiting up to max(4 periods, 20 ms)) allowed
+    /// for every motor to answer once before the loop gives up.
+    pub startup_probes: u32,
     /// Capacity of the telemetry queue, in ticks.
     pub telemetry_capacity: usize,
     /// Accept a period shorter than the worst-case exchange on a bus (benchmarks only: the loop
@@ -135,7 +136,7 @@ impl Default for LoopConfig {
             reply_mode: ReplyMode::SameTick,
             overrun: OverrunPolicy::Continue,
             missing_reply_fault_after: 20,
-            startup_ticks: 100,
+            startup_probes: 5,
             telemetry_capacity: 4096,
             allow_over_budget: false,
         }
@@ -196,6 +197,11 @@ pub struct MotorConfig {
     #[serde(default)]
     pub temperature_limit_celsius: Option<f64>,
 }
+
+const FALLBACK_ID: MotorId = match MotorId::new(1) {
+    Ok(id) => id,
+    Err(_) => panic!("1 is a valid motor id"),
+};
 
 fn default_encoder_bits() -> u8 {
     14
@@ -264,12 +270,13 @@ impl MotorConfig {
         self
     }
 
-    /// The validated motor id (call after [`RobotConfig::validate`]).
+    /// The motor id (valid once [`RobotConfig::validate`] passed; an invalid id maps to 1).
     pub fn motor_id(&self) -> MotorId {
-        MotorId::new(self.id).unwrap_or(MotorId::MIN)
+        MotorId::new(self.id).unwrap_or(FALLBACK_ID)
     }
 
-    /// The validated encoder width (call after [`RobotConfig::validate`]).
+    /// The encoder width (valid once [`RobotConfig::validate`] passed; an invalid width maps to
+    /// the default 14 bits).
     pub fn encoder_width(&self) -> EncoderWidth {
         EncoderWidth::new(self.encoder_bits).unwrap_or_default()
     }
@@ -332,7 +339,7 @@ impl MotorConfig {
 
     /// The current limit as a raw command value.
     pub fn current_limit_raw(&self) -> i16 {
-        IqControl::from_amps_saturating(self.current_limit_amps).get()
+        IqControl::from_amps_saturating(self.current_limit_amps).raw()
     }
 }
 
@@ -511,10 +518,13 @@ impl RobotConfig {
             ));
         }
         if l.missing_reply_fault_after == 0 {
-            return Err(invalid("loop.missing_reply_fault_after", "must be at least 1"));
+            return Err(invalid(
+                "loop.missing_reply_fault_after",
+                "must be at least 1",
+            ));
         }
-        if l.startup_ticks == 0 {
-            return Err(invalid("loop.startup_ticks", "must be at least 1"));
+        if l.startup_probes == 0 {
+            return Err(invalid("loop.startup_probes", "must be at least 1"));
         }
         if l.telemetry_capacity == 0 {
             return Err(invalid("loop.telemetry_capacity", "must be at least 1"));
@@ -525,7 +535,10 @@ impl RobotConfig {
         if self.buses.len() > MAX_BUSES {
             return Err(invalid(
                 "bus",
-                format!("has {} buses, at most {MAX_BUSES} are supported", self.buses.len()),
+                format!(
+                    "has {} buses, at most {MAX_BUSES} are supported",
+                    self.buses.len()
+                ),
             ));
         }
         for (b, bus) in self.buses.iter().enumerate() {
@@ -536,11 +549,17 @@ impl RobotConfig {
             if !(10_000..=1_000_000).contains(&bus.bitrate) {
                 return Err(invalid(
                     format!("{key}.bitrate"),
-                    format!("is {}, must be 10000..=1000000 bit/s (classic CAN)", bus.bitrate),
+                    format!(
+                        "is {}, must be 10000..=1000000 bit/s (classic CAN)",
+                        bus.bitrate
+                    ),
                 ));
             }
             if bus.motors.is_empty() {
-                return Err(invalid(format!("{key}.motor"), "a bus needs at least one motor"));
+                return Err(invalid(
+                    format!("{key}.motor"),
+                    "a bus needs at least one motor",
+                ));
             }
             if bus.motors.len() > MAX_MOTORS_PER_BUS {
                 return Err(invalid(
@@ -569,7 +588,7 @@ impl RobotConfig {
             };
             if budget > window && !l.allow_over_budget {
                 return Err(invalid(
-                    format!("{key}"),
+                    key.clone(),
                     format!(
                         "cannot carry one exchange per tick: {} motors at {} bit/s with {} us \
                          turnaround need up to {} us (worst-case bit stuffing), but the {} is {} us. \
@@ -646,16 +665,28 @@ mod tests {
     fn bad_values_name_their_key() {
         expect_invalid(&LEG.replace("id = 2", "id = 5"), "bus[0].motor[1].id");
         expect_invalid(&LEG.replace("id = 2", "id = 1"), "bus[0].motor[1].id");
-        expect_invalid(&LEG.replace("gear_ratio = 6.0", "gear_ratio = -6.0"), "bus[0].motor[0].gear_ratio");
+        expect_invalid(
+            &LEG.replace("gear_ratio = 6.0", "gear_ratio = -6.0"),
+            "bus[0].motor[0].gear_ratio",
+        );
         expect_invalid(
             &LEG.replace("current_limit_amps = 8.0", "current_limit_amps = 40.0"),
             "bus[0].motor[0].current_limit_amps",
         );
-        expect_invalid(&LEG.replace("rate_hz = 500.0", "rate_hz = 0.0"), "loop.rate_hz");
-        expect_invalid(&LEG.replace("spin_margin_us = 20", "spin_margin_us = 5000"), "loop.spin_margin_us");
+        expect_invalid(
+            &LEG.replace("rate_hz = 500.0", "rate_hz = 0.0"),
+            "loop.rate_hz",
+        );
+        expect_invalid(
+            &LEG.replace("spin_margin_us = 20", "spin_margin_us = 5000"),
+            "loop.spin_margin_us",
+        );
         expect_invalid(&LEG.replace("after = 5", "after = 0"), "loop.overrun.after");
         expect_invalid(
-            &LEG.replace("[[bus.motor]]\n        id = 2", "[[bus.motor]]\n        id = 2\n        encoder_bits = 20"),
+            &LEG.replace(
+                "[[bus.motor]]\n        id = 2",
+                "[[bus.motor]]\n        id = 2\n        encoder_bits = 20",
+            ),
             "bus[0].motor[1].encoder_bits",
         );
     }
@@ -663,9 +694,15 @@ mod tests {
     #[test]
     fn unknown_keys_and_wrong_types_are_parse_errors_naming_the_key() {
         let err = RobotConfig::from_toml(&LEG.replace("cpu = 1", "cpus = 1")).unwrap_err();
-        assert!(matches!(&err, ConfigError::Parse(m) if m.contains("cpus")), "{err}");
+        assert!(
+            matches!(&err, ConfigError::Parse(m) if m.contains("cpus")),
+            "{err}"
+        );
         let err = RobotConfig::from_toml(&LEG.replace("cpu = 1", "cpu = \"one\"")).unwrap_err();
-        assert!(matches!(&err, ConfigError::Parse(m) if m.contains("cpu")), "{err}");
+        assert!(
+            matches!(&err, ConfigError::Parse(m) if m.contains("cpu")),
+            "{err}"
+        );
     }
 
     #[test]
@@ -679,7 +716,10 @@ mod tests {
         let err = robot.validate().unwrap_err();
         assert!(err.to_string().contains("875 us"), "{err}");
         // 1 kHz fits with the default 900 us reply deadline.
-        RobotConfig::new(1000.0).with_bus(bus.clone()).validate().unwrap();
+        RobotConfig::new(1000.0)
+            .with_bus(bus.clone())
+            .validate()
+            .unwrap();
         // Pipelined mode only needs the exchange to fit in the period.
         let mut pipelined = RobotConfig::new(1100.0).with_bus(bus.clone());
         pipelined.loop_config.reply_mode = ReplyMode::Pipelined;
@@ -695,7 +735,10 @@ mod tests {
         for id in [1, 2, 3, 4, 4] {
             bus = bus.with_motor(MotorConfig::new(id));
         }
-        let err = RobotConfig::new(100.0).with_bus(bus).validate().unwrap_err();
+        let err = RobotConfig::new(100.0)
+            .with_bus(bus)
+            .validate()
+            .unwrap_err();
         assert!(matches!(err, ConfigError::Invalid { ref key, .. } if key == "bus[0].motor"));
     }
 }

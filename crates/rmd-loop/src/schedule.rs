@@ -255,7 +255,12 @@ mod tests {
 
     fn sched(policy: OverrunPolicy) -> (VirtualClock, Scheduler) {
         let clock = VirtualClock::new();
-        let s = Scheduler::new(Period::new(ms(1)).unwrap(), Duration::ZERO, policy, clock.now());
+        let s = Scheduler::new(
+            Period::new(ms(1)).unwrap(),
+            Duration::ZERO,
+            policy,
+            clock.now(),
+        );
         (clock, s)
     }
 
@@ -331,7 +336,10 @@ mod tests {
             faults.push(s.end_tick(clock.now()));
         }
         assert_eq!(
-            faults.iter().map(|e| e.consecutive_misses).collect::<Vec<_>>(),
+            faults
+                .iter()
+                .map(|e| e.consecutive_misses)
+                .collect::<Vec<_>>(),
             [1, 2, 3, 4]
         );
         assert_eq!(
