@@ -260,7 +260,8 @@ wire_value! {
     ///
     /// The spec calls it "int64_t" but sends only 7 bytes (DATA\[1..=7\]): it is a 56-bit
     /// two's-complement value, sign-extended on decoding, so the range is -2^55..=2^55-1.
-    /// [`degrees`](Self::degrees) is exact up to |raw| = 2^53.
+    /// Conversions to and from degrees round-trip exactly for |raw| < 2^45 (about 10^9 turns);
+    /// beyond that `f64` has fewer than 0.01° of resolution.
     ///
     /// ```
     /// use rmd_protocol::MotorAngle;

@@ -1,0 +1,717 @@
+//! Fault injection: seeded, reproducible, per motor and per frame type.
+//!
+//! A [`FaultRule`] says which motors ([`MotorSet`]), which frames ([`FrameFilter`]: a command,
+//! the 0x280 multi-motor frame, or any), what goes wrong ([`FaultKind`]) and when ([`Window`]
+//! plus a probability). Each rule draws from its own pseudo-random stream derived from the
+//! simulation's seed and the rule's position, so the same seed and the same traffic give the
+//! same faults, and adding a rule does not change what the others do.
+//!
+//! How each kind of fault is triggered:
+//!
+//! | kind | evaluated | effect |
+//! |---|---|---|
+//! | [`DropReply`](FaultKind::DropReply), [`LateReply`](FaultKind::LateReply), [`CorruptBytes`](FaultKind::CorruptBytes), [`WrongDlc`](FaultKind::WrongDlc), [`DuplicateReply`](FaultKind::DuplicateReply) | per matching request a motor receives | on that request's reply |
+//! | [`Silent`](FaultKind::Silent) | per matching request a motor receives | the motor ignores the request and sends nothing (as if unplugged; it keeps executing its last command) |
+//! | [`LowVoltage`](FaultKind::LowVoltage), [`OverTemperature`](FaultKind::OverTemperature) | continuously, while the window is open (probability must be 1) | the physical cause: supply voltage forced down / winding held hot; the firmware raises its flag through its thresholds, and a clear cannot reset it while the cause lasts |
+//! | [`BusOff`](FaultKind::BusOff), [`TxStall`](FaultKind::TxStall) | per matching frame the host sends (simulated bus only) | bus-off for `duration` / the host cannot transmit for `duration`, so its transmit queue fills |
+//!
+//! Windows count frames per motor (the n-th matching request that motor received, from 0) for
+//! motor faults, and the host's matching frames for bus faults; a physical fault with a frame
+//! window is on from the `from`-th matching frame until the `from + count`-th.
+
+use core::time::Duration;
+
+use rand_pcg::Pcg64Mcg;
+use rand_pcg::rand_core::{Rng, SeedableRng};
+use rmd_bus::Timestamp;
+use rmd_protocol::{Command, MotorId};
+
+use crate::error::ConfigError;
+use crate::physics::Environment;
+
+/// A set of motor ids (1..=32).
+///
+/// ```
+/// use rmd_protocol::MotorId;
+/// use rmd_sim::MotorSet;
+/// let m2 = MotorId::new(2).unwrap();
+/// assert!(MotorSet::all().contains(m2));
+/// assert!(MotorSet::only(m2).contains(m2));
+/// assert!(!MotorSet::only(m2).contains(MotorId::new(3).unwrap()));
+/// ```
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub struct MotorSet(u32);
+
+impl MotorSet {
+    /// No motor.
+    pub const NONE: Self = Self(0);
+    /// Motors 1..=4, the ones a 0x280 frame drives.
+    pub const MULTI_TORQUE: Self = Self(0b1111);
+
+    /// Every motor.
+    pub const fn all() -> Self {
+        Self(u32::MAX)
+    }
+
+    /// One motor.
+    pub const fn only(id: MotorId) -> Self {
+        Self(1 << (id.get() - 1))
+    }
+
+    /// The listed motors.
+    pub fn of(ids: &[MotorId]) -> Self {
+        Self(ids.iter().fold(0, |acc, id| acc | (1 << (id.get() - 1))))
+    }
+
+    /// The set with `id` added.
+    pub const fn with(self, id: MotorId) -> Self {
+        Self(self.0 | 1 << (id.get() - 1))
+    }
+
+    /// Whether `id` is in the set.
+    pub const fn contains(self, id: MotorId) -> bool {
+        self.0 & (1 << (id.get() - 1)) != 0
+    }
+
+    /// Whether the set holds every motor.
+    pub const fn is_all(self) -> bool {
+        self.0 == u32::MAX
+    }
+}
+
+/// Which frames a rule applies to (for motor faults: the request whose reply is affected).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum FrameFilter {
+    /// Every frame.
+    Any,
+    /// Single-motor requests with this command byte.
+    Command(Command),
+    /// The 0x280 multi-motor torque frame (the motors' 0xA1 replies to it).
+    MultiTorque,
+}
+
+/// The kind of frame a rule is matched against.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub(crate) enum FrameKind {
+    Single(Command),
+    Multi,
+    /// Not a valid request.
+    Other,
+}
+
+impl FrameFilter {
+    pub(crate) fn matches(self, kind: FrameKind) -> bool {
+        match (self, kind) {
+            (FrameFilter::Any, _) => true,
+            (FrameFilter::Command(c), FrameKind::Single(k)) => c == k,
+            (FrameFilter::MultiTorque, FrameKind::Multi) => true,
+            _ => false,
+        }
+    }
+}
+
+/// When a rule is active (before its probability is drawn).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Window {
+    /// Always.
+    Always,
+    /// From the `from`-th matching frame (0-based) for `count` frames (`u64::MAX`: for ever).
+    Frames {
+        /// First matching frame, 0-based.
+        from: u64,
+        /// Number of matching frames.
+        count: u64,
+    },
+    /// From `from` (inclusive) until `until` (exclusive), on the simulation's clock.
+    Time {
+        /// Start of the window.
+        from: Timestamp,
+        /// End of the window (exclusive).
+        until: Timestamp,
+    },
+}
+
+impl Window {
+    fn contains(self, frame_index: u64, at: Timestamp) -> bool {
+        match self {
+            Window::Always => true,
+            Window::Frames { from, count } => frame_index >= from && frame_index - from < count,
+            Window::Time { from, until } => at >= from && at < until,
+        }
+    }
+}
+
+/// What goes wrong.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum FaultKind {
+    /// The reply is not sent.
+    DropReply,
+    /// The reply is sent `delay` later than it would be.
+    LateReply {
+        /// Extra delay.
+        delay: Duration,
+    },
+    /// `count` distinct data bytes of the reply (1..=8) are XORed with random non-zero values.
+    CorruptBytes {
+        /// Number of corrupted bytes.
+        count: u8,
+    },
+    /// The reply is sent with this DLC (0..=7) instead of 8, its data truncated.
+    WrongDlc {
+        /// The DLC sent.
+        dlc: u8,
+    },
+    /// The reply is sent twice, back to back.
+    DuplicateReply,
+    /// The motor ignores the request and sends nothing.
+    Silent,
+    /// The supply voltage at the motor drops to `volts` (physical cause of the low-voltage flag).
+    LowVoltage {
+        /// Forced open-circuit supply voltage, V.
+        volts: f64,
+    },
+    /// The winding is held at or above `celsius` (physical cause of the over-temperature flag).
+    OverTemperature {
+        /// Forced minimum winding temperature, °C.
+        celsius: f64,
+    },
+    /// The host's controller goes bus-off for `duration`: the client receives
+    /// [`BusEvent::BusOff`](rmd_bus::BusEvent::BusOff), `send` fails with
+    /// [`BusError::BusOff`](rmd_bus::BusError::BusOff), frames queued or arriving are lost,
+    /// then [`BusEvent::Restarted`](rmd_bus::BusEvent::Restarted). Simulated bus only.
+    BusOff {
+        /// How long the controller stays bus-off.
+        duration: Duration,
+    },
+    /// The host's controller cannot transmit for `duration` (as with a flood of higher-priority
+    /// traffic): its transmit queue fills and `send` returns
+    /// [`BusError::TxQueueFull`](rmd_bus::BusError::TxQueueFull). Simulated bus only.
+    TxStall {
+        /// How long the host cannot transmit.
+        duration: Duration,
+    },
+}
+
+impl FaultKind {
+    fn is_physical(self) -> bool {
+        matches!(
+            self,
+            FaultKind::LowVoltage { .. } | FaultKind::OverTemperature { .. }
+        )
+    }
+
+    pub(crate) fn is_bus(self) -> bool {
+        matches!(self, FaultKind::BusOff { .. } | FaultKind::TxStall { .. })
+    }
+}
+
+/// One fault-injection rule. Build it from its kind, then narrow it down.
+///
+/// ```
+/// use core::time::Duration;
+/// use rmd_protocol::{Command, MotorId};
+/// use rmd_sim::{FaultKind, FaultRule};
+/// // Motor 2 drops 10 % of its replies to 0x9C.
+/// let flaky = FaultRule::new(FaultKind::DropReply)
+///     .motor(MotorId::new(2).unwrap())
+///     .command(Command::ReadStatus2)
+///     .with_probability(0.1);
+/// // Every 0x280 reply of every motor is 3 ms late from the 100th 0x280 frame on, for 5 frames.
+/// let late = FaultRule::new(FaultKind::LateReply { delay: Duration::from_millis(3) })
+///     .multi_torque()
+///     .frames_window(100, 5);
+/// # let _ = (flaky, late);
+/// ```
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct FaultRule {
+    /// Which motors (for bus faults: the frames addressed to them; [`MotorSet::all`] also
+    /// matches frames addressed to no motor).
+    pub motors: MotorSet,
+    /// Which frames.
+    pub frames: FrameFilter,
+    /// What goes wrong.
+    pub kind: FaultKind,
+    /// When.
+    pub window: Window,
+    /// Probability that an active window applies the fault to a given frame, 0..=1.
+    pub probability: f64,
+}
+
+impl FaultRule {
+    /// A rule for every motor and every frame, always, with probability 1.
+    pub fn new(kind: FaultKind) -> Self {
+        Self {
+            motors: MotorSet::all(),
+            frames: FrameFilter::Any,
+            kind,
+            window: Window::Always,
+            probability: 1.0,
+        }
+    }
+
+    /// Only motor `id`.
+    pub fn motor(mut self, id: MotorId) -> Self {
+        self.motors = MotorSet::only(id);
+        self
+    }
+
+    /// Only the motors of `set`.
+    pub fn motors(mut self, set: MotorSet) -> Self {
+        self.motors = set;
+        self
+    }
+
+    /// Only frames matching `filter`.
+    pub fn frames(mut self, filter: FrameFilter) -> Self {
+        self.frames = filter;
+        self
+    }
+
+    /// Only requests with command `command`.
+    pub fn command(self, command: Command) -> Self {
+        self.frames(FrameFilter::Command(command))
+    }
+
+    /// Only 0x280 multi-motor torque frames.
+    pub fn multi_torque(self) -> Self {
+        self.frames(FrameFilter::MultiTorque)
+    }
+
+    /// Active from the `from`-th matching frame (0-based) for `count` frames.
+    pub fn frames_window(mut self, from: u64, count: u64) -> Self {
+        self.window = Window::Frames { from, count };
+        self
+    }
+
+    /// Active from `from` (inclusive) until `until` (exclusive).
+    pub fn during(mut self, from: Timestamp, until: Timestamp) -> Self {
+        self.window = Window::Time { from, until };
+        self
+    }
+
+    /// Applies to each frame of an active window with probability `p`.
+    pub fn with_probability(mut self, p: f64) -> Self {
+        self.probability = p;
+        self
+    }
+
+    /// Checks the rule is meaningful; `index` is its position, for the error message.
+    pub fn validate(&self, index: usize) -> Result<(), ConfigError> {
+        let bad = |reason| Err(ConfigError::InvalidFaultRule { index, reason });
+        if !(self.probability.is_finite() && (0.0..=1.0).contains(&self.probability)) {
+            return bad("probability must be within 0..=1");
+        }
+        if self.kind.is_physical() && self.probability != 1.0 {
+            return bad(
+                "a low-voltage or over-temperature cause is a window, not a per-frame draw: probability must be 1",
+            );
+        }
+        if self.motors.0 == 0 {
+            return bad("the rule selects no motor");
+        }
+        if let Window::Time { from, until } = self.window
+            && until <= from
+        {
+            return bad("time window ends before it starts");
+        }
+        match self.kind {
+            FaultKind::CorruptBytes { count } if !(1..=8).contains(&count) => {
+                bad("CorruptBytes count must be 1..=8")
+            }
+            FaultKind::WrongDlc { dlc } if dlc >= 8 => bad("WrongDlc dlc must be 0..=7"),
+            FaultKind::LowVoltage { volts } if !(volts.is_finite() && volts >= 0.0) => {
+                bad("LowVoltage volts must be a finite number >= 0")
+            }
+            FaultKind::OverTemperature { celsius } if !celsius.is_finite() => {
+                bad("OverTemperature celsius must be finite")
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// What the rules decided for one reply.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub(crate) struct ReplyFaults {
+    pub(crate) silent: bool,
+    pub(crate) drop: bool,
+    pub(crate) late: Duration,
+    /// Bytes to corrupt, with the random XOR values (0 = untouched).
+    pub(crate) corrupt: [u8; 8],
+    pub(crate) wrong_dlc: Option<u8>,
+    pub(crate) duplicate: bool,
+}
+
+/// A bus fault that starts now.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub(crate) enum BusFault {
+    BusOff(Duration),
+    TxStall(Duration),
+}
+
+/// Index of the host's frame counter in [`RuleState::counts`].
+const HOST: usize = 0;
+
+#[derive(Clone, Debug)]
+struct RuleState {
+    rule: FaultRule,
+    rng: Pcg64Mcg,
+    /// Matching frames seen so far: index 0 the host's (bus faults), 1..=32 per motor.
+    counts: [u64; 33],
+    /// Physical faults with a frame window: which motors have the cause on (bit id - 1).
+    physical_on: u32,
+}
+
+impl RuleState {
+    fn draw(&mut self) -> bool {
+        let p = self.rule.probability;
+        if p >= 1.0 {
+            true
+        } else if p <= 0.0 {
+            false
+        } else {
+            unit(&mut self.rng) < p
+        }
+    }
+}
+
+/// A uniform draw in [0, 1) from the top 53 bits (value-stable across versions).
+pub(crate) fn unit(rng: &mut Pcg64Mcg) -> f64 {
+    (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// A pseudo-random generator for stream `stream` of the simulation seeded with `seed`.
+pub(crate) fn stream(seed: u64, stream: u64) -> Pcg64Mcg {
+    // SplitMix64 finalizer of seed and stream: independent, well-mixed starting points.
+    let mut z = seed ^ stream.wrapping_add(1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    Pcg64Mcg::seed_from_u64(z ^ (z >> 31))
+}
+
+/// The rules of one simulation and their state.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct FaultEngine {
+    rules: Vec<RuleState>,
+}
+
+impl FaultEngine {
+    /// Validates `rules` and seeds one stream per rule.
+    pub(crate) fn new(rules: &[FaultRule], seed: u64) -> Result<Self, ConfigError> {
+        let mut states = Vec::with_capacity(rules.len());
+        for (index, rule) in rules.iter().enumerate() {
+            rule.validate(index)?;
+            states.push(RuleState {
+                rule: *rule,
+                rng: stream(seed, index as u64),
+                counts: [0; 33],
+                physical_on: 0,
+            });
+        }
+        Ok(Self { rules: states })
+    }
+
+    /// Whether any rule is a bus fault (evaluated on host frames).
+    pub(crate) fn has_bus_faults(&self) -> bool {
+        self.rules.iter().any(|r| r.rule.kind.is_bus())
+    }
+
+    /// Evaluates the motor-side rules for a request of kind `kind` that `motor` received at
+    /// `at`: counts it, switches frame-window physical causes, draws the reply faults.
+    pub(crate) fn on_motor_frame(
+        &mut self,
+        motor: MotorId,
+        kind: FrameKind,
+        at: Timestamp,
+    ) -> ReplyFaults {
+        let mut out = ReplyFaults::default();
+        let m = usize::from(motor.get());
+        for r in &mut self.rules {
+            if r.rule.kind.is_bus()
+                || !r.rule.motors.contains(motor)
+                || !r.rule.frames.matches(kind)
+            {
+                continue;
+            }
+            let n = r.counts[m];
+            r.counts[m] = n.saturating_add(1);
+            let active = r.rule.window.contains(n, at);
+            if r.rule.kind.is_physical() {
+                if let Window::Frames { .. } = r.rule.window {
+                    let bit = 1u32 << (m - 1);
+                    if active {
+                        r.physical_on |= bit;
+                    } else {
+                        r.physical_on &= !bit;
+                    }
+                }
+                continue;
+            }
+            if !active || !r.draw() {
+                continue;
+            }
+            match r.rule.kind {
+                FaultKind::DropReply => out.drop = true,
+                FaultKind::LateReply { delay } => out.late = out.late.saturating_add(delay),
+                FaultKind::CorruptBytes { count } => corrupt(&mut r.rng, count, &mut out.corrupt),
+                FaultKind::WrongDlc { dlc } => out.wrong_dlc = Some(dlc),
+                FaultKind::DuplicateReply => out.duplicate = true,
+                FaultKind::Silent => out.silent = true,
+                _ => {}
+            }
+        }
+        out
+    }
+
+    /// Evaluates the bus rules for a frame the host sends at `at`, addressed to `motors`
+    /// (`None`: to no motor). Returns the first bus fault that triggers.
+    pub(crate) fn on_host_frame(
+        &mut self,
+        kind: FrameKind,
+        motors: Option<MotorSet>,
+        at: Timestamp,
+    ) -> Option<BusFault> {
+        let mut started = None;
+        for r in &mut self.rules {
+            if !r.rule.kind.is_bus() || !r.rule.frames.matches(kind) {
+                continue;
+            }
+            let addressed = match motors {
+                Some(set) => r.rule.motors.0 & set.0 != 0,
+                None => r.rule.motors.is_all(),
+            };
+            if !addressed {
+                continue;
+            }
+            let n = r.counts[HOST];
+            r.counts[HOST] = n.saturating_add(1);
+            if !r.rule.window.contains(n, at) || !r.draw() {
+                continue;
+            }
+            started = started.or(match r.rule.kind {
+                FaultKind::BusOff { duration } => Some(BusFault::BusOff(duration)),
+                FaultKind::TxStall { duration } => Some(BusFault::TxStall(duration)),
+                _ => None,
+            });
+        }
+        started
+    }
+
+    /// The physical conditions imposed on `motor` at `at`.
+    pub(crate) fn environment(&self, motor: MotorId, at: Timestamp) -> Environment {
+        let mut env = Environment::default();
+        for r in &self.rules {
+            if !r.rule.kind.is_physical() || !r.rule.motors.contains(motor) {
+                continue;
+            }
+            let on = match r.rule.window {
+                Window::Always => true,
+                Window::Time { from, until } => at >= from && at < until,
+                Window::Frames { .. } => r.physical_on & (1 << (motor.get() - 1)) != 0,
+            };
+            if !on {
+                continue;
+            }
+            match r.rule.kind {
+                FaultKind::LowVoltage { volts } => {
+                    env.supply_voltage_override_v = Some(
+                        env.supply_voltage_override_v
+                            .map_or(volts, |v: f64| v.min(volts)),
+                    )
+                }
+                FaultKind::OverTemperature { celsius } => {
+                    env.temperature_floor_c = Some(
+                        env.temperature_floor_c
+                            .map_or(celsius, |t: f64| t.max(celsius)),
+                    )
+                }
+                _ => {}
+            }
+        }
+        env
+    }
+
+    /// The first instant after `at` at which [`environment`](Self::environment) of `motor`
+    /// can change by itself (a time window of a physical fault opening or closing).
+    pub(crate) fn next_environment_change(
+        &self,
+        motor: MotorId,
+        at: Timestamp,
+    ) -> Option<Timestamp> {
+        self.rules
+            .iter()
+            .filter(|r| r.rule.kind.is_physical() && r.rule.motors.contains(motor))
+            .filter_map(|r| match r.rule.window {
+                Window::Time { from, until } => [from, until].into_iter().find(|&t| t > at),
+                _ => None,
+            })
+            .min()
+    }
+}
+
+/// Chooses `count` distinct byte positions and a non-zero XOR value for each.
+fn corrupt(rng: &mut Pcg64Mcg, count: u8, mask: &mut [u8; 8]) {
+    let mut chosen = 0;
+    while chosen < count.min(8) {
+        let pos = (rng.next_u32() % 8) as usize;
+        if mask[pos] != 0 {
+            continue;
+        }
+        let value = (rng.next_u32() % 255) as u8 + 1;
+        mask[pos] = value;
+        chosen += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn m(id: u8) -> MotorId {
+        MotorId::new(id).unwrap()
+    }
+
+    #[test]
+    fn invalid_rules_are_rejected_with_their_index() {
+        let rules = [
+            FaultRule::new(FaultKind::DropReply),
+            FaultRule::new(FaultKind::DropReply).with_probability(1.5),
+        ];
+        assert_eq!(
+            FaultEngine::new(&rules, 1).unwrap_err(),
+            ConfigError::InvalidFaultRule {
+                index: 1,
+                reason: "probability must be within 0..=1"
+            }
+        );
+        for bad in [
+            FaultRule::new(FaultKind::LowVoltage { volts: 10.0 }).with_probability(0.5),
+            FaultRule::new(FaultKind::WrongDlc { dlc: 8 }),
+            FaultRule::new(FaultKind::CorruptBytes { count: 0 }),
+            FaultRule::new(FaultKind::DropReply)
+                .during(Timestamp::from_nanos(5), Timestamp::from_nanos(5)),
+            FaultRule::new(FaultKind::DropReply).motors(MotorSet::of(&[])),
+        ] {
+            assert!(bad.validate(0).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn frame_windows_count_matching_frames_per_motor() {
+        let rule = FaultRule::new(FaultKind::DropReply)
+            .command(Command::ReadStatus2)
+            .frames_window(2, 2);
+        let mut engine = FaultEngine::new(&[rule], 7).unwrap();
+        let t = Timestamp::ZERO;
+        let s2 = FrameKind::Single(Command::ReadStatus2);
+        let drops: Vec<bool> = (0..6)
+            .map(|_| {
+                // Other commands do not count.
+                assert!(
+                    !engine
+                        .on_motor_frame(m(1), FrameKind::Single(Command::ReadStatus1), t)
+                        .drop
+                );
+                engine.on_motor_frame(m(1), s2, t).drop
+            })
+            .collect();
+        assert_eq!(drops, [false, false, true, true, false, false]);
+        // Motor 2 has its own count.
+        assert!(!engine.on_motor_frame(m(2), s2, t).drop);
+    }
+
+    #[test]
+    fn probabilities_are_reproducible_per_seed() {
+        let rule = FaultRule::new(FaultKind::CorruptBytes { count: 3 }).with_probability(0.3);
+        let run = |seed| {
+            let mut e = FaultEngine::new(&[rule], seed).unwrap();
+            (0..200)
+                .map(|_| {
+                    e.on_motor_frame(m(1), FrameKind::Multi, Timestamp::ZERO)
+                        .corrupt
+                })
+                .collect::<Vec<_>>()
+        };
+        let (a, b, c) = (run(42), run(42), run(43));
+        assert_eq!(a, b);
+        assert_ne!(a, c);
+        let hits = a.iter().filter(|mask| **mask != [0; 8]).count();
+        assert!((30..=90).contains(&hits), "{hits} hits of 200 at p = 0.3");
+        for mask in a.iter().filter(|mask| **mask != [0; 8]) {
+            assert_eq!(mask.iter().filter(|&&b| b != 0).count(), 3);
+        }
+    }
+
+    #[test]
+    fn physical_causes_follow_their_windows() {
+        let from = Timestamp::from_nanos(1_000);
+        let until = Timestamp::from_nanos(2_000);
+        let rules = [
+            FaultRule::new(FaultKind::LowVoltage { volts: 20.0 })
+                .motor(m(1))
+                .during(from, until),
+            FaultRule::new(FaultKind::OverTemperature { celsius: 95.0 })
+                .motor(m(2))
+                .command(Command::ReadStatus1)
+                .frames_window(1, 1),
+        ];
+        let mut e = FaultEngine::new(&rules, 0).unwrap();
+        assert_eq!(e.environment(m(1), Timestamp::ZERO), Environment::default());
+        assert_eq!(
+            e.environment(m(1), from).supply_voltage_override_v,
+            Some(20.0)
+        );
+        assert_eq!(e.environment(m(1), until), Environment::default());
+        assert_eq!(e.next_environment_change(m(1), Timestamp::ZERO), Some(from));
+        assert_eq!(e.next_environment_change(m(1), from), Some(until));
+        assert_eq!(e.next_environment_change(m(1), until), None);
+
+        let k = FrameKind::Single(Command::ReadStatus1);
+        e.on_motor_frame(m(2), k, Timestamp::ZERO);
+        assert_eq!(
+            e.environment(m(2), Timestamp::ZERO).temperature_floor_c,
+            None
+        );
+        e.on_motor_frame(m(2), k, Timestamp::ZERO);
+        assert_eq!(
+            e.environment(m(2), Timestamp::ZERO).temperature_floor_c,
+            Some(95.0)
+        );
+        e.on_motor_frame(m(2), k, Timestamp::ZERO);
+        assert_eq!(
+            e.environment(m(2), Timestamp::ZERO).temperature_floor_c,
+            None
+        );
+    }
+
+    #[test]
+    fn bus_faults_trigger_on_host_frames() {
+        let rule = FaultRule::new(FaultKind::BusOff {
+            duration: Duration::from_millis(10),
+        })
+        .multi_torque()
+        .frames_window(3, 1);
+        let mut e = FaultEngine::new(&[rule], 0).unwrap();
+        assert!(e.has_bus_faults());
+        let four = MotorSet::of(&[m(1), m(2), m(3), m(4)]);
+        let got: Vec<_> = (0..5)
+            .map(|_| e.on_host_frame(FrameKind::Multi, Some(four), Timestamp::ZERO))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                None,
+                None,
+                None,
+                Some(BusFault::BusOff(Duration::from_millis(10))),
+                None
+            ]
+        );
+        // Motor faults never fire on host frames, bus faults never on motor frames.
+        assert_eq!(
+            e.on_motor_frame(m(1), FrameKind::Multi, Timestamp::ZERO),
+            ReplyFaults::default()
+        );
+    }
+}

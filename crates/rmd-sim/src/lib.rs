@@ -1,0 +1,62 @@
+//! Simulated GYEMS / MyActuator RMD motors and a simulated CAN bus, so that controllers can be
+//! developed, tested and benchmarked without hardware: in virtual time (deterministic, faster
+//! than real time) or in real time, with seeded fault injection.
+//!
+//! The crate is split by concern:
+//!
+//! - [`firmware`]: one motor's firmware: every command of protocol v1.61, RAM/ROM, modes,
+//!   protection flags ([`control`]: its closed loops);
+//! - [`physics`]: rotor + gearbox + load, friction, torque constant, current response, gravity
+//!   link, temperature, supply sag ([`params`]: the parameters and their sources);
+//! - [`wire`]: the event-driven CAN wire (exact frame lengths, arbitration, queues);
+//! - [`fault`]: fault-injection rules;
+//! - [`SimMotors`]: the motors of a bus as firmware (frames in, timed replies out), usable on a
+//!   real CAN interface too;
+//! - [`SimBus`]: motors behind the simulated wire, implementing [`rmd_bus::CanBus`].
+//!
+//! See `docs/simulator.md` in the repository for what is and is not modelled.
+//!
+//! ```
+//! use core::time::Duration;
+//! use rmd_bus::{CanBus, Clock, VirtualClock};
+//! use rmd_protocol::{Command, MotorId, Request, decode_reply};
+//! use rmd_sim::{FaultKind, FaultRule, SimBus, SimConfig};
+//!
+//! let clock = VirtualClock::new();
+//! let config = SimConfig::with_motors(2)
+//!     .seed(42)
+//!     .fault(FaultRule::new(FaultKind::DropReply).command(Command::ReadStatus1).with_probability(0.5));
+//! let mut bus = SimBus::new(clock.clone(), config)?;
+//! let m1 = MotorId::new(1).unwrap();
+//! bus.send(&Request::ReadStatus2.encode(m1)).unwrap();
+//! let rx = bus.recv_until(clock.now() + Duration::from_millis(1)).unwrap().unwrap();
+//! # let rmd_bus::BusMessage::Frame(frame) = rx.message else { panic!() };
+//! let (motor, reply) = decode_reply(&frame).unwrap();
+//! assert_eq!(motor, m1);
+//! assert_eq!(reply.status2().unwrap().temperature.celsius(), 25.0);
+//! # Ok::<(), rmd_sim::ConfigError>(())
+//! ```
+
+pub mod bus;
+pub mod config;
+pub mod control;
+mod encoder;
+pub mod error;
+pub mod fault;
+pub mod firmware;
+pub mod motor;
+pub mod motors;
+pub mod params;
+pub mod physics;
+pub mod wire;
+
+pub use bus::{BusStats, SimBus};
+pub use config::{BusConfig, ClearErrorReply, FirmwareParams, MotorConfig, SimConfig};
+pub use error::ConfigError;
+pub use fault::{FaultKind, FaultRule, FrameFilter, MotorSet, Window};
+pub use firmware::ControlMode;
+pub use motor::{MotorSnapshot, MotorStats, SimMotor};
+pub use motors::{Replies, ScheduledFrame, SimMotors};
+pub use params::{GravityLink, LoadParams, MotorParams, STANDARD_GRAVITY};
+pub use physics::SUBSTEP;
+pub use wire::{Node, Transmission, WireTiming};

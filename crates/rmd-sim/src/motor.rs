@@ -1,0 +1,217 @@
+//! One simulated motor: firmware + plant on a fixed time grid, advanced lazily.
+
+use core::time::Duration;
+
+use rand_pcg::Pcg64Mcg;
+use rand_pcg::rand_core::Rng;
+use rmd_bus::Timestamp;
+use rmd_protocol::{ErrorState, MotorId, PidParams, Reply, Request};
+
+use crate::config::MotorConfig;
+use crate::error::ConfigError;
+use crate::fault::{FaultEngine, stream};
+use crate::firmware::{ControlMode, Firmware};
+use crate::physics::{Plant, PlantState, SUBSTEP_NS};
+
+/// A snapshot of one motor, in physical units (for tests, tools and visualisation; a bus client
+/// only sees frames).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct MotorSnapshot {
+    /// The motor.
+    pub id: MotorId,
+    /// Time of the state (the last physics substep).
+    pub at: Timestamp,
+    /// Rotor angle, motor side, degrees (unbounded).
+    pub motor_angle_deg: f64,
+    /// Output shaft angle, degrees.
+    pub output_angle_deg: f64,
+    /// Rotor speed, motor side, dps.
+    pub motor_speed_dps: f64,
+    /// Torque current, A.
+    pub current_a: f64,
+    /// Torque at the output shaft from the current (before friction), N·m.
+    pub output_torque_nm: f64,
+    /// Winding temperature, °C.
+    pub temperature_c: f64,
+    /// Supply voltage at the motor, V.
+    pub voltage_v: f64,
+    /// Latched protection flags.
+    pub error_state: ErrorState,
+    /// The firmware's control mode.
+    pub mode: ControlMode,
+    /// Whether a 0x81 stop holds the output off.
+    pub stopped: bool,
+    /// PID gains in RAM.
+    pub pid_ram: PidParams,
+    /// PID gains in ROM.
+    pub pid_rom: PidParams,
+}
+
+/// Counters of one motor.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct MotorStats {
+    /// Requests the firmware handled.
+    pub requests: u64,
+    /// Requests ignored because they were not valid for this motor.
+    pub invalid_requests: u64,
+    /// Requests ignored because the motor was made silent by a fault rule.
+    pub silenced: u64,
+    /// Replies suppressed by a drop fault.
+    pub dropped_replies: u64,
+}
+
+/// One simulated motor.
+#[derive(Clone, Debug)]
+pub struct SimMotor {
+    config: MotorConfig,
+    firmware: Firmware,
+    plant: Plant,
+    /// Time of the plant's state, a multiple of the substep.
+    time: Timestamp,
+    jitter: Pcg64Mcg,
+    stats: MotorStats,
+}
+
+impl SimMotor {
+    pub(crate) fn new(
+        config: MotorConfig,
+        start: Timestamp,
+        seed: u64,
+    ) -> Result<Self, ConfigError> {
+        config.validate()?;
+        let plant = Plant::new(
+            config.motor.clone(),
+            config.load.clone(),
+            config.initial_output_angle_deg.to_radians(),
+        )?;
+        let firmware = Firmware::new(config.firmware, &plant);
+        let jitter = stream(seed, 1_000 + u64::from(config.id.get()));
+        Ok(Self {
+            time: Timestamp::from_nanos(start.as_nanos() - start.as_nanos() % SUBSTEP_NS),
+            config,
+            firmware,
+            plant,
+            jitter,
+            stats: MotorStats::default(),
+        })
+    }
+
+    /// The motor's id.
+    pub fn id(&self) -> MotorId {
+        self.config.id
+    }
+
+    /// Its configuration.
+    pub fn config(&self) -> &MotorConfig {
+        &self.config
+    }
+
+    /// Its counters.
+    pub fn stats(&self) -> MotorStats {
+        self.stats
+    }
+
+    pub(crate) fn stats_mut(&mut self) -> &mut MotorStats {
+        &mut self.stats
+    }
+
+    /// The physical state at [`time`](Self::time).
+    pub fn plant_state(&self) -> PlantState {
+        *self.plant.state()
+    }
+
+    /// Time of the state (the motor is advanced lazily, when it handles a frame or is looked at).
+    pub fn time(&self) -> Timestamp {
+        self.time
+    }
+
+    /// The state in physical units.
+    pub fn snapshot(&self) -> MotorSnapshot {
+        let s = self.plant.state();
+        let ratio = self.plant.params().gear_ratio;
+        MotorSnapshot {
+            id: self.config.id,
+            at: self.time,
+            motor_angle_deg: s.motor_angle_rad.to_degrees(),
+            output_angle_deg: (s.motor_angle_rad / ratio).to_degrees(),
+            motor_speed_dps: s.motor_speed_rad_s.to_degrees(),
+            current_a: s.current_a,
+            output_torque_nm: s.current_a * self.plant.params().torque_constant_nm_per_a * ratio,
+            temperature_c: s.winding_temperature_c,
+            voltage_v: s.bus_voltage_v,
+            error_state: self.firmware.errors(),
+            mode: self.firmware.mode(),
+            stopped: self.firmware.stopped(),
+            pid_ram: self.firmware.pid_ram(),
+            pid_rom: self.firmware.pid_rom(),
+        }
+    }
+
+    /// Runs firmware and physics up to `t` (whole substeps; the state stays on the grid).
+    pub(crate) fn advance_to(&mut self, t: Timestamp, faults: &FaultEngine) {
+        let id = self.config.id;
+        let max_current = self.plant.params().max_current_a;
+        while t.as_nanos() >= self.time.as_nanos() + SUBSTEP_NS {
+            let env = faults.environment(id, self.time);
+            if !self.firmware.output_enabled() && self.plant.is_quiescent() {
+                // Nothing moves: cool down in closed form up to `t` or the next change of the
+                // environment, whichever comes first.
+                let whole = (t.as_nanos() - self.time.as_nanos()) / SUBSTEP_NS;
+                let steps = match faults.next_environment_change(id, self.time) {
+                    Some(change) if change < t => {
+                        (change.as_nanos() - self.time.as_nanos()).div_ceil(SUBSTEP_NS)
+                    }
+                    _ => whole,
+                }
+                .clamp(1, whole);
+                self.plant.rest(steps, &env);
+                self.time = Timestamp::from_nanos(self.time.as_nanos() + steps * SUBSTEP_NS);
+                self.firmware.supervise(&self.plant);
+                continue;
+            }
+            let drive = self.firmware.control(&self.plant, max_current);
+            self.plant.step(drive, &env);
+            self.time = Timestamp::from_nanos(self.time.as_nanos() + SUBSTEP_NS);
+            self.firmware.supervise(&self.plant);
+        }
+    }
+
+    /// Handles a request received at `at`; `None` if the firmware ignores it.
+    pub(crate) fn handle(
+        &mut self,
+        request: &Request,
+        at: Timestamp,
+        faults: &FaultEngine,
+    ) -> Option<Reply> {
+        self.advance_to(at, faults);
+        let reply = self.firmware.handle(request, &self.plant);
+        if reply.is_some() {
+            self.stats.requests += 1;
+        } else {
+            self.stats.invalid_requests += 1;
+        }
+        reply
+    }
+
+    /// A power cycle at `at` (RAM lost, ROM kept; the physical state is unchanged).
+    pub(crate) fn power_cycle(&mut self, at: Timestamp, faults: &FaultEngine) {
+        self.advance_to(at, faults);
+        self.firmware.power_up(&self.plant);
+    }
+
+    /// The time from receiving a request to its reply being ready: the turnaround plus a
+    /// uniform jitter drawn from this motor's stream.
+    pub(crate) fn turnaround(&mut self) -> Duration {
+        let jitter = self
+            .config
+            .turnaround_jitter
+            .as_nanos()
+            .min(u128::from(u64::MAX)) as u64;
+        let extra = if jitter == 0 {
+            0
+        } else {
+            self.jitter.next_u64() % (jitter + 1)
+        };
+        self.config.turnaround + Duration::from_nanos(extra)
+    }
+}
