@@ -134,7 +134,7 @@ impl Default for LoopConfig {
             spin_margin_us: 0,
             reply_deadline_us: None,
             reply_mode: ReplyMode::SameTick,
-            overrun: OverrunPolicy::Continue,
+            overrun: OverrunPolicy::Skip,
             missing_reply_fault_after: 20,
             startup_probes: 5,
             telemetry_capacity: 4096,

@@ -536,11 +536,13 @@ impl<B: CanBus, C: Clock, K: Controller> RtLoop<B, C, K> {
             return Some(StopReason::Requested);
         };
         let timing = scheduler.wait_next(&self.clock);
-        self.stats.skipped_ticks += timing.skipped;
-        self.stats.wake_latency.record(timing.wake_latency());
         if let Some(reason) = self.stop_requested() {
             return Some(reason);
         }
+        // Counted when it starts, so that a snapshot taken during the tick is consistent.
+        self.stats.ticks += 1;
+        self.stats.skipped_ticks += timing.skipped;
+        self.stats.wake_latency.record(timing.wake_latency());
         match self.exchange(&timing) {
             Ok(()) => {}
             Err(reason) => return Some(reason),
@@ -553,7 +555,6 @@ impl<B: CanBus, C: Clock, K: Controller> RtLoop<B, C, K> {
         self.serve_snapshot();
         let end = self.clock.now();
         self.stats.work.record(end - timing.woke);
-        self.stats.ticks += 1;
         let Some(scheduler) = self.scheduler.as_mut() else {
             return Some(StopReason::Requested);
         };

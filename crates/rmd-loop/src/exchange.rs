@@ -3,17 +3,18 @@
 //! Every 0x280 frame asks each motor on its bus for one 0xA1 reply, and all replies look alike,
 //! so the loop keeps, per motor, the frames not answered yet and the motor's round-trip time
 //! (measured in the start-up probe exchange, when only one request is outstanding, then tracked
-//! with a moving average). A reply answers the outstanding request whose expected arrival
-//! (`sent + round trip`) is nearest to the reply's receive time; the firmware answers in order,
-//! so older outstanding requests are then known lost. Its age (this tick minus that request's
-//! tick) says whether it is this tick's reply or one that missed an earlier deadline (late). A
-//! reply with nothing outstanding before it is a duplicate or an answer to somebody else's
-//! request (unexpected).
+//! with a moving average). A reply can be late but not (much) early: it can only answer a request
+//! whose expected arrival (`sent + round trip - tolerance`) it has reached. Among those it answers
+//! the newest; the firmware answers in order, so older outstanding requests are then known lost.
+//! The reply's age (this tick minus that request's tick) says whether it is this tick's reply or
+//! one that missed an earlier deadline (late). A reply with nothing outstanding is a duplicate or
+//! an answer to somebody else's request (unexpected).
 //!
-//! Matching by expected arrival, not first-in-first-out, matters twice: after one lost reply, a
-//! FIFO rule would take every later reply as the answer to the previous tick (all late, for
-//! ever); and a motor whose round trip is longer than a period answers the previous tick's frame
-//! shortly after this tick's was sent, which only the round-trip time reveals.
+//! Why not first-in-first-out: after one lost reply, FIFO would take every later reply as the
+//! answer to the previous tick (all late, for ever). Why the round trip: a motor slower than the
+//! period answers the previous tick's frame shortly after this tick's frame was sent, and a late
+//! reply arrives before the next request's reply is due; only the round trip tells them apart
+//! from fresh replies.
 
 use core::time::Duration;
 
@@ -27,6 +28,12 @@ use crate::stats::MotorCounters;
 
 /// Outstanding requests kept per motor.
 const PENDING_CAPACITY: usize = 8;
+
+/// How much earlier than its tracked round trip a reply may arrive: a quarter of the round trip
+/// plus 20 us (turnaround jitter, arbitration behind other motors).
+fn early_tolerance(round_trip: Duration) -> Duration {
+    round_trip / 4 + Duration::from_micros(20)
+}
 
 /// The ticks (and send times) of the frames a motor has not answered yet, oldest first.
 #[derive(Copy, Clone, Debug)]
@@ -59,29 +66,33 @@ impl PendingRequests {
         self.len += 1;
     }
 
-    /// Takes the request that a reply received at `received` answers: among the requests sent
-    /// before it, the one whose expected arrival (`sent + round_trip`) is nearest, or the newest
-    /// when the round trip is not known yet. Older outstanding requests are dropped as lost.
+    /// Takes the request that a reply received at `received` answers: the newest request whose
+    /// expected arrival, `sent + round_trip - tolerance`, has passed (any request sent before
+    /// the reply when the round trip is not known yet). If the reply came earlier than expected
+    /// for every request, it answers the oldest one sent before it. Older outstanding requests
+    /// are dropped as lost.
     pub(crate) fn answer(
         &mut self,
         received: Timestamp,
         round_trip: Option<Duration>,
     ) -> Option<(u64, Timestamp)> {
-        let mut best: Option<(usize, u64)> = None;
+        let mut oldest_causal = None;
+        let mut newest_plausible = None;
         for i in 0..self.len {
             let (_, sent) = self.get(i);
             if sent > received {
                 break; // sent after the reply arrived: cannot be what it answers
             }
-            let distance = match round_trip {
-                Some(rtt) => received.signed_nanos_since(sent + rtt).unsigned_abs(),
-                None => 0, // ties go to the newer request
+            oldest_causal.get_or_insert(i);
+            let plausible = match round_trip {
+                None => true,
+                Some(rtt) => received >= (sent + rtt).saturating_sub(early_tolerance(rtt)),
             };
-            if best.is_none_or(|(_, d)| distance <= d) {
-                best = Some((i, distance));
+            if plausible {
+                newest_plausible = Some(i);
             }
         }
-        let (i, _) = best?;
+        let i = newest_plausible.or(oldest_causal)?;
         let answered = self.get(i);
         self.head = (self.head + i + 1) % PENDING_CAPACITY;
         self.len -= i + 1;
@@ -247,14 +258,15 @@ mod tests {
     }
 
     #[test]
-    fn a_reply_answers_the_request_nearest_its_expected_arrival() {
+    fn a_reply_answers_the_newest_request_whose_expected_arrival_has_passed() {
         let mut p = PendingRequests::new();
         p.push(1, t(1000));
         p.push(2, t(2000));
         p.push(3, t(3000));
         // Nothing was sent before the reply arrived: it answers none of them.
         assert_eq!(p.answer(t(500), None), None);
-        // Round trip 1.3 ms: a reply at 3.3 ms answers the request of 2.0 ms...
+        // Round trip 1.3 ms: a reply at 3.3 ms is too early for request 3 (due 4.3 ms), so it
+        // answers request 2 (due 3.3 ms)...
         let rtt = Some(Duration::from_micros(1300));
         assert_eq!(p.answer(t(3300), rtt).map(|e| e.0), Some(2));
         // ...and request 1, older, is given up as lost.
@@ -263,6 +275,10 @@ mod tests {
         p.push(4, t(4000));
         assert_eq!(p.answer(t(4100), None).map(|e| e.0), Some(4));
         assert_eq!(p.len(), 0);
+        // Earlier than expected for every request: the oldest sent before it.
+        p.push(5, t(5000));
+        p.push(6, t(6000));
+        assert_eq!(p.answer(t(6100), rtt).map(|e| e.0), Some(5));
         // A full ring gives up its oldest entries.
         for k in 0..20 {
             p.push(k, t(k * 1000));
@@ -273,6 +289,26 @@ mod tests {
                 .map(|e| e.0),
             Some(12)
         );
+    }
+
+    #[test]
+    fn a_reply_late_by_most_of_a_period_is_recognised() {
+        // Round trip 600 us at 1 kHz; the reply to tick 1 is 500 us late: it arrives 100 us
+        // after tick 2's frame was sent, long before tick 2's reply is due (2.6 ms).
+        let (mut m, mut fb, mut c) = motor();
+        m.pending.push(0, t(0));
+        m.on_reply(&status(0), t(600), 0, 0, &mut fb, &mut c);
+        m.pending.push(1, t(1000));
+        m.pending.push(2, t(2000));
+        assert_eq!(
+            m.on_reply(&status(0), t(2100), 2, 0, &mut fb, &mut c),
+            ReplyClass::Late
+        );
+        assert_eq!(
+            m.on_reply(&status(0), t(2600), 2, 0, &mut fb, &mut c),
+            ReplyClass::Fresh
+        );
+        assert_eq!((c.late_replies, c.unexpected_replies), (1, 0));
     }
 
     #[test]

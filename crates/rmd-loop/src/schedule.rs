@@ -89,11 +89,12 @@ impl Period {
 #[serde(rename_all = "kebab-case", tag = "policy")]
 pub enum OverrunPolicy {
     /// Count the miss and run the missed tick(s) right away, back to back, until the loop has
-    /// caught up with the schedule.
-    #[default]
+    /// caught up with the schedule. Beware: on a bus this sends 0x280 frames in a burst, closer
+    /// together than the motors can answer.
     Continue,
     /// Count the miss and skip the ticks whose start has passed, so that the loop stays aligned
-    /// to `t0 + k * period`.
+    /// to `t0 + k * period` and never sends a burst of frames (the default).
+    #[default]
     Skip,
     /// Like `Continue`, but `after` consecutive misses are a fault that stops the loop.
     Fault {

@@ -195,7 +195,7 @@ impl BusCounters {
 /// Everything the loop measures. Sized at start; recording and copying never allocate.
 #[derive(Clone, Debug)]
 pub struct LoopStats {
-    /// Ticks run.
+    /// Ticks run (counted when each starts, so per-tick histograms of a snapshot agree with it).
     pub ticks: u64,
     /// Ticks whose work ended after the next tick was due.
     pub deadline_misses: u64,
