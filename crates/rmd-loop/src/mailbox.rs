@@ -1,0 +1,153 @@
+//! Lock-free mailboxes between ordinary threads and the real-time loop.
+//!
+//! A mailbox is a bounded, lock-free queue (crossbeam's `ArrayQueue`) allocated once; sending and
+//! receiving never allocate, lock or block, so either end may sit on the real-time thread. Use one
+//! to send setpoints or parameters to a controller, and receive the loop's telemetry from another.
+//!
+//! ```
+//! use rmd_loop::mailbox::mailbox;
+//!
+//! let (to_controller, setpoints) = mailbox::<f64>(16);
+//! to_controller.send(10.0).unwrap();
+//! to_controller.send(20.0).unwrap();
+//! // The controller (on the loop thread) takes the newest and discards the rest.
+//! assert_eq!(setpoints.latest(), Some(20.0));
+//! assert_eq!(setpoints.latest(), None);
+//! ```
+
+use std::sync::Arc;
+
+use crossbeam_queue::ArrayQueue;
+
+/// Creates a mailbox holding up to `capacity` values (at least 1).
+pub fn mailbox<T: Send>(capacity: usize) -> (Sender<T>, Receiver<T>) {
+    let queue = Arc::new(ArrayQueue::new(capacity.max(1)));
+    (
+        Sender {
+            queue: Arc::clone(&queue),
+        },
+        Receiver { queue },
+    )
+}
+
+/// The sending end of a mailbox. Clone it to send from several threads.
+#[derive(Debug)]
+pub struct Sender<T> {
+    queue: Arc<ArrayQueue<T>>,
+}
+
+impl<T> Clone for Sender<T> {
+    fn clone(&self) -> Self {
+        Self {
+            queue: Arc::clone(&self.queue),
+        }
+    }
+}
+
+impl<T> Sender<T> {
+    /// Queues `value`; if the mailbox is full, gives it back.
+    pub fn send(&self, value: T) -> Result<(), T> {
+        self.queue.push(value)
+    }
+
+    /// Queues `value`, discarding the oldest queued value if the mailbox is full; returns the
+    /// discarded value.
+    pub fn send_overwrite(&self, value: T) -> Option<T> {
+        self.queue.force_push(value)
+    }
+
+    /// Number of queued values.
+    pub fn len(&self) -> usize {
+        self.queue.len()
+    }
+
+    /// Whether nothing is queued.
+    pub fn is_empty(&self) -> bool {
+        self.queue.is_empty()
+    }
+}
+
+/// The receiving end of a mailbox. Clone it to receive from several threads (each value is
+/// received once).
+#[derive(Debug)]
+pub struct Receiver<T> {
+    queue: Arc<ArrayQueue<T>>,
+}
+
+impl<T> Clone for Receiver<T> {
+    fn clone(&self) -> Self {
+        Self {
+            queue: Arc::clone(&self.queue),
+        }
+    }
+}
+
+impl<T> Receiver<T> {
+    /// The oldest queued value, if any.
+    pub fn try_recv(&self) -> Option<T> {
+        self.queue.pop()
+    }
+
+    /// The newest queued value, discarding older ones; `None` if nothing was queued.
+    pub fn latest(&self) -> Option<T> {
+        let mut last = None;
+        while let Some(v) = self.queue.pop() {
+            last = Some(v);
+        }
+        last
+    }
+
+    /// Takes every queued value, oldest first.
+    pub fn drain(&self) -> impl Iterator<Item = T> + '_ {
+        std::iter::from_fn(|| self.queue.pop())
+    }
+
+    /// Number of queued values.
+    pub fn len(&self) -> usize {
+        self.queue.len()
+    }
+
+    /// Whether nothing is queued.
+    pub fn is_empty(&self) -> bool {
+        self.queue.is_empty()
+    }
+
+    /// The mailbox's capacity.
+    pub fn capacity(&self) -> usize {
+        self.queue.capacity()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_full_mailbox_gives_the_value_back_or_overwrites_the_oldest() {
+        let (tx, rx) = mailbox(2);
+        assert_eq!(tx.send(1), Ok(()));
+        assert_eq!(tx.send(2), Ok(()));
+        assert_eq!(tx.send(3), Err(3));
+        assert_eq!(tx.send_overwrite(4), Some(1));
+        assert_eq!(rx.drain().collect::<Vec<_>>(), vec![2, 4]);
+        assert!(rx.is_empty());
+    }
+
+    #[test]
+    fn values_cross_threads_in_order() {
+        let (tx, rx) = mailbox(1024);
+        let producer = std::thread::spawn(move || {
+            for i in 0..1000u32 {
+                while tx.send(i).is_err() {
+                    std::thread::yield_now();
+                }
+            }
+        });
+        let mut got = Vec::new();
+        while got.len() < 1000 {
+            got.extend(rx.drain());
+        }
+        producer.join().unwrap();
+        assert_eq!(got, (0..1000).collect::<Vec<_>>());
+    }
+}

@@ -1,0 +1,96 @@
+//! Making the motors safe when the loop ends, whatever the reason: a zero-torque 0x280 frame on
+//! every bus, then motor-off (0x80) to every motor, then a bounded wait for each motor to
+//! confirm. A fault on one bus does not stop the others from being made safe.
+
+use core::time::Duration;
+
+use rmd_bus::{BusError, BusMessage, CanBus, Clock, Timestamp};
+use rmd_protocol::{
+    CanFrame, Command, IqControl, MULTI_TORQUE_MOTORS, MultiTorque, Request, decode_reply_to,
+};
+
+use crate::engine::BusLink;
+use crate::exchange::MotorState;
+use crate::report::{MotorSafeStop, SafeStopReport};
+
+/// How long to keep retrying a frame the transmit queue refuses.
+const SEND_RETRY_FOR: Duration = Duration::from_millis(20);
+/// Pause between retries.
+const SEND_RETRY_EVERY: Duration = Duration::from_micros(200);
+/// How long to wait for the motors to confirm motor-off.
+const CONFIRM_WITHIN: Duration = Duration::from_millis(50);
+
+/// Sends `frame`, retrying while the transmit queue is full; gives up on other errors.
+fn send_with_retry<B: CanBus, C: Clock>(bus: &mut B, clock: &C, frame: &CanFrame) -> bool {
+    let give_up = clock.now() + SEND_RETRY_FOR;
+    loop {
+        match bus.send(frame) {
+            Ok(()) => return true,
+            Err(BusError::TxQueueFull) if clock.now() < give_up => {
+                let now = clock.now();
+                clock.sleep_until(now + SEND_RETRY_EVERY);
+            }
+            Err(_) => return false,
+        }
+    }
+}
+
+/// Zero torque, then motor off, to every motor on every bus; reports what was confirmed.
+pub(crate) fn make_safe<B: CanBus, C: Clock>(
+    clock: &C,
+    buses: &mut [BusLink<B>],
+    motors: &[MotorState],
+) -> SafeStopReport {
+    let mut report = SafeStopReport {
+        motors: motors
+            .iter()
+            .map(|m| MotorSafeStop {
+                bus: m.bus,
+                motor: m.id,
+                zero_torque_sent: false,
+                off_sent: false,
+                off_confirmed: false,
+            })
+            .collect(),
+    };
+    // 1. Zero torque on every bus first: the fastest way to remove torque everywhere.
+    let zero = MultiTorque::new([IqControl::default(); MULTI_TORQUE_MOTORS]).encode();
+    for link in buses.iter_mut() {
+        let sent = send_with_retry(&mut link.bus, clock, &zero);
+        for m in link.motors() {
+            report.motors[m].zero_torque_sent = sent;
+        }
+    }
+    // 2. Motor off to each motor (clears its state and commands; it stays off until commanded).
+    for link in buses.iter_mut() {
+        for m in link.motors() {
+            let off = Request::MotorOff.encode(motors[m].id);
+            report.motors[m].off_sent = send_with_retry(&mut link.bus, clock, &off);
+        }
+    }
+    // 3. Wait for the echoes of motor-off (torque replies to the zero frame are skipped).
+    let deadline: Timestamp = clock.now() + CONFIRM_WITHIN;
+    for link in buses.iter_mut() {
+        let range = link.motors();
+        loop {
+            let pending = range
+                .clone()
+                .any(|m| report.motors[m].off_sent && !report.motors[m].off_confirmed);
+            if !pending {
+                break;
+            }
+            match link.bus.recv_until(deadline) {
+                Ok(Some(received)) => {
+                    if let BusMessage::Frame(frame) = received.message
+                        && let Ok((id, _)) = decode_reply_to(&frame, Command::MotorOff)
+                        && let Some(m) = range.clone().find(|&m| motors[m].id == id)
+                    {
+                        report.motors[m].off_confirmed = true;
+                    }
+                }
+                Ok(None) | Err(_) => break,
+            }
+        }
+    }
+    report
+}

@@ -1,0 +1,135 @@
+//! Shared set-up of the loop's simulator tests: a 4-motor leg on one simulated bus (or several),
+//! RMD-X8-class motors (1:9 gearbox, 2.09 N*m/A at the output), in virtual time.
+#![allow(dead_code, unreachable_pub)]
+
+use core::time::Duration;
+
+use rmd_bus::VirtualClock;
+use rmd_loop::config::{BusConfig, MotorConfig, RobotConfig};
+use rmd_loop::{Commands, Controller, Fault, Feedback, Flow, StopReason, TickContext};
+use rmd_protocol::MotorId;
+use rmd_sim::{ControlMode, FaultRule, SimBus, SimConfig};
+
+/// Gear ratio of the simulator's default motor.
+pub const GEAR: f64 = 9.0;
+/// Output torque constant of the simulator's default motor.
+pub const KT: f64 = 2.09;
+
+pub fn id(n: u8) -> MotorId {
+    MotorId::new(n).unwrap()
+}
+
+/// One bus with motors 1..=n, at `rate_hz`.
+pub fn robot(rate_hz: f64, buses: usize, motors: u8) -> RobotConfig {
+    let mut robot = RobotConfig::new(rate_hz);
+    for b in 0..buses {
+        let mut bus = BusConfig::new(&format!("sim{b}"));
+        for m in 1..=motors {
+            bus = bus.with_motor(
+                MotorConfig::new(m)
+                    .gear_ratio(GEAR)
+                    .torque_constant(KT)
+                    .current_limit(10.0),
+            );
+        }
+        robot = robot.with_bus(bus);
+    }
+    robot
+}
+
+/// A simulated bus with motors 1..=n on `clock`, seed `seed`, and the given fault rules.
+pub fn sim(
+    clock: &VirtualClock,
+    motors: u8,
+    seed: u64,
+    faults: &[FaultRule],
+) -> SimBus<VirtualClock> {
+    let mut config = SimConfig::with_motors(motors).seed(seed);
+    for f in faults {
+        config = config.fault(*f);
+    }
+    SimBus::new(clock.clone(), config).unwrap()
+}
+
+/// Asserts every motor on `bus` is off (the safe state: no torque, no command).
+pub fn assert_safe(bus: &mut SimBus<VirtualClock>, motors: u8) {
+    for m in 1..=motors {
+        let snap = bus.snapshot(id(m)).unwrap();
+        assert_eq!(
+            snap.mode,
+            ControlMode::Off,
+            "motor {m} is not off: {snap:?}"
+        );
+    }
+}
+
+/// A PD controller on joint angle towards fixed targets (degrees), in amperes.
+#[derive(Debug, Default)]
+pub struct PdTo {
+    pub targets: Vec<f64>,
+    pub kp: f64,
+    pub kd: f64,
+    pub started: bool,
+    pub updates: u64,
+    pub stale_seen: u64,
+    pub faults: Vec<Fault>,
+    pub stop: Option<StopReason>,
+    /// Panic in the update of this tick.
+    pub panic_at: Option<u64>,
+    /// Return Flow::Stop at this tick.
+    pub finish_at: Option<u64>,
+}
+
+impl PdTo {
+    pub fn new(targets: &[f64]) -> Self {
+        Self {
+            targets: targets.to_vec(),
+            kp: 0.4,
+            kd: 0.01,
+            ..Self::default()
+        }
+    }
+    pub fn hold(n: usize) -> Self {
+        Self::new(&vec![0.0; n])
+    }
+}
+
+impl Controller for PdTo {
+    fn start(&mut self, _ctx: &TickContext, feedback: &Feedback<'_>) {
+        assert!(
+            feedback.iter().all(|m| m.valid),
+            "start without full feedback"
+        );
+        self.started = true;
+    }
+
+    fn update(&mut self, ctx: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
+        if self.panic_at == Some(ctx.index) {
+            panic!("controller bug at tick {}", ctx.index);
+        }
+        self.updates += 1;
+        for (i, j) in fb.iter().enumerate() {
+            if !j.fresh {
+                self.stale_seen += 1;
+            }
+            let target = self.targets.get(i).copied().unwrap_or(0.0);
+            let amps = self.kp * (target - j.joint_angle_deg) - self.kd * j.joint_velocity_dps;
+            cmd.set_current(i, amps).unwrap();
+        }
+        if self.finish_at == Some(ctx.index) {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        }
+    }
+
+    fn fault(&mut self, fault: &Fault) {
+        self.faults.push(*fault);
+    }
+
+    fn stop(&mut self, reason: &StopReason) {
+        self.stop = Some(reason.clone());
+    }
+}
+
+pub const MS: Duration = Duration::from_millis(1);

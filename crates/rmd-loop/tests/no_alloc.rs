@@ -1,0 +1,98 @@
+//! The real-time path allocates nothing: a counting global allocator around steady-state ticks.
+//!
+//! One test per binary, so that no other test thread allocates while we count.
+
+mod common;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+use common::*;
+use rmd_bus::VirtualClock;
+use rmd_loop::RtLoop;
+use rmd_sim::{FaultKind, FaultRule};
+
+struct Counting;
+
+static COUNTING: AtomicBool = AtomicBool::new(false);
+static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
+
+// SAFETY: forwards every call to the system allocator unchanged; only counts.
+#[allow(unsafe_code)]
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if COUNTING.load(Ordering::Relaxed) {
+            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        // SAFETY: same contract as the caller's.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: same contract as the caller's.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if COUNTING.load(Ordering::Relaxed) {
+            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        // SAFETY: same contract as the caller's.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn steady_state_ticks_allocate_nothing() {
+    // Two buses of four motors, with faults on the way (drops, late and corrupt replies, a
+    // full transmit queue): the error paths of a tick must not allocate either.
+    let clock = VirtualClock::new();
+    let faults = [
+        FaultRule::new(FaultKind::DropReply)
+            .multi_torque()
+            .with_probability(0.02),
+        FaultRule::new(FaultKind::CorruptBytes { count: 3 })
+            .multi_torque()
+            .with_probability(0.02),
+        FaultRule::new(FaultKind::LateReply {
+            delay: core::time::Duration::from_micros(400),
+        })
+        .multi_torque()
+        .with_probability(0.02),
+        FaultRule::new(FaultKind::TxStall {
+            duration: core::time::Duration::from_millis(15),
+        })
+        .multi_torque()
+        .frames_window(700, 1),
+    ];
+    let mut bus0 = sim(&clock, 4, 21, &faults);
+    let mut bus1 = sim(&clock, 4, 22, &faults);
+    let mut robot = robot(1000.0, 2, 4);
+    robot.loop_config.missing_reply_fault_after = 1000;
+    let mut rt = RtLoop::new(
+        robot,
+        clock.clone(),
+        vec![&mut bus0, &mut bus1],
+        PdTo::new(&[10.0; 8]),
+    )
+    .unwrap();
+    let telemetry = rt.telemetry();
+    rt.start().unwrap();
+    for _ in 0..100 {
+        assert!(rt.step().is_none());
+    }
+    COUNTING.store(true, Ordering::SeqCst);
+    for _ in 0..2_000 {
+        assert!(rt.step().is_none());
+        let _ = telemetry.try_recv();
+    }
+    COUNTING.store(false, Ordering::SeqCst);
+    let allocations = ALLOCATIONS.load(Ordering::SeqCst);
+    let stats = rt.stats().summary();
+    assert!(
+        stats.missing_replies > 0 && stats.buses[0].tx_errors > 0,
+        "faults happened: {stats}"
+    );
+    assert_eq!(allocations, 0, "allocations in 2000 steady-state ticks");
+}

@@ -1,0 +1,195 @@
+//! The loop on its own thread: real time on the simulator, snapshots, emergency stop, and the
+//! safe stop when the handle is dropped. No assertion here depends on timing (shared VM): timing
+//! goals live in the benchmarks.
+
+mod common;
+
+use core::time::Duration;
+use std::sync::{Arc, Mutex};
+
+use common::*;
+use rmd_bus::{BusError, CanBus, Clock, MonotonicClock, Received, Timestamp, VirtualClock};
+use rmd_loop::{Commands, Controller, Feedback, Flow, RtLoop, RunLimit, StopReason, TickContext};
+use rmd_protocol::CanFrame;
+use rmd_sim::{ControlMode, SimBus, SimConfig};
+
+/// A simulated bus the test can still inspect after the loop thread took it.
+#[derive(Clone)]
+struct SharedBus<C: Clock>(Arc<Mutex<SimBus<C>>>);
+
+impl<C: Clock> CanBus for SharedBus<C> {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        self.0.lock().unwrap().send(frame)
+    }
+    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
+        self.0.lock().unwrap().recv_until(deadline)
+    }
+}
+
+impl<C: Clock> SharedBus<C> {
+    fn new(clock: C, motors: u8) -> Self {
+        Self(Arc::new(Mutex::new(
+            SimBus::new(clock, SimConfig::with_motors(motors).seed(5)).unwrap(),
+        )))
+    }
+    fn all_off(&self, motors: u8) -> bool {
+        let mut bus = self.0.lock().unwrap();
+        (1..=motors).all(|m| bus.snapshot(id(m)).unwrap().mode == ControlMode::Off)
+    }
+}
+
+/// Records how the loop ended, for loops the test cannot join.
+struct Recorder {
+    stop: Arc<Mutex<Option<StopReason>>>,
+}
+
+impl Controller for Recorder {
+    fn update(&mut self, _: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
+        for i in 0..fb.len() {
+            let _ = cmd.set_current(i, 0.5);
+        }
+        Flow::Continue
+    }
+    fn stop(&mut self, reason: &StopReason) {
+        *self.stop.lock().unwrap() = Some(reason.clone());
+    }
+}
+
+#[test]
+fn a_few_seconds_at_one_kilohertz_in_real_time() {
+    let clock = MonotonicClock;
+    let bus = SimBus::new(clock, SimConfig::with_motors(4).seed(1)).unwrap();
+    let rt = RtLoop::new(
+        robot(1000.0, 1, 4),
+        clock,
+        vec![bus],
+        PdTo::new(&[10.0, -10.0, 5.0, 0.0]),
+    )
+    .unwrap();
+    let handle = rt
+        .spawn(RunLimit::Duration(Duration::from_secs(2)))
+        .unwrap();
+    let out = handle.join().unwrap();
+    let r = &out.report;
+    println!("{r}");
+    assert_eq!(r.stop_reason, StopReason::TickLimit);
+    assert_eq!(r.stats.ticks, 2000);
+    assert_eq!(r.stats.wake_latency_us.count, 2000);
+    assert_eq!(r.stats.work_us.count, 2000);
+    assert!(r.stats.round_trip_us.count > 0);
+    // Percentiles are ordered.
+    let w = r.stats.wake_latency_us;
+    assert!(
+        w.min <= w.p50 && w.p50 <= w.p90 && w.p90 <= w.p99 && w.p99 <= w.p999 && w.p999 <= w.max
+    );
+    assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
+    // The JSON report has what `rmd bench loop --json` promises.
+    let json: serde_json::Value = serde_json::from_str(&r.to_json()).unwrap();
+    for key in [
+        "ticks",
+        "deadline_misses",
+        "missing_replies",
+        "late_replies",
+        "telemetry_drops",
+    ] {
+        assert!(json[key].is_u64(), "{key} in {json}");
+    }
+    for key in [
+        "wake_latency_us",
+        "round_trip_us",
+        "controller_us",
+        "work_us",
+    ] {
+        for p in ["p50", "p90", "p99", "p999", "max"] {
+            assert!(json[key][p].is_f64(), "{key}.{p} in {json}");
+        }
+    }
+}
+
+#[test]
+fn snapshots_are_readable_while_the_loop_runs() {
+    let clock = VirtualClock::new();
+    let bus = SharedBus::new(clock.clone(), 4);
+    let rt = RtLoop::new(robot(1000.0, 1, 4), clock, vec![bus.clone()], PdTo::hold(4)).unwrap();
+    let handle = rt.spawn(RunLimit::Forever).unwrap();
+    let first = loop {
+        if let Some(s) = handle.snapshot(Duration::from_secs(5))
+            && s.ticks > 0
+        {
+            break s;
+        }
+    };
+    let second = handle.snapshot(Duration::from_secs(5)).unwrap();
+    assert!(second.ticks >= first.ticks);
+    assert_eq!(second.motors.len(), 4);
+    assert_eq!(second.wake_latency_us.count, second.ticks);
+    // The snapshot is taken inside a tick: that tick's work is not recorded yet.
+    assert_eq!(second.work_us.count + 1, second.ticks);
+    let out = handle.stop().unwrap();
+    assert_eq!(out.report.stop_reason, StopReason::Requested);
+    assert!(out.report.stats.ticks >= second.ticks);
+    assert!(bus.all_off(4));
+}
+
+#[test]
+fn an_emergency_stop_from_another_thread_makes_every_motor_safe() {
+    let clock = MonotonicClock;
+    let bus = SharedBus::new(clock, 4);
+    let rt = RtLoop::new(robot(1000.0, 1, 4), clock, vec![bus.clone()], PdTo::hold(4)).unwrap();
+    let handle = rt.spawn(RunLimit::Forever).unwrap();
+    let stopper = handle.stopper();
+    std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(200));
+        stopper.emergency_stop();
+    })
+    .join()
+    .unwrap();
+    let out = handle.join().unwrap();
+    assert_eq!(out.report.stop_reason, StopReason::EmergencyStop);
+    assert!(!out.report.normal_stop);
+    assert!(out.report.safe_stop.all_off_confirmed());
+    assert!(bus.all_off(4));
+}
+
+#[test]
+fn dropping_the_handle_stops_the_loop_safely() {
+    let clock = MonotonicClock;
+    let bus = SharedBus::new(clock, 4);
+    let stop = Arc::new(Mutex::new(None));
+    let rt = RtLoop::new(
+        robot(500.0, 1, 4),
+        clock,
+        vec![bus.clone()],
+        Recorder {
+            stop: Arc::clone(&stop),
+        },
+    )
+    .unwrap();
+    let handle = rt.spawn(RunLimit::Forever).unwrap();
+    std::thread::sleep(Duration::from_millis(100));
+    {
+        let mut sim = bus.0.lock().unwrap();
+        let mode = sim.snapshot(id(1)).unwrap().mode;
+        assert!(matches!(mode, ControlMode::Torque { .. }), "{mode:?}");
+    }
+    drop(handle);
+    assert_eq!(*stop.lock().unwrap(), Some(StopReason::HandleDropped));
+    assert!(bus.all_off(4));
+}
+
+#[test]
+fn missing_privileges_are_reported_not_fatal() {
+    // Asks for SCHED_FIFO, which an unprivileged test run may not get; either way the loop runs.
+    let clock = VirtualClock::new();
+    let bus = SharedBus::new(clock.clone(), 2);
+    let mut robot = robot(1000.0, 1, 2);
+    robot.loop_config.fifo_priority = Some(10);
+    robot.loop_config.cpu = Some(0);
+    let rt = RtLoop::new(robot, clock, vec![bus], PdTo::hold(2)).unwrap();
+    let out = rt.spawn(RunLimit::Ticks(100)).unwrap().join().unwrap();
+    assert_eq!(out.report.stats.ticks, 100);
+    assert_eq!(
+        out.report.realtime.fifo.failed(),
+        !out.report.realtime_warnings.is_empty()
+    );
+}

@@ -1,0 +1,498 @@
+//! The loop on simulated motors in virtual time: fast, deterministic, exact.
+
+mod common;
+
+use core::time::Duration;
+
+use common::*;
+use rmd_bus::{Clock, Timestamp, VirtualClock};
+use rmd_loop::{Fault, RtLoop, RunLimit, StopReason};
+use rmd_sim::{FaultKind, FaultRule};
+
+#[test]
+fn ten_thousand_ticks_of_four_motors_without_faults() {
+    let clock = VirtualClock::new();
+    let mut bus = sim(&clock, 4, 1, &[]);
+    let rt = RtLoop::new(
+        robot(1000.0, 1, 4),
+        clock.clone(),
+        vec![&mut bus],
+        PdTo::hold(4),
+    )
+    .unwrap();
+    let out = rt.run(RunLimit::Ticks(10_000));
+    let r = &out.report;
+    assert_eq!(r.stop_reason, StopReason::TickLimit);
+    assert!(r.normal_stop);
+    assert_eq!(r.stats.ticks, 10_000);
+    assert_eq!(r.stats.deadline_misses, 0);
+    assert_eq!(r.stats.missing_replies, 0);
+    assert_eq!(r.stats.late_replies, 0);
+    assert_eq!(r.stats.telemetry_drops, 10_000 - 4096);
+    for m in &r.stats.motors {
+        assert_eq!((m.unexpected_replies, m.bad_frames), (0, 0), "{m:?}");
+    }
+    // Every tick's exchange was measured; it takes the wire time of 5 frames plus turnaround.
+    assert_eq!(r.stats.round_trip_us.count, 10_000);
+    assert!(
+        (700.0..900.0).contains(&r.stats.round_trip_us.p50),
+        "{:?}",
+        r.stats.round_trip_us
+    );
+    assert!(out.controller.started);
+    assert_eq!(out.controller.updates, 10_000);
+    assert_eq!(out.controller.stale_seen, 0);
+    assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
+    assert_safe(&mut bus, 4);
+}
+
+#[test]
+fn the_pd_controller_brings_every_joint_to_its_target() {
+    let clock = VirtualClock::new();
+    let mut bus = sim(&clock, 4, 2, &[]);
+    let targets = [20.0, -35.0, 50.0, -90.0];
+    let rt = RtLoop::new(
+        robot(1000.0, 1, 4),
+        clock.clone(),
+        vec![&mut bus],
+        PdTo::new(&targets),
+    )
+    .unwrap();
+    let telemetry = rt.telemetry();
+    let out = rt.run(RunLimit::Duration(Duration::from_secs(3)));
+    assert_eq!(out.report.stats.ticks, 3000);
+    let last = telemetry.latest().unwrap();
+    for (i, target) in targets.iter().enumerate() {
+        let got = last.joints()[i].joint_angle_deg;
+        assert!(
+            (got - target).abs() < 0.5,
+            "joint {i}: {got} deg, target {target}"
+        );
+        assert!(last.joints()[i].joint_velocity_dps.abs() < 2.0);
+    }
+    // The loop's unwrapped joint angles agree with the simulated truth (motor -90 deg joint =
+    // -810 deg of motor: more than two motor turns).
+    for (i, target) in targets.iter().enumerate() {
+        let truth = bus.snapshot(id(i as u8 + 1)).unwrap().output_angle_deg;
+        assert!((truth - target).abs() < 0.6, "motor {i}: truth {truth}");
+    }
+}
+
+#[test]
+fn a_dropped_reply_is_counted_missing_and_the_loop_rides_through() {
+    let clock = VirtualClock::new();
+    let drop = FaultRule::new(FaultKind::DropReply)
+        .motor(id(2))
+        .multi_torque()
+        .frames_window(100, 3);
+    let mut bus = sim(&clock, 4, 3, &[drop]);
+    let rt = RtLoop::new(
+        robot(1000.0, 1, 4),
+        clock.clone(),
+        vec![&mut bus],
+        PdTo::hold(4),
+    )
+    .unwrap();
+    let out = rt.run(RunLimit::Ticks(1000));
+    let r = &out.report;
+    assert_eq!(r.stop_reason, StopReason::TickLimit);
+    let missing: Vec<_> = r.stats.motors.iter().map(|m| m.missing_replies).collect();
+    assert_eq!(missing, [0, 3, 0, 0]);
+    assert_eq!(r.stats.motors[1].max_consecutive_missing, 3);
+    assert_eq!(r.stats.late_replies, 0);
+    assert_eq!(out.controller.stale_seen, 3);
+    assert_safe(&mut bus, 4);
+}
+
+#[test]
+fn a_late_reply_is_recognised_and_never_taken_as_this_ticks() {
+    let clock = VirtualClock::new();
+    // Motor 3's reply to one 0x280 frame is 500 us late: past the 900 us reply deadline, so it
+    // arrives in the next tick, before that tick's own reply.
+    let late = FaultRule::new(FaultKind::LateReply {
+        delay: Duration::from_micros(500),
+    })
+    .motor(id(3))
+    .multi_torque()
+    .frames_window(200, 1);
+    let mut bus = sim(&clock, 4, 4, &[late]);
+    let rt = RtLoop::new(
+        robot(1000.0, 1, 4),
+        clock.clone(),
+        vec![&mut bus],
+        PdTo::hold(4),
+    )
+    .unwrap();
+    let out = rt.run(RunLimit::Ticks(1000));
+    let m3 = out.report.stats.motors[2];
+    assert_eq!(m3.late_replies, 1, "{m3:?}");
+    assert_eq!(m3.missing_replies, 1, "{m3:?}");
+    assert_eq!(m3.unexpected_replies, 0, "{m3:?}");
+    assert_eq!(out.report.stats.late_replies, 1);
+    assert_eq!(out.report.stats.missing_replies, 1);
+}
+
+#[test]
+fn a_corrupted_or_short_reply_is_a_bad_frame_of_its_motor() {
+    let clock = VirtualClock::new();
+    let corrupt = FaultRule::new(FaultKind::WrongDlc { dlc: 5 })
+        .motor(id(4))
+        .multi_torque()
+        .frames_window(50, 2);
+    let mut bus = sim(&clock, 4, 5, &[corrupt]);
+    let rt = RtLoop::new(
+        robot(1000.0, 1, 4),
+        clock.clone(),
+        vec![&mut bus],
+        PdTo::hold(4),
+    )
+    .unwrap();
+    let out = rt.run(RunLimit::Ticks(300));
+    let m4 = out.report.stats.motors[3];
+    assert_eq!(m4.bad_frames, 2);
+    assert_eq!(m4.missing_replies, 2);
+    assert_eq!(out.report.stats.missing_replies, 2);
+    assert_eq!(out.report.stop_reason, StopReason::TickLimit);
+}
+
+#[test]
+fn corrupted_bytes_never_reach_the_controller_as_fresh_feedback() {
+    let clock = VirtualClock::new();
+    let corrupt = FaultRule::new(FaultKind::CorruptBytes { count: 8 })
+        .motor(id(1))
+        .multi_torque()
+        .with_probability(0.2);
+    let mut bus = sim(&clock, 4, 6, &[corrupt]);
+    let rt = RtLoop::new(
+        robot(1000.0, 1, 4),
+        clock.clone(),
+        vec![&mut bus],
+        PdTo::hold(4),
+    )
+    .unwrap();
+    let out = rt.run(RunLimit::Ticks(2000));
+    let m1 = out.report.stats.motors[0];
+    // Whatever garbage decoded (or not), it was counted, and nothing else was disturbed.
+    assert!(
+        m1.bad_frames + m1.unexpected_replies + m1.missing_replies > 0,
+        "{m1:?}"
+    );
+    for m in &out.report.stats.motors[1..] {
+        assert_eq!(m.missing_replies, 0);
+    }
+    assert_eq!(out.report.stop_reason, StopReason::TickLimit);
+}
+
+#[test]
+fn a_silent_motor_is_a_fault_and_every_motor_is_made_safe() {
+    let clock = VirtualClock::new();
+    let silent = FaultRule::new(FaultKind::Silent).motor(id(2)).during(
+        Timestamp::ZERO + Duration::from_millis(500),
+        Timestamp::from_nanos(u64::MAX),
+    );
+    let mut bus = sim(&clock, 4, 7, &[silent]);
+    let rt = RtLoop::new(
+        robot(1000.0, 1, 4),
+        clock.clone(),
+        vec![&mut bus],
+        PdTo::hold(4),
+    )
+    .unwrap();
+    let out = rt.run(RunLimit::Ticks(5000));
+    let r = &out.report;
+    assert!(
+        matches!(r.stop_reason, StopReason::Fault(Fault::MotorSilent { bus: 0, motor, ticks: 20 }) if motor == id(2)),
+        "{}",
+        r.stop_reason
+    );
+    assert!(!r.normal_stop);
+    assert_eq!(out.controller.faults.len(), 1);
+    assert_eq!(out.controller.stop, Some(r.stop_reason.clone()));
+    // The silent motor cannot confirm; the three others did.
+    let confirmed: Vec<_> = r.safe_stop.motors.iter().map(|m| m.off_confirmed).collect();
+    assert_eq!(confirmed, [true, false, true, true]);
+    assert!(
+        r.safe_stop
+            .motors
+            .iter()
+            .all(|m| m.zero_torque_sent && m.off_sent)
+    );
+    for m in [1, 3, 4] {
+        assert_eq!(bus.snapshot(id(m)).unwrap().mode, rmd_sim::ControlMode::Off);
+    }
+}
+
+#[test]
+fn bus_off_on_one_bus_stops_every_bus() {
+    let clock = VirtualClock::new();
+    let bus_off = FaultRule::new(FaultKind::BusOff {
+        duration: Duration::from_millis(50),
+    })
+    .multi_torque()
+    .frames_window(300, 1);
+    let mut bus0 = sim(&clock, 4, 8, &[]);
+    let mut bus1 = sim(&clock, 4, 9, &[bus_off]);
+    let rt = RtLoop::new(
+        robot(1000.0, 2, 4),
+        clock.clone(),
+        vec![&mut bus0, &mut bus1],
+        PdTo::hold(8),
+    )
+    .unwrap();
+    let out = rt.run(RunLimit::Ticks(2000));
+    assert_eq!(
+        out.report.stop_reason,
+        StopReason::Fault(Fault::BusOff { bus: 1 })
+    );
+    assert_eq!(out.report.stats.buses[1].bus_off, 1);
+    // Bus 0 was made safe; bus 1 could not be reached while bus-off.
+    assert_safe(&mut bus0, 4);
+    let confirmed: Vec<_> = out
+        .report
+        .safe_stop
+        .motors
+        .iter()
+        .map(|m| m.off_confirmed)
+        .collect();
+    assert_eq!(
+        confirmed,
+        [true, true, true, true, false, false, false, false]
+    );
+}
+
+#[test]
+fn a_controller_panic_is_caught_reported_and_made_safe() {
+    let clock = VirtualClock::new();
+    let mut bus = sim(&clock, 4, 10, &[]);
+    let mut ctrl = PdTo::hold(4);
+    ctrl.panic_at = Some(123);
+    let rt = RtLoop::new(robot(1000.0, 1, 4), clock.clone(), vec![&mut bus], ctrl).unwrap();
+    let out = rt.run(RunLimit::Ticks(1000));
+    assert_eq!(
+        out.report.stop_reason,
+        StopReason::ControllerPanic("controller bug at tick 123".to_string())
+    );
+    // Ticks 0..=123 started; the 124th panicked.
+    assert_eq!(out.report.stats.ticks, 124);
+    assert!(out.report.safe_stop.all_off_confirmed());
+    assert_safe(&mut bus, 4);
+}
+
+#[test]
+fn the_controller_can_end_the_run() {
+    let clock = VirtualClock::new();
+    let mut bus = sim(&clock, 4, 11, &[]);
+    let mut ctrl = PdTo::hold(4);
+    ctrl.finish_at = Some(49);
+    let rt = RtLoop::new(robot(1000.0, 1, 4), clock.clone(), vec![&mut bus], ctrl).unwrap();
+    let out = rt.run(RunLimit::Forever);
+    assert_eq!(out.report.stop_reason, StopReason::ControllerFinished);
+    assert_eq!(out.report.stats.ticks, 50);
+    assert_safe(&mut bus, 4);
+}
+
+#[test]
+fn an_emergency_stop_takes_effect_within_one_tick() {
+    let clock = VirtualClock::new();
+    let mut bus = sim(&clock, 4, 12, &[]);
+    let rt = RtLoop::new(
+        robot(1000.0, 1, 4),
+        clock.clone(),
+        vec![&mut bus],
+        PdTo::hold(4),
+    )
+    .unwrap();
+    let stopper = rt.stopper();
+    let mut rt = rt;
+    rt.start().unwrap();
+    for _ in 0..10 {
+        assert!(rt.step().is_none());
+    }
+    stopper.emergency_stop();
+    let stopped_at = clock.now();
+    let reason = rt.step().expect("the next tick stops");
+    assert_eq!(reason, StopReason::EmergencyStop);
+    let out = rt.finish(reason);
+    assert_eq!(out.report.stats.ticks, 10);
+    // The zero-torque frame went out within one period of the request.
+    assert!(clock.now() - stopped_at <= MS + Duration::from_millis(60));
+    assert!(out.report.safe_stop.all_off_confirmed());
+    assert_safe(&mut bus, 4);
+}
+
+#[test]
+fn a_transmit_queue_that_fills_is_counted_not_fatal() {
+    let clock = VirtualClock::new();
+    let stall = FaultRule::new(FaultKind::TxStall {
+        duration: Duration::from_millis(15),
+    })
+    .multi_torque()
+    .frames_window(100, 1);
+    let mut bus = sim(&clock, 4, 13, &[stall]);
+    let rt = RtLoop::new(
+        robot(1000.0, 1, 4),
+        clock.clone(),
+        vec![&mut bus],
+        PdTo::hold(4),
+    )
+    .unwrap();
+    let out = rt.run(RunLimit::Ticks(500));
+    let r = &out.report;
+    assert_eq!(r.stop_reason, StopReason::TickLimit);
+    assert!(r.stats.buses[0].tx_errors > 0, "{:?}", r.stats.buses[0]);
+    assert!(r.stats.missing_replies > 0);
+}
+
+#[test]
+fn a_motor_that_never_answers_stops_the_start_and_names_it() {
+    let clock = VirtualClock::new();
+    let mut bus = sim(&clock, 3, 14, &[]); // motor 4 is configured but absent
+    let rt = RtLoop::new(
+        robot(1000.0, 1, 4),
+        clock.clone(),
+        vec![&mut bus],
+        PdTo::hold(4),
+    )
+    .unwrap();
+    let out = rt.run(RunLimit::Ticks(100));
+    assert_eq!(
+        out.report.stop_reason,
+        StopReason::Fault(Fault::StartupTimeout {
+            bus: 0,
+            motor: id(4),
+            missing: 1
+        })
+    );
+    assert!(out.report.stop_reason.to_string().contains("motor 4"));
+    assert_eq!(out.report.stats.ticks, 0);
+    assert!(!out.controller.started);
+    assert_safe(&mut bus, 3);
+}
+
+#[test]
+fn the_same_seed_gives_the_same_run() {
+    let run = |seed| {
+        let clock = VirtualClock::new();
+        let flaky = FaultRule::new(FaultKind::DropReply)
+            .multi_torque()
+            .with_probability(0.01);
+        let mut bus = sim(&clock, 4, seed, &[flaky]);
+        let rt = RtLoop::new(
+            robot(1000.0, 1, 4),
+            clock.clone(),
+            vec![&mut bus],
+            PdTo::new(&[10.0, 20.0, 30.0, 40.0]),
+        )
+        .unwrap();
+        let telemetry = rt.telemetry();
+        let out = rt.run(RunLimit::Ticks(1000));
+        let last = telemetry.latest().unwrap();
+        (out.report.stats.motors.clone(), last.joints().to_vec())
+    };
+    assert_eq!(run(77), run(77));
+    assert_ne!(run(77).0, run(78).0);
+}
+
+#[test]
+fn pipelined_mode_accepts_one_tick_old_feedback_from_slow_motors() {
+    // Motors with a 1.2 ms turnaround at 1 kHz: every reply arrives in the next tick.
+    let clock = VirtualClock::new();
+    let mut config = rmd_sim::SimConfig::with_motors(4).seed(15);
+    for m in &mut config.motors {
+        m.turnaround = Duration::from_micros(1200);
+    }
+    let mut slow = rmd_sim::SimBus::new(clock.clone(), config).unwrap();
+    let mut robot = robot(1000.0, 1, 4);
+    robot.loop_config.reply_mode = rmd_loop::config::ReplyMode::Pipelined;
+    robot.loop_config.allow_over_budget = true;
+    let rt = RtLoop::new(robot, clock.clone(), vec![&mut slow], PdTo::new(&[5.0; 4])).unwrap();
+    let telemetry = rt.telemetry();
+    let out = rt.run(RunLimit::Ticks(2000));
+    let r = &out.report;
+    assert_eq!(r.stop_reason, StopReason::TickLimit);
+    // Tick 0's replies cannot be in before tick 1: one miss per motor at most, then none.
+    assert!(r.stats.missing_replies <= 4, "{}", r.stats);
+    assert_eq!(r.stats.late_replies, 0);
+    let last = telemetry.latest().unwrap();
+    assert!(last.joints().iter().all(|j| j.fresh));
+    assert!(
+        last.joints()
+            .iter()
+            .all(|j| (j.joint_angle_deg - 5.0).abs() < 1.0),
+        "{last:?}"
+    );
+}
+
+/// A controller that takes `cost` of (virtual) time in `count` consecutive updates, from the
+/// first tick with index `from`.
+struct Slow {
+    clock: VirtualClock,
+    from: u64,
+    count: u64,
+    cost: Duration,
+}
+
+impl rmd_loop::Controller for Slow {
+    fn update(
+        &mut self,
+        ctx: &rmd_loop::TickContext,
+        _: &rmd_loop::Feedback<'_>,
+        _: &mut rmd_loop::Commands<'_>,
+    ) -> rmd_loop::Flow {
+        if ctx.index >= self.from && self.count > 0 {
+            self.count -= 1;
+            self.clock.advance(self.cost);
+        }
+        rmd_loop::Flow::Continue
+    }
+}
+
+fn run_slow(policy: rmd_loop::schedule::OverrunPolicy, count: u64) -> rmd_loop::LoopReport {
+    let clock = VirtualClock::new();
+    let mut bus = sim(&clock, 4, 16, &[]);
+    let mut robot = robot(1000.0, 1, 4);
+    robot.loop_config.overrun = policy;
+    let slow = Slow {
+        clock: clock.clone(),
+        from: 100,
+        count,
+        cost: Duration::from_micros(1500),
+    };
+    let rt = RtLoop::new(robot, clock.clone(), vec![&mut bus], slow).unwrap();
+    let out = rt.run(RunLimit::Ticks(300));
+    assert_safe(&mut bus, 4);
+    out.report
+}
+
+#[test]
+fn deadline_misses_follow_the_overrun_policy() {
+    use rmd_loop::schedule::OverrunPolicy;
+    // Skip (default): each slow tick (0.8 ms exchange + 1.5 ms) misses and the two slots whose
+    // start passed are skipped; replies still match.
+    let r = run_slow(OverrunPolicy::Skip, 5);
+    assert_eq!(r.stop_reason, StopReason::TickLimit);
+    assert_eq!(r.stats.deadline_misses, 5);
+    assert_eq!(r.stats.skipped_ticks, 10);
+    assert_eq!(r.stats.missing_replies, 0, "{}", r.stats);
+    assert_eq!(
+        r.stats.late_replies
+            + r.stats
+                .motors
+                .iter()
+                .map(|m| m.unexpected_replies)
+                .sum::<u64>(),
+        0
+    );
+    // Continue: the missed ticks run late, back to back; nothing is skipped.
+    let r = run_slow(OverrunPolicy::Continue, 5);
+    assert_eq!(r.stop_reason, StopReason::TickLimit);
+    assert!(r.stats.deadline_misses >= 5, "{}", r.stats);
+    assert_eq!(r.stats.skipped_ticks, 0);
+    // Fault after 3 consecutive misses: stops at the third, motors made safe.
+    let r = run_slow(OverrunPolicy::Fault { after: 3 }, 10);
+    assert_eq!(
+        r.stop_reason,
+        StopReason::Fault(Fault::DeadlineMisses { consecutive: 3 })
+    );
+    assert!(r.safe_stop.all_off_confirmed());
+}
