@@ -4,6 +4,7 @@
 //! module (`encode`, `decode`, ...) with its clap `Args` and a `run` function returning the exit
 //! code. To add a subcommand: a module, a variant in [`Command`], a line in `main`.
 
+mod bench;
 mod decode;
 mod encode;
 mod json;
@@ -29,6 +30,8 @@ enum Command {
     Encode(encode::EncodeArgs),
     /// Decode frames (candump compact, -L log or default text) into JSON lines.
     Decode(decode::DecodeArgs),
+    /// Benchmarks: the loop on simulated motors, timer jitter, the bus-limited rate.
+    Bench(bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -39,5 +42,6 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Encode(args) => encode::run(args),
         Command::Decode(args) => decode::run(args),
+        Command::Bench(args) => bench::run(args),
     }
 }
