@@ -35,7 +35,13 @@ fn json(args: &str) -> Value {
 /// Asserts a usage error: exit 2, nothing on stdout, one line on stderr containing `needle`.
 fn usage_error(args: &str, needle: &str) {
     let run = rmd(args);
-    assert_eq!(run.code, Some(2), "rmd {args}: {}{}", run.stdout, run.stderr);
+    assert_eq!(
+        run.code,
+        Some(2),
+        "rmd {args}: {}{}",
+        run.stdout,
+        run.stderr
+    );
     assert!(run.stdout.is_empty(), "rmd {args}: stdout {}", run.stdout);
     assert_eq!(run.stderr.lines().count(), 1, "rmd {args}: {}", run.stderr);
     assert!(
@@ -65,7 +71,12 @@ fn loop_in_virtual_time_reports_every_tick_and_tracks_the_targets() {
     ] {
         assert!(v[key].is_u64(), "{key} in {v}");
     }
-    for key in ["wake_latency_us", "round_trip_us", "controller_us", "work_us"] {
+    for key in [
+        "wake_latency_us",
+        "round_trip_us",
+        "controller_us",
+        "work_us",
+    ] {
         assert_percentiles(&v, key);
     }
     assert_eq!(v["ticks"], 1000);
@@ -107,7 +118,12 @@ fn motors_count_per_bus() {
 #[test]
 fn loop_in_real_time_has_the_same_shape() {
     let v = json("bench loop --seconds 0.3 --spin-us 20 --cpu 0 --json");
-    for key in ["wake_latency_us", "round_trip_us", "controller_us", "work_us"] {
+    for key in [
+        "wake_latency_us",
+        "round_trip_us",
+        "controller_us",
+        "work_us",
+    ] {
         assert_percentiles(&v, key);
     }
     assert!(v["ticks"].as_u64().unwrap() > 0);
@@ -183,7 +199,10 @@ fn jitter_prints_a_cyclictest_like_line() {
 fn jitter_rejects_bad_values() {
     usage_error("bench jitter --period-us 5", "shorter than the minimum");
     usage_error("bench jitter --period-us abc", "--period-us");
-    usage_error("bench jitter --period-us 1000 --spin-us 1000", "shorter than the period");
+    usage_error(
+        "bench jitter --period-us 1000 --spin-us 1000",
+        "shorter than the period",
+    );
     usage_error("bench jitter --seconds -1", "--seconds");
     usage_error("bench jitter --fifo 120", "1..=99");
     usage_error("bench jitter --cpu 100000", "not available");

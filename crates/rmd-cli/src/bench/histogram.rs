@@ -41,10 +41,7 @@ mod tests {
         for ns in [0, 999, 1_000, 1_999, 2_500, 7_000, 7_999] {
             h.record(Duration::from_nanos(ns));
         }
-        assert_eq!(
-            whole_us_buckets(&h),
-            vec![(0, 2), (1, 2), (2, 1), (7, 2)]
-        );
+        assert_eq!(whole_us_buckets(&h), vec![(0, 2), (1, 2), (2, 1), (7, 2)]);
         assert_eq!(
             to_json(&whole_us_buckets(&h)).to_string(),
             "[[0,2],[1,2],[2,1],[7,2]]"
@@ -60,6 +57,10 @@ mod tests {
         let b = whole_us_buckets(&h);
         assert_eq!(b.iter().map(|&(_, n)| n).sum::<u64>(), 500);
         // Within the first 16 us the buckets are exact.
-        assert!(b.iter().take(15).all(|&(k, n)| n == 1 && (1..=15).contains(&k)));
+        assert!(
+            b.iter()
+                .take(15)
+                .all(|&(k, n)| n == 1 && (1..=15).contains(&k))
+        );
     }
 }

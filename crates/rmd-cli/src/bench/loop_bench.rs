@@ -99,7 +99,10 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
 }
 
 fn show_deg(v: Option<f64>) -> String {
-    v.map_or_else(|| "n/a (run shorter than 0.5 s)".to_string(), |d| format!("{d:.3} deg"))
+    v.map_or_else(
+        || "n/a (run shorter than 0.5 s)".to_string(),
+        |d| format!("{d:.3} deg"),
+    )
 }
 
 fn bench_json(args: &LoopArgs, controller: &MovingTargetPd) -> Value {
@@ -138,13 +141,8 @@ fn run_on<C: Clock + Clone + 'static>(
     l.spin_margin_us = args.rt.spin_us;
     let buses = robot::sim_buses(&clock, args.buses, args.motors)
         .map_err(|e| Failure::Run(format!("simulator: {e}")))?;
-    let rt = RtLoop::new(
-        robot,
-        clock,
-        buses,
-        MovingTargetPd::new(!args.virtual_time),
-    )
-    .map_err(|e| Failure::Usage(e.to_string()))?;
+    let rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
+        .map_err(|e| Failure::Usage(e.to_string()))?;
     let telemetry = rt.telemetry();
     let handle = rt
         .spawn(RunLimit::Duration(args.seconds))

@@ -58,10 +58,7 @@ impl MovingTargetPd {
     pub(crate) fn target(i: usize, t: f64) -> (f64, f64) {
         let w = 2.0 * PI * FREQUENCY_HZ;
         let phase = w * t + i as f64 * PI / 2.0;
-        (
-            AMPLITUDE_DEG * phase.sin(),
-            AMPLITUDE_DEG * w * phase.cos(),
-        )
+        (AMPLITUDE_DEG * phase.sin(), AMPLITUDE_DEG * w * phase.cos())
     }
 
     /// RMS tracking error after the settling time, degrees (`None` if the run was shorter).

@@ -45,10 +45,12 @@ const MAX_CONFIRM_RUNS: u32 = 6;
 
 /// Arguments of `rmd bench rate`.
 #[derive(Args, Debug, Clone)]
-#[command(after_help = "Output: one line per trial, then the highest rate that passed, the wire \
+#[command(
+    after_help = "Output: one line per trial, then the highest rate that passed, the wire \
     limit of that run's frames (1 / longest exchange: 0x280 start to the end of the last reply) \
     and their ratio, and where the period went. JSON (--json): one object with `best_rate_hz`, \
-    `wire_limit` (of the best run), `ratio_to_wire_limit` and every trial.")]
+    `wire_limit` (of the best run), `ratio_to_wire_limit` and every trial."
+)]
 pub(crate) struct RateArgs {
     /// Simulated buses (1 Mbit/s each), 1..=8, exchanged in parallel by one loop.
     #[arg(long, default_value = "1", value_parser = flags::buses)]

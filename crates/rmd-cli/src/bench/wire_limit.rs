@@ -58,7 +58,9 @@ pub(crate) fn exchanges(trace: &[Transmission], motors: usize, bitrate: u32) -> 
         if replies.len() != motors {
             continue;
         }
-        let all: Vec<&Transmission> = core::iter::once(tx).chain(replies.iter().copied()).collect();
+        let all: Vec<&Transmission> = core::iter::once(tx)
+            .chain(replies.iter().copied())
+            .collect();
         let bits: Vec<u32> = all.iter().map(|t| frame_bits(&t.frame)).collect();
         out.push(Exchange {
             start: tx.start,
