@@ -68,9 +68,9 @@ pub(crate) fn run(args: JitterArgs) -> ExitCode {
         eprintln!("warning: {warning}");
     }
     if args.json {
-        println!("{}", to_json(&result, &args.rt));
+        super::emit(&format!("{}\n", to_json(&result, &args.rt)));
     } else {
-        print!("{}", human(&result, &args.rt));
+        super::emit(&human(&result, &args.rt));
     }
     ExitCode::SUCCESS
 }

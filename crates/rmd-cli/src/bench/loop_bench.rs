@@ -76,12 +76,11 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
         if let Value::Object(map) = &mut value {
             map.insert("bench".into(), bench_json(&args, controller));
         }
-        println!("{value}");
+        super::emit(&format!("{value}\n"));
     } else {
-        print!("{report}");
-        println!(
-            "bench: {} motor(s) per bus x {} bus(es), {} time; PD tracking of {AMPLITUDE} deg / \
-             {FREQ} Hz sines: rms error {}, max {}",
+        super::emit(&format!(
+            "{report}bench: {} motor(s) per bus x {} bus(es), {} time; PD tracking of {AMPLITUDE} deg / \
+             {FREQ} Hz sines: rms error {}, max {}\n",
             args.motors,
             args.buses,
             if args.virtual_time { "virtual" } else { "real" },
@@ -89,7 +88,7 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
             show_deg(controller.max_error_deg()),
             AMPLITUDE = pd::AMPLITUDE_DEG,
             FREQ = pd::FREQUENCY_HZ,
-        );
+        ));
     }
     if report.normal_stop {
         ExitCode::SUCCESS

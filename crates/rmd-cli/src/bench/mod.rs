@@ -16,6 +16,7 @@ mod rate;
 mod robot;
 mod wire_limit;
 
+use std::io::Write;
 use std::process::ExitCode;
 
 use clap::{Args, Subcommand};
@@ -46,4 +47,11 @@ pub(crate) fn run(args: BenchArgs) -> ExitCode {
         BenchCommand::Jitter(a) => jitter::run(a),
         BenchCommand::Rate(a) => rate::run(a),
     }
+}
+
+/// Writes a result to stdout. A closed pipe (`rmd bench ... | head`) is not an error worth a
+/// panic: the result is simply not read.
+fn emit(text: &str) {
+    let mut out = std::io::stdout().lock();
+    let _ = out.write_all(text.as_bytes()).and_then(|()| out.flush());
 }

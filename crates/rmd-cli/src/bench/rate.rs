@@ -394,9 +394,9 @@ pub(crate) fn run(args: RateArgs) -> ExitCode {
     };
     let best = s.best.map(|i| &s.trials[i]);
     if args.json {
-        println!("{}", summary_json(&args, &s, best));
+        super::emit(&format!("{}\n", summary_json(&args, &s, best)));
     } else {
-        print!("{}", summary_text(&args, &s, best));
+        super::emit(&summary_text(&args, &s, best));
     }
     if best.is_some() || args.rate.is_some() {
         ExitCode::SUCCESS

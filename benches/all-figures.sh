@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# Re-runs every figure of docs/benchmarks.md, in order, with the machine's state before each:
+#   1. cargo bench --bench tick                          (tick overhead, allocations per tick)
+#   2. benches/jitter-vs-cyclictest.sh                   (wake latency vs cyclictest, plot)
+#   3. rmd bench rate --buses 1 and --buses 4            (bus-limited rate vs the wire limit)
+#   4. rmd bench loop, 4 motors and 4 x 4 motors at 1 kHz (the loop report)
+# Logs go to target/figures/; the plot to docs/img/jitter-histograms.svg.
+#
+# Usage: benches/all-figures.sh [--quiet-load L] [--max-wait S]
+#   --quiet-load L  before each figure, wait until the 1-minute load average is below L
+#                   (default 0.5; 0 disables the wait)
+#   --max-wait S    give up waiting after S seconds and run anyway, saying so (default 1800)
+# Needs root (SCHED_FIFO, mlockall, cyclictest). Timing figures need a quiet machine: nothing
+# else running, the load average well below 1.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+quiet_load=0.5
+max_wait=1800
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --quiet-load) quiet_load=${2-}; shift 2 ;;
+    --max-wait) max_wait=${2-}; shift 2 ;;
+    -h|--help) sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "error: unknown argument '$1'" >&2; exit 2 ;;
+  esac
+done
+
+out=target/figures
+mkdir -p "$out" docs/img
+
+wait_quiet() {
+  local waited=0
+  while awk -v l="$quiet_load" '{ exit !(l > 0 && $1 >= l) }' /proc/loadavg; do
+    if [[ $waited -ge $max_wait ]]; then
+      echo "WARNING: load still $(cut -d' ' -f1-3 /proc/loadavg) after ${max_wait} s: figures are provisional" \
+        | tee -a "$out/notes.txt" >&2
+      return
+    fi
+    sleep 10
+    waited=$((waited + 10))
+  done
+}
+
+stamp() { echo "== $1: $(date -u +%H:%M:%SZ), load $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$out/notes.txt"; }
+
+: > "$out/notes.txt"
+{
+  uname -srv
+  lscpu | grep -E '^(Model name|CPU\(s\)|Thread\(s\) per core|Hypervisor vendor):' | sed 's/  */ /g'
+  git rev-parse --short HEAD
+} | tee -a "$out/notes.txt"
+
+cargo build --release -q -p rmd-cli
+rmd=target/release/rmd
+
+wait_quiet; stamp "tick overhead"
+cargo bench --bench tick 2>&1 | tee "$out/tick.txt"
+
+wait_quiet; stamp "jitter vs cyclictest"
+benches/jitter-vs-cyclictest.sh --rounds 3 --seconds 30 --period-us 1000 --prio 80 --cpu 1 \
+  --spin-us 50 --out "$out/jitter" --svg docs/img/jitter-histograms.svg 2>&1 | tee "$out/jitter.txt"
+
+for buses in 1 4; do
+  wait_quiet; stamp "rate, $buses bus(es)"
+  "$rmd" bench rate --buses "$buses" --seconds 10 --cpu 1 --fifo 80 --spin-us 100 2>&1 \
+    | tee "$out/rate-$buses.txt"
+done
+
+for buses in 1 4; do
+  wait_quiet; stamp "loop report, 4 motors x $buses bus(es)"
+  "$rmd" bench loop --motors 4 --buses "$buses" --rate 1000 --seconds 10 --cpu 1 --fifo 80 \
+    --spin-us 50 | tee "$out/loop-$buses.txt"
+done
+stamp "done"
