@@ -4,6 +4,8 @@
 pub mod bus;
 pub mod candump;
 pub mod clock;
+pub mod record;
+pub mod replay;
 pub mod time;
 pub mod wire;
 
