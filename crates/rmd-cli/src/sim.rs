@@ -5,7 +5,8 @@
 //! [`SimMotors::handle`] with its kernel receive time; each reply is sent when it is due (the
 //! receive time plus the motor's turnaround and jitter, plus any injected delay). Fault options
 //! drop, delay, corrupt or duplicate replies, or silence motors, with a seed for repeatable
-//! runs.
+//! runs. Between frames the motors' physics is advanced every couple of milliseconds, so a
+//! request never waits for a long catch-up of the simulation.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -39,7 +40,8 @@ pub(crate) struct SimArgs {
     motor: MotorOptions,
     #[command(flatten)]
     faults: FaultOptions,
-    /// Also record every frame received and sent to this candump -L file.
+    /// Also record every frame received and sent to this candump -L file (without direction
+    /// markers: `rmd decode` pairs requests and replies by content).
     #[arg(long = "log", value_name = "FILE")]
     log: Option<PathBuf>,
 }
@@ -156,8 +158,10 @@ struct Counts {
 const TX_RETRY: Duration = Duration::from_micros(200);
 /// ...for at most this long, then the reply is given up.
 const TX_GIVE_UP: Duration = Duration::from_millis(20);
-/// Longest wait for a frame before looking at Ctrl-C again.
-const SLICE: Duration = Duration::from_millis(50);
+/// Longest wait for a frame before looking at Ctrl-C and advancing the physics again: the
+/// motors are kept within this of the present, so a request finds them (nearly) up to date
+/// and its reply is computed without a long catch-up.
+const SLICE: Duration = Duration::from_millis(2);
 
 fn serve(args: &SimArgs) -> Result<(), CliError> {
     let config = config(args).map_err(CliError::Usage)?;
@@ -169,8 +173,10 @@ fn serve(args: &SimArgs) -> Result<(), CliError> {
         Some(path) => {
             let file = std::fs::File::create(path)
                 .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
-            let (bus, writer) = record(bus, clock, file, RecordOptions::new(&args.iface))
-                .map_err(|e| e.to_string())?;
+            // No direction markers: seen from the motors, T would mark the replies, which
+            // `rmd decode` would take for requests; without markers it pairs by content.
+            let options = RecordOptions::new(&args.iface).directions(false);
+            let (bus, writer) = record(bus, clock, file, options).map_err(|e| e.to_string())?;
             (Box::new(bus), Some(writer))
         }
     };
@@ -218,7 +224,7 @@ fn run_loop(
                     }
                 }
             }
-            Ok(None) => {}
+            Ok(None) => motors.advance_to(clock.now()),
             Err(error) => return Err(bus_failure(error)),
         }
     }

@@ -202,14 +202,33 @@ fn rom_writes_need_a_confirmation_a_script_gives_with_yes() {
     // stdin is not a terminal here: refused, nothing sent (the bus is not even opened).
     let err = fails(
         1,
-        &["pid", "set", "1", "--iq-pid-ki", "9", "--rom", "--sim", "--log", log_arg],
+        &[
+            "pid",
+            "set",
+            "1",
+            "--iq-pid-ki",
+            "9",
+            "--rom",
+            "--sim",
+            "--log",
+            log_arg,
+        ],
     );
     assert!(err.contains("needs confirmation"), "{err}");
     assert!(err.contains("pass --yes"), "{err}");
     assert!(!log.exists());
 
     let out = ok(&[
-        "pid", "set", "1", "--iq-pid-ki", "9", "--rom", "--yes", "--sim", "--log", log_arg,
+        "pid",
+        "set",
+        "1",
+        "--iq-pid-ki",
+        "9",
+        "--rom",
+        "--yes",
+        "--sim",
+        "--log",
+        log_arg,
     ]);
     assert!(out.contains("written to ROM"), "{out}");
     assert_eq!(
@@ -218,7 +237,10 @@ fn rom_writes_need_a_confirmation_a_script_gives_with_yes() {
     );
 
     let err = fails(1, &["zero", "2", "--sim", "--log", log_arg]);
-    assert!(err.contains("zero of motor 2") && err.contains("pass --yes"), "{err}");
+    assert!(
+        err.contains("zero of motor 2") && err.contains("pass --yes"),
+        "{err}"
+    );
     let out = ok(&["zero", "2", "--sim", "--yes", "--log", log_arg]);
     assert!(out.contains("power-cycle the motor"), "{out}");
     assert_eq!(host_commands(&read_log(&log)), [(2, Cmd::WriteZeroRom)]);
@@ -247,7 +269,15 @@ fn accel_and_encoder_commands() {
     // Checked against the encoder width before anything is sent.
     let err = fails(2, &["encoder", "offset", "4", "20000", "--sim"]);
     assert!(err.contains("for a 14-bit encoder"), "{err}");
-    ok(&["encoder", "offset", "4", "20000", "--sim", "--encoder-bits", "16"]);
+    ok(&[
+        "encoder",
+        "offset",
+        "4",
+        "20000",
+        "--sim",
+        "--encoder-bits",
+        "16",
+    ]);
 }
 
 #[test]
@@ -277,25 +307,77 @@ fn move_reaches_the_target_within_limits() {
     assert!(out.contains("holding the position"), "{out}");
     let commands = host_commands(&read_log(&log));
     assert_eq!(commands[0], (1, Cmd::Position2));
-    assert!(commands[1..].iter().all(|c| *c == (1, Cmd::ReadMultiTurnAngle)));
+    assert!(
+        commands[1..]
+            .iter()
+            .all(|c| *c == (1, Cmd::ReadMultiTurnAngle))
+    );
     // The motor is left holding: no motor-off.
     assert!(!commands.contains(&(1, Cmd::MotorOff)));
 
     // The four modes.
     ok(&["move", "1", "--deg", "-45", "--mode", "1", "--sim"]);
-    ok(&["move", "1", "--deg", "180", "--mode", "3", "--direction", "ccw", "--sim"]);
-    ok(&["move", "1", "--deg", "270", "--mode", "4", "--max-speed", "720", "--sim"]);
+    ok(&[
+        "move",
+        "1",
+        "--deg",
+        "180",
+        "--mode",
+        "3",
+        "--direction",
+        "ccw",
+        "--sim",
+    ]);
+    ok(&[
+        "move",
+        "1",
+        "--deg",
+        "270",
+        "--mode",
+        "4",
+        "--max-speed",
+        "720",
+        "--sim",
+    ]);
 
     // Limits and mode rules are checked before anything is sent.
     let err = fails(
         2,
-        &["move", "2", "--deg", "200", "--max-deg", "180", "--sim", "--log", log_arg],
+        &[
+            "move",
+            "2",
+            "--deg",
+            "200",
+            "--max-deg",
+            "180",
+            "--sim",
+            "--log",
+            log_arg,
+        ],
     );
-    assert!(err.contains("outside the limits") && err.contains("nothing was sent"), "{err}");
-    assert!(fails(2, &["move", "2", "--deg", "-10", "--min-deg", "0", "--sim"]).contains("motor 2"));
     assert!(
-        fails(2, &["move", "2", "--deg", "10", "--mode", "1", "--max-speed", "5", "--sim"])
-            .contains("needs mode 2 or 4")
+        err.contains("outside the limits") && err.contains("nothing was sent"),
+        "{err}"
+    );
+    assert!(
+        fails(2, &["move", "2", "--deg", "-10", "--min-deg", "0", "--sim"]).contains("motor 2")
+    );
+    assert!(
+        fails(
+            2,
+            &[
+                "move",
+                "2",
+                "--deg",
+                "10",
+                "--mode",
+                "1",
+                "--max-speed",
+                "5",
+                "--sim"
+            ]
+        )
+        .contains("needs mode 2 or 4")
     );
     assert!(fails(2, &["move", "2", "--deg", "360", "--mode", "3", "--sim"]).contains("0..<360"));
 
@@ -303,7 +385,14 @@ fn move_reaches_the_target_within_limits() {
     let err = fails(
         1,
         &[
-            "move", "3", "--deg", "3600", "--max-speed", "10", "--wait-timeout", "300ms",
+            "move",
+            "3",
+            "--deg",
+            "3600",
+            "--max-speed",
+            "10",
+            "--wait-timeout",
+            "300ms",
             "--sim",
         ],
     );
@@ -316,7 +405,16 @@ fn torque_and_speed_run_for_their_duration_then_turn_the_motor_off() {
     let log = log_path("torque");
     let log_arg = log.to_str().unwrap();
     let out = ok(&[
-        "torque", "2", "--amps", "0.5", "--duration", "200ms", "--rate", "50", "--sim", "--log",
+        "torque",
+        "2",
+        "--amps",
+        "0.5",
+        "--duration",
+        "200ms",
+        "--rate",
+        "50",
+        "--sim",
+        "--log",
         log_arg,
     ]);
     assert!(out.contains("then turned off"), "{out}");
@@ -327,7 +425,15 @@ fn torque_and_speed_run_for_their_duration_then_turn_the_motor_off() {
     assert!(drive.iter().all(|c| *c == (2, Cmd::Torque)));
 
     let out = ok(&[
-        "speed", "1", "--dps", "-360", "--duration", "200ms", "--sim", "--log", log_arg,
+        "speed",
+        "1",
+        "--dps",
+        "-360",
+        "--duration",
+        "200ms",
+        "--sim",
+        "--log",
+        log_arg,
     ]);
     assert!(out.contains("speed -360.00 dps"), "{out}");
     let commands = host_commands(&read_log(&log));
@@ -338,8 +444,17 @@ fn torque_and_speed_run_for_their_duration_then_turn_the_motor_off() {
     let err = fails(
         1,
         &[
-            "torque", "1", "--amps", "2", "--duration", "10s", "--max-speed", "200", "--sim",
-            "--log", log_arg,
+            "torque",
+            "1",
+            "--amps",
+            "2",
+            "--duration",
+            "10s",
+            "--max-speed",
+            "200",
+            "--sim",
+            "--log",
+            log_arg,
         ],
     );
     assert!(err.contains("above --max-speed 200"), "{err}");
@@ -452,7 +567,10 @@ fn ctrl_c_during_a_move_turns_the_motor_off() {
         .unwrap_or_default()
         .contains("141#A4")
     {
-        assert!(start.elapsed() < Duration::from_secs(30), "the move never started");
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "the move never started"
+        );
         std::thread::sleep(Duration::from_millis(10));
     }
     StdCommand::new("kill")
@@ -481,10 +599,20 @@ fn monitor_prints_readings_as_json_lines() {
     assert!(readings[2]["time_s"].as_f64() > readings[0]["time_s"].as_f64());
     // A table when not asked for JSON; a motor that does not answer is a row, not the end.
     let out = ok(&[
-        "monitor", "--sim", "--ids", "2,9", "--count", "1", "--timeout-ms", "5",
+        "monitor",
+        "--sim",
+        "--ids",
+        "2,9",
+        "--count",
+        "1",
+        "--timeout-ms",
+        "5",
     ]);
     assert!(out.contains("  9  no reply"), "{out}");
-    assert!(out.lines().any(|l| l.trim_start().starts_with("2 ")), "{out}");
+    assert!(
+        out.lines().any(|l| l.trim_start().starts_with("2 ")),
+        "{out}"
+    );
 }
 
 #[test]
@@ -543,7 +671,11 @@ fn replay_skips_and_reports_bad_lines() {
     let out = rmd(&["replay", log.to_str().unwrap(), "--fast"]);
     assert_eq!(out.status.code(), Some(1));
     assert_eq!(text(&out.stdout).lines().count(), 2);
-    assert!(text(&out.stderr).contains("line 2"), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("line 2"),
+        "{}",
+        text(&out.stderr)
+    );
 }
 
 #[test]
@@ -551,7 +683,10 @@ fn bus_errors_say_what_to_do() {
     let err = fails(1, &["status", "1"]);
     assert!(err.contains("use --iface IFACE"), "{err}");
     let err = fails(1, &["scan", "--iface", "rmdnope9"]);
-    assert!(err.contains("rmdnope9") && err.contains("does not exist"), "{err}");
+    assert!(
+        err.contains("rmdnope9") && err.contains("does not exist"),
+        "{err}"
+    );
     let err = fails(1, &["status", "1", "--iface", "lo"]);
     assert!(err.contains("not a CAN interface"), "{err}");
     let err = fails(1, &["log", "--iface", "vcan97", "/dev/null"]);
