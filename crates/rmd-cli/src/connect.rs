@@ -14,6 +14,7 @@ use rmd_sim::{MotorConfig, SimBus, SimConfig};
 use crate::exchange::{self, ExchangeError, Policy, Setup};
 use crate::ids::{self, IdList};
 use crate::parse;
+use crate::report::CliError;
 
 /// Where the motors are, and how to talk to them (flattened into every live command).
 #[derive(Args, Debug, Clone)]
@@ -74,7 +75,7 @@ impl Connection {
         args: &BusArgs,
         default_timeout: Duration,
         default_retries: u32,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, CliError> {
         let (bus, setup): (Box<dyn CanBus>, Setup) = if args.sim {
             (
                 Box::new(simulated_bus(&args.sim_ids, args.encoder_bits)?),
@@ -86,11 +87,11 @@ impl Connection {
                 Setup::Interface(iface.clone()),
             )
         } else {
-            return Err(
+            return Err(CliError::Usage(
                 "no bus given: use --iface IFACE for a CAN interface (e.g. --iface can0), or \
                  --sim for simulated motors"
                     .to_owned(),
-            );
+            ));
         };
         let (bus, recording) = match &args.log {
             None => (bus, None),

@@ -680,7 +680,7 @@ fn replay_skips_and_reports_bad_lines() {
 
 #[test]
 fn bus_errors_say_what_to_do() {
-    let err = fails(1, &["status", "1"]);
+    let err = fails(2, &["status", "1"]);
     assert!(err.contains("use --iface IFACE"), "{err}");
     let err = fails(1, &["scan", "--iface", "rmdnope9"]);
     assert!(
