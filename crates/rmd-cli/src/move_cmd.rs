@@ -149,6 +149,10 @@ fn position_request(args: &MoveArgs) -> Result<Request, String> {
 fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
     let id = args.id;
     let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
+    if !args.no_wait {
+        // Before the motor moves: from here Ctrl-C turns it off instead of killing us.
+        interrupt::install()?;
+    }
     let reply = bus.request(id, &request)?;
     if reply.status2().is_none() {
         return Err(CliError::Failed(format!(
@@ -163,7 +167,6 @@ fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
         println!("motor {id}: moving to {}° (mode {})", args.deg, args.mode);
         return Ok(());
     }
-    interrupt::install()?;
     let single_turn = args.mode >= 3;
     let live = std::io::stderr().is_terminal();
     let start = bus.clock().now();
