@@ -64,8 +64,9 @@ struct MotorOptions {
     /// Seed of every random draw (jitter, faults): the same seed and traffic give the same run.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// A link under gravity on every output shaft: MASS_KG,LENGTH_M[,OFFSET_DEG] (offset: the
-    /// link's angle from hanging straight down at output angle 0).
+    /// A link under gravity on every output shaft: MASS_KG,LENGTH_M or
+    /// MASS_KG,LENGTH_M,OFFSET_DEG (offset: the link's angle from hanging straight down at
+    /// output angle 0).
     #[arg(long, value_name = "KG,M[,DEG]", value_parser = parse::gravity_link)]
     gravity: Option<GravityLink>,
     /// Initial output angle of every motor, degrees.
