@@ -679,6 +679,43 @@ fn replay_skips_and_reports_bad_lines() {
 }
 
 #[test]
+fn replaying_motion_onto_a_real_interface_asks_first() {
+    let log = log_path("replay-motion");
+    std::fs::write(
+        &log,
+        "(1.000000) can0 141#A100000064000000 T\n(1.000300) can0 141#A119000000000000 R\n",
+    )
+    .unwrap();
+    let file = log.to_str().unwrap();
+    // can7: a real adapter's name; no terminal here and no --yes: refused before opening it.
+    let err = fails(1, &["replay", file, "--iface", "can7"]);
+    assert!(
+        err.contains("replaying motion commands onto can7 needs confirmation"),
+        "{err}"
+    );
+    // Confirmed, it goes on to open the interface (missing here).
+    let err = fails(1, &["replay", file, "--iface", "can7", "--yes"]);
+    assert!(err.contains("`can7` does not exist"), "{err}");
+    // Onto simulated motors no confirmation is needed, and the motor is turned off at the end.
+    let session = log_path("replay-motion-session");
+    let out = rmd(&["replay", file, "--sim", "--log", session.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    let sent: Vec<_> = stdout
+        .lines()
+        .map(|l| parse_line(l).unwrap())
+        .filter(|l| l.direction == Some(Direction::Tx))
+        .map(|l| l.frame.data()[0])
+        .collect();
+    assert_eq!(sent, [Cmd::Torque.code()]);
+    assert!(text(&out.stderr).contains("replayed 1 frame(s)"));
+    assert_eq!(
+        host_commands(&read_log(&session)),
+        [(1, Cmd::Torque), (1, Cmd::MotorOff)]
+    );
+}
+
+#[test]
 fn bus_errors_say_what_to_do() {
     let err = fails(2, &["status", "1"]);
     assert!(err.contains("use --iface IFACE"), "{err}");
