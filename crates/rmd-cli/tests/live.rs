@@ -639,25 +639,38 @@ fn a_recorded_session_decodes_and_replays() {
     let original = std::fs::read_to_string(&log).unwrap();
     assert_eq!(printed, original);
 
-    // The host's frames sent again to simulated motors, which answer them again.
-    let out = rmd(&["replay", log_arg, "--sim"]);
+    // The host's frames of a scan sent again to simulated motors, which answer them again.
+    // (One request per motor: a burst of requests to one motor, as a stalled replay would send,
+    // can overflow its three transmit mailboxes, as on a real motor.)
+    let scan = log_path("scan-session");
+    let scan_arg = scan.to_str().unwrap();
+    ok(&["scan", "--sim", "--ids", "1-4", "--log", scan_arg]);
+    let out = rmd(&["replay", scan_arg, "--sim"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let session: Vec<_> = text(&out.stdout)
         .lines()
         .map(|l| parse_line(l).unwrap())
         .collect();
-    let sent = session
+    let sent: Vec<u16> = session
         .iter()
         .filter(|l| l.direction == Some(Direction::Tx))
-        .count();
-    let replies: Vec<Reply> = session
+        .map(|l| l.frame.id())
+        .collect();
+    let replies: Vec<(u8, Reply)> = session
         .iter()
         .filter(|l| l.direction == Some(Direction::Rx))
-        .map(|l| rmd_protocol::decode_reply(&l.frame).unwrap().1)
+        .map(|l| {
+            let (motor, reply) = rmd_protocol::decode_reply(&l.frame).unwrap();
+            (motor.get(), reply)
+        })
         .collect();
-    assert_eq!(sent, 6);
-    assert_eq!(replies.len(), 6);
-    assert!(text(&out.stderr).contains("replayed 6 frame(s) onto the simulated bus"));
+    assert_eq!(sent, [0x141, 0x142, 0x143, 0x144]);
+    assert_eq!(replies.len(), 4);
+    for (i, (motor, reply)) in replies.iter().enumerate() {
+        assert_eq!(usize::from(*motor), i + 1);
+        assert_eq!(reply.command(), Cmd::ReadStatus1);
+    }
+    assert!(text(&out.stderr).contains("replayed 4 frame(s) onto the simulated bus"));
 }
 
 #[test]
