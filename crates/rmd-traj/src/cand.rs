@@ -1,0 +1,303 @@
+//! Candidate 7-phase profiles in the solver's frame, their validation with tolerances relative
+//! to the problem's scale, and small fixed-capacity collections of them.
+
+use crate::math::{abs, integrate, max};
+use crate::profile::{Direction, ProfileKind, ReachedLimits};
+
+/// Relative tolerance for the final state of a candidate (× the problem's scale).
+pub(crate) const FINAL_REL: f64 = 1e-11;
+/// Relative tolerance for limit overshoot inside a candidate (× the limit's scale).
+pub(crate) const LIMIT_REL: f64 = 1e-12;
+/// Relative tolerance for (negative) phase durations (× the profile's duration scale).
+pub(crate) const TIME_REL: f64 = 1e-12;
+
+/// One axis's problem after the brake, relative to the (post-brake) start position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Problem {
+    /// Displacement to go (`pf − p0`); unused by the velocity interface.
+    pub(crate) d: f64,
+    pub(crate) v0: f64,
+    pub(crate) a0: f64,
+    pub(crate) vf: f64,
+    pub(crate) af: f64,
+    pub(crate) v_max: f64,
+    pub(crate) v_min: f64,
+    pub(crate) a_max: f64,
+    pub(crate) a_min: f64,
+    pub(crate) j: f64,
+    /// Position interface (check position and velocity limits) or velocity interface.
+    pub(crate) position: bool,
+}
+
+impl Problem {
+    /// The same problem seen in the negative direction.
+    pub(crate) fn mirrored(&self) -> Problem {
+        Problem {
+            d: -self.d,
+            v0: -self.v0,
+            a0: -self.a0,
+            vf: -self.vf,
+            af: -self.af,
+            v_max: -self.v_min,
+            v_min: -self.v_max,
+            a_max: -self.a_min,
+            a_min: -self.a_max,
+            j: self.j,
+            position: self.position,
+        }
+    }
+
+    /// Velocity scale.
+    pub(crate) fn v_scale(&self) -> f64 {
+        let mut s = max(abs(self.v0), abs(self.vf));
+        if self.position {
+            s = max(s, max(abs(self.v_max), abs(self.v_min)));
+        }
+        s
+    }
+
+    /// Acceleration scale.
+    pub(crate) fn a_scale(&self) -> f64 {
+        max(
+            max(abs(self.a0), abs(self.af)),
+            max(abs(self.a_max), abs(self.a_min)),
+        )
+    }
+
+    /// Tolerance on the final position of a profile of duration `total`.
+    pub(crate) fn p_tol(&self, total: f64) -> f64 {
+        FINAL_REL * (abs(self.d) + self.v_scale() * total) + f64::MIN_POSITIVE
+    }
+
+    /// Is the start state already the target state?
+    pub(crate) fn at_target(&self) -> bool {
+        let vs = self.v_scale();
+        let as_ = self.a_scale();
+        (!self.position || self.d == 0.0)
+            && abs(self.vf - self.v0) <= 4.0 * f64::EPSILON * vs
+            && abs(self.af - self.a0) <= 4.0 * f64::EPSILON * as_
+    }
+}
+
+/// A 7-phase profile (jerks given) in the frame it was solved in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Cand {
+    pub(crate) t: [f64; 7],
+    pub(crate) j: [f64; 7],
+    pub(crate) total: f64,
+    pub(crate) kind: ProfileKind,
+}
+
+impl Cand {
+    /// The zero-length profile.
+    pub(crate) const ZERO: Cand = Cand {
+        t: [0.0; 7],
+        j: [0.0; 7],
+        total: 0.0,
+        kind: ProfileKind::AtTarget,
+    };
+
+    /// The same profile seen in the other direction (jerks negated).
+    pub(crate) fn mirrored(mut self) -> Cand {
+        for j in &mut self.j {
+            *j = -*j;
+        }
+        if let ProfileKind::TimeOptimal { direction, limits } = self.kind {
+            let direction = match direction {
+                Direction::Up => Direction::Down,
+                Direction::Down => Direction::Up,
+            };
+            self.kind = ProfileKind::TimeOptimal { direction, limits };
+        }
+        if let ProfileKind::FixedTimeExtremal { direction } = self.kind {
+            let direction = match direction {
+                Direction::Up => Direction::Down,
+                Direction::Down => Direction::Up,
+            };
+            self.kind = ProfileKind::FixedTimeExtremal { direction };
+        }
+        self
+    }
+
+    /// Final position, velocity, acceleration from the problem's start.
+    pub(crate) fn end(&self, pb: &Problem) -> (f64, f64, f64) {
+        let (mut p, mut v, mut a) = (0.0, pb.v0, pb.a0);
+        for i in 0..7 {
+            (p, v, a) = integrate(self.t[i], p, v, a, self.j[i]);
+        }
+        (p, v, a)
+    }
+}
+
+/// UDDU jerk pattern with jerk `j`.
+pub(crate) const fn uddu(j: f64) -> [f64; 7] {
+    [j, 0.0, -j, 0.0, -j, 0.0, j]
+}
+
+/// Validates phase times `t` with jerks `jerks` for `pb`: non-negative times (tiny negative
+/// values within tolerance are set to 0), limits respected with a relative tolerance, final
+/// velocity and acceleration reached and, if `test_position`, the final position too.
+/// Returns the total duration and the final position.
+pub(crate) fn validate(
+    pb: &Problem,
+    t: &mut [f64],
+    jerks: &[f64],
+    test_position: bool,
+) -> Option<(f64, f64)> {
+    let mut raw = 0.0;
+    for &ti in t.iter() {
+        if !ti.is_finite() {
+            return None;
+        }
+        raw += abs(ti);
+    }
+    let j_abs = abs(pb.j);
+    let as_ = pb.a_scale();
+    let t_tol = TIME_REL * (raw + if j_abs > 0.0 { as_ / j_abs } else { 0.0 });
+    let mut total = 0.0;
+    for ti in t.iter_mut() {
+        if *ti < 0.0 {
+            if *ti < -t_tol {
+                return None;
+            }
+            *ti = 0.0;
+        }
+        total += *ti;
+    }
+    if !(total <= 1e12) {
+        return None;
+    }
+    let vs = pb.v_scale();
+    // Rounding of the acceleration (~eps·a) integrates into the velocity over the duration.
+    let v_tol = LIMIT_REL * vs + 16.0 * f64::EPSILON * as_ * total;
+    let a_tol = LIMIT_REL * as_;
+    let (v_hi, v_lo) = (pb.v_max + v_tol, pb.v_min - v_tol);
+    let (a_hi, a_lo) = (pb.a_max + a_tol, pb.a_min - a_tol);
+    let (mut p, mut v, mut a) = (0.0, pb.v0, pb.a0);
+    // A start velocity outside the limits (possible after a brake that could not avoid the
+    // violation) must return into them; from the first time it is inside it must stay inside.
+    let mut below = v < v_lo;
+    let mut above = v > v_hi;
+    for (&ti, &j) in t.iter().zip(jerks.iter()) {
+        if ti == 0.0 {
+            continue;
+        }
+        let (p1, v1, a1) = integrate(ti, p, v, a, j);
+        if !(a1 <= a_hi && a1 >= a_lo) {
+            return None;
+        }
+        if pb.position {
+            // Monotone pieces: up to the velocity extremum (where a = 0), then to the end.
+            let v_ext = if j != 0.0 && (a < 0.0) != (a1 < 0.0) && a != 0.0 && a1 != 0.0 {
+                v - a * a / (2.0 * j)
+            } else {
+                v
+            };
+            for (x, y) in [(v, v_ext), (v_ext, v1)] {
+                if (!below && crate::math::min(x, y) < v_lo) || (!above && max(x, y) > v_hi) {
+                    return None;
+                }
+                below = below && y < v_lo;
+                above = above && y > v_hi;
+            }
+        }
+        (p, v, a) = (p1, v1, a1);
+    }
+    let v_end_tol = FINAL_REL * max(vs, as_ * total);
+    let a_end_tol = FINAL_REL * as_;
+    if !(abs(v - pb.vf) <= v_end_tol + f64::MIN_POSITIVE
+        && abs(a - pb.af) <= a_end_tol + f64::MIN_POSITIVE)
+    {
+        return None;
+    }
+    if test_position && pb.position && !(abs(p - pb.d) <= pb.p_tol(total)) {
+        return None;
+    }
+    if !p.is_finite() {
+        return None;
+    }
+    Some((total, p))
+}
+
+/// [`validate`] for a 7-phase candidate that must reach the target.
+pub(crate) fn check(
+    pb: &Problem,
+    mut t: [f64; 7],
+    jerks: [f64; 7],
+    kind: ProfileKind,
+) -> Option<Cand> {
+    let (total, _) = validate(pb, &mut t, &jerks, true)?;
+    Some(Cand {
+        t,
+        j: jerks,
+        total,
+        kind,
+    })
+}
+
+/// [`validate`] for a 7-phase candidate with a free final position; returns it too.
+pub(crate) fn check_free(
+    pb: &Problem,
+    mut t: [f64; 7],
+    jerks: [f64; 7],
+    kind: ProfileKind,
+) -> Option<(Cand, f64)> {
+    let (total, p) = validate(pb, &mut t, &jerks, false)?;
+    Some((
+        Cand {
+            t,
+            j: jerks,
+            total,
+            kind,
+        },
+        p,
+    ))
+}
+
+/// Limits label from which plateaus / cruise are present.
+pub(crate) fn limits_of(acc0: bool, vel: bool, acc1: bool) -> ReachedLimits {
+    match (acc0, vel, acc1) {
+        (true, true, true) => ReachedLimits::Acc0Acc1Vel,
+        (true, true, false) => ReachedLimits::Acc0Vel,
+        (false, true, true) => ReachedLimits::Acc1Vel,
+        (false, true, false) => ReachedLimits::Vel,
+        (true, false, true) => ReachedLimits::Acc0Acc1,
+        (true, false, false) => ReachedLimits::Acc0,
+        (false, false, true) => ReachedLimits::Acc1,
+        (false, false, false) => ReachedLimits::None,
+    }
+}
+
+/// Most candidates kept in step 1.
+pub(crate) const MAX_CANDS: usize = 24;
+
+/// A fixed-capacity list of candidates.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct CandList {
+    pub(crate) c: [Cand; MAX_CANDS],
+    pub(crate) n: usize,
+}
+
+impl CandList {
+    pub(crate) const fn new() -> Self {
+        CandList {
+            c: [Cand::ZERO; MAX_CANDS],
+            n: 0,
+        }
+    }
+
+    pub(crate) fn push(&mut self, c: Cand) {
+        if self.n < MAX_CANDS {
+            self.c[self.n] = c;
+            self.n += 1;
+        }
+    }
+
+    pub(crate) fn as_slice(&self) -> &[Cand] {
+        &self.c[..self.n]
+    }
+
+    pub(crate) fn as_mut_slice(&mut self) -> &mut [Cand] {
+        &mut self.c[..self.n]
+    }
+}

@@ -1,0 +1,436 @@
+//! Step 2, position interface: a profile of one axis with a prescribed duration.
+//!
+//! For a fixed duration `T` the final positions reachable with the prescribed final velocity and
+//! acceleration form an interval `[p_lo(T), p_hi(T)]`: the dynamics are linear and the limits
+//! are convex constraints, so any convex combination of two feasible jerk functions is feasible.
+//! The interval ends are attained by extremal profiles (jerk pattern +,−,+ with plateaus at the
+//! acceleration limits and a cruise at the velocity limit, maximizing the position; mirrored for
+//! the minimum) that have closed forms once `T` is fixed. So:
+//!
+//! - `T` is feasible for the axis ⇔ `p_lo(T) ≤ pf ≤ p_hi(T)` ([`feasible`]), which also
+//!   classifies the gaps between step-1 durations into blocked and free intervals;
+//! - a profile for `T` is, in order of preference: an extremal one if `pf` is on the boundary;
+//!   a member of the cruise family (fastest change to a cruise velocity `vc`, cruise, fastest
+//!   change to the target) found by a bracketed search over `vc`; otherwise the blend
+//!   `λ·j₁ + (1−λ)·j₂` of two feasible profiles whose final positions bracket `pf`.
+
+use crate::cand::{Cand, Problem, check_free, validate};
+use crate::math::{abs, max, min, sqrt};
+use crate::position1::{fall_from, rise_to};
+use crate::profile::{Direction, MAX_PHASES, ProfileKind};
+
+/// A profile with up to [`MAX_PHASES`] phases.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Pieces {
+    pub(crate) t: [f64; MAX_PHASES],
+    pub(crate) j: [f64; MAX_PHASES],
+    pub(crate) n: usize,
+    pub(crate) kind: ProfileKind,
+}
+
+impl From<Cand> for Pieces {
+    fn from(c: Cand) -> Self {
+        let mut p = Pieces {
+            t: [0.0; MAX_PHASES],
+            j: [0.0; MAX_PHASES],
+            n: 7,
+            kind: c.kind,
+        };
+        p.t[..7].copy_from_slice(&c.t);
+        p.j[..7].copy_from_slice(&c.j);
+        p
+    }
+}
+
+const EXTREMAL_UP: ProfileKind = ProfileKind::FixedTimeExtremal {
+    direction: Direction::Up,
+};
+
+/// The profile of duration `tt` ending at (vf, af) with the largest final position, in the
+/// problem's own frame ("up"), with that position.
+fn max_position(pb: &Problem, tt: f64) -> Option<(Cand, f64)> {
+    let Problem {
+        v0,
+        a0,
+        vf,
+        af,
+        v_max,
+        a_max,
+        a_min,
+        j,
+        ..
+    } = *pb;
+    if !(tt >= 0.0) || !(j > 0.0) {
+        return None;
+    }
+    let jj = [j, 0.0, -j, 0.0, -j, 0.0, j];
+    let mut best: Option<(Cand, f64)> = None;
+    let mut consider = |t: [f64; 7]| {
+        if let Some((c, p)) = check_free(pb, t, jj, EXTREMAL_UP) {
+            if abs(c.total - tt) <= 1e-12 * max(tt, 1e-300) + 1e-300 {
+                match best {
+                    Some((_, bp)) if bp >= p => {}
+                    _ => best = Some((c, p)),
+                }
+            }
+        }
+    };
+    // Cruise at v_max.
+    if v_max > 0.0 {
+        if let (Some((t0, t1, t2)), Some((t4, t5, t6))) = (
+            rise_to(v0, a0, v_max, a_max, j),
+            fall_from(v_max, vf, af, a_min, j),
+        ) {
+            let t3 = tt - (t0 + t1 + t2 + t4 + t5 + t6);
+            consider([t0, t1, t2, t3, t4, t5, t6]);
+        }
+    }
+    let dv = vf - v0;
+    // No plateau: u − w = s, u + w = K/s.
+    let s = (j * tt + a0 - af) / 2.0;
+    if s > 0.0 {
+        let k = j * dv + (a0 * a0 - af * af) / 2.0;
+        let u = (s + k / s) / 2.0;
+        let w = (k / s - s) / 2.0;
+        consider([(u - a0) / j, 0.0, (u - w) / j, 0.0, 0.0, 0.0, (af - w) / j]);
+    }
+    // Plateau at a_max.
+    if a_max > 0.0 {
+        let c = a_max * j * tt - a_max * (2.0 * a_max - a0 + af)
+            + (2.0 * a_max * a_max - a0 * a0 + af * af) / 2.0
+            - j * dv;
+        let disc = a_max * a_max + c;
+        if disc >= 0.0 {
+            let w = a_max - sqrt(disc);
+            let t1 = tt - (2.0 * a_max - a0 + af - 2.0 * w) / j;
+            consider([
+                (a_max - a0) / j,
+                t1,
+                (a_max - w) / j,
+                0.0,
+                0.0,
+                0.0,
+                (af - w) / j,
+            ]);
+        }
+    }
+    // Plateau at a_min.
+    if a_min < 0.0 {
+        let e = a_min * j * tt + a_min * (a0 + 2.0 * a_min - af)
+            - (a0 * a0 + 2.0 * a_min * a_min - af * af) / 2.0
+            - j * dv;
+        let disc = a_min * a_min - e;
+        if disc >= 0.0 {
+            let u = a_min + sqrt(disc);
+            let t5 = tt - (2.0 * u - a0 - 2.0 * a_min + af) / j;
+            consider([
+                (u - a0) / j,
+                0.0,
+                (u - a_min) / j,
+                0.0,
+                0.0,
+                t5,
+                (af - a_min) / j,
+            ]);
+        }
+    }
+    // Both plateaus.
+    if a_max > 0.0 && a_min < 0.0 {
+        let sum = tt - ((a_max - a0) + (a_max - a_min) + (af - a_min)) / j;
+        let r = dv - (2.0 * a_max * a_max - 2.0 * a_min * a_min + af * af - a0 * a0) / (2.0 * j);
+        let t1 = (r - a_min * sum) / (a_max - a_min);
+        let t5 = sum - t1;
+        consider([
+            (a_max - a0) / j,
+            t1,
+            (a_max - a_min) / j,
+            0.0,
+            0.0,
+            t5,
+            (af - a_min) / j,
+        ]);
+    }
+    best
+}
+
+/// The profiles of duration `tt` with the smallest and the largest final position.
+fn extremes(pb: &Problem, tt: f64) -> Option<((Cand, f64), (Cand, f64))> {
+    let hi = max_position(pb, tt)?;
+    let (lo, p_lo) = max_position(&pb.mirrored(), tt)?;
+    Some(((lo.mirrored(), -p_lo), hi))
+}
+
+/// Can the axis reach its target in exactly `tt`?
+pub(crate) fn feasible(pb: &Problem, tt: f64) -> bool {
+    match extremes(pb, tt) {
+        Some(((_, lo), (_, hi))) => {
+            let tol = pb.p_tol(tt);
+            pb.d >= lo - tol && pb.d <= hi + tol
+        }
+        None => false,
+    }
+}
+
+/// The cruise-family profile with cruise velocity `vc` and duration `tt`, with its final position.
+fn cruise_at(pb: &Problem, tt: f64, vc: f64) -> Option<(Cand, f64)> {
+    let Problem {
+        v0,
+        a0,
+        vf,
+        af,
+        a_max,
+        a_min,
+        j,
+        ..
+    } = *pb;
+    let v0_star = v0 + a0 * abs(a0) / (2.0 * j);
+    let (l, jl) = if vc >= v0_star {
+        (rise_to(v0, a0, vc, a_max, j)?, j)
+    } else {
+        (rise_to(-v0, -a0, -vc, -a_min, j)?, -j)
+    };
+    let vf_star = vf - af * abs(af) / (2.0 * j);
+    let (r, jr) = if vc >= vf_star {
+        (fall_from(vc, vf, af, a_min, j)?, -j)
+    } else {
+        (fall_from(-vc, -vf, -af, -a_max, j)?, j)
+    };
+    let t3 = tt - (l.0 + l.1 + l.2 + r.0 + r.1 + r.2);
+    let t = [l.0, l.1, l.2, t3, r.0, r.1, r.2];
+    let jerks = [jl, 0.0, -jl, 0.0, jr, 0.0, -jr];
+    check_free(pb, t, jerks, ProfileKind::Cruise)
+}
+
+/// A profile of duration `tt` for the axis, or `None` if `tt` is infeasible.
+pub(crate) fn fixed_time(pb: &Problem, tt: f64) -> Option<Pieces> {
+    let ((c_lo, p_lo), (c_hi, p_hi)) = extremes(pb, tt)?;
+    let tol = pb.p_tol(tt);
+    let d = pb.d;
+    if d > p_hi + tol || d < p_lo - tol {
+        return None;
+    }
+    if abs(d - p_hi) <= tol {
+        return Some(c_hi.into());
+    }
+    if abs(d - p_lo) <= tol {
+        return Some(c_lo.into());
+    }
+    // Bracket: best known feasible profiles below and above the target position.
+    let mut below = (c_lo, p_lo);
+    let mut above = (c_hi, p_hi);
+    if let Some(found) = cruise_search(pb, tt, tol, &mut below, &mut above) {
+        return Some(found.into());
+    }
+    blend(pb, &below, &above, tt)
+}
+
+/// Searches the cruise family for a profile ending at the target; updates the bracket with
+/// every feasible member seen.
+fn cruise_search(
+    pb: &Problem,
+    tt: f64,
+    tol: f64,
+    below: &mut (Cand, f64),
+    above: &mut (Cand, f64),
+) -> Option<Cand> {
+    let (lo_v, hi_v) = (pb.v_min, pb.v_max);
+    if !(lo_v <= hi_v) {
+        return None;
+    }
+    let j = pb.j;
+    let mut breaks = [0.0; 5];
+    let mut nb = 0;
+    for v in [
+        lo_v,
+        hi_v,
+        pb.v0 + pb.a0 * abs(pb.a0) / (2.0 * j),
+        pb.vf - pb.af * abs(pb.af) / (2.0 * j),
+        0.0,
+    ] {
+        let v = min(max(v, lo_v), hi_v);
+        if v.is_finite() {
+            breaks[nb] = v;
+            nb += 1;
+        }
+    }
+    sort(&mut breaks[..nb]);
+    const SUB: usize = 4;
+    let mut pts = [0.0; 5 * SUB + 1];
+    let mut np = 0;
+    for k in 0..nb {
+        if k > 0 && breaks[k] <= breaks[k - 1] {
+            continue;
+        }
+        if k > 0 {
+            let (a, b) = (pts[np - 1], breaks[k]);
+            for s in 1..SUB {
+                pts[np] = a + (b - a) * s as f64 / SUB as f64;
+                np += 1;
+            }
+        }
+        pts[np] = breaks[k];
+        np += 1;
+    }
+    let d = pb.d;
+    let mut prev: Option<(f64, Cand, f64)> = None;
+    for &vc in &pts[..np] {
+        let cur = cruise_at(pb, tt, vc);
+        if let Some((c, p)) = cur {
+            if abs(p - d) <= tol {
+                return Some(c);
+            }
+            note(below, above, (c, p), d);
+            if let Some((v_prev, c_prev, p_prev)) = prev {
+                if (p_prev < d) != (p < d) {
+                    if let Some(found) = refine(
+                        pb,
+                        tt,
+                        tol,
+                        (v_prev, c_prev, p_prev),
+                        (vc, c, p),
+                        below,
+                        above,
+                    ) {
+                        return Some(found);
+                    }
+                }
+            }
+            prev = Some((vc, c, p));
+        } else {
+            prev = None;
+        }
+    }
+    None
+}
+
+/// Keeps the tightest bracket around the target position.
+fn note(below: &mut (Cand, f64), above: &mut (Cand, f64), x: (Cand, f64), d: f64) {
+    if x.1 <= d && x.1 > below.1 {
+        *below = x;
+    }
+    if x.1 >= d && x.1 < above.1 {
+        *above = x;
+    }
+}
+
+/// Regula falsi (Illinois) on the cruise velocity between two feasible members whose final
+/// positions bracket the target.
+fn refine(
+    pb: &Problem,
+    tt: f64,
+    tol: f64,
+    a: (f64, Cand, f64),
+    b: (f64, Cand, f64),
+    below: &mut (Cand, f64),
+    above: &mut (Cand, f64),
+) -> Option<Cand> {
+    let d = pb.d;
+    let (mut va, mut fa) = (a.0, a.2 - d);
+    let (mut vb, mut fb) = (b.0, b.2 - d);
+    let mut side = 0i32;
+    for _ in 0..80 {
+        let mut vc = (va * fb - vb * fa) / (fb - fa);
+        if !(vc > min(va, vb) && vc < max(va, vb)) {
+            vc = 0.5 * (va + vb);
+        }
+        let (c, p) = cruise_at(pb, tt, vc)?;
+        note(below, above, (c, p), d);
+        let f = p - d;
+        if abs(f) <= tol {
+            return Some(c);
+        }
+        if (f < 0.0) == (fa < 0.0) {
+            va = vc;
+            fa = f;
+            if side == -1 {
+                fb /= 2.0;
+            }
+            side = -1;
+        } else {
+            vb = vc;
+            fb = f;
+            if side == 1 {
+                fa /= 2.0;
+            }
+            side = 1;
+        }
+        if abs(vb - va) <= 4.0 * f64::EPSILON * max(abs(va), abs(vb)) {
+            break;
+        }
+    }
+    None
+}
+
+fn sort(x: &mut [f64]) {
+    for i in 1..x.len() {
+        let mut k = i;
+        while k > 0 && x[k - 1] > x[k] {
+            x.swap(k - 1, k);
+            k -= 1;
+        }
+    }
+}
+
+/// Jerk of a 7-phase candidate at time `t` inside it.
+fn jerk_at(c: &Cand, t: f64) -> f64 {
+    let mut acc = 0.0;
+    for i in 0..7 {
+        acc += c.t[i];
+        if t < acc {
+            return c.j[i];
+        }
+    }
+    c.j[6]
+}
+
+/// `λ·a + (1−λ)·b` with λ chosen so that the final position is the target.
+fn blend(pb: &Problem, a: &(Cand, f64), b: &(Cand, f64), tt: f64) -> Option<Pieces> {
+    let (ca, pa) = a;
+    let (cb, p_b) = b;
+    let span = p_b - pa;
+    if !(span > 0.0) {
+        return None;
+    }
+    let lam_b = (pb.d - pa) / span;
+    let lam_a = 1.0 - lam_b;
+    let mut xs = [0.0; 14];
+    let mut n = 0;
+    let mut acc_a = 0.0;
+    let mut acc_b = 0.0;
+    for i in 0..6 {
+        acc_a += ca.t[i];
+        acc_b += cb.t[i];
+        for x in [acc_a, acc_b] {
+            if x > 0.0 && x < tt {
+                xs[n] = x;
+                n += 1;
+            }
+        }
+    }
+    sort(&mut xs[..n]);
+    let mut out = Pieces {
+        t: [0.0; MAX_PHASES],
+        j: [0.0; MAX_PHASES],
+        n: 0,
+        kind: ProfileKind::Blend,
+    };
+    let mut prev = 0.0;
+    for k in 0..=n {
+        let x = if k < n { xs[k] } else { tt };
+        if x > prev {
+            let mid = 0.5 * (prev + x);
+            if out.n < MAX_PHASES {
+                out.t[out.n] = x - prev;
+                out.j[out.n] = lam_a * jerk_at(ca, mid) + lam_b * jerk_at(cb, mid);
+                out.n += 1;
+            }
+            prev = x;
+        }
+    }
+    let n = out.n;
+    let (total, _) = validate(pb, &mut out.t[..n], &out.j[..n], true)?;
+    if abs(total - tt) > 1e-12 * tt {
+        return None;
+    }
+    Some(out)
+}
