@@ -5,7 +5,7 @@ use crate::brake::{Brake, position_brake, velocity_brake_for_velocity_interface}
 use crate::cand::{Cand, CandList, Problem, validate};
 use crate::error::TrajectoryError;
 use crate::input::{AxisInput, ControlInterface, DurationDiscretization, Options, Synchronization};
-use crate::math::{abs, fmod, integrate, max};
+use crate::math::{abs, fmod, integrate_phase, max};
 use crate::position2::Pieces;
 use crate::profile::{AxisProfile, MAX_PHASES, Phase, ProfileKind};
 use crate::{position1, position2, velocity};
@@ -74,7 +74,7 @@ pub(crate) fn plan_axis(
     let (mut p, mut v, mut a) = (ax.p0, ax.v0, ax.a0);
     let mut brake_t = 0.0;
     for ph in &brake {
-        (p, v, a) = integrate(ph.duration, p, v, a, ph.jerk);
+        (p, v, a) = integrate_phase(ph.duration, p, v, a, ph.jerk);
         brake_t += ph.duration;
     }
     let pb = Problem {

@@ -1,7 +1,7 @@
 //! Candidate 7-phase profiles in the solver's frame, their validation with tolerances relative
 //! to the problem's scale, and small fixed-capacity collections of them.
 
-use crate::math::{abs, integrate, max};
+use crate::math::{abs, integrate_phase, max};
 use crate::profile::{Direction, ProfileKind, ReachedLimits};
 
 /// Relative tolerance for the final state of a candidate (× the problem's scale).
@@ -123,7 +123,7 @@ impl Cand {
     pub(crate) fn end(&self, pb: &Problem) -> (f64, f64, f64) {
         let (mut p, mut v, mut a) = (0.0, pb.v0, pb.a0);
         for i in 0..7 {
-            (p, v, a) = integrate(self.t[i], p, v, a, self.j[i]);
+            (p, v, a) = integrate_phase(self.t[i], p, v, a, self.j[i]);
         }
         (p, v, a)
     }
@@ -176,13 +176,15 @@ pub(crate) fn validate(
     let (mut p, mut v, mut a) = (0.0, pb.v0, pb.a0);
     // A start velocity outside the limits (possible after a brake that could not avoid the
     // violation) must return into them; from the first time it is inside it must stay inside.
+    let mut a_area = 0.0;
     let mut below = v < v_lo;
     let mut above = v > v_hi;
     for (&ti, &j) in t.iter().zip(jerks.iter()) {
         if ti == 0.0 {
             continue;
         }
-        let (p1, v1, a1) = integrate(ti, p, v, a, j);
+        let (p1, v1, a1) = integrate_phase(ti, p, v, a, j);
+        a_area += 0.5 * (abs(a) + abs(a1)) * ti;
         if !(a1 <= a_hi && a1 >= a_lo) {
             return None;
         }
@@ -203,7 +205,8 @@ pub(crate) fn validate(
         }
         (p, v, a) = (p1, v1, a1);
     }
-    let v_end_tol = FINAL_REL * max(vs, as_ * total);
+    // Velocity rounding scales with the velocity and the integrated |acceleration|.
+    let v_end_tol = FINAL_REL * max(vs, a_area);
     let a_end_tol = FINAL_REL * as_;
     if !(abs(v - pb.vf) <= v_end_tol + f64::MIN_POSITIVE
         && abs(a - pb.af) <= a_end_tol + f64::MIN_POSITIVE)

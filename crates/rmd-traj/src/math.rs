@@ -56,3 +56,16 @@ pub(crate) fn integrate(t: f64, p: f64, v: f64, a: f64, j: f64) -> (f64, f64, f6
         a + t * j,
     )
 }
+
+/// [`integrate`] for a whole phase of a profile: an end acceleration that is zero up to the
+/// rounding of `a + t·j` is set to exactly zero, so that a following cruise does not drift
+/// (`a − j·(a/j)` is rarely exactly 0 in floating point, and a residual of 1e-12 integrates to
+/// visible errors over a cruise of thousands of seconds).
+#[inline]
+pub(crate) fn integrate_phase(t: f64, p: f64, v: f64, a: f64, j: f64) -> (f64, f64, f64) {
+    let (p1, v1, mut a1) = integrate(t, p, v, a, j);
+    if j != 0.0 && abs(a1) <= 8.0 * EPS * max(abs(a), abs(t * j)) {
+        a1 = 0.0;
+    }
+    (p1, v1, a1)
+}

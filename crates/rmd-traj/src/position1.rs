@@ -157,12 +157,12 @@ fn cruise(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     let mut t = [t0, t1, t2, 0.0, t4, t5, t6];
     let (mut p, mut v, mut a) = (0.0, pb.v0, pb.a0);
     for i in 0..3 {
-        (p, v, a) = crate::math::integrate(t[i], p, v, a, jj[i]);
+        (p, v, a) = crate::math::integrate_phase(t[i], p, v, a, jj[i]);
     }
     let _ = (v, a);
     let (mut q, mut w, mut b) = (0.0, pb.v_max, 0.0);
     for i in 4..7 {
-        (q, w, b) = crate::math::integrate(t[i], q, w, b, jj[i]);
+        (q, w, b) = crate::math::integrate_phase(t[i], q, w, b, jj[i]);
     }
     let _ = (w, b);
     t[3] = (pb.d - p - q) / pb.v_max;
@@ -258,7 +258,7 @@ pub(crate) fn polish(
         let t = phases(x);
         let (mut p, mut v, mut a) = (0.0, pb.v0, pb.a0);
         for i in 0..7 {
-            (p, v, a) = crate::math::integrate(t[i], p, v, a, jerks[i]);
+            (p, v, a) = crate::math::integrate_phase(t[i], p, v, a, jerks[i]);
         }
         let _ = (v, a);
         p - pb.d

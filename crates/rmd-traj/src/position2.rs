@@ -101,7 +101,8 @@ fn max_position(pb: &Problem, tt: f64) -> Option<(Cand, f64)> {
             - j * dv;
         let disc = a_max * a_max + c;
         if disc >= 0.0 {
-            let w = a_max - sqrt(disc);
+            // a_max − √(a_max² + c) without cancellation.
+            let w = -c / (a_max + sqrt(disc));
             let t1 = tt - (2.0 * a_max - a0 + af - 2.0 * w) / j;
             consider([
                 (a_max - a0) / j,
@@ -121,7 +122,8 @@ fn max_position(pb: &Problem, tt: f64) -> Option<(Cand, f64)> {
             - j * dv;
         let disc = a_min * a_min - e;
         if disc >= 0.0 {
-            let u = a_min + sqrt(disc);
+            // a_min + √(a_min² − e) without cancellation.
+            let u = -e / (sqrt(disc) - a_min);
             let t5 = tt - (2.0 * u - a0 - 2.0 * a_min + af) / j;
             consider([
                 (u - a0) / j,
@@ -171,8 +173,11 @@ pub(crate) fn feasible(pb: &Problem, tt: f64) -> bool {
     }
 }
 
-/// The cruise-family profile with cruise velocity `vc` and duration `tt`, with its final position.
-fn cruise_at(pb: &Problem, tt: f64, vc: f64) -> Option<(Cand, f64)> {
+/// The two velocity changes of the cruise family for cruise velocity `vc`: phases and jerk sign
+/// of the change from the start to (vc, 0) and of the change from (vc, 0) to the target.
+type Halves = ((f64, f64, f64), f64, (f64, f64, f64), f64);
+
+fn halves(pb: &Problem, vc: f64) -> Option<Halves> {
     let Problem {
         v0,
         a0,
@@ -195,10 +200,39 @@ fn cruise_at(pb: &Problem, tt: f64, vc: f64) -> Option<(Cand, f64)> {
     } else {
         (fall_from(-vc, -vf, -af, -a_max, j)?, j)
     };
-    let t3 = tt - (l.0 + l.1 + l.2 + r.0 + r.1 + r.2);
+    Some((l, jl, r, jr))
+}
+
+/// Duration of the two velocity changes (the cruise takes the rest).
+fn changes_duration(h: &Halves) -> f64 {
+    let (l, _, r, _) = h;
+    l.0 + l.1 + l.2 + r.0 + r.1 + r.2
+}
+
+/// The cruise-family profile with cruise velocity `vc` and duration `tt`, with its final position.
+fn cruise_at(pb: &Problem, tt: f64, vc: f64) -> Option<(Cand, f64)> {
+    let h = halves(pb, vc)?;
+    let (l, jl, r, jr) = h;
+    let t3 = tt - changes_duration(&h);
     let t = [l.0, l.1, l.2, t3, r.0, r.1, r.2];
     let jerks = [jl, 0.0, -jl, 0.0, jr, 0.0, -jr];
     check_free(pb, t, jerks, ProfileKind::Cruise)
+}
+
+/// Between a cruise velocity whose changes fit into `tt` and one whose changes do not, the
+/// velocity where they just fit (no cruise), by bisection.
+fn fit_boundary(pb: &Problem, tt: f64, mut v_in: f64, mut v_out: f64) -> f64 {
+    for _ in 0..64 {
+        let mid = 0.5 * (v_in + v_out);
+        if mid == v_in || mid == v_out {
+            break;
+        }
+        match halves(pb, mid) {
+            Some(h) if changes_duration(&h) <= tt => v_in = mid,
+            _ => v_out = mid,
+        }
+    }
+    v_in
 }
 
 /// A profile of duration `tt` for the axis, or `None` if `tt` is infeasible.
@@ -272,10 +306,37 @@ fn cruise_search(
         np += 1;
     }
     let d = pb.d;
+    // Walk the samples in order of vc; where the family's feasibility changes between two
+    // samples, insert the boundary member (changes just fit, no cruise): that is where the family
+    // meets the extremal profiles.
     let mut prev: Option<(f64, Cand, f64)> = None;
+    let mut prev_v: Option<f64> = None;
+    let mut fits_prev = false;
     for &vc in &pts[..np] {
-        let cur = cruise_at(pb, tt, vc);
-        if let Some((c, p)) = cur {
+        let fits = matches!(halves(pb, vc), Some(h) if changes_duration(&h) <= tt);
+        let mut members = [None, None];
+        if let Some(pv) = prev_v {
+            if fits != fits_prev {
+                let vb = if fits_prev {
+                    fit_boundary(pb, tt, pv, vc)
+                } else {
+                    fit_boundary(pb, tt, vc, pv)
+                };
+                members[0] = cruise_at(pb, tt, vb).map(|(c, p)| (vb, c, p));
+                if fits_prev {
+                    // Leaving the feasible part: the boundary ends the current run.
+                } else {
+                    prev = None;
+                }
+            }
+        }
+        members[1] = if fits {
+            cruise_at(pb, tt, vc).map(|(c, p)| (vc, c, p))
+        } else {
+            None
+        };
+        for m in members.into_iter().flatten() {
+            let (v, c, p) = m;
             if abs(p - d) <= tol {
                 return Some(c);
             }
@@ -287,7 +348,7 @@ fn cruise_search(
                         tt,
                         tol,
                         (v_prev, c_prev, p_prev),
-                        (vc, c, p),
+                        (v, c, p),
                         below,
                         above,
                     ) {
@@ -295,10 +356,13 @@ fn cruise_search(
                     }
                 }
             }
-            prev = Some((vc, c, p));
-        } else {
+            prev = Some(m);
+        }
+        if !fits {
             prev = None;
         }
+        prev_v = Some(vc);
+        fits_prev = fits;
     }
     None
 }
@@ -371,19 +435,9 @@ fn sort(x: &mut [f64]) {
     }
 }
 
-/// Jerk of a 7-phase candidate at time `t` inside it.
-fn jerk_at(c: &Cand, t: f64) -> f64 {
-    let mut acc = 0.0;
-    for i in 0..7 {
-        acc += c.t[i];
-        if t < acc {
-            return c.j[i];
-        }
-    }
-    c.j[6]
-}
-
-/// `λ·a + (1−λ)·b` with λ chosen so that the final position is the target.
+/// `λ·a + (1−λ)·b` with λ chosen so that the final position is the target. The pieces are
+/// merged from the two phase lists with local remaining times (not cumulative sums, whose
+/// rounding would perturb short phases late in a long profile).
 fn blend(pb: &Problem, a: &(Cand, f64), b: &(Cand, f64), tt: f64) -> Option<Pieces> {
     let (ca, pa) = a;
     let (cb, p_b) = b;
@@ -393,38 +447,47 @@ fn blend(pb: &Problem, a: &(Cand, f64), b: &(Cand, f64), tt: f64) -> Option<Piec
     }
     let lam_b = (pb.d - pa) / span;
     let lam_a = 1.0 - lam_b;
-    let mut xs = [0.0; 14];
-    let mut n = 0;
-    let mut acc_a = 0.0;
-    let mut acc_b = 0.0;
-    for i in 0..6 {
-        acc_a += ca.t[i];
-        acc_b += cb.t[i];
-        for x in [acc_a, acc_b] {
-            if x > 0.0 && x < tt {
-                xs[n] = x;
-                n += 1;
-            }
-        }
-    }
-    sort(&mut xs[..n]);
     let mut out = Pieces {
         t: [0.0; MAX_PHASES],
         j: [0.0; MAX_PHASES],
         n: 0,
         kind: ProfileKind::Blend,
     };
-    let mut prev = 0.0;
-    for k in 0..=n {
-        let x = if k < n { xs[k] } else { tt };
-        if x > prev {
-            let mid = 0.5 * (prev + x);
-            if out.n < MAX_PHASES {
-                out.t[out.n] = x - prev;
-                out.j[out.n] = lam_a * jerk_at(ca, mid) + lam_b * jerk_at(cb, mid);
-                out.n += 1;
-            }
-            prev = x;
+    let (mut ia, mut ib) = (0usize, 0usize);
+    let (mut ra, mut rb) = (ca.t[0], cb.t[0]);
+    loop {
+        while ia < 7 && ra <= 0.0 {
+            ia += 1;
+            ra = if ia < 7 { ca.t[ia] } else { 0.0 };
+        }
+        while ib < 7 && rb <= 0.0 {
+            ib += 1;
+            rb = if ib < 7 { cb.t[ib] } else { 0.0 };
+        }
+        if ia >= 7 && ib >= 7 {
+            break;
+        }
+        // One profile may end a rounding error earlier: continue the other one alone.
+        let (dt, ja, jb) = match (ia < 7, ib < 7) {
+            (true, true) => (min(ra, rb), ca.j[ia], cb.j[ib]),
+            (true, false) => (ra, ca.j[ia], 0.0),
+            _ => (rb, 0.0, cb.j[ib]),
+        };
+        if out.n >= MAX_PHASES {
+            return None;
+        }
+        out.t[out.n] = dt;
+        out.j[out.n] = lam_a * ja + lam_b * jb;
+        out.n += 1;
+        if dt == ra {
+            ra = 0.0;
+        } else {
+            ra -= dt;
+        }
+        if dt == rb {
+            rb = 0.0;
+        } else {
+            rb -= dt;
         }
     }
     let n = out.n;

@@ -1,6 +1,6 @@
 //! One axis's trajectory: an optional brake pre-trajectory followed by constant-jerk phases.
 
-use crate::math::integrate;
+use crate::math::{integrate, integrate_phase};
 
 /// Most phases of a profile after the brake: 7 for time-optimal and cruise profiles, up to 13
 /// for a blend of two 7-phase profiles (see [`ProfileKind::Blend`]).
@@ -149,7 +149,7 @@ impl AxisProfile {
             }
             out.t[n] = ph.duration;
             out.j[n] = ph.jerk;
-            (p, v, a) = integrate(ph.duration, p, v, a, ph.jerk);
+            (p, v, a) = integrate_phase(ph.duration, p, v, a, ph.jerk);
             time += ph.duration;
             n += 1;
             out.t0[n] = time;

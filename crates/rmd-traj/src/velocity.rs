@@ -143,7 +143,13 @@ fn plateau_up(pb: &Problem, tt: f64) -> Option<Cand> {
     if disc < 0.0 {
         return None;
     }
-    let u = (b - sqrt(disc)) / 2.0;
+    // Smaller root of u² − b·u + c = 0, without cancellation.
+    let c = (a0 * a0 + af * af) / 2.0 + j * (vf - v0);
+    let u = if b > 0.0 {
+        2.0 * c / (b + sqrt(disc))
+    } else {
+        (b - sqrt(disc)) / 2.0
+    };
     let h = tt - (2.0 * u - a0 - af) / j;
     let t = [(u - a0) / j, h, (u - af) / j, 0.0, 0.0, 0.0, 0.0];
     check(
