@@ -5,7 +5,7 @@ use crate::brake::{Brake, position_brake, velocity_brake_for_velocity_interface}
 use crate::cand::{Cand, CandList, Problem, validate};
 use crate::error::TrajectoryError;
 use crate::input::{AxisInput, ControlInterface, DurationDiscretization, Options, Synchronization};
-use crate::math::{abs, fmod, integrate_phase, max};
+use crate::math::{Integrator, abs, fmod, max, snap_scale};
 use crate::position2::Pieces;
 use crate::profile::{AxisProfile, MAX_PHASES, Phase, ProfileKind};
 use crate::{position1, position2, velocity};
@@ -41,6 +41,7 @@ impl AxisPlan {
             a_min: 0.0,
             j: 0.0,
             position: true,
+            a_snap: 0.0,
         },
         block: Block::EMPTY,
     };
@@ -71,12 +72,14 @@ pub(crate) fn plan_axis(
     } else {
         velocity_brake_for_velocity_interface(ax.a0, ax.a_max, ax.a_min, ax.j_max)
     };
-    let (mut p, mut v, mut a) = (ax.p0, ax.v0, ax.a0);
+    let a_snap = snap_scale(ax.a0, ax.af, ax.a_max, ax.a_min);
+    let mut it = Integrator::new(ax.p0, ax.v0, ax.a0, a_snap);
     let mut brake_t = 0.0;
     for ph in &brake {
-        (p, v, a) = integrate_phase(ph.duration, p, v, a, ph.jerk);
+        it.step(ph.duration, ph.jerk);
         brake_t += ph.duration;
     }
+    let (p, v, a) = it.state();
     let pb = Problem {
         d: if position { ax.pf - p } else { 0.0 },
         v0: v,
@@ -93,6 +96,7 @@ pub(crate) fn plan_axis(
         a_min: ax.a_min,
         j: ax.j_max,
         position,
+        a_snap,
     };
     let rest = abs(ax.vf) < f64::EPSILON && abs(ax.af) < f64::EPSILON;
     let mut cands = CandList::new();
@@ -250,7 +254,7 @@ fn phase_synchronize(
         }
         let n = p.n;
         match validate(&pl.pb, &mut p.t[..n], &p.j[..n], true) {
-            Some((total, _)) if abs(total - t_profile) <= 1e-12 * max(duration, 1e-300) => {
+            Some(c) if abs(c.total - t_profile) <= 1e-12 * max(duration, 1e-300) => {
                 p.kind = ProfileKind::PhaseSynchronized;
                 out[i] = Some(p);
             }
@@ -369,12 +373,14 @@ pub(crate) fn calculate(
         } else {
             None
         };
+        let a_snap = snap_scale(ax.a0, ax.af, ax.a_max, ax.a_min);
         let mut prof = AxisProfile::build(
             (ax.p0, ax.v0, ax.a0),
             &pl.brake,
             &phases[..pieces.n],
             end,
             pieces.kind,
+            a_snap,
         );
         if !pl.pb.position {
             prof = prof.with_end_velocity(ax.vf, ax.af);

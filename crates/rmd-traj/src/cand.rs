@@ -1,10 +1,10 @@
 //! Candidate 7-phase profiles in the solver's frame, their validation with tolerances relative
 //! to the problem's scale, and small fixed-capacity collections of them.
 
-use crate::math::{abs, integrate_phase, max};
+use crate::math::{Integrator, abs, max};
 use crate::profile::{Direction, ProfileKind, ReachedLimits};
 
-/// Relative tolerance for the final state of a candidate (× the problem's scale).
+/// Relative floor of the final-state tolerances (× the magnitudes summed to get them).
 pub(crate) const FINAL_REL: f64 = 1e-11;
 /// Relative tolerance for limit overshoot inside a candidate (× the limit's scale).
 pub(crate) const LIMIT_REL: f64 = 1e-12;
@@ -27,6 +27,8 @@ pub(crate) struct Problem {
     pub(crate) j: f64,
     /// Position interface (check position and velocity limits) or velocity interface.
     pub(crate) position: bool,
+    /// Acceleration scale of the zero-acceleration convention of [`Integrator`].
+    pub(crate) a_snap: f64,
 }
 
 impl Problem {
@@ -44,6 +46,7 @@ impl Problem {
             a_min: -self.a_max,
             j: self.j,
             position: self.position,
+            a_snap: self.a_snap,
         }
     }
 
@@ -64,11 +67,6 @@ impl Problem {
         )
     }
 
-    /// Tolerance on the final position of a profile of duration `total`.
-    pub(crate) fn p_tol(&self, total: f64) -> f64 {
-        FINAL_REL * (abs(self.d) + self.v_scale() * total) + f64::MIN_POSITIVE
-    }
-
     /// Is the start state already the target state?
     pub(crate) fn at_target(&self) -> bool {
         let vs = self.v_scale();
@@ -85,6 +83,8 @@ pub(crate) struct Cand {
     pub(crate) t: [f64; 7],
     pub(crate) j: [f64; 7],
     pub(crate) total: f64,
+    /// Tolerance of the final position (propagated rounding bound).
+    pub(crate) p_tol: f64,
     pub(crate) kind: ProfileKind,
 }
 
@@ -94,6 +94,7 @@ impl Cand {
         t: [0.0; 7],
         j: [0.0; 7],
         total: 0.0,
+        p_tol: 0.0,
         kind: ProfileKind::AtTarget,
     };
 
@@ -121,11 +122,11 @@ impl Cand {
 
     /// Final position, velocity, acceleration from the problem's start.
     pub(crate) fn end(&self, pb: &Problem) -> (f64, f64, f64) {
-        let (mut p, mut v, mut a) = (0.0, pb.v0, pb.a0);
+        let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
         for i in 0..7 {
-            (p, v, a) = integrate_phase(self.t[i], p, v, a, self.j[i]);
+            it.step(self.t[i], self.j[i]);
         }
-        (p, v, a)
+        it.state()
     }
 }
 
@@ -134,16 +135,39 @@ pub(crate) const fn uddu(j: f64) -> [f64; 7] {
     [j, 0.0, -j, 0.0, -j, 0.0, j]
 }
 
+/// Safety factor on the propagated rounding-error bound when judging a computed final state:
+/// the candidates come from polished roots and closed forms whose residual is a few roundings.
+pub(crate) const ROUND_K: f64 = 1024.0;
+
+/// What [`validate`] found.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Checked {
+    /// Total duration.
+    pub(crate) total: f64,
+    /// Final position (relative to the start).
+    pub(crate) p: f64,
+    /// Tolerance of the final position: the larger of the propagated rounding bound
+    /// (× [`ROUND_K`]) and [`FINAL_REL`] × the path length (∫|v| dt).
+    pub(crate) p_tol: f64,
+}
+
 /// Validates phase times `t` with jerks `jerks` for `pb`: non-negative times (tiny negative
-/// values within tolerance are set to 0), limits respected with a relative tolerance, final
-/// velocity and acceleration reached and, if `test_position`, the final position too.
-/// Returns the total duration and the final position.
+/// values within tolerance are set to 0), limits respected, final velocity and acceleration
+/// reached and, if `test_position`, the final position too.
+///
+/// Tolerances follow the scale of the problem instead of fixed epsilons: the larger of a
+/// forward bound of the integration's rounding errors (errors of p, v, a carried through every
+/// phase, × [`ROUND_K`]) and [`FINAL_REL`] × the magnitudes summed (path length ∫|v| dt for the
+/// position, ∫|a| dt for the velocity). So a long cruise after a fast ramp, a huge velocity
+/// swing after a brake, or a microscopic distance each get the tolerance their arithmetic
+/// warrants.
 pub(crate) fn validate(
     pb: &Problem,
     t: &mut [f64],
     jerks: &[f64],
     test_position: bool,
-) -> Option<(f64, f64)> {
+) -> Option<Checked> {
+    const E: f64 = f64::EPSILON;
     let mut raw = 0.0;
     for &ti in t.iter() {
         if !ti.is_finite() {
@@ -153,6 +177,7 @@ pub(crate) fn validate(
     }
     let j_abs = abs(pb.j);
     let as_ = pb.a_scale();
+    let vs = pb.v_scale();
     let t_tol = TIME_REL * (raw + if j_abs > 0.0 { as_ / j_abs } else { 0.0 });
     let mut total = 0.0;
     for ti in t.iter_mut() {
@@ -167,34 +192,55 @@ pub(crate) fn validate(
     if !(total <= 1e12) {
         return None;
     }
-    let vs = pb.v_scale();
-    // Rounding of the acceleration (~eps·a) integrates into the velocity over the duration.
-    let v_tol = LIMIT_REL * vs + 16.0 * f64::EPSILON * as_ * total;
-    let a_tol = LIMIT_REL * as_;
-    let (v_hi, v_lo) = (pb.v_max + v_tol, pb.v_min - v_tol);
-    let (a_hi, a_lo) = (pb.a_max + a_tol, pb.a_min - a_tol);
-    let (mut p, mut v, mut a) = (0.0, pb.v0, pb.a0);
+    let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
+    let (mut p, mut v, mut a) = it.state();
+    let (mut ep, mut ev, mut ea) = (0.0, E * abs(v), E * abs(a));
     // A start velocity outside the limits (possible after a brake that could not avoid the
     // violation) must return into them; from the first time it is inside it must stay inside.
-    let mut a_area = 0.0;
-    let mut below = v < v_lo;
-    let mut above = v > v_hi;
+    let (mut path, mut a_area) = (0.0, 0.0);
+    let mut below = v < pb.v_min - LIMIT_REL * vs;
+    let mut above = v > pb.v_max + LIMIT_REL * vs;
     for (&ti, &j) in t.iter().zip(jerks.iter()) {
         if ti == 0.0 {
             continue;
         }
-        let (p1, v1, a1) = integrate_phase(ti, p, v, a, j);
-        a_area += 0.5 * (abs(a) + abs(a1)) * ti;
-        if !(a1 <= a_hi && a1 >= a_lo) {
+        it.step(ti, j);
+        let (p1, v1, a1) = it.state();
+        let v_ext = if j != 0.0 && (a < 0.0) != (a1 < 0.0) && a != 0.0 && a1 != 0.0 {
+            v - a * a / (2.0 * j)
+        } else {
+            v
+        };
+        path += max(max(abs(v), abs(v1)), abs(v_ext)) * ti;
+        a_area += max(abs(a), abs(a1)) * ti;
+        let (at, jt) = (abs(a) * ti, abs(j) * ti);
+        // Rounding of the arithmetic, plus the resolution of the phase duration itself: a ramp's
+        // duration comes from accelerations (±eps·a/j); a cruise's may come from a difference of
+        // times of the size of the whole duration (±eps·total, which only moves the position).
+        let dt = if j != 0.0 {
+            E * (as_ / abs(j) + ti)
+        } else {
+            E * ti
+        };
+        let dt_p = if j != 0.0 { dt } else { E * total };
+        ep += ev * ti
+            + ea * ti * ti / 2.0
+            + E * (abs(p) + abs(v) * ti + at * ti / 2.0 + jt * ti * ti / 6.0)
+            + abs(v) * dt_p;
+        ev += ea * ti + E * (abs(v) + at + jt * ti / 2.0) + abs(a) * dt;
+        ea = if a1 == 0.0 && j != 0.0 {
+            0.0
+        } else {
+            ea + E * (abs(a) + jt) + abs(j) * dt
+        };
+        let a_tol = LIMIT_REL * as_ + ROUND_K * ea;
+        if !(a1 <= pb.a_max + a_tol && a1 >= pb.a_min - a_tol) {
             return None;
         }
         if pb.position {
+            let v_tol = LIMIT_REL * vs + ROUND_K * ev;
+            let (v_hi, v_lo) = (pb.v_max + v_tol, pb.v_min - v_tol);
             // Monotone pieces: up to the velocity extremum (where a = 0), then to the end.
-            let v_ext = if j != 0.0 && (a < 0.0) != (a1 < 0.0) && a != 0.0 && a1 != 0.0 {
-                v - a * a / (2.0 * j)
-            } else {
-                v
-            };
             for (x, y) in [(v, v_ext), (v_ext, v1)] {
                 if (!below && crate::math::min(x, y) < v_lo) || (!above && max(x, y) > v_hi) {
                     return None;
@@ -205,21 +251,23 @@ pub(crate) fn validate(
         }
         (p, v, a) = (p1, v1, a1);
     }
-    // Velocity rounding scales with the velocity and the integrated |acceleration|.
-    let v_end_tol = FINAL_REL * max(vs, a_area);
-    let a_end_tol = FINAL_REL * as_;
-    if !(abs(v - pb.vf) <= v_end_tol + f64::MIN_POSITIVE
-        && abs(a - pb.af) <= a_end_tol + f64::MIN_POSITIVE)
-    {
+    let tiny = f64::MIN_POSITIVE;
+    let v_end_tol = max(
+        ROUND_K * ev,
+        FINAL_REL * max(max(abs(pb.v0), abs(pb.vf)), a_area),
+    ) + tiny;
+    let a_end_tol = max(ROUND_K * ea, FINAL_REL * as_) + tiny;
+    if !(abs(v - pb.vf) <= v_end_tol && abs(a - pb.af) <= a_end_tol) {
         return None;
     }
-    if test_position && pb.position && !(abs(p - pb.d) <= pb.p_tol(total)) {
+    let p_tol = max(ROUND_K * ep, FINAL_REL * max(abs(pb.d), path)) + tiny;
+    if test_position && pb.position && !(abs(p - pb.d) <= p_tol) {
         return None;
     }
     if !p.is_finite() {
         return None;
     }
-    Some((total, p))
+    Some(Checked { total, p, p_tol })
 }
 
 /// [`validate`] for a 7-phase candidate that must reach the target.
@@ -229,11 +277,12 @@ pub(crate) fn check(
     jerks: [f64; 7],
     kind: ProfileKind,
 ) -> Option<Cand> {
-    let (total, _) = validate(pb, &mut t, &jerks, true)?;
+    let c = validate(pb, &mut t, &jerks, true)?;
     Some(Cand {
         t,
         j: jerks,
-        total,
+        total: c.total,
+        p_tol: c.p_tol,
         kind,
     })
 }
@@ -245,15 +294,16 @@ pub(crate) fn check_free(
     jerks: [f64; 7],
     kind: ProfileKind,
 ) -> Option<(Cand, f64)> {
-    let (total, p) = validate(pb, &mut t, &jerks, false)?;
+    let c = validate(pb, &mut t, &jerks, false)?;
     Some((
         Cand {
             t,
             j: jerks,
-            total,
+            total: c.total,
+            p_tol: c.p_tol,
             kind,
         },
-        p,
+        c.p,
     ))
 }
 

@@ -57,15 +57,46 @@ pub(crate) fn integrate(t: f64, p: f64, v: f64, a: f64, j: f64) -> (f64, f64, f6
     )
 }
 
-/// [`integrate`] for a whole phase of a profile: an end acceleration that is zero up to the
-/// rounding of `a + t·j` is set to exactly zero, so that a following cruise does not drift
-/// (`a − j·(a/j)` is rarely exactly 0 in floating point, and a residual of 1e-12 integrates to
-/// visible errors over a cruise of thousands of seconds).
-#[inline]
-pub(crate) fn integrate_phase(t: f64, p: f64, v: f64, a: f64, j: f64) -> (f64, f64, f64) {
-    let (p1, v1, mut a1) = integrate(t, p, v, a, j);
-    if j != 0.0 && abs(a1) <= 8.0 * EPS * max(abs(a), abs(t * j)) {
-        a1 = 0.0;
+/// Integrates a profile phase by phase with one convention: a jerk phase whose final
+/// acceleration is zero up to rounding (|a| ≤ 16·eps·max(`a_scale`, |j·t|), where `a_scale` is the
+/// axis's acceleration scale, see [`snap_scale`]) ends at exactly zero acceleration.
+/// `a − j·(a/j)` is rarely exactly 0 in floating point, and a residual of 1e-13 before a cruise of
+/// thousands of seconds would integrate into a visible drift that the intended profile does not
+/// have. Every integration of a profile (solver, sampler, checker) uses the same rule and scale.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Integrator {
+    pub(crate) p: f64,
+    pub(crate) v: f64,
+    pub(crate) a: f64,
+    a_scale: f64,
+}
+
+/// The acceleration scale of an axis for [`Integrator`]: the largest of |a0|, |af|, `a_max`,
+/// |`a_min`| (initial state before any brake).
+pub(crate) fn snap_scale(a0: f64, af: f64, a_max: f64, a_min: f64) -> f64 {
+    max(max(abs(a0), abs(af)), max(abs(a_max), abs(a_min)))
+}
+
+impl Integrator {
+    pub(crate) fn new(p: f64, v: f64, a: f64, a_scale: f64) -> Self {
+        Integrator { p, v, a, a_scale }
     }
-    (p1, v1, a1)
+
+    /// Advances by a phase of duration `t` and jerk `j`.
+    #[inline]
+    pub(crate) fn step(&mut self, t: f64, j: f64) {
+        let (p1, v1, mut a1) = integrate(t, self.p, self.v, self.a, j);
+        if j != 0.0 && abs(a1) <= 16.0 * EPS * max(self.a_scale, abs(t * j)) {
+            a1 = 0.0;
+        }
+        self.p = p1;
+        self.v = v1;
+        self.a = a1;
+    }
+
+    /// The state as a tuple.
+    #[inline]
+    pub(crate) fn state(&self) -> (f64, f64, f64) {
+        (self.p, self.v, self.a)
+    }
 }

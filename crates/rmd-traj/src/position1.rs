@@ -14,7 +14,7 @@
 //! [`check`](crate::cand::check).
 
 use crate::cand::{Cand, CandList, Problem, check, limits_of, uddu};
-use crate::math::{abs, max, sqrt};
+use crate::math::{Integrator, abs, max, sqrt};
 use crate::profile::{Direction, ProfileKind};
 use crate::roots::{eval, roots_in};
 
@@ -105,16 +105,19 @@ pub(crate) fn rise_to(v0: f64, a0: f64, v_top: f64, a_max: f64, j: f64) -> Optio
     if !(x >= 0.0) {
         return None;
     }
-    if x <= a_max * a_max {
-        let u = sqrt(x);
-        Some(((u - a0) / j, 0.0, u / j))
+    let (mut t0, t1) = if x <= a_max * a_max {
+        ((sqrt(x) - a0) / j, 0.0)
     } else {
-        Some((
-            (a_max - a0) / j,
-            (x - a_max * a_max) / (j * a_max),
-            a_max / j,
-        ))
+        ((a_max - a0) / j, (x - a_max * a_max) / (j * a_max))
+    };
+    // A first ramp that is zero up to rounding is zero (the peak is a0 itself).
+    if t0 < 0.0 && t0 >= -1e-12 * (abs(a0) / j + abs(t1)) {
+        t0 = 0.0;
     }
+    // The ramp down ends at exactly the acceleration reached, so a following cruise has a = 0
+    // up to the rounding of one product (not of the formula for the peak).
+    let t2 = (a0 + j * t0) / j;
+    Some((t0, t1, t2))
 }
 
 /// Phases of the fastest change from (v_top, 0) falling to (vf, af): −j, plateau at `a_min`, +j.
@@ -155,16 +158,15 @@ fn cruise(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     };
     let jj = uddu(j);
     let mut t = [t0, t1, t2, 0.0, t4, t5, t6];
-    let (mut p, mut v, mut a) = (0.0, pb.v0, pb.a0);
+    let mut left = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
     for i in 0..3 {
-        (p, v, a) = crate::math::integrate_phase(t[i], p, v, a, jj[i]);
+        left.step(t[i], jj[i]);
     }
-    let _ = (v, a);
-    let (mut q, mut w, mut b) = (0.0, pb.v_max, 0.0);
+    let mut right = Integrator::new(0.0, pb.v_max, 0.0, pb.a_snap);
     for i in 4..7 {
-        (q, w, b) = crate::math::integrate_phase(t[i], q, w, b, jj[i]);
+        right.step(t[i], jj[i]);
     }
-    let _ = (w, b);
+    let (p, q) = (left.p, right.p);
     t[3] = (pb.d - p - q) / pb.v_max;
     match check(pb, t, jj, kind(t1 > 0.0, true, t5 > 0.0)) {
         Some(c) => sink.add(c),
@@ -256,12 +258,11 @@ pub(crate) fn polish(
 ) -> f64 {
     let err = |x: f64| -> f64 {
         let t = phases(x);
-        let (mut p, mut v, mut a) = (0.0, pb.v0, pb.a0);
+        let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
         for i in 0..7 {
-            (p, v, a) = crate::math::integrate_phase(t[i], p, v, a, jerks[i]);
+            it.step(t[i], jerks[i]);
         }
-        let _ = (v, a);
-        p - pb.d
+        it.p - pb.d
     };
     let mut r = err(x);
     for _ in 0..3 {

@@ -165,8 +165,8 @@ fn extremes(pb: &Problem, tt: f64) -> Option<((Cand, f64), (Cand, f64))> {
 /// Can the axis reach its target in exactly `tt`?
 pub(crate) fn feasible(pb: &Problem, tt: f64) -> bool {
     match extremes(pb, tt) {
-        Some(((_, lo), (_, hi))) => {
-            let tol = pb.p_tol(tt);
+        Some(((c_lo, lo), (c_hi, hi))) => {
+            let tol = max(c_lo.p_tol, c_hi.p_tol);
             pb.d >= lo - tol && pb.d <= hi + tol
         }
         None => false,
@@ -238,21 +238,21 @@ fn fit_boundary(pb: &Problem, tt: f64, mut v_in: f64, mut v_out: f64) -> f64 {
 /// A profile of duration `tt` for the axis, or `None` if `tt` is infeasible.
 pub(crate) fn fixed_time(pb: &Problem, tt: f64) -> Option<Pieces> {
     let ((c_lo, p_lo), (c_hi, p_hi)) = extremes(pb, tt)?;
-    let tol = pb.p_tol(tt);
+    let tol = max(c_lo.p_tol, c_hi.p_tol);
     let d = pb.d;
     if d > p_hi + tol || d < p_lo - tol {
         return None;
     }
-    if abs(d - p_hi) <= tol {
+    if hits(pb, &c_hi, p_hi) {
         return Some(c_hi.into());
     }
-    if abs(d - p_lo) <= tol {
+    if hits(pb, &c_lo, p_lo) {
         return Some(c_lo.into());
     }
     // Bracket: best known feasible profiles below and above the target position.
     let mut below = (c_lo, p_lo);
     let mut above = (c_hi, p_hi);
-    if let Some(found) = cruise_search(pb, tt, tol, &mut below, &mut above) {
+    if let Some(found) = cruise_search(pb, tt, &mut below, &mut above) {
         return Some(found.into());
     }
     blend(pb, &below, &above, tt)
@@ -263,7 +263,6 @@ pub(crate) fn fixed_time(pb: &Problem, tt: f64) -> Option<Pieces> {
 fn cruise_search(
     pb: &Problem,
     tt: f64,
-    tol: f64,
     below: &mut (Cand, f64),
     above: &mut (Cand, f64),
 ) -> Option<Cand> {
@@ -310,6 +309,7 @@ fn cruise_search(
     // samples, insert the boundary member (changes just fit, no cruise): that is where the family
     // meets the extremal profiles.
     let mut prev: Option<(f64, Cand, f64)> = None;
+    let mut best: Option<(Cand, f64)> = None;
     let mut prev_v: Option<f64> = None;
     let mut fits_prev = false;
     for &vc in &pts[..np] {
@@ -337,21 +337,18 @@ fn cruise_search(
         };
         for m in members.into_iter().flatten() {
             let (v, c, p) = m;
-            if abs(p - d) <= tol {
+            if p == d {
                 return Some(c);
+            }
+            if best.is_none_or(|(_, bp)| abs(p - d) < abs(bp - d)) {
+                best = Some((c, p));
             }
             note(below, above, (c, p), d);
             if let Some((v_prev, c_prev, p_prev)) = prev {
                 if (p_prev < d) != (p < d) {
-                    if let Some(found) = refine(
-                        pb,
-                        tt,
-                        tol,
-                        (v_prev, c_prev, p_prev),
-                        (v, c, p),
-                        below,
-                        above,
-                    ) {
+                    if let Some(found) =
+                        refine(pb, tt, (v_prev, c_prev, p_prev), (v, c, p), below, above)
+                    {
                         return Some(found);
                     }
                 }
@@ -364,7 +361,12 @@ fn cruise_search(
         prev_v = Some(vc);
         fits_prev = fits;
     }
-    None
+    best.filter(|(c, p)| hits(pb, c, *p)).map(|(c, _)| c)
+}
+
+/// Does a profile ending at `p` reach the target position (within its rounding)?
+fn hits(pb: &Problem, c: &Cand, p: f64) -> bool {
+    abs(p - pb.d) <= c.p_tol
 }
 
 /// Keeps the tightest bracket around the target position.
@@ -378,11 +380,11 @@ fn note(below: &mut (Cand, f64), above: &mut (Cand, f64), x: (Cand, f64), d: f64
 }
 
 /// Regula falsi (Illinois) on the cruise velocity between two feasible members whose final
-/// positions bracket the target.
+/// positions bracket the target, narrowed as far as the arithmetic allows; returns the member
+/// closest to the target if it is within its tolerance.
 fn refine(
     pb: &Problem,
     tt: f64,
-    tol: f64,
     a: (f64, Cand, f64),
     b: (f64, Cand, f64),
     below: &mut (Cand, f64),
@@ -391,17 +393,30 @@ fn refine(
     let d = pb.d;
     let (mut va, mut fa) = (a.0, a.2 - d);
     let (mut vb, mut fb) = (b.0, b.2 - d);
+    let mut best = if abs(fa) <= abs(fb) {
+        (a.1, a.2)
+    } else {
+        (b.1, b.2)
+    };
     let mut side = 0i32;
-    for _ in 0..80 {
+    for _ in 0..100 {
         let mut vc = (va * fb - vb * fa) / (fb - fa);
         if !(vc > min(va, vb) && vc < max(va, vb)) {
             vc = 0.5 * (va + vb);
         }
-        let (c, p) = cruise_at(pb, tt, vc)?;
+        if vc == va || vc == vb {
+            break;
+        }
+        let Some((c, p)) = cruise_at(pb, tt, vc) else {
+            break;
+        };
         note(below, above, (c, p), d);
         let f = p - d;
-        if abs(f) <= tol {
-            return Some(c);
+        if abs(f) < abs(best.1 - d) {
+            best = (c, p);
+        }
+        if f == 0.0 {
+            break;
         }
         if (f < 0.0) == (fa < 0.0) {
             va = vc;
@@ -418,11 +433,12 @@ fn refine(
             }
             side = 1;
         }
-        if abs(vb - va) <= 4.0 * f64::EPSILON * max(abs(va), abs(vb)) {
-            break;
-        }
     }
-    None
+    if hits(pb, &best.0, best.1) {
+        Some(best.0)
+    } else {
+        None
+    }
 }
 
 fn sort(x: &mut [f64]) {
@@ -491,9 +507,41 @@ fn blend(pb: &Problem, a: &(Cand, f64), b: &(Cand, f64), tt: f64) -> Option<Piec
         }
     }
     let n = out.n;
-    let (total, _) = validate(pb, &mut out.t[..n], &out.j[..n], true)?;
+    let total = validate(pb, &mut out.t[..n], &out.j[..n], true)?.total;
     if abs(total - tt) > 1e-12 * tt {
         return None;
     }
     Some(out)
+}
+
+#[cfg(test)]
+mod dbg {
+    use super::*;
+    #[test]
+    fn dbg_841() {
+        let pb = Problem {
+            d: -245000804.03533074,
+            v0: 19309689.279665846,
+            a0: -21711399.99999973,
+            vf: 33261.8,
+            af: 0.0,
+            v_max: 35527.2,
+            v_min: -35527.2,
+            a_max: 95492700.0,
+            a_min: -21711400.0,
+            j: 12183500.0,
+            position: true,
+            a_snap: 95492700.0,
+        };
+        let tt = 7219.746042861971;
+        let m = pb.mirrored();
+        let (c, p) = max_position(&m, tt).unwrap();
+        std::eprintln!("{c:?} {p}");
+        let mut it = crate::math::Integrator::new(0.0, m.v0, m.a0, m.a_snap);
+        for i in 0..7 {
+            it.step(c.t[i], c.j[i]);
+            std::eprintln!("{i} {:?}", it.state());
+        }
+        std::eprintln!("rise {:?}", rise_to(m.v0, m.a0, m.v_max, m.a_max, m.j));
+    }
 }

@@ -1,6 +1,6 @@
 //! One axis's trajectory: an optional brake pre-trajectory followed by constant-jerk phases.
 
-use crate::math::{integrate, integrate_phase};
+use crate::math::{Integrator, integrate};
 
 /// Most phases of a profile after the brake: 7 for time-optimal and cruise profiles, up to 13
 /// for a blend of two 7-phase profiles (see [`ProfileKind::Blend`]).
@@ -89,6 +89,12 @@ pub enum ProfileKind {
 
 /// One axis of a trajectory: brake pre-trajectory (0–2 pieces), then up to [`MAX_PHASES`]
 /// phases of constant jerk, then rest at the target (constant acceleration extrapolation).
+///
+/// The state at each phase boundary is integrated from the start with one convention: a jerk
+/// phase whose final acceleration is zero up to rounding (|a| ≤ 16·eps·max(A, |j·t|) with
+/// A = max(|a0|, |af|, `max_acceleration`, |`min_acceleration`|) of the axis) ends at exactly zero
+/// acceleration, so that cruises do not drift. The state after the last phase is the exact target
+/// (position interface) or the exact target velocity and acceleration (velocity interface).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AxisProfile {
     /// Segment durations: brake pieces first.
@@ -126,10 +132,12 @@ impl AxisProfile {
         phases: &[Phase],
         end: Option<(f64, f64, f64)>,
         kind: ProfileKind,
+        a_snap: f64,
     ) -> AxisProfile {
         let mut out = AxisProfile::EMPTY;
         out.kind = kind;
-        let (mut p, mut v, mut a) = start;
+        let (p, v, a) = start;
+        let mut it = Integrator::new(p, v, a, a_snap);
         let mut time = 0.0;
         let mut n = 0usize;
         out.t0[0] = 0.0;
@@ -149,13 +157,11 @@ impl AxisProfile {
             }
             out.t[n] = ph.duration;
             out.j[n] = ph.jerk;
-            (p, v, a) = integrate_phase(ph.duration, p, v, a, ph.jerk);
+            it.step(ph.duration, ph.jerk);
             time += ph.duration;
             n += 1;
             out.t0[n] = time;
-            out.p[n] = p;
-            out.v[n] = v;
-            out.a[n] = a;
+            (out.p[n], out.v[n], out.a[n]) = it.state();
         }
         if let Some((pe, ve, ae)) = end {
             out.p[n] = pe;

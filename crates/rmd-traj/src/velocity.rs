@@ -6,7 +6,7 @@
 //! cover every reachable final velocity continuously.
 
 use crate::cand::{Cand, CandList, Problem, check, check_free};
-use crate::math::{abs, sqrt};
+use crate::math::{abs, max, sqrt};
 use crate::position1::Sink;
 use crate::profile::{Direction, ProfileKind, ReachedLimits};
 
@@ -115,7 +115,7 @@ pub(crate) fn feasible(pb: &Problem, tt: f64) -> bool {
     else {
         return false;
     };
-    let tol = 1e-11 * (pb.v_scale() + pb.a_scale() * tt);
+    let tol = 1e-11 * max(pb.v_scale(), pb.a_scale() * tt);
     pb.vf <= hi + tol && pb.vf >= -lo - tol
 }
 
@@ -124,13 +124,14 @@ pub(crate) fn fixed_time(pb: &Problem, tt: f64) -> Option<Cand> {
     if !(pb.j > 0.0) {
         return None;
     }
-    if let Some(c) = plateau_up(pb, tt) {
+    let right_length = |c: &Cand| abs(c.total - tt) <= 8.0 * f64::EPSILON * tt;
+    if let Some(c) = plateau_up(pb, tt).filter(right_length) {
         return Some(c);
     }
-    if let Some(c) = plateau_up(&pb.mirrored(), tt) {
+    if let Some(c) = plateau_up(&pb.mirrored(), tt).filter(right_length) {
         return Some(c.mirrored());
     }
-    hold_ramp_hold(pb, tt)
+    hold_ramp_hold(pb, tt).filter(right_length)
 }
 
 /// +j to u, hold u, −j to af, with total duration `tt`.
@@ -168,13 +169,14 @@ fn hold_ramp_hold(pb: &Problem, tt: f64) -> Option<Cand> {
     let ramp = abs(af - a0) / j;
     let s = tt - ramp;
     let r = (vf - v0) - (a0 + af) / 2.0 * ramp;
-    let x = if a0 != af {
-        (r - af * s) / (a0 - af)
+    // x·a0 + y·af = r, x + y = s; each solved directly (no cancellation in s − x).
+    let (x, y) = if a0 != af {
+        ((r - af * s) / (a0 - af), (r - a0 * s) / (af - a0))
     } else {
-        s
+        (s, 0.0)
     };
     let jr = if af >= a0 { j } else { -j };
-    let t = [x, ramp, s - x, 0.0, 0.0, 0.0, 0.0];
+    let t = [x, ramp, y, 0.0, 0.0, 0.0, 0.0];
     check(
         pb,
         t,
