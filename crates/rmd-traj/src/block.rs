@@ -4,7 +4,7 @@ use crate::cand::Cand;
 use crate::math::abs;
 
 /// Most blocked intervals kept per axis.
-pub(crate) const MAX_INTERVALS: usize = 4;
+pub(crate) const MAX_INTERVALS: usize = 3;
 
 /// Durations strictly between `left` and `right` are impossible; `profile` realizes `right`.
 #[derive(Debug, Clone, Copy, PartialEq)]

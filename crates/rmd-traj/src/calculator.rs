@@ -6,6 +6,7 @@ use crate::cand::{Cand, CandList, Problem, validate};
 use crate::error::TrajectoryError;
 use crate::input::{AxisInput, ControlInterface, DurationDiscretization, Options, Synchronization};
 use crate::math::{Integrator, abs, fmod, max, snap_scale};
+use crate::position1::Search;
 use crate::position2::Pieces;
 use crate::profile::{AxisProfile, MAX_PHASES, Phase, ProfileKind};
 use crate::{position1, position2, velocity};
@@ -63,6 +64,7 @@ pub(crate) fn plan_axis(
     ax: &AxisInput,
     axis: usize,
     interface: ControlInterface,
+    need_blocks: bool,
 ) -> Result<AxisPlan, TrajectoryError> {
     let position = interface == ControlInterface::Position;
     let brake = if position {
@@ -101,21 +103,25 @@ pub(crate) fn plan_axis(
     let rest = abs(ax.vf) < f64::EPSILON && abs(ax.af) < f64::EPSILON;
     let mut cands = CandList::new();
     let at_target = brake_t == 0.0 && pb.at_target();
-    if at_target {
-        cands.push(Cand::ZERO);
-    }
     if !(at_target && rest) && pb.j > 0.0 {
-        let mut found = CandList::new();
-        if position {
-            position1::candidates(&pb, rest && !at_target, &mut found);
+        let search = if rest && !at_target {
+            Search::First
+        } else if need_blocks {
+            Search::All
         } else {
-            velocity::candidates(&pb, rest && !at_target, &mut found);
+            Search::Fastest
+        };
+        if position {
+            position1::candidates(&pb, search, &mut cands);
+        } else {
+            velocity::candidates(&pb, search, &mut cands);
         }
-        for &c in found.as_slice() {
-            if !(at_target && c.total <= 1e-9 * max(pb.a_scale() / pb.j, 0.0)) {
-                cands.push(c);
-            }
-        }
+    }
+    if at_target {
+        // The zero-length profile replaces near-zero ones found by the equations (0/0 there).
+        let tiny = 1e-9 * max(pb.a_scale() / pb.j, 0.0);
+        cands.retain(|c| !(c.total <= tiny));
+        cands.push(Cand::ZERO);
     }
     let feasible = |t: f64| -> bool {
         if position {
@@ -124,7 +130,13 @@ pub(crate) fn plan_axis(
             velocity::feasible(&pb, t)
         }
     };
-    let block = make_block(cands.as_mut_slice(), brake_t, rest, &feasible);
+    // Without synchronization only the fastest profile matters: no blocked intervals needed.
+    let block = make_block(
+        cands.as_mut_slice(),
+        brake_t,
+        rest || !need_blocks,
+        &feasible,
+    );
     match block {
         Some(block) => Ok(AxisPlan {
             brake,
@@ -277,13 +289,14 @@ pub(crate) fn calculate(
     for (i, ax) in axes.iter().enumerate() {
         ax.validate(i, opts.control_interface)?;
     }
+    let discrete = matches!(opts.discretization, DurationDiscretization::Discrete { .. });
+    let need_blocks = !(n == 1 && opts.minimum_duration.is_none() && !discrete);
     for (i, ax) in axes.iter().enumerate() {
-        plans[i] = plan_axis(ax, i, opts.control_interface)?;
+        plans[i] = plan_axis(ax, i, opts.control_interface, need_blocks)?;
         chosen[i] = None;
     }
     let sync = opts.synchronization;
     let axes_sync = |_: usize| sync;
-    let discrete = matches!(opts.discretization, DurationDiscretization::Discrete { .. });
     let mut duration;
     let mut limiting: Option<usize>;
     if n == 1 && opts.minimum_duration.is_none() && !discrete {

@@ -322,7 +322,7 @@ pub(crate) fn limits_of(acc0: bool, vel: bool, acc1: bool) -> ReachedLimits {
 }
 
 /// Most candidates kept in step 1.
-pub(crate) const MAX_CANDS: usize = 24;
+pub(crate) const MAX_CANDS: usize = 16;
 
 /// A fixed-capacity list of candidates.
 #[derive(Debug, Clone, Copy)]
@@ -346,8 +346,23 @@ impl CandList {
         }
     }
 
-    pub(crate) fn as_slice(&self) -> &[Cand] {
-        &self.c[..self.n]
+    /// The smallest duration in the list (+∞ if empty).
+    pub(crate) fn min_total(&self) -> f64 {
+        self.c[..self.n]
+            .iter()
+            .fold(f64::INFINITY, |m, c| if c.total < m { c.total } else { m })
+    }
+
+    /// Keeps only the candidates for which `keep` is true.
+    pub(crate) fn retain(&mut self, keep: impl Fn(&Cand) -> bool) {
+        let mut k = 0;
+        for i in 0..self.n {
+            if keep(&self.c[i]) {
+                self.c[k] = self.c[i];
+                k += 1;
+            }
+        }
+        self.n = k;
     }
 
     pub(crate) fn as_mut_slice(&mut self) -> &mut [Cand] {

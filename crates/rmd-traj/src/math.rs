@@ -29,20 +29,20 @@ pub(crate) use imp::{fmod, sqrt};
 /// Machine epsilon of `f64`.
 pub(crate) const EPS: f64 = f64::EPSILON;
 
-/// Absolute value (in `core` without depending on its float-math availability).
-#[inline]
+/// Absolute value (a bit operation, available in `core`).
+#[inline(always)]
 pub(crate) fn abs(x: f64) -> f64 {
-    if x < 0.0 { -x } else { x }
+    x.abs()
 }
 
 /// Larger of two values; NaN-free inputs assumed.
-#[inline]
+#[inline(always)]
 pub(crate) fn max(a: f64, b: f64) -> f64 {
     if a > b { a } else { b }
 }
 
 /// Smaller of two values; NaN-free inputs assumed.
-#[inline]
+#[inline(always)]
 pub(crate) fn min(a: f64, b: f64) -> f64 {
     if a < b { a } else { b }
 }

@@ -16,50 +16,75 @@
 use crate::cand::{Cand, CandList, Problem, check, limits_of, uddu};
 use crate::math::{Integrator, abs, max, sqrt};
 use crate::profile::{Direction, ProfileKind};
-use crate::roots::{eval, roots_in};
+use crate::roots::{eval, quartic_roots_in, roots_in};
 
-/// Collects the valid extremal profiles. With a target at rest (`rest`), the first valid one is
-/// the only one (the feasible durations form one interval), so the search stops there.
-pub(crate) fn candidates(pb: &Problem, rest: bool, out: &mut CandList) {
+/// Which extremal profiles a step-1 search must find.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Search {
+    /// All of them (their durations bound the blocked intervals).
+    All,
+    /// The first valid one (target at rest: there is only one).
+    First,
+    /// The fastest one (no synchronization: blocked intervals are not needed), so candidates
+    /// slower than the best found so far are skipped before validation.
+    Fastest,
+}
+
+/// Collects the valid extremal profiles.
+pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList) {
     let up_first = pb.d >= 0.0;
     let dirs = if up_first {
         [Direction::Up, Direction::Down]
     } else {
         [Direction::Down, Direction::Up]
     };
-    for dir in dirs {
-        let frame = match dir {
-            Direction::Up => *pb,
-            Direction::Down => pb.mirrored(),
-        };
-        let mut sink = Sink {
-            out,
-            dir,
-            stop: rest,
-        };
-        if sink.run(&frame, cruise)
-            || sink.run(&frame, quartic_types)
-            || sink.run(&frame, acc0_acc1)
-        {
-            return;
+    let frames = dirs.map(|dir| match dir {
+        Direction::Up => *pb,
+        Direction::Down => pb.mirrored(),
+    });
+    if search == Search::First {
+        for (dir, frame) in dirs.into_iter().zip(frames.iter()) {
+            let mut sink = Sink {
+                out: &mut *out,
+                dir,
+                search,
+            };
+            if sink.run(frame, cruise)
+                || sink.run(frame, quartic_types)
+                || sink.run(frame, acc0_acc1)
+            {
+                return;
+            }
         }
-        if rest && out.n > 0 {
-            return;
+    } else {
+        // Closed forms first: with `Fastest` they bound the quartics' search.
+        for (dir, frame) in dirs.into_iter().zip(frames.iter()) {
+            let mut sink = Sink {
+                out: &mut *out,
+                dir,
+                search,
+            };
+            sink.run(frame, cruise);
+            sink.run(frame, acc0_acc1);
+        }
+        for (dir, frame) in dirs.into_iter().zip(frames.iter()) {
+            let mut sink = Sink {
+                out: &mut *out,
+                dir,
+                search,
+            };
+            sink.run(frame, quartic_types);
         }
     }
     if out.n == 0 {
         // Degenerate shapes where the general equations are 0/0.
-        for dir in dirs {
-            let frame = match dir {
-                Direction::Up => *pb,
-                Direction::Down => pb.mirrored(),
-            };
+        for (dir, frame) in dirs.into_iter().zip(frames.iter()) {
             let mut sink = Sink {
-                out,
+                out: &mut *out,
                 dir,
-                stop: true,
+                search: Search::First,
             };
-            if sink.run(&frame, degenerate) {
+            if sink.run(frame, degenerate) {
                 return;
             }
         }
@@ -70,8 +95,7 @@ pub(crate) fn candidates(pb: &Problem, rest: bool, out: &mut CandList) {
 pub(crate) struct Sink<'a> {
     pub(crate) out: &'a mut CandList,
     pub(crate) dir: Direction,
-    /// Stop after the first valid candidate.
-    pub(crate) stop: bool,
+    pub(crate) search: Search,
 }
 
 impl Sink<'_> {
@@ -82,7 +106,63 @@ impl Sink<'_> {
             Direction::Down => c.mirrored(),
         };
         self.out.push(c);
-        self.stop
+        self.search == Search::First
+    }
+
+    /// The duration a new candidate must beat to matter (`Fastest`), else +∞.
+    pub(crate) fn bound(&self) -> f64 {
+        if self.search == Search::Fastest {
+            self.out.min_total()
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Validates phase times and adds the candidate if valid (skipping it unvalidated when it
+    /// cannot beat the bound); returns true when the search should stop.
+    pub(crate) fn offer(
+        &mut self,
+        pb: &Problem,
+        t: [f64; 7],
+        jerks: [f64; 7],
+        kind: ProfileKind,
+    ) -> bool {
+        if !(t.iter().sum::<f64>() < self.bound() * (1.0 + 1e-9)) {
+            return false;
+        }
+        match check(pb, t, jerks, kind) {
+            Some(c) => self.add(c),
+            None => false,
+        }
+    }
+
+    /// Like [`offer`](Self::offer) for the root `x` of a type's equation: checked as computed,
+    /// and if that fails (e.g. a near-double root) again after Newton steps on the position error.
+    pub(crate) fn offer_root(
+        &mut self,
+        pb: &Problem,
+        x: f64,
+        phases: &dyn Fn(f64) -> [f64; 7],
+        jerks: &[f64; 7],
+        slope: impl Fn(f64) -> f64,
+        kind: ProfileKind,
+    ) -> bool {
+        let t = phases(x);
+        if !(t.iter().sum::<f64>() < self.bound() * (1.0 + 1e-9)) {
+            return false;
+        }
+        let c = check(pb, t, *jerks, kind).or_else(|| {
+            check(
+                pb,
+                phases(polish(x, pb, phases, jerks, slope)),
+                *jerks,
+                kind,
+            )
+        });
+        match c {
+            Some(c) => self.add(c),
+            None => false,
+        }
     }
 
     /// Runs a type solver; true when the search should stop.
@@ -179,10 +259,7 @@ fn cruise(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     }
     let (p, q) = (left.p, right.p);
     t[3] = (pb.d - p - q) / pb.v_max;
-    match check(pb, t, jj, kind(t1 > 0.0, true, t5 > 0.0)) {
-        Some(c) => sink.add(c),
-        None => false,
-    }
+    sink.offer(pb, t, jj, kind(t1 > 0.0, true, t5 > 0.0))
 }
 
 /// Both acceleration plateaus, no cruise: quadratic in the first plateau's duration.
@@ -249,10 +326,15 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     let roots = roots_in(&coeffs, -1e-9 * (abs(r_v / a_max) + a_max / j), 1e12);
     for &t1 in roots.as_slice() {
         let t1 = polish(t1, pb, &phases, &jj, |x| (2.0 * c2 * x + c1) / den);
-        if let Some(c) = check(pb, phases(t1), jj, kind(true, false, true)) {
-            if sink.add(c) {
-                return true;
-            }
+        if sink.offer_root(
+            pb,
+            t1,
+            &phases,
+            &jj,
+            |x| (2.0 * c2 * x + c1) / den,
+            kind(true, false, true),
+        ) {
+            return true;
         }
     }
     false
@@ -296,6 +378,36 @@ pub(crate) fn polish(
     x
 }
 
+/// The parts of `[lo, hi]` where x(t)² ≥ k for the acceleration x(t) = x0 + dir·j·t (one
+/// interval if k ≤ 0, else up to two: x ≥ √k and x ≤ −√k).
+fn split_by_square(
+    lo: f64,
+    hi: f64,
+    slack: f64,
+    k: f64,
+    x0: f64,
+    dir: f64,
+    j: f64,
+) -> [Option<(f64, f64)>; 2] {
+    let clip = |a: f64, b: f64| -> Option<(f64, f64)> {
+        let (a, b) = (max(a, lo), crate::math::min(b, hi));
+        if a <= b + slack { Some((a, b)) } else { None }
+    };
+    if !(k > 0.0) {
+        return [clip(lo, hi), None];
+    }
+    let r = sqrt(k);
+    // x0 + dir·j·t ≥ r and ≤ −r, as t-intervals.
+    let t_hi_root = (r - x0) / (dir * j);
+    let t_lo_root = (-r - x0) / (dir * j);
+    let widen = 1e-9 * (abs(t_hi_root) + abs(t_lo_root)) + slack;
+    if dir > 0.0 {
+        [clip(t_hi_root - widen, hi), clip(lo, t_lo_root + widen)]
+    } else {
+        [clip(lo, t_hi_root + widen), clip(t_lo_root - widen, hi)]
+    }
+}
+
 /// `None`, `Acc0` and `Acc1` types: quartics.
 fn quartic_types(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     none_type(pb, sink) || acc0_type(pb, sink) || acc1_type(pb, sink)
@@ -323,9 +435,23 @@ fn none_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     let kj = k / (j * j);
     let c0 = -(kj * kj);
     let coeffs = [1.0, 0.0, c2, c1, c0];
-    let lo = max((a0 - af) / j, 0.0);
-    let hi = (a_max - a_min) / j;
-    let slack = 1e-9 * (hi + abs(lo));
+    let mut lo = max((a0 - af) / j, 0.0);
+    let mut hi = (a_max - a_min) / j;
+    // u ≤ a_max ⇔ j²t² − 2·a_max·j·t + K ≤ 0; w ≥ a_min ⇔ j²t² + 2·a_min·j·t − K ≤ 0.
+    let (s1, s2) = (a_max * a_max - k, a_min * a_min + k);
+    let tol_a = 1e-9 * (a_max * a_max + a_min * a_min + abs(k));
+    if s1 < -tol_a || s2 < -tol_a {
+        return false;
+    }
+    let (r1, r2) = (sqrt(max(s1, 0.0)), sqrt(max(s2, 0.0)));
+    lo = max(lo, max((a_max - r1) / j, (-a_min - r2) / j));
+    hi = crate::math::min(hi, crate::math::min((a_max + r1) / j, (-a_min + r2) / j));
+    // Duration 2t + (af − a0)/j must beat the bound.
+    hi = crate::math::min(hi, (sink.bound() * (1.0 + 1e-9) - (af - a0) / j) / 2.0);
+    let slack = 1e-9 * (abs(hi) + abs(lo)) + 1e-9 * (a_max - a_min) / j;
+    if !(lo <= hi + slack) {
+        return false;
+    }
     let jj = uddu(j);
     let phases = |t: f64| -> [f64; 7] {
         let s = k / (j * t);
@@ -333,19 +459,30 @@ fn none_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
         let w = (s - j * t) / 2.0;
         [(u - a0) / j, 0.0, t, 0.0, 0.0, 0.0, (af - w) / j]
     };
-    let roots = roots_in(&coeffs, max(lo - slack, 0.0), hi + slack);
+    let roots = quartic_roots_in(
+        coeffs[1],
+        coeffs[2],
+        coeffs[3],
+        coeffs[4],
+        max(lo - slack, 0.0),
+        hi + slack,
+    );
     for &t in roots.as_slice() {
         if !(t > 0.0) {
             continue;
         }
-        let t = polish(t, pb, &phases, &jj, |x| {
-            let dp = [4.0, 0.0, 2.0 * c2, c1];
-            j * eval(&dp, x) / (4.0 * x)
-        });
-        if let Some(c) = check(pb, phases(t), jj, kind(false, false, false)) {
-            if sink.add(c) {
-                return true;
-            }
+        if sink.offer_root(
+            pb,
+            t,
+            &phases,
+            &jj,
+            |x| {
+                let dp = [4.0, 0.0, 2.0 * c2, c1];
+                j * eval(&dp, x) / (4.0 * x)
+            },
+            kind(false, false, false),
+        ) {
+            return true;
         }
     }
     false
@@ -386,8 +523,15 @@ fn acc0_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
         / (j * j * j * j);
     let coeffs = [1.0, c3, c2, 0.0, c0];
     let lo = max((a_max - af) / j, 0.0);
-    let hi = (a_max - a_min) / j;
-    let slack = 1e-9 * (hi + abs(lo));
+    // Duration ≥ 2t + (af − a0)/j must beat the bound.
+    let hi = crate::math::min(
+        (a_max - a_min) / j,
+        (sink.bound() * (1.0 + 1e-9) - (af - a0) / j) / 2.0,
+    );
+    let slack = 1e-9 * (abs(hi) + abs(lo));
+    // The plateau t1 ≥ 0 ⇔ w² ≥ K0 with w = a_max − j·t.
+    let k0 = a_max * a_max + (af * af - a0 * a0) / 2.0 - j * (vf - v0);
+    let ranges = split_by_square(lo, hi, slack, k0, a_max, -1.0, j);
     let jj = uddu(j);
     let phases = |t: f64| -> [f64; 7] {
         let w = a_max - j * t;
@@ -395,14 +539,27 @@ fn acc0_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
             (vf - v0 - (2.0 * a_max * a_max - 2.0 * w * w + af * af - a0 * a0) / (2.0 * j)) / a_max;
         [(a_max - a0) / j, t1, t, 0.0, 0.0, 0.0, (af - w) / j]
     };
-    let roots = roots_in(&coeffs, max(lo - slack, 0.0), hi + slack);
-    for &t in roots.as_slice() {
-        let t = polish(t, pb, &phases, &jj, |x| {
-            let dp = [4.0, 3.0 * c3, 2.0 * c2, 0.0];
-            j * j * eval(&dp, x) / (2.0 * a_max)
-        });
-        if let Some(c) = check(pb, phases(t), jj, kind(true, false, false)) {
-            if sink.add(c) {
+    for &(lo, hi) in ranges.iter().flatten() {
+        let roots = quartic_roots_in(
+            coeffs[1],
+            coeffs[2],
+            coeffs[3],
+            coeffs[4],
+            max(lo - slack, 0.0),
+            hi + slack,
+        );
+        for &t in roots.as_slice() {
+            if sink.offer_root(
+                pb,
+                t,
+                &phases,
+                &jj,
+                |x| {
+                    let dp = [4.0, 3.0 * c3, 2.0 * c2, 0.0];
+                    j * j * eval(&dp, x) / (2.0 * a_max)
+                },
+                kind(true, false, false),
+            ) {
                 return true;
             }
         }
@@ -449,8 +606,15 @@ fn acc1_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
         / (j * j * j * j);
     let coeffs = [1.0, c3, c2, c1, c0];
     let lo = max((a_min - a0) / j, 0.0);
-    let hi = (a_max - a0) / j;
+    // Duration ≥ 2t + (a0 + af − 2·a_min)/j must beat the bound.
+    let hi = crate::math::min(
+        (a_max - a0) / j,
+        (sink.bound() * (1.0 + 1e-9) - (a0 + af - 2.0 * a_min) / j) / 2.0,
+    );
     let slack = 1e-9 * (abs(hi) + abs(lo));
+    // The plateau t5 ≥ 0 ⇔ u² ≥ K1 with u = a0 + j·t.
+    let k1 = j * (vf - v0) + a_min * a_min + (a0 * a0 - af * af) / 2.0;
+    let ranges = split_by_square(lo, hi, slack, k1, a0, 1.0, j);
     let jj = uddu(j);
     let phases = |t: f64| -> [f64; 7] {
         let u = a0 + j * t;
@@ -458,14 +622,27 @@ fn acc1_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
             (vf - v0 - (2.0 * u * u - 2.0 * a_min * a_min + af * af - a0 * a0) / (2.0 * j)) / a_min;
         [t, 0.0, (u - a_min) / j, 0.0, 0.0, t5, (af - a_min) / j]
     };
-    let roots = roots_in(&coeffs, max(lo - slack, 0.0), hi + slack);
-    for &t in roots.as_slice() {
-        let t = polish(t, pb, &phases, &jj, |x| {
-            let dp = [4.0, 3.0 * c3, 2.0 * c2, c1];
-            -j * j * eval(&dp, x) / (2.0 * a_min)
-        });
-        if let Some(c) = check(pb, phases(t), jj, kind(false, false, true)) {
-            if sink.add(c) {
+    for &(lo, hi) in ranges.iter().flatten() {
+        let roots = quartic_roots_in(
+            coeffs[1],
+            coeffs[2],
+            coeffs[3],
+            coeffs[4],
+            max(lo - slack, 0.0),
+            hi + slack,
+        );
+        for &t in roots.as_slice() {
+            if sink.offer_root(
+                pb,
+                t,
+                &phases,
+                &jj,
+                |x| {
+                    let dp = [4.0, 3.0 * c3, 2.0 * c2, c1];
+                    -j * j * eval(&dp, x) / (2.0 * a_min)
+                },
+                kind(false, false, true),
+            ) {
                 return true;
             }
         }
@@ -481,25 +658,21 @@ fn degenerate(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     let jj = uddu(j);
     // Single ramp +j from a0 to af.
     let t = (af - a0) / j;
-    if let Some(c) = check(
+    if sink.offer(
         pb,
         [t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         jj,
         kind(false, false, false),
     ) {
-        if sink.add(c) {
-            return true;
-        }
+        return true;
     }
     // Two ramps: +j to u, −j to af.
     let x = (a0 * a0 + af * af) / 2.0 + j * (vf - v0);
     if x >= 0.0 {
         let u = sqrt(x);
         let t = [(u - a0) / j, 0.0, (u - af) / j, 0.0, 0.0, 0.0, 0.0];
-        if let Some(c) = check(pb, t, jj, kind(false, false, false)) {
-            if sink.add(c) {
-                return true;
-            }
+        if sink.offer(pb, t, jj, kind(false, false, false)) {
+            return true;
         }
     }
     false

@@ -163,7 +163,7 @@ pub(crate) fn roots_in(c: &[f64], lo: f64, hi: f64) -> Roots {
                     && fs[k + 1] != 0.0
                     && (fs[k] < 0.0) != (fs[k + 1] < 0.0)
                 {
-                    out.push(bracketed(c, xs[k], xs[k + 1], fs[k]));
+                    out.push(bracketed(c, xs[k], xs[k + 1], fs[k], fs[k + 1]));
                 }
             }
             // Double roots: a critical point where the value vanishes within rounding.
@@ -183,10 +183,99 @@ pub(crate) fn roots_in(c: &[f64], lo: f64, hi: f64) -> Roots {
     out
 }
 
+/// Real roots of the monic quartic x⁴ + b·x³ + c·x² + d·x + e in `[lo, hi]`, sorted. Same method
+/// as [`roots_in`] (isolation between critical points, safeguarded Newton), specialized: the
+/// critical points of the derivative come from a quadratic, the derivative's roots and then the
+/// quartic's by Newton from the secant point of each monotone bracket.
+pub(crate) fn quartic_roots_in(b: f64, c: f64, d: f64, e: f64, lo: f64, hi: f64) -> Roots {
+    let q = [1.0, b, c, d, e];
+    let dq = [4.0, 3.0 * b, 2.0 * c, d];
+    let mut out = Roots::new();
+    if !(lo <= hi) || !lo.is_finite() || !hi.is_finite() || q.iter().any(|x| !x.is_finite()) {
+        return out;
+    }
+    // Roots of the derivative (a cubic) in [lo, hi]: between the roots of its derivative.
+    let ddq = [12.0, 6.0 * b, 2.0 * c];
+    let mut xs = [0.0; 4];
+    let mut m = 0;
+    xs[m] = lo;
+    m += 1;
+    let disc = ddq[1] * ddq[1] - 4.0 * ddq[0] * ddq[2];
+    if disc > 0.0 {
+        let sq = sqrt(disc);
+        let (r1, r2) = ((-ddq[1] - sq) / 24.0, (-ddq[1] + sq) / 24.0);
+        for r in [r1, r2] {
+            if r > lo && r < hi {
+                xs[m] = r;
+                m += 1;
+            }
+        }
+    }
+    xs[m] = hi;
+    m += 1;
+    let mut crit = [0.0; 3];
+    let mut nc = 0;
+    let mut fa = eval(&dq, xs[0]);
+    for k in 0..m - 1 {
+        let fb = eval(&dq, xs[k + 1]);
+        if fa == 0.0 {
+            if nc < 3 && xs[k] > lo {
+                crit[nc] = xs[k];
+                nc += 1;
+            }
+        } else if fb != 0.0 && (fa < 0.0) != (fb < 0.0) && nc < 3 {
+            crit[nc] = bracketed(&dq, xs[k], xs[k + 1], fa, fb);
+            nc += 1;
+        }
+        fa = fb;
+    }
+    // The quartic between its critical points.
+    let mut pts = [0.0; 5];
+    let mut np = 0;
+    pts[np] = lo;
+    np += 1;
+    for &x in &crit[..nc] {
+        if x > lo && x < hi {
+            pts[np] = x;
+            np += 1;
+        }
+    }
+    pts[np] = hi;
+    np += 1;
+    let mut fs = [0.0; 5];
+    for k in 0..np {
+        fs[k] = eval(&q, pts[k]);
+    }
+    for k in 0..np {
+        if fs[k] == 0.0 {
+            out.push(pts[k]);
+        }
+        if k + 1 < np && fs[k] != 0.0 && fs[k + 1] != 0.0 && (fs[k] < 0.0) != (fs[k + 1] < 0.0) {
+            out.push(bracketed(&q, pts[k], pts[k + 1], fs[k], fs[k + 1]));
+        }
+    }
+    for k in 1..np - 1 {
+        if fs[k] != 0.0 && abs(fs[k]) <= error_bound(&q, pts[k]) {
+            let near = out
+                .as_slice()
+                .iter()
+                .any(|&r| abs(r - pts[k]) <= 1e-7 * (abs(pts[k]) + (hi - lo)));
+            if !near {
+                out.push(pts[k]);
+            }
+        }
+    }
+    out
+}
+
 /// The root of `c` in `[a, b]` where `c` is monotone and changes sign (`fa` = value at `a`).
-fn bracketed(c: &[f64], mut a: f64, mut b: f64, fa: f64) -> f64 {
+fn bracketed(c: &[f64], mut a: f64, mut b: f64, fa: f64, fb: f64) -> f64 {
     let a_neg = fa < 0.0;
-    let mut x = 0.5 * (a + b);
+    // Start at the secant point (the function is monotone in the bracket).
+    let mut x = a - fa * (b - a) / (fb - fa);
+    if !(x > a && x < b) {
+        x = 0.5 * (a + b);
+    }
     for _ in 0..100 {
         let (f, df) = eval_d(c, x);
         if f == 0.0 {
@@ -237,6 +326,23 @@ mod tests {
         let r = roots_in(&c, 0.6, 5.0);
         assert_eq!(r.as_slice().len(), 1);
         assert!((r.x[0] - 0.7).abs() < 1e-14);
+    }
+
+    #[test]
+    fn quartic_specialization_agrees() {
+        for roots in [
+            [-3.0, 0.5, 0.7, 10.0],
+            [1.0, 1.0, -2.0, 5.0],
+            [0.1, 0.2, 0.3, 0.4],
+        ] {
+            let c = poly_from_roots(&roots);
+            let a = roots_in(&c, -100.0, 100.0);
+            let b = quartic_roots_in(c[1], c[2], c[3], c[4], -100.0, 100.0);
+            assert_eq!(a.n, b.n, "{roots:?}");
+            for (x, y) in a.as_slice().iter().zip(b.as_slice()) {
+                assert!((x - y).abs() < 1e-9, "{x} vs {y}");
+            }
+        }
     }
 
     #[test]

@@ -45,15 +45,14 @@ impl<const N: usize> Trajectory<N> {
         let axes: [crate::input::AxisInput; N] = core::array::from_fn(|i| input.axis(i));
         let mut plans = [AxisPlan::EMPTY; N];
         let mut chosen: [Option<Pieces>; N] = [None; N];
-        let mut profiles = [AxisProfile::EMPTY; N];
+        // The profiles are written only once everything else has succeeded.
         let summary = calculator::calculate(
             &axes,
             &input.options(),
             &mut plans,
             &mut chosen,
-            &mut profiles,
+            &mut self.profiles,
         )?;
-        self.profiles = profiles;
         self.duration = summary.duration;
         self.limiting_axis = summary.limiting_axis;
         for i in 0..N {

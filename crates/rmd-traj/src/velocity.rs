@@ -7,7 +7,7 @@
 
 use crate::cand::{Cand, CandList, Problem, check, check_free};
 use crate::math::{abs, max, sqrt};
-use crate::position1::Sink;
+use crate::position1::{Search, Sink};
 use crate::profile::{Direction, ProfileKind, ReachedLimits};
 
 const fn up_kind(limits: ReachedLimits) -> ProfileKind {
@@ -18,7 +18,7 @@ const fn up_kind(limits: ReachedLimits) -> ProfileKind {
 }
 
 /// Collects the valid minimum-time profiles (both directions).
-pub(crate) fn candidates(pb: &Problem, rest: bool, out: &mut CandList) {
+pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList) {
     let up_first = pb.vf >= pb.v0;
     let dirs = if up_first {
         [Direction::Up, Direction::Down]
@@ -31,9 +31,9 @@ pub(crate) fn candidates(pb: &Problem, rest: bool, out: &mut CandList) {
             Direction::Down => pb.mirrored(),
         };
         let mut sink = Sink {
-            out,
+            out: &mut *out,
             dir,
-            stop: rest,
+            search,
         };
         if up_profiles(&frame, &mut sink) {
             return;
@@ -57,10 +57,8 @@ fn up_profiles(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     if a_max > 0.0 {
         let t1 = (x - a_max * a_max) / (j * a_max);
         let t = [(a_max - a0) / j, t1, (a_max - af) / j, 0.0, 0.0, 0.0, 0.0];
-        if let Some(c) = check(pb, t, jj, up_kind(ReachedLimits::Acc0)) {
-            if sink.add(c) {
-                return true;
-            }
+        if sink.offer(pb, t, jj, up_kind(ReachedLimits::Acc0)) {
+            return true;
         }
     }
     // No plateau: u² = x.
@@ -68,10 +66,8 @@ fn up_profiles(pb: &Problem, sink: &mut Sink<'_>) -> bool {
         let r = sqrt(x);
         for u in [r, -r] {
             let t = [(u - a0) / j, 0.0, (u - af) / j, 0.0, 0.0, 0.0, 0.0];
-            if let Some(c) = check(pb, t, jj, up_kind(ReachedLimits::None)) {
-                if sink.add(c) {
-                    return true;
-                }
+            if sink.offer(pb, t, jj, up_kind(ReachedLimits::None)) {
+                return true;
             }
             if r == 0.0 {
                 break;
