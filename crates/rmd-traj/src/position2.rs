@@ -284,6 +284,13 @@ fn fit_boundary(pb: &Problem, tt: f64, mut v_in: f64, mut v_out: f64) -> f64 {
 
 /// A profile of duration `tt` for the axis, or `None` if `tt` is infeasible.
 pub(crate) fn fixed_time(pb: &Problem, tt: f64) -> Option<Pieces> {
+    // The cruise family first: when it reaches the target (the usual case) that also proves
+    // the duration feasible, and the extremal profiles are not needed.
+    let trigger = 1e-9 * (abs(pb.d) + pb.v_scale() * tt);
+    let (mut lo_m, mut hi_m) = (None, None);
+    if let Some(found) = cruise_search(pb, tt, trigger, &mut lo_m, &mut hi_m) {
+        return Some(found.into());
+    }
     let ((c_lo, p_lo), (c_hi, p_hi)) = extremes(pb, tt)?;
     let tol = max(c_lo.p_tol, c_hi.p_tol);
     let d = pb.d;
@@ -299,8 +306,8 @@ pub(crate) fn fixed_time(pb: &Problem, tt: f64) -> Option<Pieces> {
     // Bracket: best known feasible profiles below and above the target position.
     let mut below = (c_lo, p_lo);
     let mut above = (c_hi, p_hi);
-    if let Some(found) = cruise_search(pb, tt, tol, &mut below, &mut above) {
-        return Some(found.into());
+    for x in [lo_m, hi_m].into_iter().flatten() {
+        note(&mut below, &mut above, x, d);
     }
     blend(pb, &below, &above, tt)
 }
@@ -311,8 +318,8 @@ fn cruise_search(
     pb: &Problem,
     tt: f64,
     tol: f64,
-    below: &mut (Cand, f64),
-    above: &mut (Cand, f64),
+    below: &mut Option<(Cand, f64)>,
+    above: &mut Option<(Cand, f64)>,
 ) -> Option<Cand> {
     let (lo_v, hi_v) = (pb.v_min, pb.v_max);
     if !(lo_v <= hi_v) {
@@ -335,7 +342,7 @@ fn cruise_search(
         }
     }
     sort(&mut breaks[..nb]);
-    const SUB: usize = 4;
+    const SUB: usize = 2;
     let mut pts = [0.0; 5 * SUB + 1];
     let mut np = 0;
     for k in 0..nb {
@@ -353,6 +360,38 @@ fn cruise_search(
         np += 1;
     }
     let d = pb.d;
+    // Fast path: from the average velocity, Newton-like steps (dp/dvc ≈ the cruise time) until
+    // two members bracket the target, then refine between them.
+    {
+        let clamp_v = |v: f64| min(max(v, lo_v), hi_v);
+        let mut a = member(pb, tt, clamp_v(d / tt));
+        for _ in 0..4 {
+            let Some(ma) = a else { break };
+            let f = ma.p - d;
+            if f == 0.0 {
+                if let Some((c, p)) = validated(pb, &ma) {
+                    if hits(pb, &c, p) {
+                        return Some(c);
+                    }
+                }
+                break;
+            }
+            let slope = max(ma.t[3], 0.05 * tt);
+            let vb = clamp_v(ma.vc - 1.5 * f / slope);
+            if vb == ma.vc {
+                break;
+            }
+            let Some(mb) = member(pb, tt, vb) else { break };
+            if (mb.p < d) != (ma.p < d) {
+                let (mut l, mut h) = (None, None);
+                if let Some(found) = refine(pb, tt, ma, mb, &mut l, &mut h) {
+                    return Some(found);
+                }
+                break;
+            }
+            a = Some(mb);
+        }
+    }
     // Walk the samples in order of vc; where the family's feasibility changes between two
     // samples, insert the boundary member (changes just fit, no cruise): that is where the family
     // meets the extremal profiles. Refine between consecutive members that bracket the target.
@@ -400,12 +439,9 @@ fn cruise_search(
         prev_v = Some(vc);
         fits_prev = fits;
     }
-    // No exact member: tighten the blend's bracket with the closest validated members.
-    for m in [lo_m, hi_m].into_iter().flatten() {
-        if let Some(x) = validated(pb, &m) {
-            note(below, above, x, d);
-        }
-    }
+    // No exact member: the closest validated members below and above, for the blend.
+    *below = lo_m.and_then(|m| validated(pb, &m));
+    *above = hi_m.and_then(|m| validated(pb, &m));
     None
 }
 
@@ -441,6 +477,11 @@ fn refine(
     let mut best = if abs(fa) <= abs(fb) { a } else { b };
     let mut side = 0i32;
     for _ in 0..100 {
+        // Close enough for sure: the member's own tolerance is at least FINAL_REL × its path
+        // length, which is at least max(|d|, |vc|·t_cruise).
+        if abs(best.p - d) <= 0.1 * crate::cand::FINAL_REL * max(abs(d), abs(best.vc) * best.t[3]) {
+            break;
+        }
         if fa == 0.0 || fb == 0.0 || (fa < 0.0) == (fb < 0.0) {
             break;
         }
