@@ -60,27 +60,27 @@ pub(crate) fn make_block(
     // Sort by duration.
     for i in 1..cands.len() {
         let mut k = i;
-        while k > 0 && cands[k - 1].total > cands[k].total {
+        while k > 0 && cands[k - 1].total() > cands[k].total() {
             cands.swap(k - 1, k);
             k -= 1;
         }
     }
     let first = *cands.first()?;
     let mut block = Block::EMPTY;
-    block.t_min = first.total + brake;
+    block.t_min = first.total() + brake;
     block.p_min = first;
     if rest {
         return Some(block);
     }
     let mut prev = first;
     for &c in cands[1..].iter() {
-        if abs(c.total - prev.total) <= 1e-12 * c.total {
+        if abs(c.total() - prev.total()) <= 1e-12 * c.total() {
             continue;
         }
-        let mid = 0.5 * (prev.total + c.total);
+        let mid = 0.5 * (prev.total() + c.total());
         if !feasible(mid) {
-            let left = prev.total + brake;
-            let right = c.total + brake;
+            let left = prev.total() + brake;
+            let right = c.total() + brake;
             if block.n > 0 && block.intervals[block.n - 1].right == left {
                 block.intervals[block.n - 1].right = right;
                 block.intervals[block.n - 1].profile = c;

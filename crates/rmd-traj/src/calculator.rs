@@ -120,7 +120,7 @@ pub(crate) fn plan_axis(
     if at_target {
         // The zero-length profile replaces near-zero ones found by the equations (0/0 there).
         let tiny = 1e-9 * max(pb.a_scale() / pb.j, 0.0);
-        cands.retain(|c| !(c.total <= tiny));
+        cands.retain(|c| !(c.total() <= tiny));
         cands.push(Cand::ZERO);
     }
     let feasible = |t: f64| -> bool {

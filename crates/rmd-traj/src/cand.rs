@@ -82,7 +82,6 @@ impl Problem {
 pub(crate) struct Cand {
     pub(crate) t: [f64; 7],
     pub(crate) j: [f64; 7],
-    pub(crate) total: f64,
     /// Tolerance of the final position (propagated rounding bound).
     pub(crate) p_tol: f64,
     pub(crate) kind: ProfileKind,
@@ -93,10 +92,16 @@ impl Cand {
     pub(crate) const ZERO: Cand = Cand {
         t: [0.0; 7],
         j: [0.0; 7],
-        total: 0.0,
         p_tol: 0.0,
         kind: ProfileKind::AtTarget,
     };
+
+    /// Total duration.
+    #[inline]
+    pub(crate) fn total(&self) -> f64 {
+        let t = &self.t;
+        ((t[0] + t[1]) + (t[2] + t[3])) + ((t[4] + t[5]) + t[6])
+    }
 
     /// The same profile seen in the other direction (jerks negated).
     pub(crate) fn mirrored(mut self) -> Cand {
@@ -281,7 +286,6 @@ pub(crate) fn check(
     Some(Cand {
         t,
         j: jerks,
-        total: c.total,
         p_tol: c.p_tol,
         kind,
     })
@@ -299,7 +303,6 @@ pub(crate) fn check_free(
         Cand {
             t,
             j: jerks,
-            total: c.total,
             p_tol: c.p_tol,
             kind,
         },
@@ -348,9 +351,10 @@ impl CandList {
 
     /// The smallest duration in the list (+∞ if empty).
     pub(crate) fn min_total(&self) -> f64 {
-        self.c[..self.n]
-            .iter()
-            .fold(f64::INFINITY, |m, c| if c.total < m { c.total } else { m })
+        self.c[..self.n].iter().fold(
+            f64::INFINITY,
+            |m, c| if c.total() < m { c.total() } else { m },
+        )
     }
 
     /// Keeps only the candidates for which `keep` is true.

@@ -67,7 +67,7 @@ fn max_position(pb: &Problem, tt: f64) -> Option<(Cand, f64)> {
     let mut best: Option<(Cand, f64)> = None;
     let mut consider = |t: [f64; 7]| {
         if let Some((c, p)) = check_free(pb, t, jj, EXTREMAL_UP) {
-            if abs(c.total - tt) <= 1e-12 * max(tt, 1e-300) + 1e-300 {
+            if abs(c.total() - tt) <= 1e-12 * max(tt, 1e-300) + 1e-300 {
                 match best {
                     Some((_, bp)) if bp >= p => {}
                     _ => best = Some((c, p)),

@@ -120,7 +120,7 @@ pub(crate) fn fixed_time(pb: &Problem, tt: f64) -> Option<Cand> {
     if !(pb.j > 0.0) {
         return None;
     }
-    let right_length = |c: &Cand| abs(c.total - tt) <= 8.0 * f64::EPSILON * tt;
+    let right_length = |c: &Cand| abs(c.total() - tt) <= 8.0 * f64::EPSILON * tt;
     if let Some(c) = plateau_up(pb, tt).filter(right_length) {
         return Some(c);
     }
