@@ -19,6 +19,9 @@
 //!
 //! See `docs/trajectory.md` for the algorithm and its numerical tolerances.
 #![cfg_attr(not(feature = "std"), no_std)]
+// `!(x <= limit)` is used on purpose throughout: it rejects NaN, which `x > limit` would let
+// through. Every value that reaches such a comparison may be NaN for degenerate inputs.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 mod block;
 mod brake;
