@@ -8,6 +8,9 @@
 use plotters::prelude::*;
 use rmd_rt::traj::{Input, calculate};
 
+/// Reads one quantity of a sampled state.
+type Getter = fn(&rmd_rt::traj::AxisState) -> f64;
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args()
         .nth(1)
@@ -45,7 +48,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("sans-serif", 22),
     )?;
     let panels = root.split_evenly((4, 1));
-    let quantities: [(&str, fn(&rmd_rt::traj::AxisState) -> f64); 4] = [
+    let quantities: [(&str, Getter); 4] = [
         ("position [deg]", |s| s.position),
         ("velocity [deg/s]", |s| s.velocity),
         ("acceleration [deg/s²]", |s| s.acceleration),

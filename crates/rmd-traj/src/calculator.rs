@@ -341,12 +341,12 @@ pub(crate) fn calculate(
         }
     }
     let mut phase_done = false;
-    if !finished && sync == Synchronization::Phase {
-        if let Some(lim) = limiting {
-            if let Some(lp) = chosen[lim] {
-                phase_done = phase_synchronize(axes, plans, lim, &lp, duration, chosen);
-            }
-        }
+    if !finished
+        && sync == Synchronization::Phase
+        && let Some(lim) = limiting
+        && let Some(lp) = chosen[lim]
+    {
+        phase_done = phase_synchronize(axes, plans, lim, &lp, duration, chosen);
     }
     if !finished && !phase_done {
         for (i, pl) in plans.iter().enumerate() {
@@ -375,11 +375,12 @@ pub(crate) fn calculate(
     for (i, (ax, pl)) in axes.iter().zip(plans.iter()).enumerate() {
         let pieces = chosen[i].unwrap_or_else(|| pl.block.p_min.into());
         let mut phases = [Phase::default(); MAX_PHASES];
-        for k in 0..pieces.n {
-            phases[k] = Phase {
-                duration: pieces.t[k],
-                jerk: pieces.j[k],
-            };
+        for (ph, (&duration, &jerk)) in phases
+            .iter_mut()
+            .zip(pieces.t.iter().zip(&pieces.j))
+            .take(pieces.n)
+        {
+            *ph = Phase { duration, jerk };
         }
         let end = if pl.pb.position {
             Some((ax.pf, ax.vf, ax.af))

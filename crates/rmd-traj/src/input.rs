@@ -172,17 +172,17 @@ pub(crate) struct Options {
 
 impl Options {
     pub(crate) fn validate(&self) -> Result<(), TrajectoryError> {
-        if let Some(t) = self.minimum_duration {
-            if !(t.is_finite() && t >= 0.0) {
-                return Err(TrajectoryError::InvalidOption(
-                    InvalidOption::MinimumDuration,
-                ));
-            }
+        if let Some(t) = self.minimum_duration
+            && !(t.is_finite() && t >= 0.0)
+        {
+            return Err(TrajectoryError::InvalidOption(
+                InvalidOption::MinimumDuration,
+            ));
         }
-        if let DurationDiscretization::Discrete { period } = self.discretization {
-            if !(period.is_finite() && period > 0.0) {
-                return Err(TrajectoryError::InvalidOption(InvalidOption::Period));
-            }
+        if let DurationDiscretization::Discrete { period } = self.discretization
+            && !(period.is_finite() && period > 0.0)
+        {
+            return Err(TrajectoryError::InvalidOption(InvalidOption::Period));
         }
         Ok(())
     }

@@ -66,24 +66,24 @@ fn max_position(pb: &Problem, tt: f64) -> Option<(Cand, f64)> {
     let jj = [j, 0.0, -j, 0.0, -j, 0.0, j];
     let mut best: Option<(Cand, f64)> = None;
     let mut consider = |t: [f64; 7]| {
-        if let Some((c, p)) = check_free(pb, t, jj, EXTREMAL_UP) {
-            if abs(c.total() - tt) <= 1e-12 * max(tt, 1e-300) + 1e-300 {
-                match best {
-                    Some((_, bp)) if bp >= p => {}
-                    _ => best = Some((c, p)),
-                }
+        if let Some((c, p)) = check_free(pb, t, jj, EXTREMAL_UP)
+            && abs(c.total() - tt) <= 1e-12 * max(tt, 1e-300) + 1e-300
+        {
+            match best {
+                Some((_, bp)) if bp >= p => {}
+                _ => best = Some((c, p)),
             }
         }
     };
     // Cruise at v_max.
-    if v_max > 0.0 {
-        if let (Some((t0, t1, t2)), Some((t4, t5, t6))) = (
+    if v_max > 0.0
+        && let (Some((t0, t1, t2)), Some((t4, t5, t6))) = (
             rise_to(v0, a0, v_max, a_max, j),
             fall_from(v_max, vf, af, a_min, j),
-        ) {
-            let t3 = tt - (t0 + t1 + t2 + t4 + t5 + t6);
-            consider([t0, t1, t2, t3, t4, t5, t6]);
-        }
+        )
+    {
+        let t3 = tt - (t0 + t1 + t2 + t4 + t5 + t6);
+        consider([t0, t1, t2, t3, t4, t5, t6]);
     }
     let dv = vf - v0;
     // No plateau: u − w = s, u + w = K/s.
@@ -369,10 +369,10 @@ fn cruise_search(
             let Some(ma) = a else { break };
             let f = ma.p - d;
             if f == 0.0 {
-                if let Some((c, p)) = validated(pb, &ma) {
-                    if hits(pb, &c, p) {
-                        return Some(c);
-                    }
+                if let Some((c, p)) = validated(pb, &ma)
+                    && hits(pb, &c, p)
+                {
+                    return Some(c);
                 }
                 break;
             }
@@ -403,17 +403,17 @@ fn cruise_search(
         let cur = member(pb, tt, vc);
         let fits = cur.is_some();
         let mut members = [None, None];
-        if let Some(pv) = prev_v {
-            if fits != fits_prev {
-                let vb = if fits_prev {
-                    fit_boundary(pb, tt, pv, vc)
-                } else {
-                    fit_boundary(pb, tt, vc, pv)
-                };
-                members[0] = member(pb, tt, vb);
-                if !fits_prev {
-                    prev = None;
-                }
+        if let Some(pv) = prev_v
+            && fits != fits_prev
+        {
+            let vb = if fits_prev {
+                fit_boundary(pb, tt, pv, vc)
+            } else {
+                fit_boundary(pb, tt, vc, pv)
+            };
+            members[0] = member(pb, tt, vb);
+            if !fits_prev {
+                prev = None;
             }
         }
         members[1] = cur;
@@ -424,12 +424,11 @@ fn cruise_search(
             if m.p >= d && hi_m.is_none_or(|x| m.p < x.p) {
                 hi_m = Some(m);
             }
-            if let Some(pm) = prev {
-                if (pm.p < d) != (m.p < d) || abs(m.p - d) <= tol {
-                    if let Some(found) = refine(pb, tt, pm, m, &mut lo_m, &mut hi_m) {
-                        return Some(found);
-                    }
-                }
+            if let Some(pm) = prev
+                && ((pm.p < d) != (m.p < d) || abs(m.p - d) <= tol)
+                && let Some(found) = refine(pb, tt, pm, m, &mut lo_m, &mut hi_m)
+            {
+                return Some(found);
             }
             prev = Some(m);
         }

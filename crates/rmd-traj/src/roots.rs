@@ -305,12 +305,10 @@ mod tests {
     fn poly_from_roots(r: &[f64]) -> [f64; 5] {
         // (x - r0)(x - r1)(x - r2)(x - r3), highest first
         let mut c = [1.0, 0.0, 0.0, 0.0, 0.0];
-        let mut deg = 0;
-        for &ri in r {
+        for (deg, &ri) in r.iter().enumerate() {
             for k in (1..=deg + 1).rev() {
                 c[k] -= ri * c[k - 1];
             }
-            deg += 1;
         }
         c
     }

@@ -55,8 +55,8 @@ impl<const N: usize> Trajectory<N> {
         )?;
         self.duration = summary.duration;
         self.limiting_axis = summary.limiting_axis;
-        for i in 0..N {
-            self.independent_min_durations[i] = plans[i].block.t_min;
+        for (t, plan) in self.independent_min_durations.iter_mut().zip(&plans) {
+            *t = plan.block.t_min;
         }
         Ok(())
     }

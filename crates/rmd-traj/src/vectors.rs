@@ -296,10 +296,10 @@ struct Samples {
 /// ```
 pub fn check_vectors(json: &str) -> Result<CheckReport, VectorsError> {
     let file: File = serde_json::from_str(json)?;
-    if let Some(v) = file.schema_version {
-        if v != 1 {
-            return Err(VectorsError::SchemaVersion(v));
-        }
+    if let Some(v) = file.schema_version
+        && v != 1
+    {
+        return Err(VectorsError::SchemaVersion(v));
     }
     let rounding = match file.sample_significant_digits {
         Some(d) if d > 0 => 0.5 * 10f64.powi(1 - d as i32),

@@ -29,17 +29,8 @@ fn s_curve(dv: f64, a: f64, j: f64) -> (f64, f64) {
 /// Duration of a valid (not necessarily optimal) trajectory for one axis inside the limits:
 /// ramp the acceleration to zero, S-curve to rest, rest-to-rest move (with cruise), S-curve from
 /// rest to the velocity that ramping to `af` ends at `vf`, ramp to `af`.
-fn baseline(
-    p0: f64,
-    v0: f64,
-    a0: f64,
-    pf: f64,
-    vf: f64,
-    af: f64,
-    vmax: f64,
-    amax: f64,
-    j: f64,
-) -> f64 {
+fn baseline(axis: [f64; 9]) -> f64 {
+    let [p0, v0, a0, pf, vf, af, vmax, amax, j] = axis;
     // 1. Acceleration to zero.
     let t1 = a0.abs() / j;
     let v1 = v0 + a0 * a0.abs() / (2.0 * j);
@@ -327,8 +318,7 @@ proptest! {
         let input = input_from::<1>(&[axis]);
         let traj = calculate(&input).map_err(|e| TestCaseError::fail(format!("{e}")))?;
         check_all(&input, &traj).map_err(TestCaseError::fail)?;
-        let [p0, v0, a0, pf, vf, af, vmax, amax, jmax] = axis;
-        let base = baseline(p0, v0, a0, pf, vf, af, vmax, amax, jmax);
+        let base = baseline(axis);
         prop_assert!(traj.duration() <= base * (1.0 + 1e-9) + 1e-12,
             "duration {} > baseline {}", traj.duration(), base);
     }
@@ -343,7 +333,7 @@ proptest! {
         for p in traj.profiles() {
             prop_assert!((p.duration() - traj.duration()).abs() <= 1e-9 * traj.duration().max(1.0));
         }
-        let slowest = axes.iter().map(|a| baseline(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8]))
+        let slowest = axes.iter().map(|a| baseline(*a))
             .fold(0.0, f64::max);
         prop_assert!(traj.duration() <= slowest * (1.0 + 1e-9) + 1e-12,
             "duration {} > baseline {}", traj.duration(), slowest);
