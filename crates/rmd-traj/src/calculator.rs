@@ -306,8 +306,8 @@ pub(crate) fn calculate(
     } else {
         let Some((t, from)) = synchronize(plans, &axes_sync, opts) else {
             let duration = plans.iter().map(|p| p.block.t_min).fold(0.0, max);
-            return Err(if axes.iter().any(has_zero_limits) {
-                TrajectoryError::ZeroLimits { axis: 0 }
+            return Err(if let Some(axis) = axes.iter().position(has_zero_limits) {
+                TrajectoryError::ZeroLimits { axis }
             } else {
                 TrajectoryError::Synchronization {
                     axis: None,
