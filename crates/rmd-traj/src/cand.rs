@@ -156,6 +156,25 @@ pub(crate) struct Checked {
     pub(crate) p_tol: f64,
 }
 
+/// Why [`validate_why`] rejected a candidate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Failure {
+    /// Negative phase, non-finite value or a limit exceeded: no small correction helps.
+    Shape,
+    /// Only the final state is off: a more accurate root may pass.
+    FinalState,
+}
+
+/// [`validate_why`] without the reason.
+pub(crate) fn validate(
+    pb: &Problem,
+    t: &mut [f64],
+    jerks: &[f64],
+    test_position: bool,
+) -> Option<Checked> {
+    validate_why(pb, t, jerks, test_position).ok()
+}
+
 /// Validates phase times `t` with jerks `jerks` for `pb`: non-negative times (tiny negative
 /// values within tolerance are set to 0), limits respected, final velocity and acceleration
 /// reached and, if `test_position`, the final position too.
@@ -166,17 +185,17 @@ pub(crate) struct Checked {
 /// position, ∫|a| dt for the velocity). So a long cruise after a fast ramp, a huge velocity
 /// swing after a brake, or a microscopic distance each get the tolerance their arithmetic
 /// warrants.
-pub(crate) fn validate(
+pub(crate) fn validate_why(
     pb: &Problem,
     t: &mut [f64],
     jerks: &[f64],
     test_position: bool,
-) -> Option<Checked> {
+) -> Result<Checked, Failure> {
     const E: f64 = f64::EPSILON;
     let mut raw = 0.0;
     for &ti in t.iter() {
         if !ti.is_finite() {
-            return None;
+            return Err(Failure::Shape);
         }
         raw += abs(ti);
     }
@@ -188,14 +207,14 @@ pub(crate) fn validate(
     for ti in t.iter_mut() {
         if *ti < 0.0 {
             if *ti < -t_tol {
-                return None;
+                return Err(Failure::Shape);
             }
             *ti = 0.0;
         }
         total += *ti;
     }
     if !(total <= 1e12) {
-        return None;
+        return Err(Failure::Shape);
     }
     let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
     let (mut p, mut v, mut a) = it.state();
@@ -240,7 +259,7 @@ pub(crate) fn validate(
         };
         let a_tol = LIMIT_REL * as_ + ROUND_K * ea;
         if !(a1 <= pb.a_max + a_tol && a1 >= pb.a_min - a_tol) {
-            return None;
+            return Err(Failure::Shape);
         }
         if pb.position {
             let v_tol = LIMIT_REL * vs + ROUND_K * ev;
@@ -248,7 +267,7 @@ pub(crate) fn validate(
             // Monotone pieces: up to the velocity extremum (where a = 0), then to the end.
             for (x, y) in [(v, v_ext), (v_ext, v1)] {
                 if (!below && crate::math::min(x, y) < v_lo) || (!above && max(x, y) > v_hi) {
-                    return None;
+                    return Err(Failure::Shape);
                 }
                 below = below && y < v_lo;
                 above = above && y > v_hi;
@@ -263,16 +282,16 @@ pub(crate) fn validate(
     ) + tiny;
     let a_end_tol = max(ROUND_K * ea, FINAL_REL * as_) + tiny;
     if !(abs(v - pb.vf) <= v_end_tol && abs(a - pb.af) <= a_end_tol) {
-        return None;
+        return Err(Failure::FinalState);
     }
     let p_tol = max(ROUND_K * ep, FINAL_REL * max(abs(pb.d), path)) + tiny;
     if test_position && pb.position && !(abs(p - pb.d) <= p_tol) {
-        return None;
+        return Err(Failure::FinalState);
     }
     if !p.is_finite() {
-        return None;
+        return Err(Failure::Shape);
     }
-    Some(Checked { total, p, p_tol })
+    Ok(Checked { total, p, p_tol })
 }
 
 /// [`validate`] for a 7-phase candidate that must reach the target.
@@ -347,6 +366,32 @@ impl CandList {
             self.c[self.n] = c;
             self.n += 1;
         }
+    }
+
+    /// Validates phase times `t` with `jerks` in place in the next free slot and keeps the
+    /// candidate if valid, negating its jerks if `mirror` (no copies of the candidate).
+    pub(crate) fn push_checked(
+        &mut self,
+        pb: &Problem,
+        t: &[f64; 7],
+        jerks: &[f64; 7],
+        kind: ProfileKind,
+        mirror: bool,
+    ) -> Result<(), Failure> {
+        if self.n >= MAX_CANDS {
+            return Err(Failure::Shape);
+        }
+        let slot = &mut self.c[self.n];
+        slot.t = *t;
+        let c = validate_why(pb, &mut slot.t, jerks, true)?;
+        slot.j = *jerks;
+        slot.p_tol = c.p_tol;
+        slot.kind = kind;
+        if mirror {
+            *slot = slot.mirrored();
+        }
+        self.n += 1;
+        Ok(())
     }
 
     /// The smallest duration in the list (+∞ if empty).

@@ -13,7 +13,7 @@
 //! the directly integrated position error, and every candidate is validated by
 //! [`check`](crate::cand::check).
 
-use crate::cand::{Cand, CandList, Problem, check, limits_of, uddu};
+use crate::cand::{CandList, Failure, Problem, limits_of, uddu};
 use crate::math::{Integrator, abs, max, sqrt};
 use crate::profile::{Direction, ProfileKind};
 use crate::roots::{eval, quartic_roots_in, roots_in};
@@ -99,16 +99,6 @@ pub(crate) struct Sink<'a> {
 }
 
 impl Sink<'_> {
-    /// Adds a candidate; returns true when the search should stop.
-    pub(crate) fn add(&mut self, c: Cand) -> bool {
-        let c = match self.dir {
-            Direction::Up => c,
-            Direction::Down => c.mirrored(),
-        };
-        self.out.push(c);
-        self.search == Search::First
-    }
-
     /// The duration a new candidate must beat to matter (`Fastest`), else +∞.
     pub(crate) fn bound(&self) -> f64 {
         if self.search == Search::Fastest {
@@ -130,10 +120,8 @@ impl Sink<'_> {
         if !(t.iter().sum::<f64>() < self.bound() * (1.0 + 1e-9)) {
             return false;
         }
-        match check(pb, t, jerks, kind) {
-            Some(c) => self.add(c),
-            None => false,
-        }
+        let mirror = self.dir == Direction::Down;
+        self.out.push_checked(pb, &t, &jerks, kind, mirror).is_ok() && self.search == Search::First
     }
 
     /// Like [`offer`](Self::offer) for the root `x` of a type's equation: checked as computed,
@@ -151,18 +139,19 @@ impl Sink<'_> {
         if !(t.iter().sum::<f64>() < self.bound() * (1.0 + 1e-9)) {
             return false;
         }
-        let c = check(pb, t, *jerks, kind).or_else(|| {
-            check(
-                pb,
-                phases(polish(x, pb, phases, jerks, slope)),
-                *jerks,
-                kind,
-            )
-        });
-        match c {
-            Some(c) => self.add(c),
-            None => false,
-        }
+        let mirror = self.dir == Direction::Down;
+        // Polishing can only help when just the final state is off.
+        let found = match self.out.push_checked(pb, &t, jerks, kind, mirror) {
+            Ok(()) => true,
+            Err(Failure::FinalState) => {
+                let polished = phases(polish(x, pb, phases, jerks, slope));
+                self.out
+                    .push_checked(pb, &polished, jerks, kind, mirror)
+                    .is_ok()
+            }
+            Err(Failure::Shape) => false,
+        };
+        found && self.search == Search::First
     }
 
     /// Runs a type solver; true when the search should stop.
