@@ -2,58 +2,57 @@
 //! `shared/testdata/trajectory/SCHEMA.md`) against this crate. Feature `vectors`.
 //!
 //! Every case is solved with [`calculate`](crate::calculate) and judged by the rules of the
-//! schema's "How to compare" section:
+//! schema's "How to compare" section, made precise as follows.
+//!
+//! **Scales.** Per axis, the schema's `S_p = max(1, |p0|, |pf|, vMax·T)`,
+//! `S_v = max(1, vMax, |v0|)`, `S_a = max(1, aMax, |a0|)`, each raised to the magnitude our
+//! trajectory actually reaches (largest |p| and path length ∫|v| dt, largest |v|, largest |a|).
+//! When the initial state forces a brake excursion far beyond the limits (|a0| ≫ aMax with a
+//! small jMax swings the velocity by a0²/(2 jMax)), every double-precision result carries
+//! rounding relative to that excursion, the reference's included.
 //!
 //! 1. **Result code**: the same code as the reference. Cases tagged `ruckig_failed` (no oracle)
-//!    pass with an error or with a trajectory that passes the validity checks below.
+//!    pass with an error or with a trajectory that passes the validity checks (rule 4).
 //! 2. **Duration**: `|T − T_ref| ≤ 1e-9·max(1, T_ref)`. Rest-to-rest cases with every distance
-//!    ≤ 1e-8 also accept 0 or a valid tiny duration (rule 5).
-//! 3. **Samples** at the stored times, for the axes whose reference path is unique (1-axis cases
-//!    without minimum duration / discretization, the `limiting_dofs`, and axes that keep their own
-//!    minimum-time profile under synchronization `none` / `time_if_necessary`):
-//!    `|x − x_ref| ≤ 1e-9·S_x + max(|ẋ_ref|, |ẋ|)·|T − T_ref| + R_x` with the schema's scales
-//!    `S_p = max(1, |p0|, |pf|, vMax·T)`, `S_v = max(1, vMax, |v0|)`, `S_a = max(1, aMax, |a0|)`
-//!    — each also at least the magnitude our trajectory reaches (largest |p| and path length
-//!    ∫|v| dt, largest |v|, largest |a|): when the initial state forces a brake excursion far
-//!    beyond the limits (|a0| ≫ aMax with a small jMax swings the velocity by a0²/(2 jMax)),
-//!    every double-precision result carries rounding relative to that excursion, the reference's
-//!    included —
-//!    (the schema's time-shift term with the larger of the two slopes: at the final sample the
-//!    reference reports jerk 0 by its extrapolation convention while a trajectory that is
-//!    `|T − T_ref|` longer is still in its last jerk phase), and jerk within `1e-9·jMax` except within `1e-9·T` of a phase boundary (of ours or the
-//!    reference's, which we do not know: any jerk sample whose time is within `1e-9·T` of one of
-//!    our boundaries is skipped). `R_x` is the rounding allowance when the file stores samples
-//!    with `d` significant digits (`sample_significant_digits`, 12 in the hidden set): values and
-//!    times are then off by up to half a unit in the last digit, `0.5·10^(1−d)` relative, so
-//!    `R_x = 0.5·10^(1−d)·(|x_ref| + max(|ẋ_ref|, |ẋ|)·t)`; `R_x = 0` for full precision.
-//! 4. **Validity** of every Working trajectory, every axis, checked on the continuous profile:
-//!    after the brake pre-trajectory, the acceleration (linear per phase) and the velocity
-//!    (quadratic per phase: phase ends and interior extremum) stay within the limits up to
-//!    `1e-9·S_v` / `1e-9·S_a`; every jerk is within `jMax·(1 + 1e-12)`; the state integrated
-//!    from the start through the published phases reaches the target at its end within
-//!    `max(1e-8, 1e-9·S_p)` (position), `max(1e-8, 1e-9·S_v)` (velocity) and
-//!    `max(1e-10, 1e-10·S_a)` (acceleration) — the reference's own absolute tolerances, made
-//!    relative for large magnitudes as the schema does for rescaled cases; and sampling on a
-//!    grid of points inside every phase agrees with that integration (up to the state's rate
-//!    of change times the rounding of the absolute sample time, `4·eps·t`). The integration uses
-//!    the profile's documented convention (see [`AxisProfile`](crate::AxisProfile)) that a jerk
-//!    phase ending at an acceleration that is zero up to rounding ends at exactly zero
-//!    (otherwise a rounding residual of 1e-14 in the acceleration before a cruise of 10⁶ s would
-//!    integrate to a position error of 1e-2 that the profile does not have).
+//!    ≤ 1e-8 also accept 0 or a valid tiny duration (the schema's rule 5).
+//! 3. **Samples** at the stored times, for the axes whose reference path is unique: 1-axis cases
+//!    without minimum duration or discretization, the `limiting_dofs`, and axes that keep their
+//!    own minimum-time profile under synchronization `none` / `time_if_necessary`.
+//!    `|x − x_ref| ≤ 1e-9·S_x + max(|ẋ_ref|, |ẋ|)·|T − T_ref| + R_x` for position, velocity
+//!    and acceleration. The time-shift term uses the larger of the two slopes: at the final
+//!    sample the reference reports jerk 0 by its extrapolation convention while a trajectory
+//!    `|T − T_ref|` longer is still in its last jerk phase. Jerk must agree within `1e-9·jMax`
+//!    except within `1e-9·T + R_t` of one of our phase boundaries. `R_x` is the allowance for
+//!    samples stored with `d` significant digits (`sample_significant_digits`; 12 in the hidden
+//!    set): values and times are then off by up to half a unit in the last digit, `0.5·10^(1−d)`
+//!    relative, so `R_x = 0.5·10^(1−d)·(|x_ref| + max(|ẋ_ref|, |ẋ|)·t)`; 0 at full precision.
+//! 4. **Validity** of every Working trajectory, every axis, on the continuous profile: after the
+//!    brake pre-trajectory the acceleration (linear per phase) and the velocity (quadratic per
+//!    phase: phase ends and interior extremum) stay within the limits up to `1e-9·S_v` /
+//!    `1e-9·S_a` — a velocity still outside the limits after the brake (a violation the brake
+//!    could not prevent) must move towards them and, once inside, stay inside; every jerk is
+//!    within `jMax·(1 + 1e-12)`; the state integrated from the start through the published
+//!    phases reaches the target within `max(1e-8, 1e-9·S_p)` (position), `max(1e-8, 1e-9·S_v)`
+//!    (velocity) and `max(1e-10, 1e-10·S_a)` (acceleration) — the reference's own absolute
+//!    tolerances, relative for large magnitudes as the schema does for rescaled cases; and the
+//!    sampler agrees with that integration inside every phase and on a 64-point grid (up to the
+//!    state's rate of change times the rounding of the absolute sample time, `4·eps·t`). The
+//!    integration uses the profile's documented convention (see
+//!    [`AxisProfile`]) that a jerk phase ending at an acceleration that is
+//!    zero up to rounding ends at exactly zero (otherwise a rounding residual of 1e-14 before a
+//!    cruise of 10⁶ s would integrate into a position error of 1e-2 the profile does not have).
 //!
-//! When the durations differ and the reference's own sample at its duration misses the target
-//! by more than the reference's acceptance tolerances (1e-8 / 1e-8 / 1e-10 absolute, plus the
-//! rounding of the stored digits), the reference did not solve the problem as given (typically an
-//! `oracle_rescaled` answer that was "already there" only in the rescaled units); the case then
-//! passes as **reference inaccurate** if ours is valid, and is listed with what the reference
-//! missed.
+//! **Better than reference**: our trajectory passes rule 4 and is shorter than the reference's
+//! beyond the duration tolerance (or the reference failed with −101, duration above 7600, while
+//! ours is valid and below). The typical case is an axis set already at a moving target
+//! (duration 0; the reference returns a loop); another is a reference that fell back to a slower
+//! profile after its absolute tolerances rejected the fastest one. Counted as passed, listed by id.
 //!
-//! A case passes as **better than reference** when our trajectory passes every validity check of
-//! rule 4 and is shorter than the reference's beyond the duration tolerance (or the reference
-//! failed with code −101, duration above 7600, while ours is valid and below). The typical case
-//! is an axis set already at a moving target (duration 0, the reference returns a full loop);
-//! another is a reference that fell back to a slower profile after its absolute tolerances
-//! rejected the fastest one. Such cases are listed by id for review.
+//! **Reference inaccurate**: the durations differ and the reference's own sample at its duration
+//! misses the target by more than the reference's acceptance tolerances (1e-8 / 1e-8 / 1e-10
+//! absolute, plus `R_x`): it did not solve the problem as given (typically an `oracle_rescaled`
+//! answer that was "already there" only in the rescaled units). Counted as passed if ours is
+//! valid, listed with what the reference missed.
 
 use std::collections::BTreeMap;
 use std::fmt;
