@@ -2,7 +2,7 @@
 
 use crate::block::{Block, make_block};
 use crate::brake::{Brake, position_brake, velocity_brake_for_velocity_interface};
-use crate::cand::{Cand, CandList, Problem, validate};
+use crate::cand::{Cand, CandList, Free, Problem, validate};
 use crate::error::TrajectoryError;
 use crate::input::{AxisInput, ControlInterface, DurationDiscretization, Options, Synchronization};
 use crate::math::{Integrator, abs, fmod, max, snap_scale};
@@ -265,7 +265,7 @@ fn phase_synchronize(
             return false;
         }
         let n = p.n;
-        match validate(&pl.pb, &mut p.t[..n], &p.j[..n], true) {
+        match validate(&pl.pb, &mut p.t[..n], &p.j[..n], Free::Nothing) {
             Some(c) if abs(c.total - t_profile) <= 1e-12 * max(duration, 1e-300) => {
                 p.kind = ProfileKind::PhaseSynchronized;
                 out[i] = Some(p);

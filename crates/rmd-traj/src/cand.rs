@@ -156,6 +156,18 @@ pub(crate) struct Checked {
     pub(crate) p_tol: f64,
 }
 
+/// Which final quantities a validation leaves free.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Free {
+    /// The final position, velocity and acceleration must be the target's.
+    Nothing,
+    /// The final position is free (fixed-duration extremes of the position interface).
+    Position,
+    /// The final position and velocity are free (fixed-duration extremes of the velocity
+    /// interface).
+    Velocity,
+}
+
 /// Why [`validate_why`] rejected a candidate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Failure {
@@ -166,18 +178,13 @@ pub(crate) enum Failure {
 }
 
 /// [`validate_why`] without the reason.
-pub(crate) fn validate(
-    pb: &Problem,
-    t: &mut [f64],
-    jerks: &[f64],
-    test_position: bool,
-) -> Option<Checked> {
-    validate_why(pb, t, jerks, test_position).ok()
+pub(crate) fn validate(pb: &Problem, t: &mut [f64], jerks: &[f64], free: Free) -> Option<Checked> {
+    validate_why(pb, t, jerks, free).ok()
 }
 
 /// Validates phase times `t` with jerks `jerks` for `pb`: non-negative times (tiny negative
 /// values within tolerance are set to 0), limits respected, final velocity and acceleration
-/// reached and, if `test_position`, the final position too.
+/// reached (unless left `free`) and the final position too.
 ///
 /// Tolerances follow the scale of the problem instead of fixed epsilons: the larger of a
 /// forward bound of the integration's rounding errors (errors of p, v, a carried through every
@@ -189,7 +196,7 @@ pub(crate) fn validate_why(
     pb: &Problem,
     t: &mut [f64],
     jerks: &[f64],
-    test_position: bool,
+    free: Free,
 ) -> Result<Checked, Failure> {
     const E: f64 = f64::EPSILON;
     let mut raw = 0.0;
@@ -281,11 +288,12 @@ pub(crate) fn validate_why(
         FINAL_REL * max(max(abs(pb.v0), abs(pb.vf)), a_area),
     ) + tiny;
     let a_end_tol = max(ROUND_K * ea, FINAL_REL * as_) + tiny;
-    if !(abs(v - pb.vf) <= v_end_tol && abs(a - pb.af) <= a_end_tol) {
+    let v_ok = free == Free::Velocity || abs(v - pb.vf) <= v_end_tol;
+    if !(v_ok && abs(a - pb.af) <= a_end_tol) {
         return Err(Failure::FinalState);
     }
     let p_tol = max(ROUND_K * ep, FINAL_REL * max(abs(pb.d), path)) + tiny;
-    if test_position && pb.position && !(abs(p - pb.d) <= p_tol) {
+    if free == Free::Nothing && pb.position && !(abs(p - pb.d) <= p_tol) {
         return Err(Failure::FinalState);
     }
     if !p.is_finite() {
@@ -301,7 +309,7 @@ pub(crate) fn check(
     jerks: [f64; 7],
     kind: ProfileKind,
 ) -> Option<Cand> {
-    let c = validate(pb, &mut t, &jerks, true)?;
+    let c = validate(pb, &mut t, &jerks, Free::Nothing)?;
     Some(Cand {
         t,
         j: jerks,
@@ -313,11 +321,23 @@ pub(crate) fn check(
 /// [`validate`] for a 7-phase candidate with a free final position; returns it too.
 pub(crate) fn check_free(
     pb: &Problem,
-    mut t: [f64; 7],
+    t: [f64; 7],
     jerks: [f64; 7],
     kind: ProfileKind,
 ) -> Option<(Cand, f64)> {
-    let c = validate(pb, &mut t, &jerks, false)?;
+    check_with(pb, t, jerks, kind, Free::Position)
+}
+
+/// [`validate`] for a 7-phase candidate with the given final quantities free; returns it and
+/// its final position.
+pub(crate) fn check_with(
+    pb: &Problem,
+    mut t: [f64; 7],
+    jerks: [f64; 7],
+    kind: ProfileKind,
+    free: Free,
+) -> Option<(Cand, f64)> {
+    let c = validate(pb, &mut t, &jerks, free)?;
     Some((
         Cand {
             t,
@@ -383,7 +403,7 @@ impl CandList {
         }
         let slot = &mut self.c[self.n];
         slot.t = *t;
-        let c = validate_why(pb, &mut slot.t, jerks, true)?;
+        let c = validate_why(pb, &mut slot.t, jerks, Free::Nothing)?;
         slot.j = *jerks;
         slot.p_tol = c.p_tol;
         slot.kind = kind;

@@ -14,7 +14,7 @@
 //!   change to the target) found by a bracketed search over `vc`; otherwise the blend
 //!   `λ·j₁ + (1−λ)·j₂` of two feasible profiles whose final positions bracket `pf`.
 
-use crate::cand::{Cand, Problem, check_free, validate};
+use crate::cand::{Cand, Free, Problem, check_free, validate};
 use crate::math::{Integrator, abs, max, min, sqrt};
 use crate::position1::{fall_from, rise_to};
 use crate::profile::{Direction, MAX_PHASES, ProfileKind};
@@ -590,7 +590,7 @@ fn blend(pb: &Problem, a: &(Cand, f64), b: &(Cand, f64), tt: f64) -> Option<Piec
         }
     }
     let n = out.n;
-    let total = validate(pb, &mut out.t[..n], &out.j[..n], true)?.total;
+    let total = validate(pb, &mut out.t[..n], &out.j[..n], Free::Nothing)?.total;
     if abs(total - tt) > 1e-12 * tt {
         return None;
     }

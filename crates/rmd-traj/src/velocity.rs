@@ -5,7 +5,7 @@
 //! shape with a plateau at any acceleration level, or "hold a0, ramp, hold af"; together these
 //! cover every reachable final velocity continuously.
 
-use crate::cand::{Cand, CandList, Problem, check, check_free};
+use crate::cand::{Cand, CandList, Free, Problem, check, check_with};
 use crate::math::{abs, max, sqrt};
 use crate::position1::{Search, Sink};
 use crate::profile::{Direction, ProfileKind, ReachedLimits};
@@ -93,13 +93,14 @@ fn max_velocity(pb: &Problem, tt: f64) -> Option<(Cand, f64)> {
         let t1 = tt - (2.0 * a_max - a0 - af) / j;
         [(a_max - a0) / j, t1, (a_max - af) / j, 0.0, 0.0, 0.0, 0.0]
     };
-    let (c, _) = check_free(
+    let (c, _) = check_with(
         pb,
         t,
         jj,
         ProfileKind::FixedTimeExtremal {
             direction: Direction::Up,
         },
+        Free::Velocity,
     )?;
     let v = c.end(pb).1;
     Some((c, v))

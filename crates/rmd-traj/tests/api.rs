@@ -296,3 +296,33 @@ fn online_generator_is_continuous_across_a_replan() {
         prev = v;
     }
 }
+
+#[test]
+fn velocity_interface_blocked_intervals_are_decided_by_feasibility() {
+    // Axis 0 has three extremal profiles (0.0580, 0.0686, 0.3468 s) with one blocked interval
+    // (0.0686, 0.3468): the duration of axis 1 (0.0597 s) is feasible for it. Reference (ruckig
+    // 0.19.4): 0.05972755000431295.
+    let mut input = Input::<3>::with_limits(
+        [2.51795, 297.698, 1.48977],
+        [74.1521, 66072.0, 10.4141],
+        [418.667, 2399060.0, 7995.44],
+    );
+    input.control_interface = ControlInterface::Velocity;
+    input.min_acceleration = Some([-162.819, -66072.0, -41.3266]);
+    input.current_velocity = [1.81776, 173.361, 2.69108];
+    input.current_acceleration = [-52.4588, -50316.1, 0.0];
+    input.target_velocity = [-0.866151, 546.499, 2.44682];
+    input.target_acceleration = [-34.5047, 0.0, -13.4427];
+    let traj = calculate(&input).unwrap();
+    assert!(
+        (traj.duration() - 0.05972755000431295).abs() < 1e-12,
+        "{}",
+        traj.duration()
+    );
+    for (i, s) in traj.state_at(traj.duration()).iter().enumerate() {
+        assert_eq!(
+            (s.velocity, s.acceleration),
+            (input.target_velocity[i], input.target_acceleration[i])
+        );
+    }
+}
