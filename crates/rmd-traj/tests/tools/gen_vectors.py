@@ -124,7 +124,11 @@ def make_case(rng, idx, category):
         axes = [vel_axis(rng) for _ in range(3)]
     else:  # options
         n = rng.choice([1, 2, 3])
-        axes = [axis(rng, rng.choice(["rest", "random"])) for _ in range(n)]
+        if rng.random() < 0.25:
+            opts["interface"] = "velocity"
+            axes = [vel_axis(rng) for _ in range(n)]
+        else:
+            axes = [axis(rng, rng.choice(["rest", "random"])) for _ in range(n)]
         note = rng.choice(["minimum_duration", "duration_discretization", "phase_synchronization",
                            "time_if_necessary", "no_synchronization"])
         opts["note"] = note
