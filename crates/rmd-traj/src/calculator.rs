@@ -21,6 +21,9 @@ pub(crate) struct AxisPlan {
     pub(crate) brake_t: f64,
     pub(crate) pb: Problem,
     pub(crate) block: Block,
+    /// Whether the blocked intervals are known (all extremal profiles were searched); if not,
+    /// only `t_min` is.
+    pub(crate) complete: bool,
 }
 
 impl AxisPlan {
@@ -45,6 +48,7 @@ impl AxisPlan {
             a_snap: 0.0,
         },
         block: Block::EMPTY,
+        complete: true,
     };
 }
 
@@ -64,7 +68,7 @@ pub(crate) fn plan_axis(
     ax: &AxisInput,
     axis: usize,
     interface: ControlInterface,
-    need_blocks: bool,
+    all_profiles: bool,
 ) -> Result<AxisPlan, TrajectoryError> {
     let position = interface == ControlInterface::Position;
     let brake = if position {
@@ -106,7 +110,7 @@ pub(crate) fn plan_axis(
     if !(at_target && rest) && pb.j > 0.0 {
         let search = if rest && !at_target {
             Search::First
-        } else if need_blocks {
+        } else if all_profiles {
             Search::All
         } else {
             Search::Fastest
@@ -130,19 +134,16 @@ pub(crate) fn plan_axis(
             velocity::feasible(&pb, t)
         }
     };
-    // Without synchronization only the fastest profile matters: no blocked intervals needed.
-    let block = make_block(
-        cands.as_mut_slice(),
-        brake_t,
-        rest || !need_blocks,
-        &feasible,
-    );
+    // Without all profiles only the fastest one is known: no blocked intervals.
+    let complete = rest || all_profiles;
+    let block = make_block(cands.as_mut_slice(), brake_t, !complete, &feasible);
     match block {
         Some(block) => Ok(AxisPlan {
             brake,
             brake_t,
             pb,
             block,
+            complete,
         }),
         None if has_zero_limits(ax) => Err(TrajectoryError::ZeroLimits { axis }),
         None => Err(TrajectoryError::NoProfile { axis }),
@@ -290,87 +291,101 @@ pub(crate) fn calculate(
         ax.validate(i, opts.control_interface)?;
     }
     let discrete = matches!(opts.discretization, DurationDiscretization::Discrete { .. });
-    let need_blocks = !(n == 1 && opts.minimum_duration.is_none() && !discrete);
+    // Step 1 first finds each axis's fastest profile only. The blocked intervals of an axis are
+    // computed (all its extremal profiles) only when the common duration turns out to be
+    // infeasible for it, which step 2 detects; then the duration is chosen again.
     for (i, ax) in axes.iter().enumerate() {
-        plans[i] = plan_axis(ax, i, opts.control_interface, need_blocks)?;
-        chosen[i] = None;
+        plans[i] = plan_axis(ax, i, opts.control_interface, false)?;
     }
     let sync = opts.synchronization;
     let axes_sync = |_: usize| sync;
     let mut duration;
     let mut limiting: Option<usize>;
-    if n == 1 && opts.minimum_duration.is_none() && !discrete {
-        duration = plans[0].block.t_min;
-        limiting = Some(0);
-        chosen[0] = Some(plans[0].block.p_min.into());
-    } else {
-        let Some((t, from)) = synchronize(plans, &axes_sync, opts) else {
-            let duration = plans.iter().map(|p| p.block.t_min).fold(0.0, max);
-            return Err(if let Some(axis) = axes.iter().position(has_zero_limits) {
-                TrajectoryError::ZeroLimits { axis }
-            } else {
-                TrajectoryError::Synchronization {
-                    axis: None,
-                    duration,
-                }
-            });
-        };
-        duration = t;
-        limiting = from.map(|(i, _)| i);
-        if let Some((i, c)) = from {
-            chosen[i] = Some(c.into());
+    'plan: loop {
+        for c in chosen.iter_mut() {
+            *c = None;
         }
-        if sync == Synchronization::None {
+        if n == 1 && opts.minimum_duration.is_none() && !discrete {
+            duration = plans[0].block.t_min;
+            limiting = Some(0);
+            chosen[0] = Some(plans[0].block.p_min.into());
+        } else {
+            let Some((t, from)) = synchronize(plans, &axes_sync, opts) else {
+                let duration = plans.iter().map(|p| p.block.t_min).fold(0.0, max);
+                return Err(if let Some(axis) = axes.iter().position(has_zero_limits) {
+                    TrajectoryError::ZeroLimits { axis }
+                } else {
+                    TrajectoryError::Synchronization {
+                        axis: None,
+                        duration,
+                    }
+                });
+            };
+            duration = t;
+            limiting = from.map(|(i, _)| i);
+            if let Some((i, c)) = from {
+                chosen[i] = Some(c.into());
+            }
+            if sync == Synchronization::None {
+                for (i, pl) in plans.iter().enumerate() {
+                    chosen[i] = Some(pl.block.p_min.into());
+                    if pl.block.t_min > duration {
+                        duration = pl.block.t_min;
+                        limiting = Some(i);
+                    }
+                }
+            }
+            if duration > MAX_SYNCHRONIZED_DURATION {
+                return Err(TrajectoryError::DurationTooLong { duration });
+            }
+        }
+
+        let finished = duration == 0.0 || (sync == Synchronization::None && !discrete);
+        if duration == 0.0 {
             for (i, pl) in plans.iter().enumerate() {
                 chosen[i] = Some(pl.block.p_min.into());
-                if pl.block.t_min > duration {
-                    duration = pl.block.t_min;
-                    limiting = Some(i);
+            }
+        }
+        let mut phase_done = false;
+        if !finished
+            && sync == Synchronization::Phase
+            && let Some(lim) = limiting
+            && let Some(lp) = chosen[lim]
+        {
+            phase_done = phase_synchronize(axes, plans, lim, &lp, duration, chosen);
+        }
+        if !finished && !phase_done {
+            for i in 0..n {
+                let pl = &plans[i];
+                let skip = (Some(i) == limiting || sync == Synchronization::None) && !discrete;
+                if skip {
+                    continue;
+                }
+                if sync == Synchronization::TimeIfNecessary
+                    && abs(pl.pb.vf) < f64::EPSILON
+                    && abs(pl.pb.af) < f64::EPSILON
+                {
+                    chosen[i] = Some(pl.block.p_min.into());
+                    continue;
+                }
+                match stretch(pl, duration - pl.brake_t) {
+                    Some(p) => chosen[i] = Some(p),
+                    None if !pl.complete => {
+                        // Probably inside a blocked interval of this axis: find them all and
+                        // choose the duration again.
+                        plans[i] = plan_axis(&axes[i], i, opts.control_interface, true)?;
+                        continue 'plan;
+                    }
+                    None => {
+                        return Err(TrajectoryError::Synchronization {
+                            axis: Some(i),
+                            duration,
+                        });
+                    }
                 }
             }
         }
-        if duration > MAX_SYNCHRONIZED_DURATION {
-            return Err(TrajectoryError::DurationTooLong { duration });
-        }
-    }
-
-    let finished = duration == 0.0 || (sync == Synchronization::None && !discrete);
-    if duration == 0.0 {
-        for (i, pl) in plans.iter().enumerate() {
-            chosen[i] = Some(pl.block.p_min.into());
-        }
-    }
-    let mut phase_done = false;
-    if !finished
-        && sync == Synchronization::Phase
-        && let Some(lim) = limiting
-        && let Some(lp) = chosen[lim]
-    {
-        phase_done = phase_synchronize(axes, plans, lim, &lp, duration, chosen);
-    }
-    if !finished && !phase_done {
-        for (i, pl) in plans.iter().enumerate() {
-            let skip = (Some(i) == limiting || sync == Synchronization::None) && !discrete;
-            if skip {
-                continue;
-            }
-            if sync == Synchronization::TimeIfNecessary
-                && abs(pl.pb.vf) < f64::EPSILON
-                && abs(pl.pb.af) < f64::EPSILON
-            {
-                chosen[i] = Some(pl.block.p_min.into());
-                continue;
-            }
-            match stretch(pl, duration - pl.brake_t) {
-                Some(p) => chosen[i] = Some(p),
-                None => {
-                    return Err(TrajectoryError::Synchronization {
-                        axis: Some(i),
-                        duration,
-                    });
-                }
-            }
-        }
+        break;
     }
     for (i, (ax, pl)) in axes.iter().zip(plans.iter()).enumerate() {
         let pieces = chosen[i].unwrap_or_else(|| pl.block.p_min.into());
