@@ -7,7 +7,8 @@
 //! - [`bus`]: the [`bus::CanBus`] and [`bus::Clock`] abstractions, CAN wire timing, candump
 //!   formats and the Linux SocketCAN backend;
 //! - [`sim`]: simulated RMD motors and a simulated CAN bus (virtual or real time, fault injection);
-//! - [`rt`]: the real-time loop; its main types are also at the root of this crate.
+//! - [`rt`]: the real-time loop; its main types are also at the root of this crate;
+//! - [`traj`]: time-optimal, jerk-limited, multi-axis trajectory generation (`no_std`).
 //!
 //! ```
 //! use rmd_rt::{Commands, Controller, Feedback, Flow, TickContext};
@@ -30,6 +31,7 @@ pub use rmd_bus as bus;
 pub use rmd_loop as rt;
 pub use rmd_protocol as protocol;
 pub use rmd_sim as sim;
+pub use rmd_traj as traj;
 
 pub use rmd_loop::{
     BusConfig, Commands, Controller, Fault, Feedback, Flow, LoopHandle, LoopOutcome, LoopReport,

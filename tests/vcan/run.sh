@@ -19,6 +19,7 @@ cd "$VCAN_REPO"
 # CARGO_BIN_EXE_<name> works there too.
 SUITES=(
   "-p rmd-bus --features kernel-tests --test socketcan"
+  "-p rmd-cli --features kernel-tests --test vcan"
 )
 
 mode="${RMD_VCAN_MODE:-auto}"
@@ -41,10 +42,12 @@ for suite in "${SUITES[@]}"; do
   while IFS= read -r line; do
     executable="$(sed -n 's/.*"executable":"\([^"]*\)".*/\1/p' <<<"$line")"
     [ -n "$executable" ] || continue
-    if grep -q '"test":true' <<<"$line"; then
-      tests+=("$executable")
-    else
+    # The target's kind tells a test harness from a binary (both have `"test":true` in their
+    # target, since binaries are testable by default).
+    if grep -q '"kind":\["bin"\]' <<<"$line"; then
       bins+=("$executable")
+    else
+      tests+=("$executable")
     fi
   done < <(grep '"reason":"compiler-artifact"' <<<"$json")
   [ ${#tests[@]} -gt 0 ] || vcan_die "cargo built no test binary for: $suite"

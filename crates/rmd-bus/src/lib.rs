@@ -1,9 +1,13 @@
 //! The bus layer of rmd-rt: the [`CanBus`] trait every transport implements (the simulator,
-//! Linux SocketCAN) and the [`Clock`] that lets everything run in real or virtual time.
+//! Linux SocketCAN) and the [`Clock`] that lets everything run in real or virtual time; CAN wire
+//! timing ([`wire`]); candump's text formats ([`candump`]); recording a bus to a `candump -L`
+//! log without blocking it ([`record`]) and playing a log back in time ([`replay`]).
 
 pub mod bus;
 pub mod candump;
 pub mod clock;
+pub mod record;
+pub mod replay;
 pub mod time;
 pub mod wire;
 

@@ -14,6 +14,22 @@ use rmd_protocol::{
 };
 use serde_json::{Map, Value, json};
 
+/// The fields of a reply as `rmd decode` names them (raw values and physical values), without
+/// the frame header (`id`, `can_id`, `direction`, `command`).
+pub(crate) fn reply_fields(reply: &Reply, width: EncoderWidth) -> Map<String, Value> {
+    const HEADER: [&str; 4] = ["id", "can_id", "direction", "command"];
+    let object = FrameJson::new(None, None, 0x141, "reply", "", width)
+        .reply(reply)
+        .into_value();
+    match object {
+        Value::Object(map) => map
+            .into_iter()
+            .filter(|(key, _)| !HEADER.contains(&key.as_str()))
+            .collect(),
+        _ => Map::new(),
+    }
+}
+
 /// Builder for one output object.
 pub(crate) struct FrameJson {
     map: Map<String, Value>,

@@ -95,3 +95,123 @@ pub(crate) fn iq_control4(text: &str) -> Result<[IqControl; 4], String> {
 pub(crate) fn iq_amps4(text: &str) -> Result<[IqControl; 4], String> {
     four(text, iq_amps)
 }
+
+/// A duration: a number of seconds, or a number with a unit `ms`, `s` or `min` (`500ms`,
+/// `2s`, `1.5`, `1min`).
+pub(crate) fn duration(text: &str) -> Result<std::time::Duration, String> {
+    let t = text.trim();
+    let (number, scale) = if let Some(n) = t.strip_suffix("ms") {
+        (n, 1e-3)
+    } else if let Some(n) = t.strip_suffix("min") {
+        (n, 60.0)
+    } else if let Some(n) = t.strip_suffix('s') {
+        (n, 1.0)
+    } else {
+        (t, 1.0)
+    };
+    let value: f64 = number
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{text}` is not a duration (e.g. 2s, 500ms, 1.5, 1min)"))?;
+    let seconds = value * scale;
+    if !(seconds.is_finite() && (0.0..=1e9).contains(&seconds)) {
+        return Err(format!("duration `{text}` must be between 0 and 1e9 s"));
+    }
+    Ok(std::time::Duration::from_secs_f64(seconds))
+}
+
+/// A probability, 0..=1.
+pub(crate) fn probability(text: &str) -> Result<f64, String> {
+    let p = float(text)?;
+    if (0.0..=1.0).contains(&p) {
+        Ok(p)
+    } else {
+        Err(format!("probability {p} must be within 0..=1"))
+    }
+}
+
+/// A finite number above zero.
+pub(crate) fn positive(text: &str) -> Result<f64, String> {
+    let v = float(text)?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v} must be a finite number above 0"))
+    }
+}
+
+/// A finite number.
+pub(crate) fn finite(text: &str) -> Result<f64, String> {
+    let v = float(text)?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{text} must be a finite number"))
+    }
+}
+
+/// `MASS_KG,LENGTH_M[,OFFSET_DEG]`: a link under gravity on a motor's output.
+pub(crate) fn gravity_link(text: &str) -> Result<rmd_sim::GravityLink, String> {
+    let parts: Vec<&str> = text.split(',').collect();
+    if !(2..=3).contains(&parts.len()) {
+        return Err(format!(
+            "`{text}`: expected MASS_KG,LENGTH_M[,OFFSET_DEG], e.g. 1.5,0.25 or 1.5,0.25,90"
+        ));
+    }
+    let link = rmd_sim::GravityLink {
+        mass_kg: float(parts[0])?,
+        length_m: float(parts[1])?,
+        angle_offset_deg: parts.get(2).map_or(Ok(0.0), |p| float(p))?,
+    };
+    link.validate().map_err(|e| e.to_string())?;
+    Ok(link)
+}
+
+/// `PROBABILITY,MILLISECONDS`: replies sent late.
+pub(crate) fn late_fault(text: &str) -> Result<(f64, std::time::Duration), String> {
+    let Some((p, ms)) = text.split_once(',') else {
+        return Err(format!(
+            "`{text}`: expected PROBABILITY,MILLISECONDS, e.g. 0.1,5"
+        ));
+    };
+    let p = probability(p)?;
+    let ms = float(ms)?;
+    if !(ms.is_finite() && (0.0..=60_000.0).contains(&ms)) {
+        return Err(format!("late reply delay {ms} ms must be within 0..=60000"));
+    }
+    Ok((p, std::time::Duration::from_secs_f64(ms / 1e3)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    #[test]
+    fn durations_with_and_without_units() {
+        assert_eq!(duration("2s"), Ok(Duration::from_secs(2)));
+        assert_eq!(duration("250ms"), Ok(Duration::from_millis(250)));
+        assert_eq!(duration("1.5"), Ok(Duration::from_millis(1500)));
+        assert_eq!(duration("1min"), Ok(Duration::from_secs(60)));
+        assert!(duration("-1s").is_err());
+        assert!(duration("soon").is_err());
+        assert!(duration("nan").is_err());
+    }
+
+    #[test]
+    fn fault_and_load_options() {
+        assert_eq!(probability("0.25"), Ok(0.25));
+        assert!(probability("1.5").is_err());
+        assert_eq!(late_fault("0.5,3"), Ok((0.5, Duration::from_millis(3))));
+        assert!(late_fault("0.5").is_err());
+        let link = gravity_link("1.5,0.25,90").unwrap();
+        assert_eq!(
+            (link.mass_kg, link.length_m, link.angle_offset_deg),
+            (1.5, 0.25, 90.0)
+        );
+        assert_eq!(gravity_link("2,0.1").unwrap().angle_offset_deg, 0.0);
+        assert!(gravity_link("-1,0.1").is_err());
+        assert!(gravity_link("1").is_err());
+        assert!(positive("0").is_err() && positive("inf").is_err());
+    }
+}

@@ -7,6 +7,48 @@ pub(crate) const USAGE: u8 = 2;
 /// Exit code when the command ran but something failed (a bad input line, an I/O error).
 pub(crate) const FAILURE: u8 = 1;
 
+/// How a command failed.
+#[derive(Debug)]
+pub(crate) enum CliError {
+    /// The command line asks for something impossible (exit 2).
+    Usage(String),
+    /// The command ran and failed (exit 1).
+    Failed(String),
+    /// Ctrl-C or SIGTERM ended the command; the message says what was done about it (exit 130).
+    Interrupted(String),
+}
+
+impl From<crate::exchange::ExchangeError> for CliError {
+    fn from(error: crate::exchange::ExchangeError) -> Self {
+        CliError::Failed(error.to_string())
+    }
+}
+
+impl From<crate::confirm::NotConfirmed> for CliError {
+    fn from(error: crate::confirm::NotConfirmed) -> Self {
+        CliError::Failed(error.to_string())
+    }
+}
+
+impl From<String> for CliError {
+    fn from(message: String) -> Self {
+        CliError::Failed(message)
+    }
+}
+
+/// The exit code of a command's result, after printing its error on stderr.
+pub(crate) fn exit(result: Result<(), CliError>) -> ExitCode {
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(CliError::Usage(message)) => usage_error(message),
+        Err(CliError::Failed(message)) => failure(message),
+        Err(CliError::Interrupted(message)) => {
+            eprintln!("interrupted: {message}");
+            ExitCode::from(crate::interrupt::EXIT_CODE)
+        }
+    }
+}
+
 /// Prints `error: <message>` on stderr and returns the usage-error exit code.
 pub(crate) fn usage_error(message: impl std::fmt::Display) -> ExitCode {
     eprintln!("error: {message}");

@@ -1,0 +1,748 @@
+//! The live-bus commands against simulated motors in the process (`--sim`, real time): what
+//! they print, what they send (checked in the `--log` recording), their errors, confirmations,
+//! and the motor being turned off at the end and on Ctrl-C. No assertion depends on timing.
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command as StdCommand, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use assert_cmd::Command;
+use rmd_bus::candump::{Direction, parse_line};
+use rmd_protocol::{Command as Cmd, DecodedRequest, Reply, decode_request};
+use serde_json::Value;
+
+fn rmd(args: &[&str]) -> Output {
+    Command::cargo_bin("rmd")
+        .unwrap()
+        .args(args)
+        .write_stdin("")
+        .output()
+        .unwrap()
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Runs `rmd ARGS`, asserting success; returns stdout.
+fn ok(args: &[&str]) -> String {
+    let out = rmd(args);
+    assert!(
+        out.status.success(),
+        "rmd {}: exit {:?}\nstdout: {}\nstderr: {}",
+        args.join(" "),
+        out.status.code(),
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    text(&out.stdout)
+}
+
+/// Runs `rmd ARGS`, asserting exit status `code`; returns stderr.
+fn fails(code: i32, args: &[&str]) -> String {
+    let out = rmd(args);
+    assert_eq!(
+        out.status.code(),
+        Some(code),
+        "rmd {}\nstdout: {}\nstderr: {}",
+        args.join(" "),
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    text(&out.stderr)
+}
+
+fn json_lines(stdout: &str) -> Vec<Value> {
+    stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{l}: {e}")))
+        .collect()
+}
+
+/// A fresh log file path in a per-test directory.
+fn log_path(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("rmd-live-{}-{test}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join("bus.log")
+}
+
+/// One recorded frame: direction and the frame.
+struct Logged {
+    direction: Direction,
+    frame: rmd_protocol::CanFrame,
+}
+
+fn read_log(path: &Path) -> Vec<Logged> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|line| {
+            let parsed = parse_line(line).unwrap_or_else(|e| panic!("{line}: {e}"));
+            Logged {
+                direction: parsed.direction.expect("the recorder writes directions"),
+                frame: parsed.frame,
+            }
+        })
+        .collect()
+}
+
+/// The commands of the host's single-motor requests in a log, in order.
+fn host_commands(log: &[Logged]) -> Vec<(u8, Cmd)> {
+    log.iter()
+        .filter(|l| l.direction == Direction::Tx)
+        .filter_map(|l| match decode_request(&l.frame) {
+            Ok(DecodedRequest::Single { motor, request }) => Some((motor.get(), request.command())),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn scan_lists_the_simulated_motors() {
+    let out = ok(&["scan", "--sim"]);
+    let ids: Vec<&str> = out
+        .lines()
+        .skip(1)
+        .map(|l| l.split_whitespace().next().unwrap())
+        .collect();
+    assert_eq!(ids, ["1", "2", "3", "4"]);
+
+    let out = ok(&["scan", "--sim", "--sim-ids", "2,5", "--json"]);
+    let list = json_lines(&out).remove(0);
+    let ids: Vec<u64> = list
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["id"].as_u64().unwrap())
+        .collect();
+    assert_eq!(ids, [2, 5]);
+    assert_eq!(list[0]["voltage_volts"], 48.0);
+    assert_eq!(list[0]["low_voltage"], false);
+
+    // Nobody at the ids asked: an error that says what to check.
+    let err = fails(1, &["scan", "--sim", "--ids", "10-12"]);
+    assert!(err.contains("no motor answered"), "{err}");
+    assert!(err.contains("ids 10-12"), "{err}");
+}
+
+#[test]
+fn status_reads_everything_and_names_a_missing_motor() {
+    let out = ok(&["status", "2", "--sim", "--json"]);
+    let status = &json_lines(&out)[0];
+    assert_eq!(status["id"], 2);
+    for key in [
+        "temperature_celsius",
+        "voltage_volts",
+        "iq_amps",
+        "speed_dps",
+        "i_a_amps",
+        "encoder_raw",
+        "encoder_offset",
+        "motor_angle_degrees",
+        "circle_angle_degrees",
+    ] {
+        assert!(status.get(key).is_some(), "{key} missing from {status}");
+    }
+    let human = ok(&["status", "1", "--sim"]);
+    assert!(human.starts_with("motor 1\n"), "{human}");
+    assert!(human.contains("voltage          48.0 V"), "{human}");
+
+    // Motor 7 is not simulated: motor 1 is still read, motor 7's error names it and the fix.
+    let out = rmd(&["status", "1,7", "--sim", "--json", "--timeout-ms", "5"]);
+    assert_eq!(out.status.code(), Some(1));
+    let lines = json_lines(&text(&out.stdout));
+    assert_eq!(lines[0]["id"], 1);
+    assert_eq!(lines[1]["id"], 7);
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("motor 7 did not answer read-status-1 within 5 ms (3 attempts)"),
+        "{err}"
+    );
+    assert!(err.contains("--sim-ids"), "{err}");
+}
+
+#[test]
+fn pid_set_changes_only_the_given_gains_in_ram() {
+    let log = log_path("pid");
+    let out = ok(&[
+        "pid",
+        "set",
+        "3",
+        "--speed-pid-kp",
+        "61",
+        "--sim",
+        "--log",
+        log.to_str().unwrap(),
+    ]);
+    assert!(out.contains("written to RAM"), "{out}");
+    assert!(out.contains("speed kp 61 ki 40"), "{out}");
+    let recorded = read_log(&log);
+    assert_eq!(
+        host_commands(&recorded),
+        [(3, Cmd::ReadPid), (3, Cmd::WritePidRam)]
+    );
+    // Each request was answered by the motor (a reply follows it on the same id).
+    let replies = recorded
+        .iter()
+        .filter(|l| l.direction == Direction::Rx)
+        .count();
+    assert_eq!(replies, 2);
+
+    let get = json_lines(&ok(&["pid", "get", "3", "--sim", "--json"])).remove(0);
+    assert_eq!(get["id"], 3);
+    assert_eq!(get["angle_pid_kp"], 100);
+    assert!(fails(2, &["pid", "set", "3", "--sim"]).contains("give at least one gain"));
+}
+
+#[test]
+fn rom_writes_need_a_confirmation_a_script_gives_with_yes() {
+    let log = log_path("rom");
+    let log_arg = log.to_str().unwrap();
+    // stdin is not a terminal here: refused, nothing sent (the bus is not even opened).
+    let err = fails(
+        1,
+        &[
+            "pid",
+            "set",
+            "1",
+            "--iq-pid-ki",
+            "9",
+            "--rom",
+            "--sim",
+            "--log",
+            log_arg,
+        ],
+    );
+    assert!(err.contains("needs confirmation"), "{err}");
+    assert!(err.contains("pass --yes"), "{err}");
+    assert!(!log.exists());
+
+    let out = ok(&[
+        "pid",
+        "set",
+        "1",
+        "--iq-pid-ki",
+        "9",
+        "--rom",
+        "--yes",
+        "--sim",
+        "--log",
+        log_arg,
+    ]);
+    assert!(out.contains("written to ROM"), "{out}");
+    assert_eq!(
+        host_commands(&read_log(&log)),
+        [(1, Cmd::ReadPid), (1, Cmd::WritePidRom)]
+    );
+
+    let err = fails(1, &["zero", "2", "--sim", "--log", log_arg]);
+    assert!(
+        err.contains("zero of motor 2") && err.contains("pass --yes"),
+        "{err}"
+    );
+    let out = ok(&["zero", "2", "--sim", "--yes", "--log", log_arg]);
+    assert!(out.contains("power-cycle the motor"), "{out}");
+    assert_eq!(host_commands(&read_log(&log)), [(2, Cmd::WriteZeroRom)]);
+}
+
+#[test]
+fn accel_and_encoder_commands() {
+    let out = ok(&["accel", "set", "2", "1500", "--sim"]);
+    assert_eq!(
+        out,
+        "motor 2: acceleration 1500 dps/s written to RAM (lost at power off)\n"
+    );
+    let accel = json_lines(&ok(&["accel", "get", "2", "--sim", "--json"])).remove(0);
+    assert_eq!(accel["accel_dps_per_s"], 36000.0);
+
+    let enc = json_lines(&ok(&["encoder", "get", "4", "--sim", "--json"])).remove(0);
+    assert_eq!(enc["encoder_offset"], 0);
+    assert_eq!(
+        ok(&["encoder", "offset", "4", "1234", "--sim"]),
+        "motor 4: encoder offset 1234 written\n"
+    );
+    assert_eq!(
+        ok(&["encoder", "offset", "4", "--here", "--sim"]),
+        "motor 4: encoder offset 0 written\n"
+    );
+    // Checked against the encoder width before anything is sent.
+    let err = fails(2, &["encoder", "offset", "4", "20000", "--sim"]);
+    assert!(err.contains("for a 14-bit encoder"), "{err}");
+    ok(&[
+        "encoder",
+        "offset",
+        "4",
+        "20000",
+        "--sim",
+        "--encoder-bits",
+        "16",
+    ]);
+}
+
+#[test]
+fn off_stop_run_each_motor() {
+    let log = log_path("power");
+    let log_arg = log.to_str().unwrap();
+    assert_eq!(
+        ok(&["off", "1-3", "--sim", "--log", log_arg]),
+        "motor 1: off\nmotor 2: off\nmotor 3: off\n"
+    );
+    assert_eq!(
+        host_commands(&read_log(&log)),
+        [(1, Cmd::MotorOff), (2, Cmd::MotorOff), (3, Cmd::MotorOff)]
+    );
+    ok(&["stop", "2", "--sim"]);
+    assert_eq!(ok(&["run", "2", "--sim"]), "motor 2: running\n");
+    let err = fails(1, &["off", "4,6", "--sim", "--timeout-ms", "5"]);
+    assert!(err.contains("motor 6 did not answer motor-off"), "{err}");
+}
+
+#[test]
+fn move_reaches_the_target_within_limits() {
+    let log = log_path("move");
+    let log_arg = log.to_str().unwrap();
+    let out = ok(&["move", "1", "--deg", "90", "--sim", "--log", log_arg]);
+    assert!(out.starts_with("motor 1: at "), "{out}");
+    assert!(out.contains("holding the position"), "{out}");
+    let commands = host_commands(&read_log(&log));
+    assert_eq!(commands[0], (1, Cmd::Position2));
+    assert!(
+        commands[1..]
+            .iter()
+            .all(|c| *c == (1, Cmd::ReadMultiTurnAngle))
+    );
+    // The motor is left holding: no motor-off.
+    assert!(!commands.contains(&(1, Cmd::MotorOff)));
+
+    // The four modes.
+    ok(&["move", "1", "--deg", "-45", "--mode", "1", "--sim"]);
+    ok(&[
+        "move",
+        "1",
+        "--deg",
+        "180",
+        "--mode",
+        "3",
+        "--direction",
+        "ccw",
+        "--sim",
+    ]);
+    ok(&[
+        "move",
+        "1",
+        "--deg",
+        "270",
+        "--mode",
+        "4",
+        "--max-speed",
+        "720",
+        "--sim",
+    ]);
+
+    // Limits and mode rules are checked before anything is sent.
+    let err = fails(
+        2,
+        &[
+            "move",
+            "2",
+            "--deg",
+            "200",
+            "--max-deg",
+            "180",
+            "--sim",
+            "--log",
+            log_arg,
+        ],
+    );
+    assert!(
+        err.contains("outside the limits") && err.contains("nothing was sent"),
+        "{err}"
+    );
+    assert!(
+        fails(2, &["move", "2", "--deg", "-10", "--min-deg", "0", "--sim"]).contains("motor 2")
+    );
+    assert!(
+        fails(
+            2,
+            &[
+                "move",
+                "2",
+                "--deg",
+                "10",
+                "--mode",
+                "1",
+                "--max-speed",
+                "5",
+                "--sim"
+            ]
+        )
+        .contains("needs mode 2 or 4")
+    );
+    assert!(fails(2, &["move", "2", "--deg", "360", "--mode", "3", "--sim"]).contains("0..<360"));
+
+    // Not there in time: the motor is turned off and the error says where it got to.
+    let err = fails(
+        1,
+        &[
+            "move",
+            "3",
+            "--deg",
+            "3600",
+            "--max-speed",
+            "10",
+            "--wait-timeout",
+            "300ms",
+            "--sim",
+        ],
+    );
+    assert!(err.contains("motor 3 did not reach 3600°"), "{err}");
+    assert!(err.contains("motor 3 turned off"), "{err}");
+}
+
+#[test]
+fn torque_and_speed_run_for_their_duration_then_turn_the_motor_off() {
+    let log = log_path("torque");
+    let log_arg = log.to_str().unwrap();
+    let out = ok(&[
+        "torque",
+        "2",
+        "--amps",
+        "0.5",
+        "--duration",
+        "200ms",
+        "--rate",
+        "50",
+        "--sim",
+        "--log",
+        log_arg,
+    ]);
+    assert!(out.contains("then turned off"), "{out}");
+    let commands = host_commands(&read_log(&log));
+    let (last, drive) = commands.split_last().unwrap();
+    assert_eq!(*last, (2, Cmd::MotorOff));
+    assert!(drive.len() >= 2, "{commands:?}");
+    assert!(drive.iter().all(|c| *c == (2, Cmd::Torque)));
+
+    let out = ok(&[
+        "speed",
+        "1",
+        "--dps",
+        "-360",
+        "--duration",
+        "200ms",
+        "--sim",
+        "--log",
+        log_arg,
+    ]);
+    assert!(out.contains("speed -360.00 dps"), "{out}");
+    let commands = host_commands(&read_log(&log));
+    assert_eq!(commands.last(), Some(&(1, Cmd::MotorOff)));
+    assert_eq!(commands[0], (1, Cmd::Speed));
+
+    // A speed limit in torque mode: the unloaded motor speeds up past it and is turned off.
+    let err = fails(
+        1,
+        &[
+            "torque",
+            "1",
+            "--amps",
+            "2",
+            "--duration",
+            "10s",
+            "--max-speed",
+            "200",
+            "--sim",
+            "--log",
+            log_arg,
+        ],
+    );
+    assert!(err.contains("above --max-speed 200"), "{err}");
+    assert!(err.contains("motor 1 turned off"), "{err}");
+    assert_eq!(
+        host_commands(&read_log(&log)).last(),
+        Some(&(1, Cmd::MotorOff))
+    );
+}
+
+/// Waits for a child to exit, at most `limit` (a hang is a failure, not a timing goal).
+fn wait_exit(child: &mut Child, limit: Duration) -> i32 {
+    let start = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status.code().expect("exited normally");
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            panic!("the command did not end after Ctrl-C");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// Starts `rmd ARGS`, waits until its stderr says `ready`, sends SIGINT, and returns the exit
+/// status and the rest of stderr.
+fn interrupt_when(args: &[&str], ready: &str) -> (i32, String) {
+    let mut child = StdCommand::new(assert_cmd::cargo::cargo_bin("rmd"))
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut seen = String::new();
+    loop {
+        let mut line = String::new();
+        assert!(
+            stderr.read_line(&mut line).unwrap() > 0,
+            "rmd ended before `{ready}`: {seen}"
+        );
+        seen.push_str(&line);
+        if line.contains(ready) {
+            break;
+        }
+    }
+    let kill = StdCommand::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let code = wait_exit(&mut child, Duration::from_secs(30));
+    let mut rest = String::new();
+    stderr.read_to_string(&mut rest).unwrap();
+    (code, rest)
+}
+
+#[test]
+fn ctrl_c_turns_a_moving_motor_off() {
+    let log = log_path("ctrl-c");
+    let log_arg = log.to_str().unwrap();
+    for args in [
+        &["speed", "3", "--dps", "720", "--duration", "60s"][..],
+        &["torque", "3", "--amps", "0.3", "--duration", "60s"][..],
+    ] {
+        let mut args = args.to_vec();
+        args.extend(["--sim", "--log", log_arg]);
+        let (code, stderr) = interrupt_when(&args, "Ctrl-C stops it");
+        assert_eq!(code, 130, "{stderr}");
+        assert!(stderr.contains("interrupted:"), "{stderr}");
+        assert!(stderr.contains("motor 3 turned off"), "{stderr}");
+        let recorded = read_log(&log);
+        assert_eq!(
+            host_commands(&recorded).last(),
+            Some(&(3, Cmd::MotorOff)),
+            "{args:?}"
+        );
+        // ... and the motor confirmed it.
+        let last = recorded.last().unwrap();
+        assert_eq!(last.direction, Direction::Rx);
+        assert_eq!(last.frame.data()[0], Cmd::MotorOff.code());
+    }
+}
+
+#[test]
+fn ctrl_c_during_a_move_turns_the_motor_off() {
+    let log = log_path("ctrl-c-move");
+    let mut child = StdCommand::new(assert_cmd::cargo::cargo_bin("rmd"))
+        .args([
+            "move",
+            "1",
+            "--deg",
+            "3600",
+            "--max-speed",
+            "10",
+            "--sim",
+            "--log",
+            log.to_str().unwrap(),
+        ])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The move has started once the log shows the position command's reply.
+    let start = Instant::now();
+    while !std::fs::read_to_string(&log)
+        .unwrap_or_default()
+        .contains("141#A4")
+    {
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "the move never started"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    StdCommand::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert_eq!(wait_exit(&mut child, Duration::from_secs(30)), 130);
+    assert_eq!(
+        host_commands(&read_log(&log)).last(),
+        Some(&(1, Cmd::MotorOff))
+    );
+}
+
+#[test]
+fn monitor_prints_readings_as_json_lines() {
+    let out = ok(&["monitor", "--sim", "--count", "3", "--rate", "50", "--json"]);
+    let readings = json_lines(&out);
+    assert_eq!(readings.len(), 3);
+    for reading in &readings {
+        let motors = reading["motors"].as_array().unwrap();
+        let ids: Vec<u64> = motors.iter().map(|m| m["id"].as_u64().unwrap()).collect();
+        assert_eq!(ids, [1, 2, 3, 4]);
+        assert!(motors[0].get("motor_angle_degrees").is_some());
+        assert!(motors[0].get("iq_amps").is_some());
+    }
+    assert!(readings[2]["time_s"].as_f64() > readings[0]["time_s"].as_f64());
+    // A table when not asked for JSON; a motor that does not answer is a row, not the end.
+    let out = ok(&[
+        "monitor",
+        "--sim",
+        "--ids",
+        "2,9",
+        "--count",
+        "1",
+        "--timeout-ms",
+        "5",
+    ]);
+    assert!(out.contains("  9  no reply"), "{out}");
+    assert!(
+        out.lines().any(|l| l.trim_start().starts_with("2 ")),
+        "{out}"
+    );
+}
+
+#[test]
+fn a_recorded_session_decodes_and_replays() {
+    let log = log_path("session");
+    let log_arg = log.to_str().unwrap();
+    ok(&["status", "1", "--sim", "--log", log_arg]);
+    let recorded = read_log(&log);
+    // Six reads, each request followed by its reply.
+    assert_eq!(recorded.len(), 12);
+
+    let decoded = json_lines(&ok(&["decode", log_arg]));
+    assert_eq!(decoded.len(), 12);
+    for pair in decoded.chunks(2) {
+        assert_eq!(pair[0]["direction"], "request");
+        assert_eq!(pair[1]["direction"], "reply");
+        assert_eq!(pair[0]["command"], pair[1]["command"]);
+        assert_eq!(pair[0]["interface"], "sim");
+    }
+    assert_eq!(decoded[1]["voltage_volts"], 48.0);
+
+    // Printed back as it was (every frame, in order).
+    let printed = ok(&["replay", log_arg, "--fast"]);
+    let original = std::fs::read_to_string(&log).unwrap();
+    assert_eq!(printed, original);
+
+    // The host's frames of a scan sent again to simulated motors, which answer them again.
+    // (One request per motor: a burst of requests to one motor, as a stalled replay would send,
+    // can overflow its three transmit mailboxes, as on a real motor.)
+    let scan = log_path("scan-session");
+    let scan_arg = scan.to_str().unwrap();
+    ok(&["scan", "--sim", "--ids", "1-4", "--log", scan_arg]);
+    let out = rmd(&["replay", scan_arg, "--sim"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let session: Vec<_> = text(&out.stdout)
+        .lines()
+        .map(|l| parse_line(l).unwrap())
+        .collect();
+    let sent: Vec<u16> = session
+        .iter()
+        .filter(|l| l.direction == Some(Direction::Tx))
+        .map(|l| l.frame.id())
+        .collect();
+    let replies: Vec<(u8, Reply)> = session
+        .iter()
+        .filter(|l| l.direction == Some(Direction::Rx))
+        .map(|l| {
+            let (motor, reply) = rmd_protocol::decode_reply(&l.frame).unwrap();
+            (motor.get(), reply)
+        })
+        .collect();
+    assert_eq!(sent, [0x141, 0x142, 0x143, 0x144]);
+    assert_eq!(replies.len(), 4);
+    for (i, (motor, reply)) in replies.iter().enumerate() {
+        assert_eq!(usize::from(*motor), i + 1);
+        assert_eq!(reply.command(), Cmd::ReadStatus1);
+    }
+    assert!(text(&out.stderr).contains("replayed 4 frame(s) onto the simulated bus"));
+}
+
+#[test]
+fn replay_skips_and_reports_bad_lines() {
+    let log = log_path("bad-lines");
+    std::fs::write(
+        &log,
+        "(1.000000) can0 141#9C00000000000000\nnot a frame\n(1.000100) can0 141#9C19000000000000\n",
+    )
+    .unwrap();
+    let out = rmd(&["replay", log.to_str().unwrap(), "--fast"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(text(&out.stdout).lines().count(), 2);
+    assert!(
+        text(&out.stderr).contains("line 2"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+#[test]
+fn replaying_motion_onto_a_real_interface_asks_first() {
+    let log = log_path("replay-motion");
+    std::fs::write(
+        &log,
+        "(1.000000) can0 141#A100000064000000 T\n(1.000300) can0 141#A119000000000000 R\n",
+    )
+    .unwrap();
+    let file = log.to_str().unwrap();
+    // can7: a real adapter's name; no terminal here and no --yes: refused before opening it.
+    let err = fails(1, &["replay", file, "--iface", "can7"]);
+    assert!(
+        err.contains("replaying motion commands onto can7 needs confirmation"),
+        "{err}"
+    );
+    // Confirmed, it goes on to open the interface (missing here).
+    let err = fails(1, &["replay", file, "--iface", "can7", "--yes"]);
+    assert!(err.contains("`can7` does not exist"), "{err}");
+    // Onto simulated motors no confirmation is needed, and the motor is turned off at the end.
+    let session = log_path("replay-motion-session");
+    let out = rmd(&["replay", file, "--sim", "--log", session.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    let sent: Vec<_> = stdout
+        .lines()
+        .map(|l| parse_line(l).unwrap())
+        .filter(|l| l.direction == Some(Direction::Tx))
+        .map(|l| l.frame.data()[0])
+        .collect();
+    assert_eq!(sent, [Cmd::Torque.code()]);
+    assert!(text(&out.stderr).contains("replayed 1 frame(s)"));
+    assert_eq!(
+        host_commands(&read_log(&session)),
+        [(1, Cmd::Torque), (1, Cmd::MotorOff)]
+    );
+}
+
+#[test]
+fn bus_errors_say_what_to_do() {
+    let err = fails(2, &["status", "1"]);
+    assert!(err.contains("use --iface IFACE"), "{err}");
+    let err = fails(1, &["scan", "--iface", "rmdnope9"]);
+    assert!(
+        err.contains("rmdnope9") && err.contains("does not exist"),
+        "{err}"
+    );
+    let err = fails(1, &["status", "1", "--iface", "lo"]);
+    assert!(err.contains("not a CAN interface"), "{err}");
+    let err = fails(1, &["log", "--iface", "vcan97", "/dev/null"]);
+    assert!(err.contains("ip link add dev vcan97 type vcan"), "{err}");
+    let err = fails(1, &["sim", "--iface", "vcan97"]);
+    assert!(err.contains("ip link add dev vcan97 type vcan"), "{err}");
+    fails(2, &["status", "1", "--iface", "can0", "--sim"]);
+    fails(2, &["sim", "--iface", "vcan0", "--drop", "1.5"]);
+}
