@@ -9,7 +9,8 @@
 # Usage: benches/all-figures.sh [--quiet-load L] [--max-wait S]
 #   --quiet-load L  before each figure, wait until the 1-minute load average is below L
 #                   (default 0.5; 0 disables the wait)
-#   --max-wait S    give up waiting after S seconds and run anyway, saying so (default 1800)
+#   --max-wait S    stop waiting S seconds after the start (for all figures together) and run
+#                   the rest anyway, saying so (default 1800)
 # Needs root (SCHED_FIFO, mlockall, cyclictest). Timing figures need a quiet machine: nothing
 # else running, the load average well below 1.
 set -euo pipefail
@@ -29,16 +30,15 @@ done
 out=target/figures
 mkdir -p "$out" docs/img
 
+give_up_at=$((SECONDS + max_wait))
 wait_quiet() {
-  local waited=0
   while awk -v l="$quiet_load" '{ exit !(l > 0 && $1 >= l) }' /proc/loadavg; do
-    if [[ $waited -ge $max_wait ]]; then
-      echo "WARNING: load still $(cut -d' ' -f1-3 /proc/loadavg) after ${max_wait} s: figures are provisional" \
+    if [[ $SECONDS -ge $give_up_at ]]; then
+      echo "WARNING: load $(cut -d' ' -f1-3 /proc/loadavg), not below ${quiet_load}: this figure is provisional" \
         | tee -a "$out/notes.txt" >&2
       return
     fi
     sleep 10
-    waited=$((waited + 10))
   done
 }
 
