@@ -287,8 +287,10 @@ fn run_trial<L: Clock, S: Clock + Clone>(
 /// The search and its result.
 struct Search {
     trials: Vec<Trial>,
-    /// Index of the trial at the best rate that passed (the last confirmation, if any).
+    /// Index of the last trial at the best rate: the highest rate that passed every time it was
+    /// run.
     best: Option<usize>,
+    /// Passing runs at the best rate beyond the first.
     confirmations: u32,
 }
 
@@ -304,6 +306,45 @@ impl Search {
         self.trials.push(t);
         Ok(&self.trials[self.trials.len() - 1])
     }
+
+    /// Passes and failures at exactly `rate_hz`.
+    fn tally(&self, rate_hz: f64) -> (u32, u32) {
+        self.trials
+            .iter()
+            .filter(|t| t.rate_hz == rate_hz)
+            .fold(
+                (0, 0),
+                |(p, f), t| if t.passed { (p + 1, f) } else { (p, f + 1) },
+            )
+    }
+
+    /// Rates that passed at least once and failed at least once.
+    fn flaky_rates(&self) -> Vec<f64> {
+        let mut rates: Vec<f64> = self
+            .trials
+            .iter()
+            .map(|t| t.rate_hz)
+            .filter(|&r| matches!(self.tally(r), (p, f) if p > 0 && f > 0))
+            .collect();
+        rates.sort_by(f64::total_cmp);
+        rates.dedup();
+        rates
+    }
+
+    /// Picks the highest rate that passed every time it ran.
+    fn settle(&mut self) {
+        self.best = None;
+        self.confirmations = 0;
+        let mut best_rate = f64::NEG_INFINITY;
+        for (i, t) in self.trials.iter().enumerate() {
+            let (passes, fails) = self.tally(t.rate_hz);
+            if passes > 0 && fails == 0 && t.rate_hz >= best_rate {
+                best_rate = t.rate_hz;
+                self.best = Some(i);
+                self.confirmations = passes - 1;
+            }
+        }
+    }
 }
 
 fn search(args: &RateArgs) -> Result<Search, String> {
@@ -313,8 +354,8 @@ fn search(args: &RateArgs) -> Result<Search, String> {
         confirmations: 0,
     };
     if let Some(rate) = args.rate {
-        let passed = s.run(args, rate)?.passed;
-        s.best = passed.then_some(0);
+        s.run(args, rate)?;
+        s.settle();
         return Ok(s);
     }
     let budget = exchange_budget(u32::from(args.motors), BITRATE, MAX_TURNAROUND);
@@ -323,11 +364,11 @@ fn search(args: &RateArgs) -> Result<Search, String> {
     while !s.run(args, lo)?.passed {
         steps += 1;
         if steps > MAX_STEPS_DOWN {
+            s.settle();
             return Ok(s);
         }
         lo *= 0.9;
     }
-    s.best = Some(s.trials.len() - 1);
     let mut hi = s.trials[s.trials.len() - 1]
         .wire
         .map_or(lo, |w| w.rate_hz())
@@ -337,23 +378,25 @@ fn search(args: &RateArgs) -> Result<Search, String> {
         let mid = 0.5 * (lo + hi);
         if s.run(args, mid)?.passed {
             lo = mid;
-            s.best = Some(s.trials.len() - 1);
         } else {
             hi = mid;
         }
     }
+    // Confirm: the rate must pass `confirm` more times and never fail; on a failure, step down.
     let mut runs = 0;
-    while s.confirmations < args.confirm && runs < MAX_CONFIRM_RUNS {
-        runs += 1;
-        if s.run(args, lo)?.passed {
-            s.confirmations += 1;
-            s.best = Some(s.trials.len() - 1);
-        } else {
-            s.confirmations = 0;
+    while runs < MAX_CONFIRM_RUNS {
+        let (passes, fails) = s.tally(lo);
+        if fails > 0 {
             lo *= 1.0 - res;
-            s.best = None;
+            continue;
         }
+        if passes > args.confirm {
+            break;
+        }
+        runs += 1;
+        s.run(args, lo)?;
     }
+    s.settle();
     Ok(s)
 }
 
@@ -421,6 +464,7 @@ fn summary_json(args: &RateArgs, s: &Search, best: Option<&Trial>) -> Value {
         "best_rate_hz": best.map(|b| b.rate_hz),
         "best_period_us": best.map(|b| us(b.period)),
         "confirmations": s.confirmations,
+        "flaky_rates_hz": s.flaky_rates(),
         "wire_limit": limit.map(WireLimit::to_json),
         "ratio_to_wire_limit": best.zip(limit).map(|(b, w)| b.rate_hz / w.rate_hz()),
         "trials": s.trials.iter().map(Trial::to_json).collect::<Vec<_>>(),
@@ -441,13 +485,21 @@ fn summary_text(args: &RateArgs, s: &Search, best: Option<&Trial>) -> String {
         };
     };
     let mut out = format!(
-        "highest rate with zero misses: {:.1} Hz (period {:.1} us, {} ticks), confirmed by {} \
-         more run(s)\n",
+        "highest rate with zero misses: {:.1} Hz (period {:.1} us, {} ticks), passed {} time(s), \
+         never failed\n",
         b.rate_hz,
         us(b.period),
         b.ticks,
-        s.confirmations
+        s.confirmations + 1
     );
+    let flaky = s.flaky_rates();
+    if !flaky.is_empty() {
+        let list: Vec<String> = flaky.iter().map(|r| format!("{r:.1}")).collect();
+        out += &format!(
+            "passed and failed at the same rate (noise): {} Hz\n",
+            list.join(", ")
+        );
+    }
     if let Some(w) = b.wire {
         let gap = b.period.saturating_sub(w.max_cycle);
         out += &format!(
