@@ -7,7 +7,8 @@
 //! - [`bus`]: the [`bus::CanBus`] and [`bus::Clock`] abstractions, CAN wire timing, candump
 //!   formats and the Linux SocketCAN backend;
 //! - [`sim`]: simulated RMD motors and a simulated CAN bus (virtual or real time, fault injection);
-//! - [`rt`]: the real-time loop; its main types are also at the root of this crate.
+//! - [`rt`]: the real-time loop; its main types are also at the root of this crate;
+//! - [`connect`]: one bus per bus of a robot description, simulated or SocketCAN, and Ctrl-C.
 //!
 //! ```
 //! use rmd_rt::{Commands, Controller, Feedback, Flow, TickContext};
@@ -25,6 +26,8 @@
 //!     }
 //! }
 //! ```
+
+pub mod connect;
 
 pub use rmd_bus as bus;
 pub use rmd_loop as rt;
