@@ -1,0 +1,356 @@
+//! Candidate 7-phase profiles in the solver's frame, their validation with tolerances relative
+//! to the problem's scale, and small fixed-capacity collections of them.
+
+use crate::math::{Integrator, abs, max};
+use crate::profile::{Direction, ProfileKind, ReachedLimits};
+
+/// Relative floor of the final-state tolerances (× the magnitudes summed to get them).
+pub(crate) const FINAL_REL: f64 = 1e-11;
+/// Relative tolerance for limit overshoot inside a candidate (× the limit's scale).
+pub(crate) const LIMIT_REL: f64 = 1e-12;
+/// Relative tolerance for (negative) phase durations (× the profile's duration scale).
+pub(crate) const TIME_REL: f64 = 1e-12;
+
+/// One axis's problem after the brake, relative to the (post-brake) start position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Problem {
+    /// Displacement to go (`pf − p0`); unused by the velocity interface.
+    pub(crate) d: f64,
+    pub(crate) v0: f64,
+    pub(crate) a0: f64,
+    pub(crate) vf: f64,
+    pub(crate) af: f64,
+    pub(crate) v_max: f64,
+    pub(crate) v_min: f64,
+    pub(crate) a_max: f64,
+    pub(crate) a_min: f64,
+    pub(crate) j: f64,
+    /// Position interface (check position and velocity limits) or velocity interface.
+    pub(crate) position: bool,
+    /// Acceleration scale of the zero-acceleration convention of [`Integrator`].
+    pub(crate) a_snap: f64,
+}
+
+impl Problem {
+    /// The same problem seen in the negative direction.
+    pub(crate) fn mirrored(&self) -> Problem {
+        Problem {
+            d: -self.d,
+            v0: -self.v0,
+            a0: -self.a0,
+            vf: -self.vf,
+            af: -self.af,
+            v_max: -self.v_min,
+            v_min: -self.v_max,
+            a_max: -self.a_min,
+            a_min: -self.a_max,
+            j: self.j,
+            position: self.position,
+            a_snap: self.a_snap,
+        }
+    }
+
+    /// Velocity scale.
+    pub(crate) fn v_scale(&self) -> f64 {
+        let mut s = max(abs(self.v0), abs(self.vf));
+        if self.position {
+            s = max(s, max(abs(self.v_max), abs(self.v_min)));
+        }
+        s
+    }
+
+    /// Acceleration scale.
+    pub(crate) fn a_scale(&self) -> f64 {
+        max(
+            max(abs(self.a0), abs(self.af)),
+            max(abs(self.a_max), abs(self.a_min)),
+        )
+    }
+
+    /// Is the start state already the target state?
+    pub(crate) fn at_target(&self) -> bool {
+        let vs = self.v_scale();
+        let as_ = self.a_scale();
+        (!self.position || self.d == 0.0)
+            && abs(self.vf - self.v0) <= 4.0 * f64::EPSILON * vs
+            && abs(self.af - self.a0) <= 4.0 * f64::EPSILON * as_
+    }
+}
+
+/// A 7-phase profile (jerks given) in the frame it was solved in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Cand {
+    pub(crate) t: [f64; 7],
+    pub(crate) j: [f64; 7],
+    pub(crate) total: f64,
+    /// Tolerance of the final position (propagated rounding bound).
+    pub(crate) p_tol: f64,
+    pub(crate) kind: ProfileKind,
+}
+
+impl Cand {
+    /// The zero-length profile.
+    pub(crate) const ZERO: Cand = Cand {
+        t: [0.0; 7],
+        j: [0.0; 7],
+        total: 0.0,
+        p_tol: 0.0,
+        kind: ProfileKind::AtTarget,
+    };
+
+    /// The same profile seen in the other direction (jerks negated).
+    pub(crate) fn mirrored(mut self) -> Cand {
+        for j in &mut self.j {
+            *j = -*j;
+        }
+        if let ProfileKind::TimeOptimal { direction, limits } = self.kind {
+            let direction = match direction {
+                Direction::Up => Direction::Down,
+                Direction::Down => Direction::Up,
+            };
+            self.kind = ProfileKind::TimeOptimal { direction, limits };
+        }
+        if let ProfileKind::FixedTimeExtremal { direction } = self.kind {
+            let direction = match direction {
+                Direction::Up => Direction::Down,
+                Direction::Down => Direction::Up,
+            };
+            self.kind = ProfileKind::FixedTimeExtremal { direction };
+        }
+        self
+    }
+
+    /// Final position, velocity, acceleration from the problem's start.
+    pub(crate) fn end(&self, pb: &Problem) -> (f64, f64, f64) {
+        let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
+        for i in 0..7 {
+            it.step(self.t[i], self.j[i]);
+        }
+        it.state()
+    }
+}
+
+/// UDDU jerk pattern with jerk `j`.
+pub(crate) const fn uddu(j: f64) -> [f64; 7] {
+    [j, 0.0, -j, 0.0, -j, 0.0, j]
+}
+
+/// Safety factor on the propagated rounding-error bound when judging a computed final state:
+/// the candidates come from polished roots and closed forms whose residual is a few roundings.
+pub(crate) const ROUND_K: f64 = 1024.0;
+
+/// What [`validate`] found.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Checked {
+    /// Total duration.
+    pub(crate) total: f64,
+    /// Final position (relative to the start).
+    pub(crate) p: f64,
+    /// Tolerance of the final position: the larger of the propagated rounding bound
+    /// (× [`ROUND_K`]) and [`FINAL_REL`] × the path length (∫|v| dt).
+    pub(crate) p_tol: f64,
+}
+
+/// Validates phase times `t` with jerks `jerks` for `pb`: non-negative times (tiny negative
+/// values within tolerance are set to 0), limits respected, final velocity and acceleration
+/// reached and, if `test_position`, the final position too.
+///
+/// Tolerances follow the scale of the problem instead of fixed epsilons: the larger of a
+/// forward bound of the integration's rounding errors (errors of p, v, a carried through every
+/// phase, × [`ROUND_K`]) and [`FINAL_REL`] × the magnitudes summed (path length ∫|v| dt for the
+/// position, ∫|a| dt for the velocity). So a long cruise after a fast ramp, a huge velocity
+/// swing after a brake, or a microscopic distance each get the tolerance their arithmetic
+/// warrants.
+pub(crate) fn validate(
+    pb: &Problem,
+    t: &mut [f64],
+    jerks: &[f64],
+    test_position: bool,
+) -> Option<Checked> {
+    const E: f64 = f64::EPSILON;
+    let mut raw = 0.0;
+    for &ti in t.iter() {
+        if !ti.is_finite() {
+            return None;
+        }
+        raw += abs(ti);
+    }
+    let j_abs = abs(pb.j);
+    let as_ = pb.a_scale();
+    let vs = pb.v_scale();
+    let t_tol = TIME_REL * (raw + if j_abs > 0.0 { as_ / j_abs } else { 0.0 });
+    let mut total = 0.0;
+    for ti in t.iter_mut() {
+        if *ti < 0.0 {
+            if *ti < -t_tol {
+                return None;
+            }
+            *ti = 0.0;
+        }
+        total += *ti;
+    }
+    if !(total <= 1e12) {
+        return None;
+    }
+    let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
+    let (mut p, mut v, mut a) = it.state();
+    let (mut ep, mut ev, mut ea) = (0.0, E * abs(v), E * abs(a));
+    // A start velocity outside the limits (possible after a brake that could not avoid the
+    // violation) must return into them; from the first time it is inside it must stay inside.
+    let (mut path, mut a_area) = (0.0, 0.0);
+    let mut below = v < pb.v_min - LIMIT_REL * vs;
+    let mut above = v > pb.v_max + LIMIT_REL * vs;
+    for (&ti, &j) in t.iter().zip(jerks.iter()) {
+        if ti == 0.0 {
+            continue;
+        }
+        it.step(ti, j);
+        let (p1, v1, a1) = it.state();
+        let v_ext = if j != 0.0 && (a < 0.0) != (a1 < 0.0) && a != 0.0 && a1 != 0.0 {
+            v - a * a / (2.0 * j)
+        } else {
+            v
+        };
+        path += max(max(abs(v), abs(v1)), abs(v_ext)) * ti;
+        a_area += max(abs(a), abs(a1)) * ti;
+        let (at, jt) = (abs(a) * ti, abs(j) * ti);
+        // Rounding of the arithmetic, plus the resolution of the phase duration itself: a ramp's
+        // duration comes from accelerations (±eps·a/j); a cruise's may come from a difference of
+        // times of the size of the whole duration (±eps·total, which only moves the position).
+        let dt = if j != 0.0 {
+            E * (as_ / abs(j) + ti)
+        } else {
+            E * ti
+        };
+        let dt_p = if j != 0.0 { dt } else { E * total };
+        ep += ev * ti
+            + ea * ti * ti / 2.0
+            + E * (abs(p) + abs(v) * ti + at * ti / 2.0 + jt * ti * ti / 6.0)
+            + abs(v) * dt_p;
+        ev += ea * ti + E * (abs(v) + at + jt * ti / 2.0) + abs(a) * dt;
+        ea = if a1 == 0.0 && j != 0.0 {
+            0.0
+        } else {
+            ea + E * (abs(a) + jt) + abs(j) * dt
+        };
+        let a_tol = LIMIT_REL * as_ + ROUND_K * ea;
+        if !(a1 <= pb.a_max + a_tol && a1 >= pb.a_min - a_tol) {
+            return None;
+        }
+        if pb.position {
+            let v_tol = LIMIT_REL * vs + ROUND_K * ev;
+            let (v_hi, v_lo) = (pb.v_max + v_tol, pb.v_min - v_tol);
+            // Monotone pieces: up to the velocity extremum (where a = 0), then to the end.
+            for (x, y) in [(v, v_ext), (v_ext, v1)] {
+                if (!below && crate::math::min(x, y) < v_lo) || (!above && max(x, y) > v_hi) {
+                    return None;
+                }
+                below = below && y < v_lo;
+                above = above && y > v_hi;
+            }
+        }
+        (p, v, a) = (p1, v1, a1);
+    }
+    let tiny = f64::MIN_POSITIVE;
+    let v_end_tol = max(
+        ROUND_K * ev,
+        FINAL_REL * max(max(abs(pb.v0), abs(pb.vf)), a_area),
+    ) + tiny;
+    let a_end_tol = max(ROUND_K * ea, FINAL_REL * as_) + tiny;
+    if !(abs(v - pb.vf) <= v_end_tol && abs(a - pb.af) <= a_end_tol) {
+        return None;
+    }
+    let p_tol = max(ROUND_K * ep, FINAL_REL * max(abs(pb.d), path)) + tiny;
+    if test_position && pb.position && !(abs(p - pb.d) <= p_tol) {
+        return None;
+    }
+    if !p.is_finite() {
+        return None;
+    }
+    Some(Checked { total, p, p_tol })
+}
+
+/// [`validate`] for a 7-phase candidate that must reach the target.
+pub(crate) fn check(
+    pb: &Problem,
+    mut t: [f64; 7],
+    jerks: [f64; 7],
+    kind: ProfileKind,
+) -> Option<Cand> {
+    let c = validate(pb, &mut t, &jerks, true)?;
+    Some(Cand {
+        t,
+        j: jerks,
+        total: c.total,
+        p_tol: c.p_tol,
+        kind,
+    })
+}
+
+/// [`validate`] for a 7-phase candidate with a free final position; returns it too.
+pub(crate) fn check_free(
+    pb: &Problem,
+    mut t: [f64; 7],
+    jerks: [f64; 7],
+    kind: ProfileKind,
+) -> Option<(Cand, f64)> {
+    let c = validate(pb, &mut t, &jerks, false)?;
+    Some((
+        Cand {
+            t,
+            j: jerks,
+            total: c.total,
+            p_tol: c.p_tol,
+            kind,
+        },
+        c.p,
+    ))
+}
+
+/// Limits label from which plateaus / cruise are present.
+pub(crate) fn limits_of(acc0: bool, vel: bool, acc1: bool) -> ReachedLimits {
+    match (acc0, vel, acc1) {
+        (true, true, true) => ReachedLimits::Acc0Acc1Vel,
+        (true, true, false) => ReachedLimits::Acc0Vel,
+        (false, true, true) => ReachedLimits::Acc1Vel,
+        (false, true, false) => ReachedLimits::Vel,
+        (true, false, true) => ReachedLimits::Acc0Acc1,
+        (true, false, false) => ReachedLimits::Acc0,
+        (false, false, true) => ReachedLimits::Acc1,
+        (false, false, false) => ReachedLimits::None,
+    }
+}
+
+/// Most candidates kept in step 1.
+pub(crate) const MAX_CANDS: usize = 24;
+
+/// A fixed-capacity list of candidates.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct CandList {
+    pub(crate) c: [Cand; MAX_CANDS],
+    pub(crate) n: usize,
+}
+
+impl CandList {
+    pub(crate) const fn new() -> Self {
+        CandList {
+            c: [Cand::ZERO; MAX_CANDS],
+            n: 0,
+        }
+    }
+
+    pub(crate) fn push(&mut self, c: Cand) {
+        if self.n < MAX_CANDS {
+            self.c[self.n] = c;
+            self.n += 1;
+        }
+    }
+
+    pub(crate) fn as_slice(&self) -> &[Cand] {
+        &self.c[..self.n]
+    }
+
+    pub(crate) fn as_mut_slice(&mut self) -> &mut [Cand] {
+        &mut self.c[..self.n]
+    }
+}

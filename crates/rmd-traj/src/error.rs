@@ -1,0 +1,180 @@
+//! Typed, allocation-free errors of the trajectory generator.
+
+use core::fmt;
+
+/// Which input quantity an [`InvalidInput`](TrajectoryError::InvalidInput) error is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Field {
+    /// `current_position`.
+    CurrentPosition,
+    /// `current_velocity`.
+    CurrentVelocity,
+    /// `current_acceleration`.
+    CurrentAcceleration,
+    /// `target_position`.
+    TargetPosition,
+    /// `target_velocity`.
+    TargetVelocity,
+    /// `target_acceleration`.
+    TargetAcceleration,
+    /// `max_velocity`.
+    MaxVelocity,
+    /// `min_velocity`.
+    MinVelocity,
+    /// `max_acceleration`.
+    MaxAcceleration,
+    /// `min_acceleration`.
+    MinAcceleration,
+    /// `max_jerk`.
+    MaxJerk,
+}
+
+impl Field {
+    /// The field's name as in [`Input`](crate::Input).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Field::CurrentPosition => "current_position",
+            Field::CurrentVelocity => "current_velocity",
+            Field::CurrentAcceleration => "current_acceleration",
+            Field::TargetPosition => "target_position",
+            Field::TargetVelocity => "target_velocity",
+            Field::TargetAcceleration => "target_acceleration",
+            Field::MaxVelocity => "max_velocity",
+            Field::MinVelocity => "min_velocity",
+            Field::MaxAcceleration => "max_acceleration",
+            Field::MinAcceleration => "min_acceleration",
+            Field::MaxJerk => "max_jerk",
+        }
+    }
+}
+
+impl fmt::Display for Field {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Why an axis's input was rejected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum InvalidReason {
+    /// The value is NaN or infinite.
+    NotFinite(Field),
+    /// A maximum limit is negative.
+    NegativeMaximum(Field),
+    /// A minimum limit is positive.
+    PositiveMinimum(Field),
+    /// The target velocity or acceleration lies above its maximum limit.
+    TargetAboveMaximum(Field),
+    /// The target velocity or acceleration lies below its minimum limit.
+    TargetBelowMinimum(Field),
+    /// The target acceleration drives the velocity above `max_velocity` before it can be
+    /// reduced to zero (`af < 0` and `vf + af²/(2 max_jerk) > max_velocity`): the target state can
+    /// only be reached by a trajectory that violated the limit just before.
+    TargetInevitablyAboveMaxVelocity,
+    /// Mirror of [`TargetInevitablyAboveMaxVelocity`](Self::TargetInevitablyAboveMaxVelocity):
+    /// `af > 0` and `vf − af²/(2 max_jerk) < min_velocity`.
+    TargetInevitablyBelowMinVelocity,
+}
+
+impl fmt::Display for InvalidReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            InvalidReason::NotFinite(field) => write!(f, "{field} is not a finite number"),
+            InvalidReason::NegativeMaximum(field) => write!(f, "{field} is negative"),
+            InvalidReason::PositiveMinimum(field) => write!(f, "{field} is positive"),
+            InvalidReason::TargetAboveMaximum(field) => {
+                write!(f, "{field} exceeds its maximum limit")
+            }
+            InvalidReason::TargetBelowMinimum(field) => {
+                write!(f, "{field} undercuts its minimum limit")
+            }
+            InvalidReason::TargetInevitablyAboveMaxVelocity => {
+                f.write_str("the target state can only be reached after exceeding max_velocity")
+            }
+            InvalidReason::TargetInevitablyBelowMinVelocity => {
+                f.write_str("the target state can only be reached after undercutting min_velocity")
+            }
+        }
+    }
+}
+
+/// Why a trajectory-wide option was rejected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum InvalidOption {
+    /// `minimum_duration` is NaN, infinite or negative.
+    MinimumDuration,
+    /// The discretization period (or the online generator's cycle) is not a positive finite number.
+    Period,
+}
+
+impl fmt::Display for InvalidOption {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            InvalidOption::MinimumDuration => {
+                f.write_str("minimum_duration must be a finite number >= 0")
+            }
+            InvalidOption::Period => f.write_str("the period must be a finite number > 0"),
+        }
+    }
+}
+
+/// Everything that can go wrong when calculating a trajectory.
+///
+/// [`code`](Self::code) maps each variant to the result code of the reference implementation
+/// (ruckig's `Result`), which the test vectors use.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum TrajectoryError {
+    /// The input of one axis makes no sense (code −100).
+    #[error("invalid input on axis {axis}: {reason}")]
+    InvalidInput {
+        /// The axis (degree of freedom), from 0.
+        axis: usize,
+        /// What is wrong.
+        reason: InvalidReason,
+    },
+    /// A trajectory-wide option makes no sense (code −100).
+    #[error("invalid option: {0}")]
+    InvalidOption(InvalidOption),
+    /// The synchronized duration exceeds [`MAX_SYNCHRONIZED_DURATION`](crate::MAX_SYNCHRONIZED_DURATION)
+    /// (code −101).
+    #[error("trajectory duration {duration} exceeds the maximum of 7600")]
+    DurationTooLong {
+        /// The duration that was found.
+        duration: f64,
+    },
+    /// A zero acceleration or jerk limit makes the target of this axis unreachable (code −104).
+    #[error("zero limits make the target of axis {axis} unreachable")]
+    ZeroLimits {
+        /// The axis (degree of freedom), from 0.
+        axis: usize,
+    },
+    /// No time-optimal profile exists for this axis, e.g. `max_velocity = 0` with a distance to go
+    /// (code −110).
+    #[error("no time-optimal profile found for axis {axis}")]
+    NoProfile {
+        /// The axis (degree of freedom), from 0.
+        axis: usize,
+    },
+    /// No common duration could be realized by every axis, or this axis could not be stretched to
+    /// it (code −111).
+    #[error("no synchronized profile of duration {duration} found (axis {axis:?})")]
+    Synchronization {
+        /// The axis that failed, if known.
+        axis: Option<usize>,
+        /// The common duration that was attempted.
+        duration: f64,
+    },
+}
+
+impl TrajectoryError {
+    /// The reference implementation's result code for this error (−100, −101, −104, −110, −111).
+    pub const fn code(&self) -> i32 {
+        match self {
+            TrajectoryError::InvalidInput { .. } | TrajectoryError::InvalidOption(_) => -100,
+            TrajectoryError::DurationTooLong { .. } => -101,
+            TrajectoryError::ZeroLimits { .. } => -104,
+            TrajectoryError::NoProfile { .. } => -110,
+            TrajectoryError::Synchronization { .. } => -111,
+        }
+    }
+}

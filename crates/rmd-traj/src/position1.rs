@@ -1,0 +1,495 @@
+//! Step 1, position interface: every time-optimal (extremal) profile of one axis.
+//!
+//! Solved in the "up" frame (first jerk pulse positive, cruise at `v_max`); the "down" profiles
+//! are the up profiles of the mirrored problem. A profile is a sequence of ramps at ±j with
+//! optional plateaus at the acceleration limits (phases 1 and 5) and an optional cruise at the
+//! velocity limit (phase 3). Each combination of reached limits gives a small equation system:
+//!
+//! - cruise types: two independent velocity changes (to and from `v_max`), closed form;
+//! - `Acc0Acc1`: both plateaus, no cruise: a quadratic in the first plateau's length;
+//! - `Acc0`, `Acc1`, `None`: quartics in one phase duration.
+//!
+//! Polynomial roots are isolated in the physically possible range, polished by Newton steps on
+//! the directly integrated position error, and every candidate is validated by
+//! [`check`](crate::cand::check).
+
+use crate::cand::{Cand, CandList, Problem, check, limits_of, uddu};
+use crate::math::{Integrator, abs, max, sqrt};
+use crate::profile::{Direction, ProfileKind};
+use crate::roots::{eval, roots_in};
+
+/// Collects the valid extremal profiles. With a target at rest (`rest`), the first valid one is
+/// the only one (the feasible durations form one interval), so the search stops there.
+pub(crate) fn candidates(pb: &Problem, rest: bool, out: &mut CandList) {
+    let up_first = pb.d >= 0.0;
+    let dirs = if up_first {
+        [Direction::Up, Direction::Down]
+    } else {
+        [Direction::Down, Direction::Up]
+    };
+    for dir in dirs {
+        let frame = match dir {
+            Direction::Up => *pb,
+            Direction::Down => pb.mirrored(),
+        };
+        let mut sink = Sink {
+            out,
+            dir,
+            stop: rest,
+        };
+        if sink.run(&frame, cruise)
+            || sink.run(&frame, quartic_types)
+            || sink.run(&frame, acc0_acc1)
+        {
+            return;
+        }
+        if rest && out.n > 0 {
+            return;
+        }
+    }
+    if out.n == 0 {
+        // Degenerate shapes where the general equations are 0/0.
+        for dir in dirs {
+            let frame = match dir {
+                Direction::Up => *pb,
+                Direction::Down => pb.mirrored(),
+            };
+            let mut sink = Sink {
+                out,
+                dir,
+                stop: true,
+            };
+            if sink.run(&frame, degenerate) {
+                return;
+            }
+        }
+    }
+}
+
+/// Receives candidates in a frame and stores them in the caller's frame.
+pub(crate) struct Sink<'a> {
+    pub(crate) out: &'a mut CandList,
+    pub(crate) dir: Direction,
+    /// Stop after the first valid candidate.
+    pub(crate) stop: bool,
+}
+
+impl Sink<'_> {
+    /// Adds a candidate; returns true when the search should stop.
+    pub(crate) fn add(&mut self, c: Cand) -> bool {
+        let c = match self.dir {
+            Direction::Up => c,
+            Direction::Down => c.mirrored(),
+        };
+        self.out.push(c);
+        self.stop
+    }
+
+    /// Runs a type solver; true when the search should stop.
+    pub(crate) fn run(&mut self, pb: &Problem, f: fn(&Problem, &mut Sink<'_>) -> bool) -> bool {
+        f(pb, self)
+    }
+}
+
+fn kind(acc0: bool, vel: bool, acc1: bool) -> ProfileKind {
+    ProfileKind::TimeOptimal {
+        direction: Direction::Up,
+        limits: limits_of(acc0, vel, acc1),
+    }
+}
+
+/// Phases of the fastest change from (v0, a0) to (v_top, 0) rising: +j, plateau, −j.
+/// Returns `(t0, t1, t2)` or `None` if impossible.
+pub(crate) fn rise_to(v0: f64, a0: f64, v_top: f64, a_max: f64, j: f64) -> Option<(f64, f64, f64)> {
+    let x = j * (v_top - v0) + a0 * a0 / 2.0;
+    if !(x >= 0.0) {
+        return None;
+    }
+    let (mut t0, t1) = if x <= a_max * a_max {
+        ((sqrt(x) - a0) / j, 0.0)
+    } else {
+        ((a_max - a0) / j, (x - a_max * a_max) / (j * a_max))
+    };
+    // A first ramp that is zero up to rounding is zero (the peak is a0 itself).
+    if t0 < 0.0 && t0 >= -1e-12 * (abs(a0) / j + abs(t1)) {
+        t0 = 0.0;
+    }
+    // The ramp down ends at exactly the acceleration reached, so a following cruise has a = 0
+    // up to the rounding of one product (not of the formula for the peak).
+    let t2 = (a0 + j * t0) / j;
+    Some((t0, t1, t2))
+}
+
+/// Phases of the fastest change from (v_top, 0) falling to (vf, af): −j, plateau at `a_min`, +j.
+pub(crate) fn fall_from(
+    v_top: f64,
+    vf: f64,
+    af: f64,
+    a_min: f64,
+    j: f64,
+) -> Option<(f64, f64, f64)> {
+    let y = j * (v_top - vf) + af * af / 2.0;
+    if !(y >= 0.0) {
+        return None;
+    }
+    if y <= a_min * a_min {
+        let w = sqrt(y);
+        Some((w / j, 0.0, (af + w) / j))
+    } else {
+        Some((
+            -a_min / j,
+            (y - a_min * a_min) / (-a_min * j),
+            (af - a_min) / j,
+        ))
+    }
+}
+
+/// Cruise at `v_max` between two velocity changes.
+fn cruise(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+    if !(pb.v_max > 0.0) {
+        return false;
+    }
+    let j = pb.j;
+    let Some((t0, t1, t2)) = rise_to(pb.v0, pb.a0, pb.v_max, pb.a_max, j) else {
+        return false;
+    };
+    let Some((t4, t5, t6)) = fall_from(pb.v_max, pb.vf, pb.af, pb.a_min, j) else {
+        return false;
+    };
+    let jj = uddu(j);
+    let mut t = [t0, t1, t2, 0.0, t4, t5, t6];
+    let mut left = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
+    for i in 0..3 {
+        left.step(t[i], jj[i]);
+    }
+    let mut right = Integrator::new(0.0, pb.v_max, 0.0, pb.a_snap);
+    for i in 4..7 {
+        right.step(t[i], jj[i]);
+    }
+    let (p, q) = (left.p, right.p);
+    t[3] = (pb.d - p - q) / pb.v_max;
+    match check(pb, t, jj, kind(t1 > 0.0, true, t5 > 0.0)) {
+        Some(c) => sink.add(c),
+        None => false,
+    }
+}
+
+/// Both acceleration plateaus, no cruise: quadratic in the first plateau's duration.
+fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+    let Problem {
+        d,
+        v0,
+        a0,
+        vf,
+        af,
+        a_max,
+        a_min,
+        j,
+        ..
+    } = *pb;
+    if !(a_max > 0.0 && a_min < 0.0) {
+        return false;
+    }
+    let c2 = 12.0 * a_max * (j * j) * (-a_max + a_min);
+    let c1 = 12.0
+        * j
+        * ((a0 * a0) * a_max - (a0 * a0) * a_min - 2.0 * (a_max * a_max * a_max)
+            + 3.0 * (a_max * a_max) * a_min
+            - a_max * (a_min * a_min)
+            - 2.0 * a_max * j * v0
+            + 2.0 * a_min * j * v0);
+    let c0 = -3.0 * (a0 * a0 * a0 * a0)
+        + 8.0 * (a0 * a0 * a0) * a_min
+        + 12.0 * (a0 * a0) * (a_max * a_max)
+        - 24.0 * (a0 * a0) * a_max * a_min
+        + 6.0 * (a0 * a0) * (a_min * a_min)
+        + 12.0 * (a0 * a0) * j * v0
+        - 24.0 * a0 * a_min * j * v0
+        - 12.0 * (a_max * a_max * a_max * a_max)
+        + 24.0 * (a_max * a_max * a_max) * a_min
+        - 12.0 * (a_max * a_max) * (a_min * a_min)
+        - 24.0 * (a_max * a_max) * j * v0
+        + 48.0 * a_max * a_min * j * v0
+        + 6.0 * (a_min * a_min) * (af * af)
+        - 12.0 * (a_min * a_min) * j * v0
+        - 12.0 * (a_min * a_min) * j * vf
+        - 8.0 * a_min * (af * af * af)
+        + 24.0 * a_min * af * j * vf
+        - 24.0 * a_min * d * (j * j)
+        + 3.0 * (af * af * af * af)
+        - 12.0 * (af * af) * j * vf
+        - 12.0 * (j * j) * (v0 * v0)
+        + 12.0 * (j * j) * (vf * vf);
+    let r_v = vf - v0 - (2.0 * a_max * a_max - 2.0 * a_min * a_min + af * af - a0 * a0) / (2.0 * j);
+    let den = 24.0 * j * j * a_min;
+    let jj = uddu(j);
+    let phases = |t1: f64| -> [f64; 7] {
+        [
+            (a_max - a0) / j,
+            t1,
+            a_max / j,
+            0.0,
+            -a_min / j,
+            (r_v - a_max * t1) / a_min,
+            (af - a_min) / j,
+        ]
+    };
+    let coeffs = [c2, c1, c0];
+    let roots = roots_in(&coeffs, -1e-9 * (abs(r_v / a_max) + a_max / j), 1e12);
+    for &t1 in roots.as_slice() {
+        let t1 = polish(t1, pb, &phases, &jj, |x| (2.0 * c2 * x + c1) / den);
+        if let Some(c) = check(pb, phases(t1), jj, kind(true, false, true)) {
+            if sink.add(c) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// Newton steps on the directly integrated position error of `phases(x)`; `slope` is the
+/// derivative of that error with respect to `x` (from the polynomial).
+pub(crate) fn polish(
+    mut x: f64,
+    pb: &Problem,
+    phases: &dyn Fn(f64) -> [f64; 7],
+    jerks: &[f64; 7],
+    slope: impl Fn(f64) -> f64,
+) -> f64 {
+    let err = |x: f64| -> f64 {
+        let t = phases(x);
+        let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
+        for i in 0..7 {
+            it.step(t[i], jerks[i]);
+        }
+        it.p - pb.d
+    };
+    let mut r = err(x);
+    for _ in 0..3 {
+        if r == 0.0 || !r.is_finite() {
+            break;
+        }
+        let s = slope(x);
+        if !(s.is_finite() && s != 0.0) {
+            break;
+        }
+        let xn = x - r / s;
+        let rn = err(xn);
+        if abs(rn) < abs(r) {
+            x = xn;
+            r = rn;
+        } else {
+            break;
+        }
+    }
+    x
+}
+
+/// `None`, `Acc0` and `Acc1` types: quartics.
+fn quartic_types(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+    none_type(pb, sink) || acc0_type(pb, sink) || acc1_type(pb, sink)
+}
+
+/// No plateau, no cruise: +j (to u), −j (to w), +j (to af). Variable: the middle ramp's
+/// duration `t`; u = (jt + K/(jt))/2, w = (K/(jt) − jt)/2 with K = u² − w².
+fn none_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+    let Problem {
+        d,
+        v0,
+        a0,
+        vf,
+        af,
+        a_max,
+        a_min,
+        j,
+        ..
+    } = *pb;
+    let k = j * (vf - v0) + (a0 * a0 - af * af) / 2.0;
+    let c2 = 2.0 * (-(a0 * a0) - (af * af) + 2.0 * j * (v0 + vf)) / (j * j);
+    let c1 = (4.0 / 3.0)
+        * ((a0 * a0 * a0) - (af * af * af) - 3.0 * d * (j * j) + 3.0 * j * (-a0 * v0 + af * vf))
+        / (j * j * j);
+    let kj = k / (j * j);
+    let c0 = -(kj * kj);
+    let coeffs = [1.0, 0.0, c2, c1, c0];
+    let lo = max((a0 - af) / j, 0.0);
+    let hi = (a_max - a_min) / j;
+    let slack = 1e-9 * (hi + abs(lo));
+    let jj = uddu(j);
+    let phases = |t: f64| -> [f64; 7] {
+        let s = k / (j * t);
+        let u = (j * t + s) / 2.0;
+        let w = (s - j * t) / 2.0;
+        [(u - a0) / j, 0.0, t, 0.0, 0.0, 0.0, (af - w) / j]
+    };
+    let roots = roots_in(&coeffs, max(lo - slack, 0.0), hi + slack);
+    for &t in roots.as_slice() {
+        if !(t > 0.0) {
+            continue;
+        }
+        let t = polish(t, pb, &phases, &jj, |x| {
+            let dp = [4.0, 0.0, 2.0 * c2, c1];
+            j * eval(&dp, x) / (4.0 * x)
+        });
+        if let Some(c) = check(pb, phases(t), jj, kind(false, false, false)) {
+            if sink.add(c) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// Plateau at `a_max` in phase 1, no cruise, no second plateau. Variable: duration `t` of the
+/// ramp from `a_max` down to w = a_max − jt.
+fn acc0_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+    let Problem {
+        d,
+        v0,
+        a0,
+        vf,
+        af,
+        a_max,
+        a_min,
+        j,
+        ..
+    } = *pb;
+    if !(a_max > 0.0) {
+        return false;
+    }
+    let c3 = -2.0 * a_max / j;
+    let c2 = ((a_max * a_max) - (af * af) + 2.0 * j * vf) / (j * j);
+    let c0 = (1.0 / 12.0)
+        * (-3.0 * (a0 * a0 * a0 * a0) + 8.0 * (a0 * a0 * a0) * a_max
+            - 6.0 * (a0 * a0) * (a_max * a_max)
+            + 6.0 * (a_max * a_max) * (af * af)
+            - 8.0 * a_max * (af * af * af)
+            + 3.0 * (af * af * af * af)
+            + 12.0 * (j * j) * (-2.0 * a_max * d - (v0 * v0) + (vf * vf))
+            + 12.0
+                * j
+                * ((a0 * a0) * v0 - 2.0 * a0 * a_max * v0 + (a_max * a_max) * v0
+                    - (a_max * a_max) * vf
+                    + 2.0 * a_max * af * vf
+                    - (af * af) * vf))
+        / (j * j * j * j);
+    let coeffs = [1.0, c3, c2, 0.0, c0];
+    let lo = max((a_max - af) / j, 0.0);
+    let hi = (a_max - a_min) / j;
+    let slack = 1e-9 * (hi + abs(lo));
+    let jj = uddu(j);
+    let phases = |t: f64| -> [f64; 7] {
+        let w = a_max - j * t;
+        let t1 =
+            (vf - v0 - (2.0 * a_max * a_max - 2.0 * w * w + af * af - a0 * a0) / (2.0 * j)) / a_max;
+        [(a_max - a0) / j, t1, t, 0.0, 0.0, 0.0, (af - w) / j]
+    };
+    let roots = roots_in(&coeffs, max(lo - slack, 0.0), hi + slack);
+    for &t in roots.as_slice() {
+        let t = polish(t, pb, &phases, &jj, |x| {
+            let dp = [4.0, 3.0 * c3, 2.0 * c2, 0.0];
+            j * j * eval(&dp, x) / (2.0 * a_max)
+        });
+        if let Some(c) = check(pb, phases(t), jj, kind(true, false, false)) {
+            if sink.add(c) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// Plateau at `a_min` in phase 5, no cruise, no first plateau. Variable: duration `t` of the
+/// first ramp, u = a0 + jt.
+fn acc1_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+    let Problem {
+        d,
+        v0,
+        a0,
+        vf,
+        af,
+        a_max,
+        a_min,
+        j,
+        ..
+    } = *pb;
+    if !(a_min < 0.0) {
+        return false;
+    }
+    let c3 = 2.0 * (2.0 * a0 - a_min) / j;
+    let c2 = (5.0 * (a0 * a0) - 6.0 * a0 * a_min + (a_min * a_min) + 2.0 * j * v0) / (j * j);
+    let c1 = 2.0
+        * (a0 * ((a0 * a0) - 2.0 * a0 * a_min + (a_min * a_min)) + 2.0 * j * v0 * (a0 - a_min))
+        / (j * j * j);
+    let c0 = (1.0 / 12.0)
+        * (3.0 * (a0 * a0 * a0 * a0) - 8.0 * (a0 * a0 * a0) * a_min
+            + 6.0 * (a0 * a0) * (a_min * a_min)
+            - 6.0 * (a_min * a_min) * (af * af)
+            + 8.0 * a_min * (af * af * af)
+            - 3.0 * (af * af * af * af)
+            + 12.0 * (j * j) * (2.0 * a_min * d + (v0 * v0) - (vf * vf))
+            + 12.0
+                * j
+                * ((a0 * a0) * v0 - 2.0 * a0 * a_min * v0
+                    + (a_min * a_min) * v0
+                    + (a_min * a_min) * vf
+                    - 2.0 * a_min * af * vf
+                    + (af * af) * vf))
+        / (j * j * j * j);
+    let coeffs = [1.0, c3, c2, c1, c0];
+    let lo = max((a_min - a0) / j, 0.0);
+    let hi = (a_max - a0) / j;
+    let slack = 1e-9 * (abs(hi) + abs(lo));
+    let jj = uddu(j);
+    let phases = |t: f64| -> [f64; 7] {
+        let u = a0 + j * t;
+        let t5 =
+            (vf - v0 - (2.0 * u * u - 2.0 * a_min * a_min + af * af - a0 * a0) / (2.0 * j)) / a_min;
+        [t, 0.0, (u - a_min) / j, 0.0, 0.0, t5, (af - a_min) / j]
+    };
+    let roots = roots_in(&coeffs, max(lo - slack, 0.0), hi + slack);
+    for &t in roots.as_slice() {
+        let t = polish(t, pb, &phases, &jj, |x| {
+            let dp = [4.0, 3.0 * c3, 2.0 * c2, c1];
+            -j * j * eval(&dp, x) / (2.0 * a_min)
+        });
+        if let Some(c) = check(pb, phases(t), jj, kind(false, false, true)) {
+            if sink.add(c) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// Shapes where the general equations degenerate: a single ramp, or two ramps.
+fn degenerate(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+    let Problem {
+        v0, a0, vf, af, j, ..
+    } = *pb;
+    let jj = uddu(j);
+    // Single ramp +j from a0 to af.
+    let t = (af - a0) / j;
+    if let Some(c) = check(
+        pb,
+        [t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        jj,
+        kind(false, false, false),
+    ) {
+        if sink.add(c) {
+            return true;
+        }
+    }
+    // Two ramps: +j to u, −j to af.
+    let x = (a0 * a0 + af * af) / 2.0 + j * (vf - v0);
+    if x >= 0.0 {
+        let u = sqrt(x);
+        let t = [(u - a0) / j, 0.0, (u - af) / j, 0.0, 0.0, 0.0, 0.0];
+        if let Some(c) = check(pb, t, jj, kind(false, false, false)) {
+            if sink.add(c) {
+                return true;
+            }
+        }
+    }
+    false
+}

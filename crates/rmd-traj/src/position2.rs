@@ -1,0 +1,547 @@
+//! Step 2, position interface: a profile of one axis with a prescribed duration.
+//!
+//! For a fixed duration `T` the final positions reachable with the prescribed final velocity and
+//! acceleration form an interval `[p_lo(T), p_hi(T)]`: the dynamics are linear and the limits
+//! are convex constraints, so any convex combination of two feasible jerk functions is feasible.
+//! The interval ends are attained by extremal profiles (jerk pattern +,−,+ with plateaus at the
+//! acceleration limits and a cruise at the velocity limit, maximizing the position; mirrored for
+//! the minimum) that have closed forms once `T` is fixed. So:
+//!
+//! - `T` is feasible for the axis ⇔ `p_lo(T) ≤ pf ≤ p_hi(T)` ([`feasible`]), which also
+//!   classifies the gaps between step-1 durations into blocked and free intervals;
+//! - a profile for `T` is, in order of preference: an extremal one if `pf` is on the boundary;
+//!   a member of the cruise family (fastest change to a cruise velocity `vc`, cruise, fastest
+//!   change to the target) found by a bracketed search over `vc`; otherwise the blend
+//!   `λ·j₁ + (1−λ)·j₂` of two feasible profiles whose final positions bracket `pf`.
+
+use crate::cand::{Cand, Problem, check_free, validate};
+use crate::math::{abs, max, min, sqrt};
+use crate::position1::{fall_from, rise_to};
+use crate::profile::{Direction, MAX_PHASES, ProfileKind};
+
+/// A profile with up to [`MAX_PHASES`] phases.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Pieces {
+    pub(crate) t: [f64; MAX_PHASES],
+    pub(crate) j: [f64; MAX_PHASES],
+    pub(crate) n: usize,
+    pub(crate) kind: ProfileKind,
+}
+
+impl From<Cand> for Pieces {
+    fn from(c: Cand) -> Self {
+        let mut p = Pieces {
+            t: [0.0; MAX_PHASES],
+            j: [0.0; MAX_PHASES],
+            n: 7,
+            kind: c.kind,
+        };
+        p.t[..7].copy_from_slice(&c.t);
+        p.j[..7].copy_from_slice(&c.j);
+        p
+    }
+}
+
+const EXTREMAL_UP: ProfileKind = ProfileKind::FixedTimeExtremal {
+    direction: Direction::Up,
+};
+
+/// The profile of duration `tt` ending at (vf, af) with the largest final position, in the
+/// problem's own frame ("up"), with that position.
+fn max_position(pb: &Problem, tt: f64) -> Option<(Cand, f64)> {
+    let Problem {
+        v0,
+        a0,
+        vf,
+        af,
+        v_max,
+        a_max,
+        a_min,
+        j,
+        ..
+    } = *pb;
+    if !(tt >= 0.0) || !(j > 0.0) {
+        return None;
+    }
+    let jj = [j, 0.0, -j, 0.0, -j, 0.0, j];
+    let mut best: Option<(Cand, f64)> = None;
+    let mut consider = |t: [f64; 7]| {
+        if let Some((c, p)) = check_free(pb, t, jj, EXTREMAL_UP) {
+            if abs(c.total - tt) <= 1e-12 * max(tt, 1e-300) + 1e-300 {
+                match best {
+                    Some((_, bp)) if bp >= p => {}
+                    _ => best = Some((c, p)),
+                }
+            }
+        }
+    };
+    // Cruise at v_max.
+    if v_max > 0.0 {
+        if let (Some((t0, t1, t2)), Some((t4, t5, t6))) = (
+            rise_to(v0, a0, v_max, a_max, j),
+            fall_from(v_max, vf, af, a_min, j),
+        ) {
+            let t3 = tt - (t0 + t1 + t2 + t4 + t5 + t6);
+            consider([t0, t1, t2, t3, t4, t5, t6]);
+        }
+    }
+    let dv = vf - v0;
+    // No plateau: u − w = s, u + w = K/s.
+    let s = (j * tt + a0 - af) / 2.0;
+    if s > 0.0 {
+        let k = j * dv + (a0 * a0 - af * af) / 2.0;
+        let u = (s + k / s) / 2.0;
+        let w = (k / s - s) / 2.0;
+        consider([(u - a0) / j, 0.0, (u - w) / j, 0.0, 0.0, 0.0, (af - w) / j]);
+    }
+    // Plateau at a_max.
+    if a_max > 0.0 {
+        let c = a_max * j * tt - a_max * (2.0 * a_max - a0 + af)
+            + (2.0 * a_max * a_max - a0 * a0 + af * af) / 2.0
+            - j * dv;
+        let disc = a_max * a_max + c;
+        if disc >= 0.0 {
+            // a_max − √(a_max² + c) without cancellation.
+            let w = -c / (a_max + sqrt(disc));
+            let t1 = tt - (2.0 * a_max - a0 + af - 2.0 * w) / j;
+            consider([
+                (a_max - a0) / j,
+                t1,
+                (a_max - w) / j,
+                0.0,
+                0.0,
+                0.0,
+                (af - w) / j,
+            ]);
+        }
+    }
+    // Plateau at a_min.
+    if a_min < 0.0 {
+        let e = a_min * j * tt + a_min * (a0 + 2.0 * a_min - af)
+            - (a0 * a0 + 2.0 * a_min * a_min - af * af) / 2.0
+            - j * dv;
+        let disc = a_min * a_min - e;
+        if disc >= 0.0 {
+            // a_min + √(a_min² − e) without cancellation.
+            let u = -e / (sqrt(disc) - a_min);
+            let t5 = tt - (2.0 * u - a0 - 2.0 * a_min + af) / j;
+            consider([
+                (u - a0) / j,
+                0.0,
+                (u - a_min) / j,
+                0.0,
+                0.0,
+                t5,
+                (af - a_min) / j,
+            ]);
+        }
+    }
+    // Both plateaus.
+    if a_max > 0.0 && a_min < 0.0 {
+        let sum = tt - ((a_max - a0) + (a_max - a_min) + (af - a_min)) / j;
+        let r = dv - (2.0 * a_max * a_max - 2.0 * a_min * a_min + af * af - a0 * a0) / (2.0 * j);
+        let t1 = (r - a_min * sum) / (a_max - a_min);
+        let t5 = sum - t1;
+        consider([
+            (a_max - a0) / j,
+            t1,
+            (a_max - a_min) / j,
+            0.0,
+            0.0,
+            t5,
+            (af - a_min) / j,
+        ]);
+    }
+    best
+}
+
+/// The profiles of duration `tt` with the smallest and the largest final position.
+fn extremes(pb: &Problem, tt: f64) -> Option<((Cand, f64), (Cand, f64))> {
+    let hi = max_position(pb, tt)?;
+    let (lo, p_lo) = max_position(&pb.mirrored(), tt)?;
+    Some(((lo.mirrored(), -p_lo), hi))
+}
+
+/// Can the axis reach its target in exactly `tt`?
+pub(crate) fn feasible(pb: &Problem, tt: f64) -> bool {
+    match extremes(pb, tt) {
+        Some(((c_lo, lo), (c_hi, hi))) => {
+            let tol = max(c_lo.p_tol, c_hi.p_tol);
+            pb.d >= lo - tol && pb.d <= hi + tol
+        }
+        None => false,
+    }
+}
+
+/// The two velocity changes of the cruise family for cruise velocity `vc`: phases and jerk sign
+/// of the change from the start to (vc, 0) and of the change from (vc, 0) to the target.
+type Halves = ((f64, f64, f64), f64, (f64, f64, f64), f64);
+
+fn halves(pb: &Problem, vc: f64) -> Option<Halves> {
+    let Problem {
+        v0,
+        a0,
+        vf,
+        af,
+        a_max,
+        a_min,
+        j,
+        ..
+    } = *pb;
+    let v0_star = v0 + a0 * abs(a0) / (2.0 * j);
+    let (l, jl) = if vc >= v0_star {
+        (rise_to(v0, a0, vc, a_max, j)?, j)
+    } else {
+        (rise_to(-v0, -a0, -vc, -a_min, j)?, -j)
+    };
+    let vf_star = vf - af * abs(af) / (2.0 * j);
+    let (r, jr) = if vc >= vf_star {
+        (fall_from(vc, vf, af, a_min, j)?, -j)
+    } else {
+        (fall_from(-vc, -vf, -af, -a_max, j)?, j)
+    };
+    Some((l, jl, r, jr))
+}
+
+/// Duration of the two velocity changes (the cruise takes the rest).
+fn changes_duration(h: &Halves) -> f64 {
+    let (l, _, r, _) = h;
+    l.0 + l.1 + l.2 + r.0 + r.1 + r.2
+}
+
+/// The cruise-family profile with cruise velocity `vc` and duration `tt`, with its final position.
+fn cruise_at(pb: &Problem, tt: f64, vc: f64) -> Option<(Cand, f64)> {
+    let h = halves(pb, vc)?;
+    let (l, jl, r, jr) = h;
+    let t3 = tt - changes_duration(&h);
+    let t = [l.0, l.1, l.2, t3, r.0, r.1, r.2];
+    let jerks = [jl, 0.0, -jl, 0.0, jr, 0.0, -jr];
+    check_free(pb, t, jerks, ProfileKind::Cruise)
+}
+
+/// Between a cruise velocity whose changes fit into `tt` and one whose changes do not, the
+/// velocity where they just fit (no cruise), by bisection.
+fn fit_boundary(pb: &Problem, tt: f64, mut v_in: f64, mut v_out: f64) -> f64 {
+    for _ in 0..64 {
+        let mid = 0.5 * (v_in + v_out);
+        if mid == v_in || mid == v_out {
+            break;
+        }
+        match halves(pb, mid) {
+            Some(h) if changes_duration(&h) <= tt => v_in = mid,
+            _ => v_out = mid,
+        }
+    }
+    v_in
+}
+
+/// A profile of duration `tt` for the axis, or `None` if `tt` is infeasible.
+pub(crate) fn fixed_time(pb: &Problem, tt: f64) -> Option<Pieces> {
+    let ((c_lo, p_lo), (c_hi, p_hi)) = extremes(pb, tt)?;
+    let tol = max(c_lo.p_tol, c_hi.p_tol);
+    let d = pb.d;
+    if d > p_hi + tol || d < p_lo - tol {
+        return None;
+    }
+    if hits(pb, &c_hi, p_hi) {
+        return Some(c_hi.into());
+    }
+    if hits(pb, &c_lo, p_lo) {
+        return Some(c_lo.into());
+    }
+    // Bracket: best known feasible profiles below and above the target position.
+    let mut below = (c_lo, p_lo);
+    let mut above = (c_hi, p_hi);
+    if let Some(found) = cruise_search(pb, tt, &mut below, &mut above) {
+        return Some(found.into());
+    }
+    blend(pb, &below, &above, tt)
+}
+
+/// Searches the cruise family for a profile ending at the target; updates the bracket with
+/// every feasible member seen.
+fn cruise_search(
+    pb: &Problem,
+    tt: f64,
+    below: &mut (Cand, f64),
+    above: &mut (Cand, f64),
+) -> Option<Cand> {
+    let (lo_v, hi_v) = (pb.v_min, pb.v_max);
+    if !(lo_v <= hi_v) {
+        return None;
+    }
+    let j = pb.j;
+    let mut breaks = [0.0; 5];
+    let mut nb = 0;
+    for v in [
+        lo_v,
+        hi_v,
+        pb.v0 + pb.a0 * abs(pb.a0) / (2.0 * j),
+        pb.vf - pb.af * abs(pb.af) / (2.0 * j),
+        0.0,
+    ] {
+        let v = min(max(v, lo_v), hi_v);
+        if v.is_finite() {
+            breaks[nb] = v;
+            nb += 1;
+        }
+    }
+    sort(&mut breaks[..nb]);
+    const SUB: usize = 4;
+    let mut pts = [0.0; 5 * SUB + 1];
+    let mut np = 0;
+    for k in 0..nb {
+        if k > 0 && breaks[k] <= breaks[k - 1] {
+            continue;
+        }
+        if k > 0 {
+            let (a, b) = (pts[np - 1], breaks[k]);
+            for s in 1..SUB {
+                pts[np] = a + (b - a) * s as f64 / SUB as f64;
+                np += 1;
+            }
+        }
+        pts[np] = breaks[k];
+        np += 1;
+    }
+    let d = pb.d;
+    // Walk the samples in order of vc; where the family's feasibility changes between two
+    // samples, insert the boundary member (changes just fit, no cruise): that is where the family
+    // meets the extremal profiles.
+    let mut prev: Option<(f64, Cand, f64)> = None;
+    let mut best: Option<(Cand, f64)> = None;
+    let mut prev_v: Option<f64> = None;
+    let mut fits_prev = false;
+    for &vc in &pts[..np] {
+        let fits = matches!(halves(pb, vc), Some(h) if changes_duration(&h) <= tt);
+        let mut members = [None, None];
+        if let Some(pv) = prev_v {
+            if fits != fits_prev {
+                let vb = if fits_prev {
+                    fit_boundary(pb, tt, pv, vc)
+                } else {
+                    fit_boundary(pb, tt, vc, pv)
+                };
+                members[0] = cruise_at(pb, tt, vb).map(|(c, p)| (vb, c, p));
+                if fits_prev {
+                    // Leaving the feasible part: the boundary ends the current run.
+                } else {
+                    prev = None;
+                }
+            }
+        }
+        members[1] = if fits {
+            cruise_at(pb, tt, vc).map(|(c, p)| (vc, c, p))
+        } else {
+            None
+        };
+        for m in members.into_iter().flatten() {
+            let (v, c, p) = m;
+            if p == d {
+                return Some(c);
+            }
+            if best.is_none_or(|(_, bp)| abs(p - d) < abs(bp - d)) {
+                best = Some((c, p));
+            }
+            note(below, above, (c, p), d);
+            if let Some((v_prev, c_prev, p_prev)) = prev {
+                if (p_prev < d) != (p < d) {
+                    if let Some(found) =
+                        refine(pb, tt, (v_prev, c_prev, p_prev), (v, c, p), below, above)
+                    {
+                        return Some(found);
+                    }
+                }
+            }
+            prev = Some(m);
+        }
+        if !fits {
+            prev = None;
+        }
+        prev_v = Some(vc);
+        fits_prev = fits;
+    }
+    best.filter(|(c, p)| hits(pb, c, *p)).map(|(c, _)| c)
+}
+
+/// Does a profile ending at `p` reach the target position (within its rounding)?
+fn hits(pb: &Problem, c: &Cand, p: f64) -> bool {
+    abs(p - pb.d) <= c.p_tol
+}
+
+/// Keeps the tightest bracket around the target position.
+fn note(below: &mut (Cand, f64), above: &mut (Cand, f64), x: (Cand, f64), d: f64) {
+    if x.1 <= d && x.1 > below.1 {
+        *below = x;
+    }
+    if x.1 >= d && x.1 < above.1 {
+        *above = x;
+    }
+}
+
+/// Regula falsi (Illinois) on the cruise velocity between two feasible members whose final
+/// positions bracket the target, narrowed as far as the arithmetic allows; returns the member
+/// closest to the target if it is within its tolerance.
+fn refine(
+    pb: &Problem,
+    tt: f64,
+    a: (f64, Cand, f64),
+    b: (f64, Cand, f64),
+    below: &mut (Cand, f64),
+    above: &mut (Cand, f64),
+) -> Option<Cand> {
+    let d = pb.d;
+    let (mut va, mut fa) = (a.0, a.2 - d);
+    let (mut vb, mut fb) = (b.0, b.2 - d);
+    let mut best = if abs(fa) <= abs(fb) {
+        (a.1, a.2)
+    } else {
+        (b.1, b.2)
+    };
+    let mut side = 0i32;
+    for _ in 0..100 {
+        let mut vc = (va * fb - vb * fa) / (fb - fa);
+        if !(vc > min(va, vb) && vc < max(va, vb)) {
+            vc = 0.5 * (va + vb);
+        }
+        if vc == va || vc == vb {
+            break;
+        }
+        let Some((c, p)) = cruise_at(pb, tt, vc) else {
+            break;
+        };
+        note(below, above, (c, p), d);
+        let f = p - d;
+        if abs(f) < abs(best.1 - d) {
+            best = (c, p);
+        }
+        if f == 0.0 {
+            break;
+        }
+        if (f < 0.0) == (fa < 0.0) {
+            va = vc;
+            fa = f;
+            if side == -1 {
+                fb /= 2.0;
+            }
+            side = -1;
+        } else {
+            vb = vc;
+            fb = f;
+            if side == 1 {
+                fa /= 2.0;
+            }
+            side = 1;
+        }
+    }
+    if hits(pb, &best.0, best.1) {
+        Some(best.0)
+    } else {
+        None
+    }
+}
+
+fn sort(x: &mut [f64]) {
+    for i in 1..x.len() {
+        let mut k = i;
+        while k > 0 && x[k - 1] > x[k] {
+            x.swap(k - 1, k);
+            k -= 1;
+        }
+    }
+}
+
+/// `λ·a + (1−λ)·b` with λ chosen so that the final position is the target. The pieces are
+/// merged from the two phase lists with local remaining times (not cumulative sums, whose
+/// rounding would perturb short phases late in a long profile).
+fn blend(pb: &Problem, a: &(Cand, f64), b: &(Cand, f64), tt: f64) -> Option<Pieces> {
+    let (ca, pa) = a;
+    let (cb, p_b) = b;
+    let span = p_b - pa;
+    if !(span > 0.0) {
+        return None;
+    }
+    let lam_b = (pb.d - pa) / span;
+    let lam_a = 1.0 - lam_b;
+    let mut out = Pieces {
+        t: [0.0; MAX_PHASES],
+        j: [0.0; MAX_PHASES],
+        n: 0,
+        kind: ProfileKind::Blend,
+    };
+    let (mut ia, mut ib) = (0usize, 0usize);
+    let (mut ra, mut rb) = (ca.t[0], cb.t[0]);
+    loop {
+        while ia < 7 && ra <= 0.0 {
+            ia += 1;
+            ra = if ia < 7 { ca.t[ia] } else { 0.0 };
+        }
+        while ib < 7 && rb <= 0.0 {
+            ib += 1;
+            rb = if ib < 7 { cb.t[ib] } else { 0.0 };
+        }
+        if ia >= 7 && ib >= 7 {
+            break;
+        }
+        // One profile may end a rounding error earlier: continue the other one alone.
+        let (dt, ja, jb) = match (ia < 7, ib < 7) {
+            (true, true) => (min(ra, rb), ca.j[ia], cb.j[ib]),
+            (true, false) => (ra, ca.j[ia], 0.0),
+            _ => (rb, 0.0, cb.j[ib]),
+        };
+        if out.n >= MAX_PHASES {
+            return None;
+        }
+        out.t[out.n] = dt;
+        out.j[out.n] = lam_a * ja + lam_b * jb;
+        out.n += 1;
+        if dt == ra {
+            ra = 0.0;
+        } else {
+            ra -= dt;
+        }
+        if dt == rb {
+            rb = 0.0;
+        } else {
+            rb -= dt;
+        }
+    }
+    let n = out.n;
+    let total = validate(pb, &mut out.t[..n], &out.j[..n], true)?.total;
+    if abs(total - tt) > 1e-12 * tt {
+        return None;
+    }
+    Some(out)
+}
+
+#[cfg(test)]
+mod dbg {
+    use super::*;
+    #[test]
+    fn dbg_841() {
+        let pb = Problem {
+            d: -245000804.03533074,
+            v0: 19309689.279665846,
+            a0: -21711399.99999973,
+            vf: 33261.8,
+            af: 0.0,
+            v_max: 35527.2,
+            v_min: -35527.2,
+            a_max: 95492700.0,
+            a_min: -21711400.0,
+            j: 12183500.0,
+            position: true,
+            a_snap: 95492700.0,
+        };
+        let tt = 7219.746042861971;
+        let m = pb.mirrored();
+        let (c, p) = max_position(&m, tt).unwrap();
+        std::eprintln!("{c:?} {p}");
+        let mut it = crate::math::Integrator::new(0.0, m.v0, m.a0, m.a_snap);
+        for i in 0..7 {
+            it.step(c.t[i], c.j[i]);
+            std::eprintln!("{i} {:?}", it.state());
+        }
+        std::eprintln!("rise {:?}", rise_to(m.v0, m.a0, m.v_max, m.a_max, m.j));
+    }
+}

@@ -1,0 +1,260 @@
+//! Real roots of low-degree polynomials inside an interval.
+//!
+//! Roots are isolated between the critical points (roots of the derivative, found
+//! recursively), then each bracket with a sign change is narrowed by a safeguarded
+//! Newton/bisection iteration to full precision. A critical point where the polynomial vanishes
+//! within its rounding error is reported as a (double) root.
+
+use crate::math::{EPS, abs, sqrt};
+
+/// Most roots returned (degree ≤ 6).
+pub(crate) const MAX_DEGREE: usize = 6;
+
+/// A small set of sorted real roots.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Roots {
+    pub(crate) x: [f64; MAX_DEGREE],
+    pub(crate) n: usize,
+}
+
+impl Roots {
+    pub(crate) const fn new() -> Self {
+        Roots {
+            x: [0.0; MAX_DEGREE],
+            n: 0,
+        }
+    }
+
+    pub(crate) fn as_slice(&self) -> &[f64] {
+        &self.x[..self.n]
+    }
+
+    fn push(&mut self, x: f64) {
+        if self.n < MAX_DEGREE && x.is_finite() {
+            // Keep sorted, skip duplicates.
+            for k in 0..self.n {
+                if abs(self.x[k] - x) <= 4.0 * EPS * abs(x) {
+                    return;
+                }
+            }
+            let mut i = self.n;
+            while i > 0 && self.x[i - 1] > x {
+                self.x[i] = self.x[i - 1];
+                i -= 1;
+            }
+            self.x[i] = x;
+            self.n += 1;
+        }
+    }
+}
+
+/// Value of the polynomial `c` (highest degree first) at `x`.
+#[inline]
+pub(crate) fn eval(c: &[f64], x: f64) -> f64 {
+    let mut r = 0.0;
+    for &ci in c {
+        r = r * x + ci;
+    }
+    r
+}
+
+/// Value and derivative at `x`.
+#[inline]
+fn eval_d(c: &[f64], x: f64) -> (f64, f64) {
+    let mut r = 0.0;
+    let mut d = 0.0;
+    for &ci in c {
+        d = d * x + r;
+        r = r * x + ci;
+    }
+    (r, d)
+}
+
+/// Rounding-error bound of Horner's scheme at `x`.
+#[inline]
+fn error_bound(c: &[f64], x: f64) -> f64 {
+    let ax = abs(x);
+    let mut r = 0.0;
+    for &ci in c {
+        r = r * ax + abs(ci);
+    }
+    8.0 * EPS * r
+}
+
+/// All real roots of `c` (highest degree first, degree ≤ 6) in `[lo, hi]`, sorted.
+pub(crate) fn roots_in(c: &[f64], lo: f64, hi: f64) -> Roots {
+    let mut out = Roots::new();
+    if !(lo <= hi) || !lo.is_finite() || !hi.is_finite() {
+        return out;
+    }
+    let mut c = c;
+    while c.len() > 1 && c[0] == 0.0 {
+        c = &c[1..];
+    }
+    if c.iter().any(|x| !x.is_finite()) {
+        return out;
+    }
+    let n = c.len().saturating_sub(1);
+    match n {
+        0 => {}
+        1 => {
+            let x = -c[1] / c[0];
+            if x >= lo && x <= hi {
+                out.push(x);
+            }
+        }
+        2 => {
+            let (a, b, cc) = (c[0], c[1], c[2]);
+            let disc = b * b - 4.0 * a * cc;
+            let tol = 8.0 * EPS * (b * b + abs(4.0 * a * cc));
+            let mut add = |x: f64| {
+                if x >= lo && x <= hi {
+                    out.push(x);
+                }
+            };
+            if disc >= 0.0 {
+                let s = sqrt(disc);
+                let q = if b >= 0.0 {
+                    -(b + s) / 2.0
+                } else {
+                    (s - b) / 2.0
+                };
+                if q != 0.0 {
+                    add(q / a);
+                    add(cc / q);
+                } else {
+                    add(0.0);
+                }
+            } else if -disc <= tol {
+                add(-b / (2.0 * a));
+            }
+        }
+        _ => {
+            if n > MAX_DEGREE {
+                return out;
+            }
+            let mut d = [0.0; MAX_DEGREE];
+            for i in 0..n {
+                d[i] = c[i] * (n - i) as f64;
+            }
+            let crit = roots_in(&d[..n], lo, hi);
+            let mut xs = [0.0; MAX_DEGREE + 2];
+            let mut m = 0;
+            xs[m] = lo;
+            m += 1;
+            for &x in crit.as_slice() {
+                if x > lo && x < hi {
+                    xs[m] = x;
+                    m += 1;
+                }
+            }
+            xs[m] = hi;
+            m += 1;
+            let mut fs = [0.0; MAX_DEGREE + 2];
+            for k in 0..m {
+                fs[k] = eval(c, xs[k]);
+            }
+            for k in 0..m {
+                if fs[k] == 0.0 {
+                    out.push(xs[k]);
+                }
+                if k + 1 < m
+                    && fs[k] != 0.0
+                    && fs[k + 1] != 0.0
+                    && (fs[k] < 0.0) != (fs[k + 1] < 0.0)
+                {
+                    out.push(bracketed(c, xs[k], xs[k + 1], fs[k]));
+                }
+            }
+            // Double roots: a critical point where the value vanishes within rounding.
+            for k in 1..m - 1 {
+                if fs[k] != 0.0 && abs(fs[k]) <= error_bound(c, xs[k]) {
+                    let near = out
+                        .as_slice()
+                        .iter()
+                        .any(|&r| abs(r - xs[k]) <= 1e-7 * (abs(xs[k]) + (hi - lo)));
+                    if !near {
+                        out.push(xs[k]);
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The root of `c` in `[a, b]` where `c` is monotone and changes sign (`fa` = value at `a`).
+fn bracketed(c: &[f64], mut a: f64, mut b: f64, fa: f64) -> f64 {
+    let a_neg = fa < 0.0;
+    let mut x = 0.5 * (a + b);
+    for _ in 0..100 {
+        let (f, df) = eval_d(c, x);
+        if f == 0.0 {
+            return x;
+        }
+        if (f < 0.0) == a_neg {
+            a = x;
+        } else {
+            b = x;
+        }
+        let mut next = if df != 0.0 { x - f / df } else { f64::NAN };
+        if !(next > a && next < b) {
+            next = 0.5 * (a + b);
+        }
+        if abs(next - x) <= 2.0 * EPS * abs(x) || b - a <= 2.0 * EPS * (abs(a) + abs(b)) {
+            return next;
+        }
+        x = next;
+    }
+    x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn poly_from_roots(r: &[f64]) -> [f64; 5] {
+        // (x - r0)(x - r1)(x - r2)(x - r3), highest first
+        let mut c = [1.0, 0.0, 0.0, 0.0, 0.0];
+        let mut deg = 0;
+        for &ri in r {
+            for k in (1..=deg + 1).rev() {
+                c[k] -= ri * c[k - 1];
+            }
+            deg += 1;
+        }
+        c
+    }
+
+    #[test]
+    fn finds_all_quartic_roots() {
+        let c = poly_from_roots(&[-3.0, 0.5, 0.7, 10.0]);
+        let r = roots_in(&c, -100.0, 100.0);
+        assert_eq!(r.n, 4);
+        for (got, want) in r.as_slice().iter().zip([-3.0, 0.5, 0.7, 10.0]) {
+            assert!((got - want).abs() < 1e-12, "{got} vs {want}");
+        }
+        let r = roots_in(&c, 0.6, 5.0);
+        assert_eq!(r.as_slice().len(), 1);
+        assert!((r.x[0] - 0.7).abs() < 1e-14);
+    }
+
+    #[test]
+    fn double_root_is_reported() {
+        let c = poly_from_roots(&[1.0, 1.0, -2.0, 5.0]);
+        let r = roots_in(&c, -10.0, 10.0);
+        assert!(
+            r.as_slice().iter().any(|x| (x - 1.0).abs() < 1e-7),
+            "{:?}",
+            r.as_slice()
+        );
+    }
+
+    #[test]
+    fn quadratic_and_linear() {
+        let r = roots_in(&[1.0, -3.0, 2.0], -10.0, 10.0);
+        assert_eq!(r.as_slice(), &[1.0, 2.0]);
+        let r = roots_in(&[0.0, 2.0, -4.0], -10.0, 10.0);
+        assert_eq!(r.as_slice(), &[2.0]);
+    }
+}
