@@ -42,7 +42,7 @@
 //! power-up pose lies in that window (see `docs/getting-started.md`, "Homing a geared joint").
 
 use core::fmt;
-use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::{Mutex, OnceLock, PoisonError};
 
 use rmd_bus::{BusError, CanBus, Clock, MonotonicClock, Received, Timestamp, VirtualClock};
 use rmd_loop::Stopper;
@@ -430,35 +430,65 @@ pub fn centred_zero_offset_deg(gear_ratio: f64, direction: Direction, joint_deg:
     }
 }
 
-/// Presses of Ctrl-C (or SIGTERM / SIGHUP) seen by the handler.
-static INTERRUPTS: AtomicU8 = AtomicU8::new(0);
+/// The loop that Ctrl-C stops, and how many interrupts it has seen.
+static CTRL_C: Mutex<CtrlCState> = Mutex::new(CtrlCState {
+    stopper: None,
+    interrupts: 0,
+});
+/// Whether the process-wide handler is installed (or why it could not be).
+static HANDLER: OnceLock<Result<(), String>> = OnceLock::new();
 
-/// Makes Ctrl-C (and SIGTERM, SIGHUP) stop the loop that `stopper` belongs to: the first press
-/// asks it to stop (it sends zero torque and motor-off to every motor and reports), the second
-/// is an emergency stop, the third exits the process at once (status 130).
+#[derive(Debug)]
+struct CtrlCState {
+    stopper: Option<Stopper>,
+    interrupts: u32,
+}
+
+/// Makes Ctrl-C (and SIGTERM, SIGHUP) stop the loop that `stopper` belongs to: the first
+/// interrupt asks it to stop (it sends zero torque and motor-off to every motor, then reports),
+/// the second is an emergency stop, the third exits the process at once (status 130).
 ///
-/// A process has one handler: call this once, with the stopper of the loop that drives the
-/// motors. A second call fails with [`ConnectError::CtrlC`].
+/// The handler is installed once per process, the first time this is called; later calls make
+/// it stop another loop (e.g. the next run of a program that runs several in turn) and reset the
+/// count. Fails with [`ConnectError::CtrlC`] if another handler was installed by other means.
 pub fn stop_on_ctrl_c(stopper: Stopper) -> Result<(), ConnectError> {
-    ctrlc::set_handler(move || match INTERRUPTS.fetch_add(1, Ordering::SeqCst) {
-        0 => {
+    {
+        let mut state = CTRL_C.lock().unwrap_or_else(PoisonError::into_inner);
+        state.stopper = Some(stopper);
+        state.interrupts = 0;
+    }
+    HANDLER
+        .get_or_init(|| ctrlc::set_handler(on_interrupt).map_err(|e| e.to_string()))
+        .clone()
+        .map_err(ConnectError::CtrlC)
+}
+
+/// Runs on the `ctrlc` crate's handler thread (an ordinary thread, not a signal context).
+fn on_interrupt() {
+    let mut state = CTRL_C.lock().unwrap_or_else(PoisonError::into_inner);
+    state.interrupts += 1;
+    match (state.interrupts, &state.stopper) {
+        (1, Some(stopper)) => {
             eprintln!(
                 "\ninterrupted: stopping (zero torque, then motor off); again for an emergency stop"
             );
             stopper.stop();
         }
-        1 => {
+        (2, Some(stopper)) => {
             eprintln!("\ninterrupted again: EMERGENCY STOP");
             stopper.emergency_stop();
         }
         _ => std::process::exit(130),
-    })
-    .map_err(|e| ConnectError::CtrlC(e.to_string()))
+    }
 }
 
-/// How many interrupts (Ctrl-C, SIGTERM, SIGHUP) the handler of [`stop_on_ctrl_c`] has seen.
+/// How many interrupts (Ctrl-C, SIGTERM, SIGHUP) the loop registered by the last
+/// [`stop_on_ctrl_c`] has seen.
 pub fn interrupts() -> u32 {
-    u32::from(INTERRUPTS.load(Ordering::SeqCst))
+    CTRL_C
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .interrupts
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@
 //!   formats and the Linux SocketCAN backend;
 //! - [`sim`]: simulated RMD motors and a simulated CAN bus (virtual or real time, fault injection);
 //! - [`rt`]: the real-time loop; its main types are also at the root of this crate;
+//! - [`traj`]: time-optimal, jerk-limited multi-axis trajectories (allocation-free, for the loop);
 //! - [`connect`]: one bus per bus of a robot description, simulated or SocketCAN, and Ctrl-C.
 //!
 //! ```
@@ -33,6 +34,7 @@ pub use rmd_bus as bus;
 pub use rmd_loop as rt;
 pub use rmd_protocol as protocol;
 pub use rmd_sim as sim;
+pub use rmd_traj as traj;
 
 pub use rmd_loop::{
     BusConfig, Commands, Controller, Fault, Feedback, Flow, LoopHandle, LoopOutcome, LoopReport,

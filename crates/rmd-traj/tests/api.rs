@@ -1,9 +1,9 @@
 //! Behaviour of the public API: options, errors, online form.
 
 use rmd_traj::{
-    calculate, ControlInterface, Direction, DurationDiscretization, Field, Input, InvalidOption,
+    ControlInterface, Direction, DurationDiscretization, Field, Input, InvalidOption,
     InvalidReason, OnlineGenerator, OnlineStatus, ProfileKind, ReachedLimits, Synchronization,
-    TrajectoryError,
+    TrajectoryError, calculate,
 };
 
 fn unit_limits<const N: usize>() -> Input<N> {
@@ -17,12 +17,22 @@ fn rest_to_rest_matches_closed_form() {
     input.target_position = [1.0];
     let traj = calculate(&input).unwrap();
     let exact = 4.0 * 0.5f64.cbrt();
-    assert!((traj.duration() - exact).abs() < 1e-14, "{}", traj.duration());
+    assert!(
+        (traj.duration() - exact).abs() < 1e-14,
+        "{}",
+        traj.duration()
+    );
     let end = traj.state_at(traj.duration())[0];
-    assert_eq!((end.position, end.velocity, end.acceleration, end.jerk), (1.0, 0.0, 0.0, 0.0));
+    assert_eq!(
+        (end.position, end.velocity, end.acceleration, end.jerk),
+        (1.0, 0.0, 0.0, 0.0)
+    );
     assert_eq!(
         traj.profile(0).unwrap().kind(),
-        ProfileKind::TimeOptimal { direction: Direction::Up, limits: ReachedLimits::None }
+        ProfileKind::TimeOptimal {
+            direction: Direction::Up,
+            limits: ReachedLimits::None
+        }
     );
     // Jerk is right-continuous: at t = 0 it is the first phase's.
     assert_eq!(traj.state_at(0.0)[0].jerk, 1.0);
@@ -87,7 +97,11 @@ fn minimum_duration_and_discretization() {
     input.duration_discretization = DurationDiscretization::Discrete { period: 0.01 };
     let traj = calculate(&input).unwrap();
     let cycles = traj.duration() / 0.01;
-    assert!((cycles - cycles.round()).abs() < 1e-9, "{}", traj.duration());
+    assert!(
+        (cycles - cycles.round()).abs() < 1e-9,
+        "{}",
+        traj.duration()
+    );
     for p in traj.profiles() {
         assert!((p.duration() - traj.duration()).abs() < 1e-12);
     }
@@ -140,7 +154,10 @@ fn invalid_inputs_are_typed_errors() {
     input.max_jerk = [1.0, f64::NAN];
     assert_eq!(
         calculate(&input).unwrap_err(),
-        TrajectoryError::InvalidInput { axis: 1, reason: InvalidReason::NotFinite(Field::MaxJerk) }
+        TrajectoryError::InvalidInput {
+            axis: 1,
+            reason: InvalidReason::NotFinite(Field::MaxJerk)
+        }
     );
     let mut input = unit_limits::<2>();
     input.max_acceleration = [-1.0, 1.0];
@@ -167,16 +184,25 @@ fn invalid_inputs_are_typed_errors() {
     input.target_acceleration = [-0.9]; // 0.9 + 0.81/2 > 1
     assert_eq!(
         calculate(&input).unwrap_err(),
-        TrajectoryError::InvalidInput { axis: 0, reason: InvalidReason::TargetInevitablyAboveMaxVelocity }
+        TrajectoryError::InvalidInput {
+            axis: 0,
+            reason: InvalidReason::TargetInevitablyAboveMaxVelocity
+        }
     );
     let mut input = unit_limits::<1>();
     input.minimum_duration = Some(-1.0);
-    assert_eq!(calculate(&input).unwrap_err(), TrajectoryError::InvalidOption(InvalidOption::MinimumDuration));
+    assert_eq!(
+        calculate(&input).unwrap_err(),
+        TrajectoryError::InvalidOption(InvalidOption::MinimumDuration)
+    );
     // Zero limits that make the target unreachable.
     let mut input = unit_limits::<1>();
     input.max_acceleration = [0.0];
     input.target_position = [1.0];
-    assert_eq!(calculate(&input).unwrap_err(), TrajectoryError::ZeroLimits { axis: 0 });
+    assert_eq!(
+        calculate(&input).unwrap_err(),
+        TrajectoryError::ZeroLimits { axis: 0 }
+    );
     let mut input = unit_limits::<1>();
     input.max_velocity = [0.0];
     input.target_position = [1.0];
@@ -190,7 +216,10 @@ fn invalid_inputs_are_typed_errors() {
 fn synchronized_duration_cap() {
     let mut input = unit_limits::<2>();
     input.target_position = [17299.9, 1.0];
-    assert!(matches!(calculate(&input), Err(TrajectoryError::DurationTooLong { .. })));
+    assert!(matches!(
+        calculate(&input),
+        Err(TrajectoryError::DurationTooLong { .. })
+    ));
     // A single axis is not synchronized and not capped.
     let mut input = unit_limits::<1>();
     input.target_position = [17299.9];
@@ -211,7 +240,10 @@ fn current_state_outside_limits_is_braked() {
     for k in 0..=200 {
         let t = t0 + (traj.duration() - t0) * k as f64 / 200.0;
         let s = traj.state_at(t)[0];
-        assert!(s.velocity.abs() <= 1.0 + 1e-9 && s.acceleration.abs() <= 1.0 + 1e-9, "{t}: {s:?}");
+        assert!(
+            s.velocity.abs() <= 1.0 + 1e-9 && s.acceleration.abs() <= 1.0 + 1e-9,
+            "{t}: {s:?}"
+        );
     }
 }
 
@@ -238,7 +270,10 @@ fn online_generator_follows_and_replans() {
     assert!((input.current_position[0] - 0.1).abs() < 1e-9);
     assert!((input.current_position[1] - 0.4).abs() < 1e-9);
     assert!(input.current_velocity.iter().all(|v| v.abs() < 1e-9));
-    assert_eq!(OnlineGenerator::<1>::new(0.0).unwrap_err(), TrajectoryError::InvalidOption(InvalidOption::Period));
+    assert_eq!(
+        OnlineGenerator::<1>::new(0.0).unwrap_err(),
+        TrajectoryError::InvalidOption(InvalidOption::Period)
+    );
 }
 
 #[test]
@@ -254,7 +289,10 @@ fn online_generator_is_continuous_across_a_replan() {
         otg.step(&mut input).unwrap();
         let v = input.current_velocity[0];
         // |Δv| per cycle is bounded by the acceleration limit.
-        assert!((v - prev).abs() <= 2.0 * 0.001 + 1e-12, "cycle {k}: {prev} -> {v}");
+        assert!(
+            (v - prev).abs() <= 2.0 * 0.001 + 1e-12,
+            "cycle {k}: {prev} -> {v}"
+        );
         prev = v;
     }
 }

@@ -4,8 +4,8 @@
 
 use proptest::prelude::*;
 use rmd_traj::{
-    calculate, AxisProfile, ControlInterface, DurationDiscretization, Input, Synchronization,
-    Trajectory,
+    AxisProfile, ControlInterface, DurationDiscretization, Input, Synchronization, Trajectory,
+    calculate,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -17,7 +17,11 @@ fn s_curve(dv: f64, a: f64, j: f64) -> (f64, f64) {
     if dv <= 0.0 {
         return (0.0, 0.0);
     }
-    let t = if dv <= a * a / j { 2.0 * (dv / j).sqrt() } else { dv / a + a / j };
+    let t = if dv <= a * a / j {
+        2.0 * (dv / j).sqrt()
+    } else {
+        dv / a + a / j
+    };
     // Symmetric S-curve: average velocity is half the change.
     (t, dv * t / 2.0)
 }
@@ -25,7 +29,17 @@ fn s_curve(dv: f64, a: f64, j: f64) -> (f64, f64) {
 /// Duration of a valid (not necessarily optimal) trajectory for one axis inside the limits:
 /// ramp the acceleration to zero, S-curve to rest, rest-to-rest move (with cruise), S-curve from
 /// rest to the velocity that ramping to `af` ends at `vf`, ramp to `af`.
-fn baseline(p0: f64, v0: f64, a0: f64, pf: f64, vf: f64, af: f64, vmax: f64, amax: f64, j: f64) -> f64 {
+fn baseline(
+    p0: f64,
+    v0: f64,
+    a0: f64,
+    pf: f64,
+    vf: f64,
+    af: f64,
+    vmax: f64,
+    amax: f64,
+    j: f64,
+) -> f64 {
     // 1. Acceleration to zero.
     let t1 = a0.abs() / j;
     let v1 = v0 + a0 * a0.abs() / (2.0 * j);
@@ -49,7 +63,11 @@ fn baseline(p0: f64, v0: f64, a0: f64, pf: f64, vf: f64, af: f64, vmax: f64, ama
         let (mut lo, mut hi) = (0.0, vmax);
         for _ in 0..200 {
             let mid = 0.5 * (lo + hi);
-            if 2.0 * s_curve(mid, amax, j).1 < dist { lo = mid } else { hi = mid }
+            if 2.0 * s_curve(mid, amax, j).1 < dist {
+                lo = mid
+            } else {
+                hi = mid
+            }
         }
         2.0 * s_curve(hi, amax, j).0
     };
@@ -69,7 +87,10 @@ fn check_axis(
     let (vmax, vmin, amax, amin, jmax) = limits;
     let (mut p, mut v, mut a) = start;
     let n_brake = prof.brake().count();
-    let scale_p = 1f64.max(start.0.abs()).max(target.0.abs()).max(vmax.abs() * prof.duration());
+    let scale_p = 1f64
+        .max(start.0.abs())
+        .max(target.0.abs())
+        .max(vmax.abs() * prof.duration());
     let scale_v = 1f64.max(vmax.abs()).max(vmin.abs()).max(start.1.abs());
     let scale_a = 1f64.max(amax.abs()).max(amin.abs()).max(start.2.abs());
     let (tv, ta) = (1e-9 * scale_v, 1e-9 * scale_a);
@@ -121,16 +142,36 @@ fn check_all<const N: usize>(input: &Input<N>, traj: &Trajectory<N>) -> Result<(
             input.max_velocity[i],
             input.min_velocity.map_or(-input.max_velocity[i], |m| m[i]),
             input.max_acceleration[i],
-            input.min_acceleration.map_or(-input.max_acceleration[i], |m| m[i]),
+            input
+                .min_acceleration
+                .map_or(-input.max_acceleration[i], |m| m[i]),
             input.max_jerk[i],
         );
-        let start = (input.current_position[i], input.current_velocity[i], input.current_acceleration[i]);
-        let target = (input.target_position[i], input.target_velocity[i], input.target_acceleration[i]);
+        let start = (
+            input.current_position[i],
+            input.current_velocity[i],
+            input.current_acceleration[i],
+        );
+        let target = (
+            input.target_position[i],
+            input.target_velocity[i],
+            input.target_acceleration[i],
+        );
         let prof = &traj.profiles()[i];
-        check_axis(prof, start, target, limits, input.control_interface == ControlInterface::Position)
-            .map_err(|e| format!("axis {i}: {e}"))?;
+        check_axis(
+            prof,
+            start,
+            target,
+            limits,
+            input.control_interface == ControlInterface::Position,
+        )
+        .map_err(|e| format!("axis {i}: {e}"))?;
         if prof.duration() > traj.duration() * (1.0 + 1e-12) + 1e-12 {
-            return Err(format!("axis {i} lasts {} > {}", prof.duration(), traj.duration()));
+            return Err(format!(
+                "axis {i} lasts {} > {}",
+                prof.duration(),
+                traj.duration()
+            ));
         }
         // The sampler is continuous and agrees with the end state.
         let end = traj.state_at(traj.duration())[i];
@@ -186,7 +227,11 @@ fn valid_axis() -> impl Strategy<Value = [f64; 9]> {
                     swing_f = 0.0;
                 }
                 let vf = vfs * 0.49 * vmax + swing_f;
-                let (v0, a0, vf, af) = if rest { (0.0, 0.0, 0.0, 0.0) } else { (v0, a0, vf, af) };
+                let (v0, a0, vf, af) = if rest {
+                    (0.0, 0.0, 0.0, 0.0)
+                } else {
+                    (v0, a0, vf, af)
+                };
                 let pf = p0 + dir.signum() * dist_t * vmax;
                 [p0, v0, a0, pf, vf, af, vmax, amax, jmax]
             })
