@@ -102,6 +102,12 @@ fn kind(acc0: bool, vel: bool, acc1: bool) -> ProfileKind {
 /// Returns `(t0, t1, t2)` or `None` if impossible.
 pub(crate) fn rise_to(v0: f64, a0: f64, v_top: f64, a_max: f64, j: f64) -> Option<(f64, f64, f64)> {
     let x = j * (v_top - v0) + a0 * a0 / 2.0;
+    // Zero up to rounding (v_top is the velocity reached by ramping a0 to zero) is zero.
+    let x = if x < 0.0 && x >= -8.0 * f64::EPSILON * (a0 * a0 + abs(j * (v_top - v0))) {
+        0.0
+    } else {
+        x
+    };
     if !(x >= 0.0) {
         return None;
     }
@@ -129,6 +135,11 @@ pub(crate) fn fall_from(
     j: f64,
 ) -> Option<(f64, f64, f64)> {
     let y = j * (v_top - vf) + af * af / 2.0;
+    let y = if y < 0.0 && y >= -8.0 * f64::EPSILON * (af * af + abs(j * (v_top - vf))) {
+        0.0
+    } else {
+        y
+    };
     if !(y >= 0.0) {
         return None;
     }

@@ -15,7 +15,7 @@
 //!   `λ·j₁ + (1−λ)·j₂` of two feasible profiles whose final positions bracket `pf`.
 
 use crate::cand::{Cand, Problem, check_free, validate};
-use crate::math::{abs, max, min, sqrt};
+use crate::math::{Integrator, abs, max, min, sqrt};
 use crate::position1::{fall_from, rise_to};
 use crate::profile::{Direction, MAX_PHASES, ProfileKind};
 
@@ -209,27 +209,74 @@ fn changes_duration(h: &Halves) -> f64 {
     l.0 + l.1 + l.2 + r.0 + r.1 + r.2
 }
 
-/// The cruise-family profile with cruise velocity `vc` and duration `tt`, with its final position.
-fn cruise_at(pb: &Problem, tt: f64, vc: f64) -> Option<(Cand, f64)> {
+/// A member of the cruise family, not yet validated: cruise velocity, phases, final position.
+#[derive(Debug, Clone, Copy)]
+struct Member {
+    vc: f64,
+    t: [f64; 7],
+    j: [f64; 7],
+    p: f64,
+}
+
+/// The cruise-family member with cruise velocity `vc` and duration `tt` (cheap: no validation),
+/// or `None` if its velocity changes do not fit into `tt`.
+fn member(pb: &Problem, tt: f64, vc: f64) -> Option<Member> {
     let h = halves(pb, vc)?;
     let (l, jl, r, jr) = h;
     let t3 = tt - changes_duration(&h);
-    let t = [l.0, l.1, l.2, t3, r.0, r.1, r.2];
-    let jerks = [jl, 0.0, -jl, 0.0, jr, 0.0, -jr];
-    check_free(pb, t, jerks, ProfileKind::Cruise)
+    if t3 < -1e-12 * tt {
+        return None;
+    }
+    let t = [l.0, l.1, l.2, max(t3, 0.0), r.0, r.1, r.2];
+    let j = [jl, 0.0, -jl, 0.0, jr, 0.0, -jr];
+    let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
+    for k in 0..7 {
+        it.step(t[k], j[k]);
+    }
+    Some(Member { vc, t, j, p: it.p })
+}
+
+/// The validated profile of a member, with its final position.
+fn validated(pb: &Problem, m: &Member) -> Option<(Cand, f64)> {
+    check_free(pb, m.t, m.j, ProfileKind::Cruise)
 }
 
 /// Between a cruise velocity whose changes fit into `tt` and one whose changes do not, the
-/// velocity where they just fit (no cruise), by bisection.
+/// velocity where they just fit (no cruise): regula falsi (Illinois) on their duration.
 fn fit_boundary(pb: &Problem, tt: f64, mut v_in: f64, mut v_out: f64) -> f64 {
-    for _ in 0..64 {
-        let mid = 0.5 * (v_in + v_out);
-        if mid == v_in || mid == v_out {
+    let g = |v: f64| halves(pb, v).map(|h| changes_duration(&h) - tt);
+    let Some(mut g_in) = g(v_in) else {
+        return v_in;
+    };
+    // Where the changes do not exist at all, count them as not fitting (+∞): bisection then.
+    let mut g_out = g(v_out).unwrap_or(f64::INFINITY);
+    let mut side = 0i32;
+    for _ in 0..100 {
+        let mut v = (v_in * g_out - v_out * g_in) / (g_out - g_in);
+        if !(v > min(v_in, v_out) && v < max(v_in, v_out)) {
+            v = 0.5 * (v_in + v_out);
+        }
+        if v == v_in || v == v_out {
             break;
         }
-        match halves(pb, mid) {
-            Some(h) if changes_duration(&h) <= tt => v_in = mid,
-            _ => v_out = mid,
+        let gv = g(v).unwrap_or(f64::INFINITY);
+        if gv <= 0.0 {
+            v_in = v;
+            g_in = gv;
+            if side == -1 {
+                g_out /= 2.0;
+            }
+            side = -1;
+        } else {
+            v_out = v;
+            g_out = gv;
+            if side == 1 {
+                g_in /= 2.0;
+            }
+            side = 1;
+        }
+        if -g_in <= 4.0 * f64::EPSILON * tt {
+            break;
         }
     }
     v_in
@@ -252,17 +299,18 @@ pub(crate) fn fixed_time(pb: &Problem, tt: f64) -> Option<Pieces> {
     // Bracket: best known feasible profiles below and above the target position.
     let mut below = (c_lo, p_lo);
     let mut above = (c_hi, p_hi);
-    if let Some(found) = cruise_search(pb, tt, &mut below, &mut above) {
+    if let Some(found) = cruise_search(pb, tt, tol, &mut below, &mut above) {
         return Some(found.into());
     }
     blend(pb, &below, &above, tt)
 }
 
-/// Searches the cruise family for a profile ending at the target; updates the bracket with
-/// every feasible member seen.
+/// Searches the cruise family for a profile ending at the target (within `tol`, then validated);
+/// updates the bracket with the members that bracket the target best (validated at the end).
 fn cruise_search(
     pb: &Problem,
     tt: f64,
+    tol: f64,
     below: &mut (Cand, f64),
     above: &mut (Cand, f64),
 ) -> Option<Cand> {
@@ -307,13 +355,14 @@ fn cruise_search(
     let d = pb.d;
     // Walk the samples in order of vc; where the family's feasibility changes between two
     // samples, insert the boundary member (changes just fit, no cruise): that is where the family
-    // meets the extremal profiles.
-    let mut prev: Option<(f64, Cand, f64)> = None;
-    let mut best: Option<(Cand, f64)> = None;
+    // meets the extremal profiles. Refine between consecutive members that bracket the target.
+    let mut prev: Option<Member> = None;
     let mut prev_v: Option<f64> = None;
     let mut fits_prev = false;
+    let (mut lo_m, mut hi_m): (Option<Member>, Option<Member>) = (None, None);
     for &vc in &pts[..np] {
-        let fits = matches!(halves(pb, vc), Some(h) if changes_duration(&h) <= tt);
+        let cur = member(pb, tt, vc);
+        let fits = cur.is_some();
         let mut members = [None, None];
         if let Some(pv) = prev_v {
             if fits != fits_prev {
@@ -322,33 +371,23 @@ fn cruise_search(
                 } else {
                     fit_boundary(pb, tt, vc, pv)
                 };
-                members[0] = cruise_at(pb, tt, vb).map(|(c, p)| (vb, c, p));
-                if fits_prev {
-                    // Leaving the feasible part: the boundary ends the current run.
-                } else {
+                members[0] = member(pb, tt, vb);
+                if !fits_prev {
                     prev = None;
                 }
             }
         }
-        members[1] = if fits {
-            cruise_at(pb, tt, vc).map(|(c, p)| (vc, c, p))
-        } else {
-            None
-        };
+        members[1] = cur;
         for m in members.into_iter().flatten() {
-            let (v, c, p) = m;
-            if p == d {
-                return Some(c);
+            if m.p <= d && lo_m.is_none_or(|x| m.p > x.p) {
+                lo_m = Some(m);
             }
-            if best.is_none_or(|(_, bp)| abs(p - d) < abs(bp - d)) {
-                best = Some((c, p));
+            if m.p >= d && hi_m.is_none_or(|x| m.p < x.p) {
+                hi_m = Some(m);
             }
-            note(below, above, (c, p), d);
-            if let Some((v_prev, c_prev, p_prev)) = prev {
-                if (p_prev < d) != (p < d) {
-                    if let Some(found) =
-                        refine(pb, tt, (v_prev, c_prev, p_prev), (v, c, p), below, above)
-                    {
+            if let Some(pm) = prev {
+                if (pm.p < d) != (m.p < d) || abs(m.p - d) <= tol {
+                    if let Some(found) = refine(pb, tt, pm, m, &mut lo_m, &mut hi_m) {
                         return Some(found);
                     }
                 }
@@ -361,7 +400,13 @@ fn cruise_search(
         prev_v = Some(vc);
         fits_prev = fits;
     }
-    best.filter(|(c, p)| hits(pb, c, *p)).map(|(c, _)| c)
+    // No exact member: tighten the blend's bracket with the closest validated members.
+    for m in [lo_m, hi_m].into_iter().flatten() {
+        if let Some(x) = validated(pb, &m) {
+            note(below, above, x, d);
+        }
+    }
+    None
 }
 
 /// Does a profile ending at `p` reach the target position (within its rounding)?
@@ -379,27 +424,26 @@ fn note(below: &mut (Cand, f64), above: &mut (Cand, f64), x: (Cand, f64), d: f64
     }
 }
 
-/// Regula falsi (Illinois) on the cruise velocity between two feasible members whose final
-/// positions bracket the target, narrowed as far as the arithmetic allows; returns the member
-/// closest to the target if it is within its tolerance.
+/// Regula falsi (Illinois) on the cruise velocity between two members whose final positions
+/// bracket the target, narrowed as far as the arithmetic allows; the closest member is validated
+/// and returned if it reaches the target.
 fn refine(
     pb: &Problem,
     tt: f64,
-    a: (f64, Cand, f64),
-    b: (f64, Cand, f64),
-    below: &mut (Cand, f64),
-    above: &mut (Cand, f64),
+    a: Member,
+    b: Member,
+    lo_m: &mut Option<Member>,
+    hi_m: &mut Option<Member>,
 ) -> Option<Cand> {
     let d = pb.d;
-    let (mut va, mut fa) = (a.0, a.2 - d);
-    let (mut vb, mut fb) = (b.0, b.2 - d);
-    let mut best = if abs(fa) <= abs(fb) {
-        (a.1, a.2)
-    } else {
-        (b.1, b.2)
-    };
+    let (mut va, mut fa) = (a.vc, a.p - d);
+    let (mut vb, mut fb) = (b.vc, b.p - d);
+    let mut best = if abs(fa) <= abs(fb) { a } else { b };
     let mut side = 0i32;
     for _ in 0..100 {
+        if fa == 0.0 || fb == 0.0 || (fa < 0.0) == (fb < 0.0) {
+            break;
+        }
         let mut vc = (va * fb - vb * fa) / (fb - fa);
         if !(vc > min(va, vb) && vc < max(va, vb)) {
             vc = 0.5 * (va + vb);
@@ -407,16 +451,18 @@ fn refine(
         if vc == va || vc == vb {
             break;
         }
-        let Some((c, p)) = cruise_at(pb, tt, vc) else {
+        let Some(m) = member(pb, tt, vc) else {
             break;
         };
-        note(below, above, (c, p), d);
-        let f = p - d;
-        if abs(f) < abs(best.1 - d) {
-            best = (c, p);
+        let f = m.p - d;
+        if f <= 0.0 && lo_m.is_none_or(|x| m.p > x.p) {
+            *lo_m = Some(m);
         }
-        if f == 0.0 {
-            break;
+        if f >= 0.0 && hi_m.is_none_or(|x| m.p < x.p) {
+            *hi_m = Some(m);
+        }
+        if abs(f) < abs(best.p - d) {
+            best = m;
         }
         if (f < 0.0) == (fa < 0.0) {
             va = vc;
@@ -434,11 +480,8 @@ fn refine(
             side = 1;
         }
     }
-    if hits(pb, &best.0, best.1) {
-        Some(best.0)
-    } else {
-        None
-    }
+    let (c, p) = validated(pb, &best)?;
+    if hits(pb, &c, p) { Some(c) } else { None }
 }
 
 fn sort(x: &mut [f64]) {
@@ -512,36 +555,4 @@ fn blend(pb: &Problem, a: &(Cand, f64), b: &(Cand, f64), tt: f64) -> Option<Piec
         return None;
     }
     Some(out)
-}
-
-#[cfg(test)]
-mod dbg {
-    use super::*;
-    #[test]
-    fn dbg_841() {
-        let pb = Problem {
-            d: -245000804.03533074,
-            v0: 19309689.279665846,
-            a0: -21711399.99999973,
-            vf: 33261.8,
-            af: 0.0,
-            v_max: 35527.2,
-            v_min: -35527.2,
-            a_max: 95492700.0,
-            a_min: -21711400.0,
-            j: 12183500.0,
-            position: true,
-            a_snap: 95492700.0,
-        };
-        let tt = 7219.746042861971;
-        let m = pb.mirrored();
-        let (c, p) = max_position(&m, tt).unwrap();
-        std::eprintln!("{c:?} {p}");
-        let mut it = crate::math::Integrator::new(0.0, m.v0, m.a0, m.a_snap);
-        for i in 0..7 {
-            it.step(c.t[i], c.j[i]);
-            std::eprintln!("{i} {:?}", it.state());
-        }
-        std::eprintln!("rise {:?}", rise_to(m.v0, m.a0, m.v_max, m.a_max, m.j));
-    }
 }
