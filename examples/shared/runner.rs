@@ -233,7 +233,7 @@ fn status_line<S>(
         }
         _ => format!("{t:7.1} s"),
     };
-    let example = latest.map(|s| status(s)).unwrap_or_default();
+    let example = latest.map(status).unwrap_or_default();
     format!(
         "{progress} | {example} | |iq| <= {:.1} A  {:.0} degC | misses {}  missing {}  wake p99 {:.0} us",
         motors.max_abs_iq_amps,
