@@ -1,13 +1,13 @@
 //! # pd_hold: the smallest useful controller
 //!
-//! Holds one motor's joint (id 1, an RMD-X8-class motor with a 1:9 gearbox swinging a 1 kg arm
-//! 0.2 m long) at a target angle with a PD law on the joint angle. The whole controller is the
-//! `impl Controller for PdHold` below.
+//! Turns one motor's joint (id 1, an RMD-X8-class motor with a 1:9 gearbox swinging a 1 kg arm
+//! 0.2 m long) a given angle from where it is and holds it there, with a PD law on the joint
+//! angle. The whole controller is `PdHold` and its `impl Controller` below.
 //!
 //! ```sh
 //! cargo run --example pd_hold                                # simulated motor, 3 s
-//! cargo run --example pd_hold -- --virtual-time --target-deg -20
-//! cargo run --example pd_hold -- --iface can0                # motor 1 on can0
+//! cargo run --example pd_hold -- --virtual-time --move-deg -20
+//! cargo run --example pd_hold -- --iface can0 --move-deg 10  # motor 1 on can0
 //! ```
 //!
 //! A PD law has no integral term: against gravity the arm settles short of the target by the
@@ -19,26 +19,36 @@ use std::time::Duration;
 
 use clap::Parser;
 use rmd_rt::connect::{self, Target};
+use rmd_rt::rt::config::MAX_MOTORS;
 use rmd_rt::sim::{GravityLink, SimConfig};
 use rmd_rt::{
     BusConfig, Commands, Controller, Feedback, Flow, MotorConfig, RobotConfig, RtLoop, RunLimit,
     TickContext,
 };
 
-/// Holds every joint at `target_deg`: current = kp * angle error - kd * velocity.
+/// Holds every joint `move_deg` away from where it was at the start:
+/// current = kp * angle error - kd * velocity.
 pub(crate) struct PdHold {
-    /// Target joint angle, degrees.
-    pub(crate) target_deg: f64,
+    /// How far to turn each joint from its start angle, degrees.
+    pub(crate) move_deg: f64,
     /// Amperes per degree of error.
     pub(crate) kp: f64,
     /// Amperes per degree per second of velocity.
     pub(crate) kd: f64,
+    /// Each joint's target angle, set in the first tick.
+    pub(crate) targets: [f64; MAX_MOTORS],
 }
 
 impl Controller for PdHold {
+    fn start(&mut self, _: &TickContext, feedback: &Feedback<'_>) {
+        for (target, joint) in self.targets.iter_mut().zip(feedback.iter()) {
+            *target = joint.joint_angle_deg + self.move_deg;
+        }
+    }
+
     fn update(&mut self, _: &TickContext, feedback: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
         for (i, joint) in feedback.iter().enumerate() {
-            let amps = self.kp * (self.target_deg - joint.joint_angle_deg)
+            let amps = self.kp * (self.targets[i] - joint.joint_angle_deg)
                 - self.kd * joint.joint_velocity_dps;
             let _ = cmd.set_current(i, amps); // joint sign; the loop clamps it to 3 A
         }
@@ -46,7 +56,8 @@ impl Controller for PdHold {
     }
 }
 
-/// Holds motor 1 at an angle with a PD law (simulated motor, or a real one with --iface).
+/// Turns motor 1 by an angle and holds it there with a PD law (simulated motor, or a real one
+/// with --iface).
 #[derive(Parser, Debug, Clone)]
 #[command(name = "pd_hold")]
 pub(crate) struct Args {
@@ -56,14 +67,14 @@ pub(crate) struct Args {
     /// Simulate in virtual time (as fast as the CPU allows).
     #[arg(long)]
     pub(crate) virtual_time: bool,
-    /// Target joint angle, degrees (0 = where the motor was switched on).
+    /// How far to turn the joint from where it is, degrees (at the output).
     #[arg(
         long,
         value_name = "DEG",
         default_value_t = 30.0,
         allow_negative_numbers = true
     )]
-    pub(crate) target_deg: f64,
+    pub(crate) move_deg: f64,
     /// How long to hold, seconds.
     #[arg(long, value_name = "SECONDS", default_value_t = 3.0)]
     pub(crate) duration: f64,
@@ -80,7 +91,7 @@ pub(crate) fn robot(interface: &str) -> RobotConfig {
 }
 
 /// The simulated motor: at power-up (joint 0) the arm points 30 degrees below horizontal;
-/// hanging straight down is joint -60 degrees, horizontal is joint 30.
+/// hanging straight down is joint -60 degrees, horizontal is joint 30 (the default move).
 pub(crate) fn sim(robot: &RobotConfig) -> Vec<SimConfig> {
     let mut sims = connect::sim_configs(robot, 1);
     sims[0].motors[0].load.gravity = Some(GravityLink {
@@ -92,11 +103,12 @@ pub(crate) fn sim(robot: &RobotConfig) -> Vec<SimConfig> {
 }
 
 /// The controller with its gains: 0.8 A per degree (1.7 N*m/deg at the output), 0.03 A per deg/s.
-pub(crate) fn controller(target_deg: f64) -> PdHold {
+pub(crate) fn controller(move_deg: f64) -> PdHold {
     PdHold {
-        target_deg,
+        move_deg,
         kp: 0.8,
         kd: 0.03,
+        targets: [0.0; MAX_MOTORS],
     }
 }
 
@@ -122,7 +134,7 @@ fn main() -> ExitCode {
         robot,
         connection.clock,
         connection.buses,
-        controller(args.target_deg),
+        controller(args.move_deg),
     ) {
         Ok(rt) => rt,
         Err(e) => {
@@ -136,8 +148,8 @@ fn main() -> ExitCode {
     }
     let telemetry = rt.telemetry();
     println!(
-        "holding motor 1 at {} deg for {} s on {target}",
-        args.target_deg, args.duration
+        "turning motor 1 by {} deg and holding it for {} s ({target})",
+        args.move_deg, args.duration
     );
     let outcome = rt.run(RunLimit::Duration(Duration::from_secs_f64(
         args.duration.max(0.0),
@@ -146,8 +158,11 @@ fn main() -> ExitCode {
     if let Some(last) = telemetry.latest() {
         let joint = last.joints()[0];
         println!(
-            "final angle {:.2} deg (target {} deg), velocity {:.2} deg/s, current {:.2} A",
-            joint.joint_angle_deg, args.target_deg, joint.joint_velocity_dps, joint.iq_amps
+            "final angle {:.2} deg (target {:.2} deg), velocity {:.2} deg/s, current {:.2} A",
+            joint.joint_angle_deg,
+            outcome.controller.targets[0],
+            joint.joint_velocity_dps,
+            joint.iq_amps
         );
     }
     if outcome.report.normal_stop {

@@ -1,5 +1,6 @@
-//! The `pd_hold` example on its simulated motor, in virtual time: the arm settles at the target,
-//! short of it by what gravity over the PD stiffness predicts, and the motor ends off.
+//! The `pd_hold` example on its simulated motor, in virtual time: the arm turns by the given
+//! angle and settles, short of it by what gravity over the PD stiffness predicts, and the motor
+//! ends off.
 
 // The tests use part of the example (not its `main`).
 #[allow(dead_code)]
@@ -13,14 +14,14 @@ use rmd_rt::protocol::MotorId;
 use rmd_rt::sim::ControlMode;
 use rmd_rt::{RtLoop, RunLimit, StopReason, connect};
 
-fn settle(target_deg: f64) {
+fn settle(move_deg: f64) {
     let mut robot = pd_hold::robot("sim");
     robot.loop_config.telemetry_capacity = 4096;
     let sims = pd_hold::sim(&robot);
     let link = sims[0].motors[0].load.gravity.clone().unwrap();
     let clock = VirtualClock::new();
     let mut buses = connect::sim_buses(&clock, sims).unwrap();
-    let controller = pd_hold::controller(target_deg);
+    let controller = pd_hold::controller(move_deg);
     let (kp, kd) = (controller.kp, controller.kd);
     let rt = RtLoop::new(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
     let telemetry = rt.telemetry();
@@ -28,6 +29,9 @@ fn settle(target_deg: f64) {
     assert_eq!(out.report.stop_reason, StopReason::TickLimit);
     assert_eq!(out.report.stats.deadline_misses, 0);
     assert_eq!(out.report.stats.missing_replies, 0);
+    // The simulated arm starts at joint 0: the target is the move.
+    let target_deg = out.controller.targets[0];
+    assert!((target_deg - move_deg).abs() < 0.05, "{target_deg}");
     let samples: Vec<_> = telemetry.drain().collect();
     assert_eq!(samples.len(), 3000);
     let last = samples.last().unwrap().joints()[0];
