@@ -47,6 +47,7 @@ use shared::impedance::{self, ErrorStats, Gains, JointState};
 use shared::leg::{self, JOINT_NAMES, JOINTS, LegModel};
 use shared::runner::{self, Monitor, Recorder, Sample};
 use shared::step_cycle::{Phase, StepCycle, StepParams};
+use shared::{say, say_raw};
 
 /// One 4-motor leg stepping under Cartesian impedance control, on simulated motors or a real bus.
 #[derive(Parser, Debug, Clone)]
@@ -335,6 +336,32 @@ impl Controller for StepController {
     }
 }
 
+/// The leg's part of the status line: phase, foot error, largest foot error over the cycles.
+#[derive(Debug, Default)]
+pub(crate) struct LegStatus {
+    max_error_m: f64,
+}
+
+impl runner::Status<LegSample> for LegStatus {
+    fn observe(&mut self, s: &LegSample) {
+        if s.phase != Phase::Approach {
+            self.max_error_m = self.max_error_m.max(s.error_m());
+        }
+    }
+
+    fn line(&self, s: &LegSample) -> String {
+        if s.phase == Phase::Approach {
+            return format!("approach foot error {:5.1} mm", s.error_m() * 1000.0);
+        }
+        format!(
+            "{:<8} foot error {:5.1} mm (max {:4.1})",
+            s.phase.name(),
+            s.error_m() * 1000.0,
+            self.max_error_m * 1000.0
+        )
+    }
+}
+
 /// What a run of the example produced.
 #[derive(Debug)]
 pub(crate) struct Summary {
@@ -390,7 +417,7 @@ pub(crate) fn run(args: &Args) -> Result<Summary, String> {
     }
 
     if !common.quiet {
-        println!(
+        say!(
             "leg4: 4-motor leg on {target}, {} Hz, step {:.0} cm x {:.0} cm every {:.2} s \
              (stance {:.2} s at {:.2} m/s), gravity compensation {}",
             robot.loop_config.rate_hz,
@@ -417,18 +444,7 @@ pub(crate) fn run(args: &Args) -> Result<Summary, String> {
     let rt = RtLoop::new(robot, connection.clock, connection.buses, controller)
         .map_err(|e| e.to_string())?;
 
-    let mut max_error = 0.0f64;
-    let mut status = |s: &LegSample| {
-        if s.phase != Phase::Approach {
-            max_error = max_error.max(s.error_m());
-        }
-        format!(
-            "{:<8} foot error {:5.1} mm (max {:5.1})",
-            s.phase.name(),
-            s.error_m() * 1000.0,
-            max_error * 1000.0
-        )
-    };
+    let mut status = LegStatus::default();
     let finished = runner::run(
         rt,
         limit,
@@ -459,15 +475,15 @@ pub(crate) fn run(args: &Args) -> Result<Summary, String> {
 
 /// Prints the loop report and the leg's results.
 fn print_summary(summary: &Summary, csv: &std::path::Path) {
-    println!();
-    print!("{}", summary.report);
-    println!();
+    say!();
+    say_raw!("{}", summary.report);
+    say!();
     print_results(summary, &summary.report.stats, csv);
 }
 
 fn print_results(summary: &Summary, stats: &StatsSummary, csv: &std::path::Path) {
-    println!("leg4 results");
-    println!(
+    say!("leg4 results");
+    say!(
         "  foot tracking  rms {:.2} mm   max {:.2} mm over {} step cycle(s) (stance: rms {:.2} mm, max {:.2} mm)",
         summary.tracking.rms() * 1000.0,
         summary.tracking.max * 1000.0,
@@ -475,7 +491,7 @@ fn print_results(summary: &Summary, stats: &StatsSummary, csv: &std::path::Path)
         summary.stance_tracking.rms() * 1000.0,
         summary.stance_tracking.max * 1000.0,
     );
-    println!(
+    say!(
         "  foot height    {:+.2} mm on average in the stance (gravity compensation {})",
         summary.stance_z_bias_m * 1000.0,
         if summary.gravity_compensation {
@@ -485,11 +501,11 @@ fn print_results(summary: &Summary, stats: &StatsSummary, csv: &std::path::Path)
         }
     );
     let clamped: u64 = stats.motors.iter().map(|m| m.clamped_commands).sum();
-    println!("  current limit  {clamped} command(s) clamped by the loop");
+    say!("  current limit  {clamped} command(s) clamped by the loop");
     if let Some(halt) = &summary.halt {
-        println!("  STOPPED        {halt}");
+        say!("  STOPPED        {halt}");
     }
-    println!(
+    say!(
         "  telemetry      {} rows in {}{}",
         summary.csv_rows,
         csv.display(),

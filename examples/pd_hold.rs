@@ -14,6 +14,7 @@
 //! gravity torque over the stiffness, at most 1.96 N*m / 1.67 N*m per degree = 1.2 degrees here
 //! (the gearbox's friction takes part of it).
 
+use std::io::Write;
 use std::process::ExitCode;
 use std::time::Duration;
 
@@ -113,51 +114,40 @@ pub(crate) fn controller(move_deg: f64) -> PdHold {
 }
 
 fn main() -> ExitCode {
-    let args = Args::parse();
-    let ifaces: Vec<String> = args.iface.iter().cloned().collect();
-    let target = match Target::from_args(&ifaces, args.virtual_time) {
-        Ok(target) => target,
+    match run(&Args::parse()) {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::FAILURE, // a fault, an emergency stop: the report says which
         Err(e) => {
             eprintln!("pd_hold: {e}");
-            return ExitCode::from(2);
+            ExitCode::from(2)
         }
-    };
-    let robot = robot(args.iface.as_deref().unwrap_or("sim"));
-    let connection = match connect::open(&target, &robot, sim(&robot)) {
-        Ok(c) => c,
-        Err(e) => {
-            eprintln!("pd_hold: {e}");
-            return ExitCode::from(2);
-        }
-    };
-    let rt = match RtLoop::new(
-        robot,
-        connection.clock,
-        connection.buses,
-        controller(args.move_deg),
-    ) {
-        Ok(rt) => rt,
-        Err(e) => {
-            eprintln!("pd_hold: {e}");
-            return ExitCode::from(2);
-        }
-    };
-    // Ctrl-C stops the loop, which sends zero torque and motor-off before it returns.
-    if let Err(e) = connect::stop_on_ctrl_c(rt.stopper()) {
-        eprintln!("warning: {e}");
     }
+}
+
+/// Connects, runs the hold and prints the report; returns whether the run ended normally.
+fn run(args: &Args) -> Result<bool, Box<dyn std::error::Error>> {
+    let target = Target::from_args(args.iface.as_slice(), args.virtual_time)?;
+    let robot = robot(args.iface.as_deref().unwrap_or("sim"));
+    let connection = connect::open(&target, &robot, sim(&robot))?;
+    let controller = controller(args.move_deg);
+    let rt = RtLoop::new(robot, connection.clock, connection.buses, controller)?;
+    // Ctrl-C stops the loop, which sends zero torque and motor-off before it returns.
+    connect::stop_on_ctrl_c(rt.stopper())?;
     let telemetry = rt.telemetry();
-    println!(
+    // Output errors (a closed pipe) are ignored: they must not interrupt a run.
+    let mut out = std::io::stdout();
+    let _ = writeln!(
+        out,
         "turning motor 1 by {} deg and holding it for {} s ({target})",
         args.move_deg, args.duration
     );
-    let outcome = rt.run(RunLimit::Duration(Duration::from_secs_f64(
-        args.duration.max(0.0),
-    )));
-    print!("{}", outcome.report);
+    let limit = RunLimit::Duration(Duration::from_secs_f64(args.duration.max(0.0)));
+    let outcome = rt.run(limit);
+    let _ = write!(out, "{}", outcome.report);
     if let Some(last) = telemetry.latest() {
         let joint = last.joints()[0];
-        println!(
+        let _ = writeln!(
+            out,
             "final angle {:.2} deg (target {:.2} deg), velocity {:.2} deg/s, current {:.2} A",
             joint.joint_angle_deg,
             outcome.controller.targets[0],
@@ -165,9 +155,5 @@ fn main() -> ExitCode {
             joint.iq_amps
         );
     }
-    if outcome.report.normal_stop {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    }
+    Ok(outcome.report.normal_stop)
 }

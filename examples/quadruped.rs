@@ -40,6 +40,7 @@ use shared::cli::CommonArgs;
 use shared::impedance::{self, ErrorStats, Gains, JointState};
 use shared::leg::{self, JOINTS, LegModel};
 use shared::runner::{self, Monitor, Recorder, Sample};
+use shared::{say, say_raw};
 
 /// Legs of the robot.
 pub(crate) const LEGS: usize = 4;
@@ -341,6 +342,28 @@ impl Controller for StandController {
     }
 }
 
+/// The robot's part of the status line: phase, body height, largest foot error.
+#[derive(Debug, Default)]
+pub(crate) struct QuadStatus;
+
+impl runner::Status<QuadSample> for QuadStatus {
+    fn observe(&mut self, _: &QuadSample) {}
+
+    fn line(&self, s: &QuadSample) -> String {
+        format!(
+            "{} body height {:.3} m (target {:.3})  foot error <= {:4.1} mm",
+            if s.phase == Phase::Rise {
+                "rise"
+            } else {
+                "hold"
+            },
+            s.body_height_m(),
+            s.target_height_m,
+            s.max_error_m * 1000.0
+        )
+    }
+}
+
 /// What a run of the example produced.
 #[derive(Debug)]
 pub(crate) struct Summary {
@@ -393,7 +416,7 @@ pub(crate) fn run(args: &Args) -> Result<Summary, String> {
     common.apply(&mut robot);
     robot.validate().map_err(|e| e.to_string())?;
     if !common.quiet {
-        println!(
+        say!(
             "quadruped: {} motors on {} buses ({target}), {} Hz: four 0x280 frames per tick; \
              standing up from {:.2} m to {:.2} m, then holding",
             robot.motor_count(),
@@ -416,19 +439,7 @@ pub(crate) fn run(args: &Args) -> Result<Summary, String> {
     let controller = StandController::new(args.height, recorder);
     let rt = RtLoop::new(robot, connection.clock, connection.buses, controller)
         .map_err(|e| e.to_string())?;
-    let mut status = |s: &QuadSample| {
-        format!(
-            "{} body height {:.3} m (target {:.3})  foot error <= {:4.1} mm",
-            if s.phase == Phase::Rise {
-                "rise"
-            } else {
-                "hold"
-            },
-            s.body_height_m(),
-            s.target_height_m,
-            s.max_error_m * 1000.0
-        )
-    };
+    let mut status = QuadStatus;
     let finished = runner::run(
         rt,
         limit,
@@ -458,24 +469,25 @@ pub(crate) fn run(args: &Args) -> Result<Summary, String> {
 }
 
 fn print_summary(s: &Summary, csv: &std::path::Path) {
-    println!();
-    print!("{}", s.report);
-    println!();
-    println!("quadruped results");
+    say!();
+    say_raw!("{}", s.report);
+    say!();
+    say!("quadruped results");
     match s.reached_at_s {
-        Some(t) => println!(
+        Some(t) => say!(
             "  stood up       body height within 5 mm of {:.3} m after {t:.2} s (planned rise {:.2} s)",
-            s.target_m, s.rise_s
+            s.target_m,
+            s.rise_s
         ),
-        None => println!(
+        None => say!(
             "  DID NOT STAND  body height never came within 5 mm of {:.3} m",
             s.target_m
         ),
     }
     for (name, h) in LEG_NAMES.iter().zip(s.heights_m) {
-        println!("  {name:<12}   hip {h:.4} m above the foot");
+        say!("  {name:<12}   hip {h:.4} m above the foot");
     }
-    println!(
+    say!(
         "  holding        foot error rms {:.2} mm, max {:.2} mm",
         s.hold_error.rms() * 1000.0,
         s.hold_error.max * 1000.0
@@ -487,11 +499,11 @@ fn print_summary(s: &Summary, csv: &std::path::Path) {
         .iter()
         .map(|m| m.clamped_commands)
         .sum();
-    println!("  current limit  {clamped} command(s) clamped by the loop");
+    say!("  current limit  {clamped} command(s) clamped by the loop");
     if let Some(halt) = &s.halt {
-        println!("  STOPPED        {halt}");
+        say!("  STOPPED        {halt}");
     }
-    println!(
+    say!(
         "  telemetry      {} rows in {}{}",
         s.csv_rows,
         csv.display(),

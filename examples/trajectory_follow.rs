@@ -38,6 +38,7 @@ use shared::cli::CommonArgs;
 use shared::impedance::JointState;
 use shared::leg::{self, JOINT_NAMES, JOINTS, LegModel};
 use shared::runner::{self, Monitor, Recorder, Sample};
+use shared::{say, say_raw};
 
 /// The leg's pose when the motors are switched on (as in `leg4`), degrees.
 pub(crate) const POWER_UP_DEG: [f64; JOINTS] = [0.0, -30.0, 60.0, -30.0];
@@ -352,6 +353,25 @@ pub(crate) fn sim(model: &LegModel, robot: &RobotConfig, seed: u64) -> Vec<SimCo
     )]
 }
 
+/// The follower's part of the status line: the waypoint and the following error.
+#[derive(Debug)]
+pub(crate) struct FollowStatus {
+    waypoints: usize,
+}
+
+impl runner::Status<FollowSample> for FollowStatus {
+    fn observe(&mut self, _: &FollowSample) {}
+
+    fn line(&self, s: &FollowSample) -> String {
+        let error = (0..JOINTS).fold(0.0f64, |m, j| m.max((s.q_des_deg[j] - s.q_deg[j]).abs()));
+        format!(
+            "waypoint {}/{}  following error {error:4.2} deg",
+            s.waypoint + 1,
+            self.waypoints
+        )
+    }
+}
+
 /// What a run of the example produced.
 #[derive(Debug)]
 pub(crate) struct Summary {
@@ -392,7 +412,7 @@ pub(crate) fn run(args: &Args) -> Result<Summary, String> {
     common.apply(&mut robot);
     robot.validate().map_err(|e| e.to_string())?;
     if !common.quiet {
-        println!(
+        say!(
             "trajectory_follow: 4-motor leg on {target}, {} Hz, {} waypoint(s), {:.1} s pause at each",
             robot.loop_config.rate_hz,
             waypoints.len(),
@@ -417,13 +437,8 @@ pub(crate) fn run(args: &Args) -> Result<Summary, String> {
         .map_err(|e| e.to_string())?;
     let rt = RtLoop::new(robot, connection.clock, connection.buses, controller)
         .map_err(|e| e.to_string())?;
-    let count = waypoints.len();
-    let mut status = |s: &FollowSample| {
-        let error = (0..JOINTS).fold(0.0f64, |m, j| m.max((s.q_des_deg[j] - s.q_deg[j]).abs()));
-        format!(
-            "waypoint {}/{count}  following error {error:4.2} deg",
-            s.waypoint + 1
-        )
+    let mut status = FollowStatus {
+        waypoints: waypoints.len(),
     };
     let finished = runner::run(
         rt,
@@ -451,16 +466,23 @@ pub(crate) fn run(args: &Args) -> Result<Summary, String> {
 }
 
 fn print_summary(s: &Summary, csv: &std::path::Path) {
-    println!();
-    print!("{}", s.report);
-    println!();
-    println!("trajectory_follow results (joint error after the pause, degrees)");
-    println!(
+    say!();
+    say_raw!("{}", s.report);
+    say!();
+    say!("trajectory_follow results (joint error after the pause, degrees)");
+    say!(
         "  {:<9}{:>8}{:>8}{:>9}{:>9}{:>9}{:>9}{:>9}",
-        "waypoint", "start s", "move s", "hip_aa", "hip_fe", "knee", "ankle", "max"
+        "waypoint",
+        "start s",
+        "move s",
+        "hip_aa",
+        "hip_fe",
+        "knee",
+        "ankle",
+        "max"
     );
     for r in &s.reached {
-        println!(
+        say!(
             "  {:<9}{:>8.2}{:>8.2}{:>9.3}{:>9.3}{:>9.3}{:>9.3}{:>9.3}",
             r.waypoint + 1,
             r.started_s,
@@ -473,16 +495,16 @@ fn print_summary(s: &Summary, csv: &std::path::Path) {
         );
     }
     if s.reached.len() < s.waypoints.len() {
-        println!(
+        say!(
             "  only {} of {} waypoints reached",
             s.reached.len(),
             s.waypoints.len()
         );
     }
     if let Some(e) = &s.error {
-        println!("  STOPPED: trajectory planning failed: {e}");
+        say!("  STOPPED: trajectory planning failed: {e}");
     }
-    println!(
+    say!(
         "  telemetry: {} rows in {}{}",
         s.csv_rows,
         csv.display(),

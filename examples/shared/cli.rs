@@ -72,11 +72,9 @@ impl CommonArgs {
         if target.is_simulated() || self.yes {
             return true;
         }
-        println!("REAL MOTORS on {target}: {what}");
-        println!(
-            "Make sure nothing and nobody is in the way. Ctrl-C stops the motors at any time."
-        );
-        print!("Press Enter to start (or Ctrl-C to quit): ");
+        say!("REAL MOTORS on {target}: {what}");
+        say!("Make sure nothing and nobody is in the way. Ctrl-C stops the motors at any time.");
+        say_raw!("Press Enter to start (or Ctrl-C to quit): ");
         let _ = std::io::stdout().flush();
         let mut line = String::new();
         matches!(std::io::stdin().lock().read_line(&mut line), Ok(n) if n > 0)

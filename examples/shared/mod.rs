@@ -3,6 +3,24 @@
 //! live display. Each example (and each example's test) includes this module; not every one uses
 //! every item, hence the `dead_code` allowance where it is included.
 
+/// `println!` that ignores a closed standard output (`| head`): printing never stops a run.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+/// `print!` that ignores a closed standard output.
+macro_rules! say_raw {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+pub(crate) use {say, say_raw};
+
 pub(crate) mod cli;
 pub(crate) mod impedance;
 pub(crate) mod leg;

@@ -99,6 +99,14 @@ pub(crate) struct Finished<K> {
     pub(crate) csv_error: Option<io::Error>,
 }
 
+/// The example's part of the status line: sees every sample, shows the newest.
+pub(crate) trait Status<S> {
+    /// Takes one sample into account (every sample of the run, in order).
+    fn observe(&mut self, sample: &S);
+    /// The example's part of the status line, for the newest sample.
+    fn line(&self, latest: &S) -> String;
+}
+
 /// The example-specific part of a run.
 pub(crate) struct Monitor<'a, S> {
     /// The controller's telemetry.
@@ -107,8 +115,8 @@ pub(crate) struct Monitor<'a, S> {
     pub(crate) csv: Option<&'a Path>,
     /// How to show progress.
     pub(crate) display: Display,
-    /// The example's part of the status line, from the newest sample.
-    pub(crate) status: &'a mut dyn FnMut(&S) -> String,
+    /// The example's part of the status line.
+    pub(crate) status: &'a mut dyn Status<S>,
 }
 
 /// Runs `rt` on its own thread until `limit` (or Ctrl-C, the controller, a fault), showing
@@ -144,13 +152,14 @@ where
     let started = Instant::now();
     let mut last_line: Option<Instant> = None;
     let mut latest: Option<S> = None;
-    let mut status = monitor.status;
+    let status = monitor.status;
     while handle.is_running() {
         std::thread::sleep(Duration::from_millis(100));
         for sample in monitor.samples.drain() {
             if let Some(csv) = csv.as_mut() {
                 csv.write(&sample);
             }
+            status.observe(&sample);
             latest = Some(sample);
         }
         for sample in loop_telemetry.drain() {
@@ -167,15 +176,15 @@ where
                 rate_hz,
                 total_ticks,
                 latest.as_ref(),
-                &mut status,
+                &*status,
                 &motors,
             );
             match monitor.display {
                 Display::Terminal => {
-                    print!("\r\x1b[2K{line}");
+                    say_raw!("\r\x1b[2K{line}");
                     let _ = io::stdout().flush();
                 }
-                _ => println!("{line}"),
+                _ => say!("{line}"),
             }
             last_line = Some(Instant::now());
         }
@@ -187,10 +196,10 @@ where
         }
     }
     if monitor.display == Display::Terminal {
-        println!();
+        say!();
     }
     if monitor.display != Display::Quiet {
-        println!(
+        say!(
             "ran {:.1} s of loop time in {:.1} s of wall time",
             outcome.report.duration_s,
             started.elapsed().as_secs_f64()
@@ -213,7 +222,7 @@ fn status_line<S>(
     rate_hz: f64,
     total_ticks: Option<u64>,
     latest: Option<&S>,
-    status: &mut dyn FnMut(&S) -> String,
+    status: &dyn Status<S>,
     motors: &MotorExtremes,
 ) -> String {
     let t = stats.ticks as f64 / rate_hz;
@@ -221,7 +230,7 @@ fn status_line<S>(
         Some(total) if total > 0 => {
             let done = (stats.ticks as f64 / total as f64).clamp(0.0, 1.0);
             let width = 20;
-            let filled = (done * width as f64).round() as usize;
+            let filled = (done * width as f64).floor() as usize;
             format!(
                 "[{}{}] {:3.0}%  {:5.1} / {:.1} s",
                 "#".repeat(filled),
@@ -233,7 +242,7 @@ fn status_line<S>(
         }
         _ => format!("{t:7.1} s"),
     };
-    let example = latest.map(status).unwrap_or_default();
+    let example = latest.map(|s| status.line(s)).unwrap_or_default();
     format!(
         "{progress} | {example} | |iq| <= {:.1} A  {:.0} degC | misses {}  missing {}  wake p99 {:.0} us",
         motors.max_abs_iq_amps,
