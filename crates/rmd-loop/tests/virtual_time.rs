@@ -11,16 +11,7 @@ use rmd_sim::{FaultKind, FaultRule};
 
 #[test]
 fn ten_thousand_ticks_of_four_motors_without_faults() {
-    let clock = VirtualClock::new();
-    let mut bus = sim(&clock, 4, 1, &[]);
-    let rt = RtLoop::new(
-        robot(1000.0, 1, 4),
-        clock.clone(),
-        vec![&mut bus],
-        PdTo::hold(4),
-    )
-    .unwrap();
-    let out = rt.run(RunLimit::Ticks(10_000));
+    let (out, mut bus) = run_leg(1, &[], PdTo::hold(4), 10_000);
     let r = &out.report;
     assert_eq!(r.stop_reason, StopReason::TickLimit);
     assert!(r.normal_stop);
@@ -80,20 +71,11 @@ fn the_pd_controller_brings_every_joint_to_its_target() {
 
 #[test]
 fn a_dropped_reply_is_counted_missing_and_the_loop_rides_through() {
-    let clock = VirtualClock::new();
     let drop = FaultRule::new(FaultKind::DropReply)
         .motor(id(2))
         .multi_torque()
         .frames_window(100, 3);
-    let mut bus = sim(&clock, 4, 3, &[drop]);
-    let rt = RtLoop::new(
-        robot(1000.0, 1, 4),
-        clock.clone(),
-        vec![&mut bus],
-        PdTo::hold(4),
-    )
-    .unwrap();
-    let out = rt.run(RunLimit::Ticks(1000));
+    let (out, mut bus) = run_leg(3, &[drop], PdTo::hold(4), 1000);
     let r = &out.report;
     assert_eq!(r.stop_reason, StopReason::TickLimit);
     let missing: Vec<_> = r.stats.motors.iter().map(|m| m.missing_replies).collect();
@@ -106,7 +88,6 @@ fn a_dropped_reply_is_counted_missing_and_the_loop_rides_through() {
 
 #[test]
 fn a_late_reply_is_recognised_and_never_taken_as_this_ticks() {
-    let clock = VirtualClock::new();
     // Motor 3's reply to one 0x280 frame is 500 us late: past the 900 us reply deadline, so it
     // arrives in the next tick, before that tick's own reply.
     let late = FaultRule::new(FaultKind::LateReply {
@@ -115,15 +96,7 @@ fn a_late_reply_is_recognised_and_never_taken_as_this_ticks() {
     .motor(id(3))
     .multi_torque()
     .frames_window(200, 1);
-    let mut bus = sim(&clock, 4, 4, &[late]);
-    let rt = RtLoop::new(
-        robot(1000.0, 1, 4),
-        clock.clone(),
-        vec![&mut bus],
-        PdTo::hold(4),
-    )
-    .unwrap();
-    let out = rt.run(RunLimit::Ticks(1000));
+    let (out, _) = run_leg(4, &[late], PdTo::hold(4), 1000);
     let m3 = out.report.stats.motors[2];
     assert_eq!(m3.late_replies, 1, "{m3:?}");
     assert_eq!(m3.missing_replies, 1, "{m3:?}");
@@ -134,20 +107,11 @@ fn a_late_reply_is_recognised_and_never_taken_as_this_ticks() {
 
 #[test]
 fn a_corrupted_or_short_reply_is_a_bad_frame_of_its_motor() {
-    let clock = VirtualClock::new();
     let corrupt = FaultRule::new(FaultKind::WrongDlc { dlc: 5 })
         .motor(id(4))
         .multi_torque()
         .frames_window(50, 2);
-    let mut bus = sim(&clock, 4, 5, &[corrupt]);
-    let rt = RtLoop::new(
-        robot(1000.0, 1, 4),
-        clock.clone(),
-        vec![&mut bus],
-        PdTo::hold(4),
-    )
-    .unwrap();
-    let out = rt.run(RunLimit::Ticks(300));
+    let (out, _) = run_leg(5, &[corrupt], PdTo::hold(4), 300);
     let m4 = out.report.stats.motors[3];
     assert_eq!(m4.bad_frames, 2);
     assert_eq!(m4.missing_replies, 2);
@@ -157,20 +121,11 @@ fn a_corrupted_or_short_reply_is_a_bad_frame_of_its_motor() {
 
 #[test]
 fn corrupted_bytes_never_reach_the_controller_as_fresh_feedback() {
-    let clock = VirtualClock::new();
     let corrupt = FaultRule::new(FaultKind::CorruptBytes { count: 8 })
         .motor(id(1))
         .multi_torque()
         .with_probability(0.2);
-    let mut bus = sim(&clock, 4, 6, &[corrupt]);
-    let rt = RtLoop::new(
-        robot(1000.0, 1, 4),
-        clock.clone(),
-        vec![&mut bus],
-        PdTo::hold(4),
-    )
-    .unwrap();
-    let out = rt.run(RunLimit::Ticks(2000));
+    let (out, _) = run_leg(6, &[corrupt], PdTo::hold(4), 2000);
     let m1 = out.report.stats.motors[0];
     // Whatever garbage decoded (or not), it was counted, and nothing else was disturbed.
     assert!(
@@ -185,20 +140,11 @@ fn corrupted_bytes_never_reach_the_controller_as_fresh_feedback() {
 
 #[test]
 fn a_silent_motor_is_a_fault_and_every_motor_is_made_safe() {
-    let clock = VirtualClock::new();
     let silent = FaultRule::new(FaultKind::Silent).motor(id(2)).during(
         Timestamp::ZERO + Duration::from_millis(500),
         Timestamp::from_nanos(u64::MAX),
     );
-    let mut bus = sim(&clock, 4, 7, &[silent]);
-    let rt = RtLoop::new(
-        robot(1000.0, 1, 4),
-        clock.clone(),
-        vec![&mut bus],
-        PdTo::hold(4),
-    )
-    .unwrap();
-    let out = rt.run(RunLimit::Ticks(5000));
+    let (out, mut bus) = run_leg(7, &[silent], PdTo::hold(4), 5000);
     let r = &out.report;
     assert!(
         matches!(r.stop_reason, StopReason::Fault(Fault::MotorSilent { bus: 0, motor, ticks: 20 }) if motor == id(2)),
@@ -262,12 +208,9 @@ fn bus_off_on_one_bus_stops_every_bus() {
 
 #[test]
 fn a_controller_panic_is_caught_reported_and_made_safe() {
-    let clock = VirtualClock::new();
-    let mut bus = sim(&clock, 4, 10, &[]);
     let mut ctrl = PdTo::hold(4);
     ctrl.panic_at = Some(123);
-    let rt = RtLoop::new(robot(1000.0, 1, 4), clock.clone(), vec![&mut bus], ctrl).unwrap();
-    let out = rt.run(RunLimit::Ticks(1000));
+    let (out, mut bus) = run_leg(10, &[], ctrl, 1000);
     assert_eq!(
         out.report.stop_reason,
         StopReason::ControllerPanic("controller bug at tick 123".to_string())
@@ -322,21 +265,12 @@ fn an_emergency_stop_takes_effect_within_one_tick() {
 
 #[test]
 fn a_transmit_queue_that_fills_is_counted_not_fatal() {
-    let clock = VirtualClock::new();
     let stall = FaultRule::new(FaultKind::TxStall {
         duration: Duration::from_millis(15),
     })
     .multi_torque()
     .frames_window(100, 1);
-    let mut bus = sim(&clock, 4, 13, &[stall]);
-    let rt = RtLoop::new(
-        robot(1000.0, 1, 4),
-        clock.clone(),
-        vec![&mut bus],
-        PdTo::hold(4),
-    )
-    .unwrap();
-    let out = rt.run(RunLimit::Ticks(500));
+    let (out, _) = run_leg(13, &[stall], PdTo::hold(4), 500);
     let r = &out.report;
     assert_eq!(r.stop_reason, StopReason::TickLimit);
     assert!(r.stats.buses[0].tx_errors > 0, "{:?}", r.stats.buses[0]);

@@ -164,14 +164,7 @@ impl Reply {
         let mut d = [0u8; 8];
         d[0] = self.command().code();
         match *self {
-            Reply::ReadPid(p) | Reply::WritePidRam(p) | Reply::WritePidRom(p) => {
-                d[2] = p.angle_pid_kp;
-                d[3] = p.angle_pid_ki;
-                d[4] = p.speed_pid_kp;
-                d[5] = p.speed_pid_ki;
-                d[6] = p.iq_pid_kp;
-                d[7] = p.iq_pid_ki;
-            }
+            Reply::ReadPid(p) | Reply::WritePidRam(p) | Reply::WritePidRom(p) => p.write_to(&mut d),
             Reply::ReadAccel { accel } | Reply::WriteAccelRam { accel } => {
                 put_i32::<4>(&mut d, accel.raw())
             }
@@ -254,14 +247,7 @@ impl Reply {
     /// Reserved bytes are ignored.
     #[inline]
     pub(crate) fn from_data(command: Command, d: &[u8; 8]) -> Result<Self, ProtocolError> {
-        let pid = || PidParams {
-            angle_pid_kp: d[2],
-            angle_pid_ki: d[3],
-            speed_pid_kp: d[4],
-            speed_pid_ki: d[5],
-            iq_pid_kp: d[6],
-            iq_pid_ki: d[7],
-        };
+        let pid = || PidParams::from_data(d);
         let status1 = || -> Result<Status1, ProtocolError> {
             Ok(Status1 {
                 temperature: Temperature::new((d[1] as i8).into())?,

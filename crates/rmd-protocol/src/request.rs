@@ -160,14 +160,7 @@ impl Request {
         let mut d = [0u8; 8];
         d[0] = self.command().code();
         match *self {
-            Request::WritePidRam(p) | Request::WritePidRom(p) => {
-                d[2] = p.angle_pid_kp;
-                d[3] = p.angle_pid_ki;
-                d[4] = p.speed_pid_kp;
-                d[5] = p.speed_pid_ki;
-                d[6] = p.iq_pid_kp;
-                d[7] = p.iq_pid_ki;
-            }
+            Request::WritePidRam(p) | Request::WritePidRom(p) => p.write_to(&mut d),
             Request::WriteAccelRam { accel } => put_i32::<4>(&mut d, accel.raw()),
             Request::WriteEncoderOffset { encoder_offset } => {
                 put_u16::<6>(&mut d, encoder_offset.raw())
@@ -224,14 +217,7 @@ impl Request {
     /// bytes are ignored.
     #[inline]
     pub(crate) fn from_data(command: Command, d: &[u8; 8]) -> Result<Self, ProtocolError> {
-        let pid = || PidParams {
-            angle_pid_kp: d[2],
-            angle_pid_ki: d[3],
-            speed_pid_kp: d[4],
-            speed_pid_ki: d[5],
-            iq_pid_kp: d[6],
-            iq_pid_ki: d[7],
-        };
+        let pid = || PidParams::from_data(d);
         Ok(match command {
             Command::ReadPid => Request::ReadPid,
             Command::WritePidRam => Request::WritePidRam(pid()),

@@ -135,6 +135,32 @@ pub struct PidParams {
     pub iq_pid_ki: u8,
 }
 
+impl PidParams {
+    /// The gains from DATA\[2..=7\] of a 0x30, 0x31 or 0x32 frame.
+    #[inline]
+    pub(crate) const fn from_data(d: &[u8; 8]) -> Self {
+        Self {
+            angle_pid_kp: d[2],
+            angle_pid_ki: d[3],
+            speed_pid_kp: d[4],
+            speed_pid_ki: d[5],
+            iq_pid_kp: d[6],
+            iq_pid_ki: d[7],
+        }
+    }
+
+    /// Writes the gains into DATA\[2..=7\].
+    #[inline]
+    pub(crate) const fn write_to(&self, d: &mut [u8; 8]) {
+        d[2] = self.angle_pid_kp;
+        d[3] = self.angle_pid_ki;
+        d[4] = self.speed_pid_kp;
+        d[5] = self.speed_pid_ki;
+        d[6] = self.iq_pid_kp;
+        d[7] = self.iq_pid_ki;
+    }
+}
+
 /// Status 1: the reply to 0x9A (read status 1) and 0x9B (clear error).
 ///
 /// Layout: DATA\[1\] temperature, DATA\[3..=4\] voltage, DATA\[7\] error state.

@@ -51,6 +51,21 @@ pub fn sim(
     SimBus::new(clock.clone(), config).unwrap()
 }
 
+/// Runs a 1 kHz, 4-motor leg on one simulated bus (seed, fault rules) in virtual time for
+/// `ticks` ticks with `controller`; returns the outcome and the bus for inspection.
+pub fn run_leg<K: Controller>(
+    seed: u64,
+    faults: &[FaultRule],
+    controller: K,
+    ticks: u64,
+) -> (rmd_loop::LoopOutcome<K>, SimBus<VirtualClock>) {
+    let clock = VirtualClock::new();
+    let mut bus = sim(&clock, 4, seed, faults);
+    let rt = rmd_loop::RtLoop::new(robot(1000.0, 1, 4), clock, vec![&mut bus], controller).unwrap();
+    let out = rt.run(rmd_loop::RunLimit::Ticks(ticks));
+    (out, bus)
+}
+
 /// Asserts every motor on `bus` is off (the safe state: no torque, no command).
 pub fn assert_safe(bus: &mut SimBus<VirtualClock>, motors: u8) {
     for m in 1..=motors {
