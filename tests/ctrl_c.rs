@@ -41,7 +41,14 @@ fn ctrl_c_stops_the_registered_loop_then_emergency_stops_it() {
     // A running loop (virtual time, no tick limit) is stopped by the first Ctrl-C.
     let rt = build();
     connect::stop_on_ctrl_c(rt.stopper()).unwrap();
+    let telemetry = rt.telemetry();
     let handle = rt.spawn(RunLimit::Forever).unwrap();
+    // Running: its first tick has published telemetry.
+    let give_up = std::time::Instant::now() + Duration::from_secs(10);
+    while telemetry.try_recv().is_none() {
+        assert!(std::time::Instant::now() < give_up, "the loop never ticked");
+        std::thread::sleep(Duration::from_millis(1));
+    }
     interrupt_and_wait(1);
     let out = handle.join().unwrap();
     assert_eq!(out.report.stop_reason, StopReason::Requested);
