@@ -85,11 +85,11 @@ pub(crate) fn step_center(model: &LegModel) -> Vector4<f64> {
 }
 
 /// The joint angles (degrees) in the middle of the step.
-pub(crate) fn working_pose_deg(model: &LegModel) -> [f64; JOINTS] {
-    let q = model
+pub(crate) fn working_pose_deg(model: &LegModel) -> Result<[f64; JOINTS], String> {
+    model
         .inverse(&step_center(model))
-        .expect("the step centre is within reach");
-    leg::deg(&q)
+        .map(|q| leg::deg(&q))
+        .ok_or_else(|| "the middle of the step is out of the leg's reach".to_string())
 }
 
 /// The robot description: one leg on `interface` at `rate_hz`.
@@ -98,14 +98,18 @@ pub(crate) fn robot(model: &LegModel, interface: &str, rate_hz: f64) -> RobotCon
 }
 
 /// The simulated leg: powered up at [`POWER_UP_DEG`], loaded by the leg's weight.
-pub(crate) fn sim(model: &LegModel, robot: &RobotConfig, seed: u64) -> Vec<SimConfig> {
-    vec![leg::leg_sim(
+pub(crate) fn sim(
+    model: &LegModel,
+    robot: &RobotConfig,
+    seed: u64,
+) -> Result<Vec<SimConfig>, String> {
+    Ok(vec![leg::leg_sim(
         model,
         &robot.buses[0],
         POWER_UP_DEG,
-        working_pose_deg(model),
+        working_pose_deg(model)?,
         seed,
-    )]
+    )])
 }
 
 /// Checks a planned cycle against the joint limits (kept `margin_deg` inside them), sampling it
@@ -439,7 +443,7 @@ pub(crate) fn run(args: &Args) -> Result<Summary, String> {
     let limit = RunLimit::Duration(std::time::Duration::from_secs_f64(args.duration.max(0.0)));
     let (recorder, samples) = runner::recorder(runner::capacity_for(limit, common.rate_hz));
     let controller = StepController::new(model.clone(), gains, cycle, recorder);
-    let connection = connect::open(&target, &robot, sim(&model, &robot, common.seed))
+    let connection = connect::open(&target, &robot, sim(&model, &robot, common.seed)?)
         .map_err(|e| e.to_string())?;
     let rt = RtLoop::new(robot, connection.clock, connection.buses, controller)
         .map_err(|e| e.to_string())?;

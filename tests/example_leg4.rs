@@ -34,7 +34,7 @@ fn run_leg(
     Vec<rmd_rt::rt::TelemetrySample>,
 ) {
     let clock = VirtualClock::new();
-    let sims = leg4::sim(model, &robot, 1);
+    let sims = leg4::sim(model, &robot, 1).unwrap();
     let mut buses = connect::sim_buses(&clock, sims).unwrap();
     // The first frames on the wire (the start-up and the first ticks).
     buses[0].record_trace(256);
@@ -120,7 +120,7 @@ fn gravity_compensation_removes_the_sag() {
     let without_bias = run(without).stance_z_bias_m();
     // The sag the model predicts at the middle of the stance: the impedance spring carries the
     // leg's weight, dz = (K^-1 J^-T tau_gravity)_z.
-    let q = leg::rad(leg4::working_pose_deg(&model));
+    let q = leg::rad(leg4::working_pose_deg(&model).unwrap());
     let (_, j) = model.foot_and_jacobian(&q);
     let force = j.transpose().try_inverse().unwrap() * model.gravity_torques(&q);
     let predicted = force.component_div(&Gains::new().stiffness)[2];
