@@ -185,9 +185,16 @@ pub(crate) fn rise_to(v0: f64, a0: f64, v_top: f64, a_max: f64, j: f64) -> Optio
     } else {
         ((a_max - a0) / j, (x - a_max * a_max) / (j * a_max))
     };
-    // A first ramp that is zero up to rounding is zero (the peak is a0 itself).
-    if t0 < 0.0 && t0 >= -1e-12 * (abs(a0) / j + abs(t1)) {
-        t0 = 0.0;
+    // A first ramp that is zero up to rounding is zero (the peak is a0 itself). A negative one
+    // beyond that is impossible: `v_top` is exceeded by ramping a0 to zero. (Not left to the
+    // validation, which would zero it with a tolerance relative to the whole duration after
+    // `t2` was computed from it: the cruise would then start with a residual acceleration.)
+    if t0 < 0.0 {
+        if t0 >= -1e-12 * (abs(a0) / j + abs(t1)) {
+            t0 = 0.0;
+        } else {
+            return None;
+        }
     }
     // The ramp down ends at exactly the acceleration reached, so a following cruise has a = 0
     // up to the rounding of one product (not of the formula for the peak).
