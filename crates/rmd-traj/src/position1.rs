@@ -321,7 +321,6 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     let coeffs = [c2, c1, c0];
     let roots = roots_in(&coeffs, -1e-9 * (abs(r_v / a_max) + a_max / j), 1e12);
     for &t1 in roots.as_slice() {
-        let t1 = polish(t1, pb, &phases, &jj, |x| (2.0 * c2 * x + c1) / den);
         if sink.offer_root(
             pb,
             t1,

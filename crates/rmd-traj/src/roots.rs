@@ -58,16 +58,19 @@ pub(crate) fn eval(c: &[f64], x: f64) -> f64 {
     r
 }
 
-/// Value and derivative at `x`.
+/// Value, derivative and the rounding-error bound of the value ([`error_bound`]) at `x`.
 #[inline]
-fn eval_d(c: &[f64], x: f64) -> (f64, f64) {
+fn eval_d(c: &[f64], x: f64) -> (f64, f64, f64) {
+    let ax = abs(x);
     let mut r = 0.0;
     let mut d = 0.0;
+    let mut e = 0.0;
     for &ci in c {
         d = d * x + r;
         r = r * x + ci;
+        e = e * ax + abs(ci);
     }
-    (r, d)
+    (r, d, 8.0 * EPS * e)
 }
 
 /// Rounding-error bound of Horner's scheme at `x`.
@@ -277,8 +280,10 @@ fn bracketed(c: &[f64], mut a: f64, mut b: f64, fa: f64, fb: f64) -> f64 {
         x = 0.5 * (a + b);
     }
     for _ in 0..100 {
-        let (f, df) = eval_d(c, x);
-        if f == 0.0 {
+        let (f, df, noise) = eval_d(c, x);
+        // At the root to within the rounding of the polynomial's value: no iteration can
+        // tell the points of this neighbourhood apart.
+        if abs(f) <= noise {
             return x;
         }
         if (f < 0.0) == a_neg {
