@@ -197,6 +197,15 @@ pub(crate) fn quartic_roots_in(b: f64, c: f64, d: f64, e: f64, lo: f64, hi: f64)
     if !(lo <= hi) || !lo.is_finite() || !hi.is_finite() || q.iter().any(|x| !x.is_finite()) {
         return out;
     }
+    // Most calls have no root in the range: prove that cheaply first (on the whole range, else
+    // on its halves). The search below would find nothing there either.
+    let mid = 0.5 * (lo + hi);
+    if no_root_near(b, c, d, e, mid, 0.5 * (hi - lo))
+        || (no_root_near(b, c, d, e, 0.5 * (lo + mid), 0.5 * (mid - lo))
+            && no_root_near(b, c, d, e, 0.5 * (mid + hi), 0.5 * (hi - mid)))
+    {
+        return out;
+    }
     // Roots of the derivative (a cubic) in [lo, hi]: between the roots of its derivative.
     let ddq = [12.0, 6.0 * b, 2.0 * c];
     let mut xs = [0.0; 4];
@@ -269,6 +278,21 @@ pub(crate) fn quartic_roots_in(b: f64, c: f64, d: f64, e: f64, lo: f64, hi: f64)
         }
     }
     out
+}
+
+/// True if the monic quartic x⁴ + b·x³ + c·x² + d·x + e provably stays away from zero on
+/// `[m − r, m + r]`, by more than the rounding of its evaluation there (so the isolation in
+/// [`quartic_roots_in`] would report no root, not even a double one). Taylor expansion at `m`:
+/// q(m + h) = q(m) + q′(m)·h + q″(m)/2·h² + q‴(m)/6·h³ + h⁴.
+fn no_root_near(b: f64, c: f64, d: f64, e: f64, m: f64, r: f64) -> bool {
+    let q0 = (((m + b) * m + c) * m + d) * m + e;
+    let q1 = ((4.0 * m + 3.0 * b) * m + 2.0 * c) * m + d;
+    let q2 = (6.0 * m + 3.0 * b) * m + c;
+    let q3 = 4.0 * m + b;
+    let swing = (((r + abs(q3)) * r + abs(q2)) * r + abs(q1)) * r;
+    let x = abs(m) + r;
+    let noise = 8.0 * EPS * ((((x + abs(b)) * x + abs(c)) * x + abs(d)) * x + abs(e));
+    abs(q0) > (swing + 2.0 * noise) * (1.0 + 1e-9)
 }
 
 /// The root of `c` in `[a, b]` where `c` is monotone and changes sign (`fa` = value at `a`).
