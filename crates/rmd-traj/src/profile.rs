@@ -186,7 +186,6 @@ impl AxisProfile {
         self.a[n] = a;
     }
 
-
     /// The profile's own duration (brake included). An axis may finish before the trajectory's
     /// duration (synchronization `None` / `TimeIfNecessary`); it then continues with constant
     /// acceleration.
