@@ -33,6 +33,7 @@ mod safe_stop;
 mod scan;
 mod sim;
 mod status;
+mod traj;
 mod zero;
 
 use std::process::ExitCode;
@@ -89,6 +90,8 @@ enum Command {
     Log(log::LogArgs),
     /// Play a candump -L log back in time: printed, or onto an interface or the simulator.
     Replay(replay::ReplayArgs),
+    /// Trajectory generator tools: `rmd traj check FILE` runs a test-vector file.
+    Traj(traj::TrajArgs),
 }
 
 fn main() -> ExitCode {
@@ -115,5 +118,6 @@ fn main() -> ExitCode {
         Command::Monitor(args) => monitor::run(args),
         Command::Log(args) => log::run(args),
         Command::Replay(args) => replay::run(args),
+        Command::Traj(args) => traj::run(args),
     }
 }

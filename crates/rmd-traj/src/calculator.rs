@@ -63,13 +63,15 @@ fn has_zero_limits(ax: &AxisInput) -> bool {
     ax.a_max == 0.0 || ax.a_min == 0.0 || ax.j_max == 0.0
 }
 
-/// Step 1 for one axis: brake, then every extremal profile, then the block of durations.
+/// Step 1 for one axis: brake, then every extremal profile, then the block of durations, into
+/// `out` (in place: the plan is large). On error `out` is partly overwritten.
 pub(crate) fn plan_axis(
     ax: &AxisInput,
     axis: usize,
     interface: ControlInterface,
     all_profiles: bool,
-) -> Result<AxisPlan, TrajectoryError> {
+    out: &mut AxisPlan,
+) -> Result<(), TrajectoryError> {
     let position = interface == ControlInterface::Position;
     let brake = if position {
         position_brake(
@@ -136,17 +138,22 @@ pub(crate) fn plan_axis(
     };
     // Without all profiles only the fastest one is known: no blocked intervals.
     let complete = rest || all_profiles;
-    let block = make_block(cands.as_mut_slice(), brake_t, !complete, &feasible);
-    match block {
-        Some(block) => Ok(AxisPlan {
-            brake,
-            brake_t,
-            pb,
-            block,
-            complete,
-        }),
-        None if has_zero_limits(ax) => Err(TrajectoryError::ZeroLimits { axis }),
-        None => Err(TrajectoryError::NoProfile { axis }),
+    if make_block(
+        cands.as_mut_slice(),
+        brake_t,
+        !complete,
+        &feasible,
+        &mut out.block,
+    ) {
+        out.brake = brake;
+        out.brake_t = brake_t;
+        out.pb = pb;
+        out.complete = complete;
+        Ok(())
+    } else if has_zero_limits(ax) {
+        Err(TrajectoryError::ZeroLimits { axis })
+    } else {
+        Err(TrajectoryError::NoProfile { axis })
     }
 }
 
@@ -295,7 +302,7 @@ pub(crate) fn calculate(
     // computed (all its extremal profiles) only when the common duration turns out to be
     // infeasible for it, which step 2 detects; then the duration is chosen again.
     for (i, ax) in axes.iter().enumerate() {
-        plans[i] = plan_axis(ax, i, opts.control_interface, false)?;
+        plan_axis(ax, i, opts.control_interface, false, &mut plans[i])?;
     }
     let sync = opts.synchronization;
     let axes_sync = |_: usize| sync;
@@ -373,7 +380,7 @@ pub(crate) fn calculate(
                     None if !pl.complete => {
                         // Probably inside a blocked interval of this axis: find them all and
                         // choose the duration again.
-                        plans[i] = plan_axis(&axes[i], i, opts.control_interface, true)?;
+                        plan_axis(&axes[i], i, opts.control_interface, true, &mut plans[i])?;
                         continue 'plan;
                     }
                     None => {
@@ -403,7 +410,7 @@ pub(crate) fn calculate(
             None
         };
         let a_snap = snap_scale(ax.a0, ax.af, ax.a_max, ax.a_min);
-        let mut prof = AxisProfile::build(
+        out[i].build_into(
             (ax.p0, ax.v0, ax.a0),
             &pl.brake,
             &phases[..pieces.n],
@@ -412,9 +419,8 @@ pub(crate) fn calculate(
             a_snap,
         );
         if !pl.pb.position {
-            prof = prof.with_end_velocity(ax.vf, ax.af);
+            out[i].set_end_velocity(ax.vf, ax.af);
         }
-        out[i] = prof;
     }
     Ok(Summary {
         duration,

@@ -223,6 +223,11 @@ pub(crate) fn validate_why(
     if !(total <= 1e12) {
         return Err(Failure::Shape);
     }
+    if free == Free::Nothing
+        && let Some(c) = validate_fast(pb, t, jerks, total)
+    {
+        return Ok(c);
+    }
     let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
     let (mut p, mut v, mut a) = it.state();
     let (mut ep, mut ev, mut ea) = (0.0, E * abs(v), E * abs(a));
@@ -300,6 +305,58 @@ pub(crate) fn validate_why(
         return Err(Failure::Shape);
     }
     Ok(Checked { total, p, p_tol })
+}
+
+/// The acceptance test of [`validate_why`] (target fully prescribed) with only the tolerance
+/// floors, which need no rounding-error propagation: [`LIMIT_REL`] × the scale on the limits,
+/// [`FINAL_REL`] × the magnitudes on the final state. Those floors are at most the full
+/// tolerances, so a candidate accepted here is accepted there (same integration, same
+/// comparisons); `None` means "not decided": the full test runs. Most valid candidates pass here.
+fn validate_fast(pb: &Problem, t: &[f64], jerks: &[f64], total: f64) -> Option<Checked> {
+    let vs = pb.v_scale();
+    let a_tol = LIMIT_REL * pb.a_scale();
+    let v_tol = LIMIT_REL * vs;
+    let (a_hi, a_lo) = (pb.a_max + a_tol, pb.a_min - a_tol);
+    let (v_hi, v_lo) = (pb.v_max + v_tol, pb.v_min - v_tol);
+    let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
+    let (mut v, mut a) = (pb.v0, pb.a0);
+    let (mut path, mut a_area) = (0.0, 0.0);
+    // A start outside the velocity limits (after a brake) is left to the full test: its
+    // "return, then stay inside" rule depends on the tolerance.
+    if pb.position && !(v >= v_lo && v <= v_hi) {
+        return None;
+    }
+    for (&ti, &j) in t.iter().zip(jerks.iter()) {
+        if ti == 0.0 {
+            continue;
+        }
+        it.step(ti, j);
+        let (v1, a1) = (it.v, it.a);
+        let v_ext = if j != 0.0 && (a < 0.0) != (a1 < 0.0) && a != 0.0 && a1 != 0.0 {
+            v - a * a / (2.0 * j)
+        } else {
+            v
+        };
+        path += max(max(abs(v), abs(v1)), abs(v_ext)) * ti;
+        a_area += max(abs(a), abs(a1)) * ti;
+        if !(a1 <= a_hi && a1 >= a_lo) {
+            return None;
+        }
+        if pb.position && !(crate::math::min(v_ext, v1) >= v_lo && max(v_ext, v1) <= v_hi) {
+            return None;
+        }
+        (v, a) = (v1, a1);
+    }
+    let tiny = f64::MIN_POSITIVE;
+    let v_end_tol = FINAL_REL * max(max(abs(pb.v0), abs(pb.vf)), a_area) + tiny;
+    let a_end_tol = FINAL_REL * pb.a_scale() + tiny;
+    let p_tol = FINAL_REL * max(abs(pb.d), path) + tiny;
+    let p = it.p;
+    let ok = abs(v - pb.vf) <= v_end_tol
+        && abs(a - pb.af) <= a_end_tol
+        && (!pb.position || abs(p - pb.d) <= p_tol)
+        && p.is_finite();
+    ok.then_some(Checked { total, p, p_tol })
 }
 
 /// [`validate`] for a 7-phase candidate that must reach the target.

@@ -185,9 +185,16 @@ pub(crate) fn rise_to(v0: f64, a0: f64, v_top: f64, a_max: f64, j: f64) -> Optio
     } else {
         ((a_max - a0) / j, (x - a_max * a_max) / (j * a_max))
     };
-    // A first ramp that is zero up to rounding is zero (the peak is a0 itself).
-    if t0 < 0.0 && t0 >= -1e-12 * (abs(a0) / j + abs(t1)) {
-        t0 = 0.0;
+    // A first ramp that is zero up to rounding is zero (the peak is a0 itself). A negative one
+    // beyond that is impossible: `v_top` is exceeded by ramping a0 to zero. (Not left to the
+    // validation, which would zero it with a tolerance relative to the whole duration after
+    // `t2` was computed from it: the cruise would then start with a residual acceleration.)
+    if t0 < 0.0 {
+        if t0 >= -1e-12 * (abs(a0) / j + abs(t1)) {
+            t0 = 0.0;
+        } else {
+            return None;
+        }
     }
     // The ramp down ends at exactly the acceleration reached, so a following cruise has a = 0
     // up to the rounding of one product (not of the formula for the peak).
@@ -267,6 +274,11 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     if !(a_max > 0.0 && a_min < 0.0) {
         return false;
     }
+    // Its four ramps alone take this long (the plateaus are non-negative).
+    let ramps = (a_max - a0) / j + a_max / j - a_min / j + (af - a_min) / j;
+    if !(ramps < sink.bound() * (1.0 + 1e-9)) {
+        return false;
+    }
     let c2 = 12.0 * a_max * (j * j) * (-a_max + a_min);
     let c1 = 12.0
         * j
@@ -314,7 +326,6 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     let coeffs = [c2, c1, c0];
     let roots = roots_in(&coeffs, -1e-9 * (abs(r_v / a_max) + a_max / j), 1e12);
     for &t1 in roots.as_slice() {
-        let t1 = polish(t1, pb, &phases, &jj, |x| (2.0 * c2 * x + c1) / den);
         if sink.offer_root(
             pb,
             t1,
@@ -417,13 +428,6 @@ fn none_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
         ..
     } = *pb;
     let k = j * (vf - v0) + (a0 * a0 - af * af) / 2.0;
-    let c2 = 2.0 * (-(a0 * a0) - (af * af) + 2.0 * j * (v0 + vf)) / (j * j);
-    let c1 = (4.0 / 3.0)
-        * ((a0 * a0 * a0) - (af * af * af) - 3.0 * d * (j * j) + 3.0 * j * (-a0 * v0 + af * vf))
-        / (j * j * j);
-    let kj = k / (j * j);
-    let c0 = -(kj * kj);
-    let coeffs = [1.0, 0.0, c2, c1, c0];
     let mut lo = max((a0 - af) / j, 0.0);
     let mut hi = (a_max - a_min) / j;
     // u ≤ a_max ⇔ j²t² − 2·a_max·j·t + K ≤ 0; w ≥ a_min ⇔ j²t² + 2·a_min·j·t − K ≤ 0.
@@ -441,6 +445,13 @@ fn none_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     if !(lo <= hi + slack) {
         return false;
     }
+    let c2 = 2.0 * (-(a0 * a0) - (af * af) + 2.0 * j * (v0 + vf)) / (j * j);
+    let c1 = (4.0 / 3.0)
+        * ((a0 * a0 * a0) - (af * af * af) - 3.0 * d * (j * j) + 3.0 * j * (-a0 * v0 + af * vf))
+        / (j * j * j);
+    let kj = k / (j * j);
+    let c0 = -(kj * kj);
+    let coeffs = [1.0, 0.0, c2, c1, c0];
     let jj = uddu(j);
     let phases = |t: f64| -> [f64; 7] {
         let s = k / (j * t);
@@ -494,6 +505,19 @@ fn acc0_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     if !(a_max > 0.0) {
         return false;
     }
+    let lo = max((a_max - af) / j, 0.0);
+    // Duration ≥ 2t + (af − a0)/j must beat the bound.
+    let hi = crate::math::min(
+        (a_max - a_min) / j,
+        (sink.bound() * (1.0 + 1e-9) - (af - a0) / j) / 2.0,
+    );
+    let slack = 1e-9 * (abs(hi) + abs(lo));
+    // The plateau t1 ≥ 0 ⇔ w² ≥ K0 with w = a_max − j·t.
+    let k0 = a_max * a_max + (af * af - a0 * a0) / 2.0 - j * (vf - v0);
+    let ranges = split_by_square(lo, hi, slack, k0, a_max, -1.0, j);
+    if ranges.iter().all(Option::is_none) {
+        return false;
+    }
     let c3 = -2.0 * a_max / j;
     let c2 = ((a_max * a_max) - (af * af) + 2.0 * j * vf) / (j * j);
     let c0 = (1.0 / 12.0)
@@ -511,16 +535,6 @@ fn acc0_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
                     - (af * af) * vf))
         / (j * j * j * j);
     let coeffs = [1.0, c3, c2, 0.0, c0];
-    let lo = max((a_max - af) / j, 0.0);
-    // Duration ≥ 2t + (af − a0)/j must beat the bound.
-    let hi = crate::math::min(
-        (a_max - a_min) / j,
-        (sink.bound() * (1.0 + 1e-9) - (af - a0) / j) / 2.0,
-    );
-    let slack = 1e-9 * (abs(hi) + abs(lo));
-    // The plateau t1 ≥ 0 ⇔ w² ≥ K0 with w = a_max − j·t.
-    let k0 = a_max * a_max + (af * af - a0 * a0) / 2.0 - j * (vf - v0);
-    let ranges = split_by_square(lo, hi, slack, k0, a_max, -1.0, j);
     let jj = uddu(j);
     let phases = |t: f64| -> [f64; 7] {
         let w = a_max - j * t;
@@ -573,6 +587,19 @@ fn acc1_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     if !(a_min < 0.0) {
         return false;
     }
+    let lo = max((a_min - a0) / j, 0.0);
+    // Duration ≥ 2t + (a0 + af − 2·a_min)/j must beat the bound.
+    let hi = crate::math::min(
+        (a_max - a0) / j,
+        (sink.bound() * (1.0 + 1e-9) - (a0 + af - 2.0 * a_min) / j) / 2.0,
+    );
+    let slack = 1e-9 * (abs(hi) + abs(lo));
+    // The plateau t5 ≥ 0 ⇔ u² ≥ K1 with u = a0 + j·t.
+    let k1 = j * (vf - v0) + a_min * a_min + (a0 * a0 - af * af) / 2.0;
+    let ranges = split_by_square(lo, hi, slack, k1, a0, 1.0, j);
+    if ranges.iter().all(Option::is_none) {
+        return false;
+    }
     let c3 = 2.0 * (2.0 * a0 - a_min) / j;
     let c2 = (5.0 * (a0 * a0) - 6.0 * a0 * a_min + (a_min * a_min) + 2.0 * j * v0) / (j * j);
     let c1 = 2.0
@@ -594,16 +621,6 @@ fn acc1_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
                     + (af * af) * vf))
         / (j * j * j * j);
     let coeffs = [1.0, c3, c2, c1, c0];
-    let lo = max((a_min - a0) / j, 0.0);
-    // Duration ≥ 2t + (a0 + af − 2·a_min)/j must beat the bound.
-    let hi = crate::math::min(
-        (a_max - a0) / j,
-        (sink.bound() * (1.0 + 1e-9) - (a0 + af - 2.0 * a_min) / j) / 2.0,
-    );
-    let slack = 1e-9 * (abs(hi) + abs(lo));
-    // The plateau t5 ≥ 0 ⇔ u² ≥ K1 with u = a0 + j·t.
-    let k1 = j * (vf - v0) + a_min * a_min + (a0 * a0 - af * af) / 2.0;
-    let ranges = split_by_square(lo, hi, slack, k1, a0, 1.0, j);
     let jj = uddu(j);
     let phases = |t: f64| -> [f64; 7] {
         let u = a0 + j * t;

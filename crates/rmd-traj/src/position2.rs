@@ -14,7 +14,7 @@
 //!   change to the target) found by a bracketed search over `vc`; otherwise the blend
 //!   `λ·j₁ + (1−λ)·j₂` of two feasible profiles whose final positions bracket `pf`.
 
-use crate::cand::{Cand, Free, Problem, check_free, validate};
+use crate::cand::{Cand, Free, Problem, check, check_free, validate};
 use crate::math::{Integrator, abs, max, min, sqrt};
 use crate::position1::{fall_from, rise_to};
 use crate::profile::{Direction, MAX_PHASES, ProfileKind};
@@ -241,6 +241,12 @@ fn validated(pb: &Problem, m: &Member) -> Option<(Cand, f64)> {
     check_free(pb, m.t, m.j, ProfileKind::Cruise)
 }
 
+/// The validated profile of a member that reaches the target position (the same test as
+/// [`validated`] followed by [`hits`], through the full validation's fast path).
+fn reaching(pb: &Problem, m: &Member) -> Option<Cand> {
+    check(pb, m.t, m.j, ProfileKind::Cruise)
+}
+
 /// Between a cruise velocity whose changes fit into `tt` and one whose changes do not, the
 /// velocity where they just fit (no cruise): regula falsi (Illinois) on their duration.
 fn fit_boundary(pb: &Problem, tt: f64, mut v_in: f64, mut v_out: f64) -> f64 {
@@ -369,9 +375,7 @@ fn cruise_search(
             let Some(ma) = a else { break };
             let f = ma.p - d;
             if f == 0.0 {
-                if let Some((c, p)) = validated(pb, &ma)
-                    && hits(pb, &c, p)
-                {
+                if let Some(c) = reaching(pb, &ma) {
                     return Some(c);
                 }
                 break;
@@ -504,24 +508,27 @@ fn refine(
         if abs(f) < abs(best.p - d) {
             best = m;
         }
+        // Anderson–Björck: when the same end is replaced twice in a row, the other end's value
+        // is scaled by 1 − f/f_replaced (or halved, Illinois, if that is not positive).
         if (f < 0.0) == (fa < 0.0) {
+            if side == -1 {
+                let m = 1.0 - f / fa;
+                fb *= if m > 0.0 { m } else { 0.5 };
+            }
             va = vc;
             fa = f;
-            if side == -1 {
-                fb /= 2.0;
-            }
             side = -1;
         } else {
+            if side == 1 {
+                let m = 1.0 - f / fb;
+                fa *= if m > 0.0 { m } else { 0.5 };
+            }
             vb = vc;
             fb = f;
-            if side == 1 {
-                fa /= 2.0;
-            }
             side = 1;
         }
     }
-    let (c, p) = validated(pb, &best)?;
-    if hits(pb, &c, p) { Some(c) } else { None }
+    reaching(pb, &best)
 }
 
 fn sort(x: &mut [f64]) {

@@ -124,17 +124,19 @@ impl AxisProfile {
         kind: ProfileKind::AtTarget,
     };
 
-    /// Builds the profile from its start state, brake pieces and phases. `end` replaces the
-    /// integrated end state (the exact target, to avoid accumulated rounding); `None` keeps it.
-    pub(crate) fn build(
+    /// Builds the profile in place from its start state, brake pieces and phases. `end` replaces
+    /// the integrated end state (the exact target, to avoid accumulated rounding); `None` keeps
+    /// it. Entries past the last segment are zeroed (a profile equals a freshly built one).
+    pub(crate) fn build_into(
+        &mut self,
         start: (f64, f64, f64),
         brake: &[Phase],
         phases: &[Phase],
         end: Option<(f64, f64, f64)>,
         kind: ProfileKind,
         a_snap: f64,
-    ) -> AxisProfile {
-        let mut out = AxisProfile::EMPTY;
+    ) {
+        let out = self;
         out.kind = kind;
         let (p, v, a) = start;
         let mut it = Integrator::new(p, v, a, a_snap);
@@ -168,17 +170,20 @@ impl AxisProfile {
             out.v[n] = ve;
             out.a[n] = ae;
         }
+        out.t[n..].fill(0.0);
+        out.j[n..].fill(0.0);
+        for x in [&mut out.t0, &mut out.p, &mut out.v, &mut out.a] {
+            x[n + 1..].fill(0.0);
+        }
         out.n = n as u8;
         out.n_brake = n_brake;
-        out
     }
 
     /// Replaces the end velocity and acceleration (velocity interface: the exact target).
-    pub(crate) fn with_end_velocity(mut self, v: f64, a: f64) -> Self {
+    pub(crate) fn set_end_velocity(&mut self, v: f64, a: f64) {
         let n = self.n as usize;
         self.v[n] = v;
         self.a[n] = a;
-        self
     }
 
     /// The profile's own duration (brake included). An axis may finish before the trajectory's

@@ -58,16 +58,19 @@ pub(crate) fn eval(c: &[f64], x: f64) -> f64 {
     r
 }
 
-/// Value and derivative at `x`.
+/// Value, derivative and the rounding-error bound of the value ([`error_bound`]) at `x`.
 #[inline]
-fn eval_d(c: &[f64], x: f64) -> (f64, f64) {
+fn eval_d(c: &[f64], x: f64) -> (f64, f64, f64) {
+    let ax = abs(x);
     let mut r = 0.0;
     let mut d = 0.0;
+    let mut e = 0.0;
     for &ci in c {
         d = d * x + r;
         r = r * x + ci;
+        e = e * ax + abs(ci);
     }
-    (r, d)
+    (r, d, 8.0 * EPS * e)
 }
 
 /// Rounding-error bound of Horner's scheme at `x`.
@@ -194,6 +197,15 @@ pub(crate) fn quartic_roots_in(b: f64, c: f64, d: f64, e: f64, lo: f64, hi: f64)
     if !(lo <= hi) || !lo.is_finite() || !hi.is_finite() || q.iter().any(|x| !x.is_finite()) {
         return out;
     }
+    // Most calls have no root in the range: prove that cheaply first (on the whole range, else
+    // on its halves). The search below would find nothing there either.
+    let mid = 0.5 * (lo + hi);
+    if no_root_near(b, c, d, e, mid, 0.5 * (hi - lo))
+        || (no_root_near(b, c, d, e, 0.5 * (lo + mid), 0.5 * (mid - lo))
+            && no_root_near(b, c, d, e, 0.5 * (mid + hi), 0.5 * (hi - mid)))
+    {
+        return out;
+    }
     // Roots of the derivative (a cubic) in [lo, hi]: between the roots of its derivative.
     let ddq = [12.0, 6.0 * b, 2.0 * c];
     let mut xs = [0.0; 4];
@@ -268,6 +280,21 @@ pub(crate) fn quartic_roots_in(b: f64, c: f64, d: f64, e: f64, lo: f64, hi: f64)
     out
 }
 
+/// True if the monic quartic x⁴ + b·x³ + c·x² + d·x + e provably stays away from zero on
+/// `[m − r, m + r]`, by more than the rounding of its evaluation there (so the isolation in
+/// [`quartic_roots_in`] would report no root, not even a double one). Taylor expansion at `m`:
+/// q(m + h) = q(m) + q′(m)·h + q″(m)/2·h² + q‴(m)/6·h³ + h⁴.
+fn no_root_near(b: f64, c: f64, d: f64, e: f64, m: f64, r: f64) -> bool {
+    let q0 = (((m + b) * m + c) * m + d) * m + e;
+    let q1 = ((4.0 * m + 3.0 * b) * m + 2.0 * c) * m + d;
+    let q2 = (6.0 * m + 3.0 * b) * m + c;
+    let q3 = 4.0 * m + b;
+    let swing = (((r + abs(q3)) * r + abs(q2)) * r + abs(q1)) * r;
+    let x = abs(m) + r;
+    let noise = 8.0 * EPS * ((((x + abs(b)) * x + abs(c)) * x + abs(d)) * x + abs(e));
+    abs(q0) > (swing + 2.0 * noise) * (1.0 + 1e-9)
+}
+
 /// The root of `c` in `[a, b]` where `c` is monotone and changes sign (`fa` = value at `a`).
 fn bracketed(c: &[f64], mut a: f64, mut b: f64, fa: f64, fb: f64) -> f64 {
     let a_neg = fa < 0.0;
@@ -277,8 +304,10 @@ fn bracketed(c: &[f64], mut a: f64, mut b: f64, fa: f64, fb: f64) -> f64 {
         x = 0.5 * (a + b);
     }
     for _ in 0..100 {
-        let (f, df) = eval_d(c, x);
-        if f == 0.0 {
+        let (f, df, noise) = eval_d(c, x);
+        // At the root to within the rounding of the polynomial's value: no iteration can
+        // tell the points of this neighbourhood apart.
+        if abs(f) <= noise {
             return x;
         }
         if (f < 0.0) == a_neg {
