@@ -423,25 +423,61 @@ pub(crate) fn limits_of(acc0: bool, vel: bool, acc1: bool) -> ReachedLimits {
 /// Most candidates kept in step 1.
 pub(crate) const MAX_CANDS: usize = 16;
 
-/// A fixed-capacity list of candidates.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct CandList {
-    pub(crate) c: [Cand; MAX_CANDS],
+/// A fixed-capacity list of candidates in storage owned by the caller: every valid candidate
+/// (blocked intervals need them all), or only the fastest one (`best_only`: two slots, the best
+/// and the one being validated; a tie keeps the earlier one, as a stable sort would).
+#[derive(Debug)]
+pub(crate) struct CandList<'a> {
+    pub(crate) c: &'a mut [Cand],
     pub(crate) n: usize,
+    best_only: bool,
 }
 
-impl CandList {
-    pub(crate) const fn new() -> Self {
+impl<'a> CandList<'a> {
+    /// A list keeping every candidate, up to `storage.len()`.
+    pub(crate) fn all(storage: &'a mut [Cand]) -> Self {
         CandList {
-            c: [Cand::ZERO; MAX_CANDS],
+            c: storage,
             n: 0,
+            best_only: false,
+        }
+    }
+
+    /// A list keeping only the fastest candidate (`storage` has two slots).
+    pub(crate) fn best(storage: &'a mut [Cand; 2]) -> Self {
+        CandList {
+            c: storage,
+            n: 0,
+            best_only: true,
+        }
+    }
+
+    /// The slot a new candidate is written to.
+    fn slot_index(&self) -> Option<usize> {
+        if self.best_only {
+            Some(self.n)
+        } else if self.n < self.c.len() {
+            Some(self.n)
+        } else {
+            None
+        }
+    }
+
+    /// Accepts the candidate just written to slot `k`.
+    fn accept(&mut self, k: usize) {
+        if self.best_only && k == 1 {
+            if self.c[1].total() < self.c[0].total() {
+                self.c[0] = self.c[1];
+            }
+        } else {
+            self.n += 1;
         }
     }
 
     pub(crate) fn push(&mut self, c: Cand) {
-        if self.n < MAX_CANDS {
-            self.c[self.n] = c;
-            self.n += 1;
+        if let Some(k) = self.slot_index() {
+            self.c[k] = c;
+            self.accept(k);
         }
     }
 
@@ -455,10 +491,10 @@ impl CandList {
         kind: ProfileKind,
         mirror: bool,
     ) -> Result<(), Failure> {
-        if self.n >= MAX_CANDS {
+        let Some(k) = self.slot_index() else {
             return Err(Failure::Shape);
-        }
-        let slot = &mut self.c[self.n];
+        };
+        let slot = &mut self.c[k];
         slot.t = *t;
         let c = validate_why(pb, &mut slot.t, jerks, Free::Nothing)?;
         slot.j = *jerks;
@@ -467,7 +503,7 @@ impl CandList {
         if mirror {
             *slot = slot.mirrored();
         }
-        self.n += 1;
+        self.accept(k);
         Ok(())
     }
 

@@ -228,9 +228,18 @@ impl AxisInput {
             (self.a_min, Field::MinAcceleration, true),
             (self.j_max, Field::MaxJerk, true),
         ];
-        for (value, field, used) in finite {
-            if used && !value.is_finite() {
-                return err(InvalidReason::NotFinite(field));
+        // x − x is 0 for a finite x and NaN otherwise: one test for the usual all-finite input.
+        let mut sum = 0.0;
+        for (value, _, used) in finite {
+            if used {
+                sum += value - value;
+            }
+        }
+        if sum != 0.0 {
+            for (value, field, used) in finite {
+                if used && !value.is_finite() {
+                    return err(InvalidReason::NotFinite(field));
+                }
             }
         }
         if self.j_max < 0.0 {

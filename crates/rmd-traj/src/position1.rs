@@ -31,7 +31,7 @@ pub(crate) enum Search {
 }
 
 /// Collects the valid extremal profiles.
-pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList) {
+pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList<'_>) {
     let up_first = pb.d >= 0.0;
     let dirs = if up_first {
         [Direction::Up, Direction::Down]
@@ -92,13 +92,13 @@ pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList) {
 }
 
 /// Receives candidates in a frame and stores them in the caller's frame.
-pub(crate) struct Sink<'a> {
-    pub(crate) out: &'a mut CandList,
+pub(crate) struct Sink<'a, 'b> {
+    pub(crate) out: &'a mut CandList<'b>,
     pub(crate) dir: Direction,
     pub(crate) search: Search,
 }
 
-impl Sink<'_> {
+impl Sink<'_, '_> {
     /// The duration a new candidate must beat to matter (`Fastest`), else +∞.
     pub(crate) fn bound(&self) -> f64 {
         if self.search == Search::Fastest {
@@ -155,7 +155,7 @@ impl Sink<'_> {
     }
 
     /// Runs a type solver; true when the search should stop.
-    pub(crate) fn run(&mut self, pb: &Problem, f: fn(&Problem, &mut Sink<'_>) -> bool) -> bool {
+    pub(crate) fn run(&mut self, pb: &Problem, f: fn(&Problem, &mut Sink<'_, '_>) -> bool) -> bool {
         f(pb, self)
     }
 }
@@ -232,7 +232,7 @@ pub(crate) fn fall_from(
 }
 
 /// Cruise at `v_max` between two velocity changes.
-fn cruise(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+fn cruise(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     if !(pb.v_max > 0.0) {
         return false;
     }
@@ -259,7 +259,7 @@ fn cruise(pb: &Problem, sink: &mut Sink<'_>) -> bool {
 }
 
 /// Both acceleration plateaus, no cruise: quadratic in the first plateau's duration.
-fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         d,
         v0,
@@ -409,13 +409,13 @@ fn split_by_square(
 }
 
 /// `None`, `Acc0` and `Acc1` types: quartics.
-fn quartic_types(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+fn quartic_types(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     none_type(pb, sink) || acc0_type(pb, sink) || acc1_type(pb, sink)
 }
 
 /// No plateau, no cruise: +j (to u), −j (to w), +j (to af). Variable: the middle ramp's
 /// duration `t`; u = (jt + K/(jt))/2, w = (K/(jt) − jt)/2 with K = u² − w².
-fn none_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+fn none_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         d,
         v0,
@@ -490,7 +490,7 @@ fn none_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
 
 /// Plateau at `a_max` in phase 1, no cruise, no second plateau. Variable: duration `t` of the
 /// ramp from `a_max` down to w = a_max − jt.
-fn acc0_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+fn acc0_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         d,
         v0,
@@ -572,7 +572,7 @@ fn acc0_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
 
 /// Plateau at `a_min` in phase 5, no cruise, no first plateau. Variable: duration `t` of the
 /// first ramp, u = a0 + jt.
-fn acc1_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+fn acc1_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         d,
         v0,
@@ -657,7 +657,7 @@ fn acc1_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
 }
 
 /// Shapes where the general equations degenerate: a single ramp, or two ramps.
-fn degenerate(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+fn degenerate(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         v0, a0, vf, af, j, ..
     } = *pb;
