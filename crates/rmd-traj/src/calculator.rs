@@ -46,6 +46,8 @@ impl AxisPlan {
             j: 0.0,
             position: true,
             a_snap: 0.0,
+            v_sc: 0.0,
+            a_sc: 0.0,
         },
         block: Block::EMPTY,
         complete: true,
@@ -105,7 +107,10 @@ pub(crate) fn plan_axis(
         j: ax.j_max,
         position,
         a_snap,
-    };
+        v_sc: 0.0,
+        a_sc: 0.0,
+    }
+    .with_scales();
     let rest = abs(ax.vf) < f64::EPSILON && abs(ax.af) < f64::EPSILON;
     let at_target = brake_t == 0.0 && pb.at_target();
     let search = if rest && !at_target {

@@ -29,6 +29,10 @@ pub(crate) struct Problem {
     pub(crate) position: bool,
     /// Acceleration scale of the zero-acceleration convention of [`Integrator`].
     pub(crate) a_snap: f64,
+    /// [`v_scale`](Self::v_scale) and [`a_scale`](Self::a_scale), set by
+    /// [`with_scales`](Self::with_scales).
+    pub(crate) v_sc: f64,
+    pub(crate) a_sc: f64,
 }
 
 impl Problem {
@@ -47,24 +51,36 @@ impl Problem {
             j: self.j,
             position: self.position,
             a_snap: self.a_snap,
+            // Symmetric under the mirroring.
+            v_sc: self.v_sc,
+            a_sc: self.a_sc,
         }
     }
 
-    /// Velocity scale.
-    pub(crate) fn v_scale(&self) -> f64 {
+    /// The problem with its cached scales computed (call after setting the other fields).
+    pub(crate) fn with_scales(mut self) -> Problem {
         let mut s = max(abs(self.v0), abs(self.vf));
         if self.position {
             s = max(s, max(abs(self.v_max), abs(self.v_min)));
         }
-        s
-    }
-
-    /// Acceleration scale.
-    pub(crate) fn a_scale(&self) -> f64 {
-        max(
+        self.v_sc = s;
+        self.a_sc = max(
             max(abs(self.a0), abs(self.af)),
             max(abs(self.a_max), abs(self.a_min)),
-        )
+        );
+        self
+    }
+
+    /// Velocity scale: the largest of |v0|, |vf| and (position interface) the velocity limits.
+    #[inline]
+    pub(crate) fn v_scale(&self) -> f64 {
+        self.v_sc
+    }
+
+    /// Acceleration scale: the largest of |a0|, |af| and the acceleration limits.
+    #[inline]
+    pub(crate) fn a_scale(&self) -> f64 {
+        self.a_sc
     }
 
     /// Is the start state already the target state?
@@ -199,34 +215,45 @@ pub(crate) fn validate_why(
     free: Free,
 ) -> Result<Checked, Failure> {
     const E: f64 = f64::EPSILON;
+    // One pass for the usual case (all durations finite and non-negative): the sum of the
+    // absolute values is then the total and is finite.
     let mut raw = 0.0;
+    let mut negative = false;
     for &ti in t.iter() {
-        if !ti.is_finite() {
-            return Err(Failure::Shape);
-        }
         raw += abs(ti);
+        negative |= ti < 0.0;
+    }
+    if !raw.is_finite() {
+        return Err(Failure::Shape);
     }
     let j_abs = abs(pb.j);
     let as_ = pb.a_scale();
     let vs = pb.v_scale();
-    let t_tol = TIME_REL * (raw + if j_abs > 0.0 { as_ / j_abs } else { 0.0 });
-    let mut total = 0.0;
-    for ti in t.iter_mut() {
-        if *ti < 0.0 {
-            if *ti < -t_tol {
-                return Err(Failure::Shape);
+    let total = if negative {
+        let t_tol = TIME_REL * (raw + if j_abs > 0.0 { as_ / j_abs } else { 0.0 });
+        let mut total = 0.0;
+        for ti in t.iter_mut() {
+            if *ti < 0.0 {
+                if *ti < -t_tol {
+                    return Err(Failure::Shape);
+                }
+                *ti = 0.0;
             }
-            *ti = 0.0;
+            total += *ti;
         }
-        total += *ti;
-    }
+        total
+    } else {
+        raw
+    };
     if !(total <= 1e12) {
         return Err(Failure::Shape);
     }
-    if free == Free::Nothing
-        && let Some(c) = validate_fast(pb, t, jerks, total)
-    {
-        return Ok(c);
+    if free == Free::Nothing {
+        match validate_fast(pb, t, jerks, total) {
+            Fast::Accept(c) => return Ok(c),
+            Fast::Reject => return Err(Failure::Shape),
+            Fast::Undecided => {}
+        }
     }
     let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
     let (mut p, mut v, mut a) = it.state();
@@ -307,14 +334,27 @@ pub(crate) fn validate_why(
     Ok(Checked { total, p, p_tol })
 }
 
+/// What [`validate_fast`] decided.
+enum Fast {
+    /// Accepted: the full test accepts too.
+    Accept(Checked),
+    /// A limit is exceeded by more than any tolerance of the full test: it rejects too.
+    Reject,
+    /// Only the full test can tell.
+    Undecided,
+}
+
 /// The acceptance test of [`validate_why`] (target fully prescribed) with only the tolerance
 /// floors, which need no rounding-error propagation: [`LIMIT_REL`] × the scale on the limits,
 /// [`FINAL_REL`] × the magnitudes on the final state. Those floors are at most the full
 /// tolerances, so a candidate accepted here is accepted there (same integration, same
-/// comparisons); `None` means "not decided": the full test runs. Most valid candidates pass here.
-fn validate_fast(pb: &Problem, t: &[f64], jerks: &[f64], total: f64) -> Option<Checked> {
+/// comparisons). A candidate whose limit overshoot exceeds an upper bound of the full test's
+/// tolerance at that phase ([`full_tolerance_bounds`]) is rejected here; otherwise the full test
+/// decides. Most candidates are decided here.
+fn validate_fast(pb: &Problem, t: &[f64], jerks: &[f64], total: f64) -> Fast {
     let vs = pb.v_scale();
-    let a_tol = LIMIT_REL * pb.a_scale();
+    let as_ = pb.a_scale();
+    let a_tol = LIMIT_REL * as_;
     let v_tol = LIMIT_REL * vs;
     let (a_hi, a_lo) = (pb.a_max + a_tol, pb.a_min - a_tol);
     let (v_hi, v_lo) = (pb.v_max + v_tol, pb.v_min - v_tol);
@@ -324,9 +364,9 @@ fn validate_fast(pb: &Problem, t: &[f64], jerks: &[f64], total: f64) -> Option<C
     // A start outside the velocity limits (after a brake) is left to the full test: its
     // "return, then stay inside" rule depends on the tolerance.
     if pb.position && !(v >= v_lo && v <= v_hi) {
-        return None;
+        return Fast::Undecided;
     }
-    for (&ti, &j) in t.iter().zip(jerks.iter()) {
+    for (i, (&ti, &j)) in t.iter().zip(jerks.iter()).enumerate() {
         if ti == 0.0 {
             continue;
         }
@@ -339,24 +379,70 @@ fn validate_fast(pb: &Problem, t: &[f64], jerks: &[f64], total: f64) -> Option<C
         };
         path += max(max(abs(v), abs(v1)), abs(v_ext)) * ti;
         a_area += max(abs(a), abs(a1)) * ti;
-        if !(a1 <= a_hi && a1 >= a_lo) {
-            return None;
-        }
-        if pb.position && !(crate::math::min(v_ext, v1) >= v_lo && max(v_ext, v1) <= v_hi) {
-            return None;
+        let a_bad = !(a1 <= a_hi && a1 >= a_lo);
+        let (v_top, v_bottom) = (max(v_ext, v1), crate::math::min(v_ext, v1));
+        let v_bad = pb.position && !(v_bottom >= v_lo && v_top <= v_hi);
+        if a_bad || v_bad {
+            let (ua, uv) = full_tolerance_bounds(pb, &t[..=i], &jerks[..=i]);
+            let a_full = a_tol + ROUND_K * ua;
+            let v_full = v_tol + ROUND_K * uv;
+            let a_out = !(a1 <= pb.a_max + a_full && a1 >= pb.a_min - a_full);
+            let v_out = !(v_bottom >= pb.v_min - v_full && v_top <= pb.v_max + v_full);
+            return if (a_bad && a_out) || (!a_bad && v_out) {
+                Fast::Reject
+            } else {
+                Fast::Undecided
+            };
         }
         (v, a) = (v1, a1);
     }
     let tiny = f64::MIN_POSITIVE;
     let v_end_tol = FINAL_REL * max(max(abs(pb.v0), abs(pb.vf)), a_area) + tiny;
-    let a_end_tol = FINAL_REL * pb.a_scale() + tiny;
+    let a_end_tol = FINAL_REL * as_ + tiny;
     let p_tol = FINAL_REL * max(abs(pb.d), path) + tiny;
     let p = it.p;
     let ok = abs(v - pb.vf) <= v_end_tol
         && abs(a - pb.af) <= a_end_tol
         && (!pb.position || abs(p - pb.d) <= p_tol)
         && p.is_finite();
-    ok.then_some(Checked { total, p, p_tol })
+    if ok {
+        Fast::Accept(Checked { total, p, p_tol })
+    } else {
+        Fast::Undecided
+    }
+}
+
+/// Upper bounds of the propagated rounding bounds `ea` and `ev` of [`validate_why`]'s full
+/// test after the phases `t` (its last one is the phase being checked), for a start velocity
+/// inside the limits and phases that passed [`validate_fast`]'s limit tests before the last one
+/// (so every phase starts with |a| ≤ A and |v| ≤ V, A and V the scales plus a margin).
+///
+/// Per phase i (duration tᵢ, jerk jᵢ, start a, v) the full test adds to `ea` at most
+/// eps·(|a| + 2|jᵢ|tᵢ + A) and to `ev` at most ea·tᵢ + eps·(|v| + |a|tᵢ + |jᵢ|tᵢ²/2) + |a|·dtᵢ
+/// with dtᵢ = eps·(A/|jᵢ| + tᵢ) (eps·tᵢ without jerk), starting from eps·|a0| and eps·|v0|.
+/// Summed with the start values bounded by A and V, and doubled for the rounding of this
+/// evaluation itself.
+fn full_tolerance_bounds(pb: &Problem, t: &[f64], jerks: &[f64]) -> (f64, f64) {
+    const E: f64 = f64::EPSILON;
+    let a_cap = pb.a_scale() * (1.0 + 1e-9);
+    let v_cap = pb.v_scale() * (1.0 + 1e-9);
+    let (mut m, mut s, mut sj, mut sjt, mut sa) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (&ti, &j) in t.iter().zip(jerks) {
+        if ti == 0.0 {
+            continue;
+        }
+        let ja = abs(j);
+        m += 1.0;
+        s += ti;
+        sj += ja * ti;
+        sjt += ja * ti * ti;
+        if ja > 0.0 {
+            sa += pb.a_scale() / ja;
+        }
+    }
+    let ua = E * (a_cap + m * (a_cap + pb.a_scale()) + 2.0 * sj);
+    let uv = E * (v_cap * (1.0 + m) + 2.0 * a_cap * s + sjt / 2.0 + a_cap * sa) + ua * s;
+    (2.0 * ua, 2.0 * uv)
 }
 
 /// [`validate`] for a 7-phase candidate that must reach the target.
@@ -454,13 +540,8 @@ impl<'a> CandList<'a> {
 
     /// The slot a new candidate is written to.
     fn slot_index(&self) -> Option<usize> {
-        if self.best_only {
-            Some(self.n)
-        } else if self.n < self.c.len() {
-            Some(self.n)
-        } else {
-            None
-        }
+        // Best only: slot 0 while empty, then slot 1 for the challenger.
+        (self.best_only || self.n < self.c.len()).then_some(self.n)
     }
 
     /// Accepts the candidate just written to slot `k`.

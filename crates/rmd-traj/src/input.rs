@@ -228,11 +228,11 @@ impl AxisInput {
             (self.a_min, Field::MinAcceleration, true),
             (self.j_max, Field::MaxJerk, true),
         ];
-        // x − x is 0 for a finite x and NaN otherwise: one test for the usual all-finite input.
+        // 0·x is ±0 for a finite x and NaN otherwise: one test for the usual all-finite input.
         let mut sum = 0.0;
         for (value, _, used) in finite {
             if used {
-                sum += value - value;
+                sum += 0.0 * value;
             }
         }
         if sum != 0.0 {
