@@ -153,7 +153,9 @@ fn dump<const N: usize>(path: &std::path::Path, inputs: &[Input<N>]) {
     let mut s = String::new();
     for inp in inputs {
         let v_min = inp.min_velocity.unwrap_or(inp.max_velocity.map(|v| -v));
-        let a_min = inp.min_acceleration.unwrap_or(inp.max_acceleration.map(|a| -a));
+        let a_min = inp
+            .min_acceleration
+            .unwrap_or(inp.max_acceleration.map(|a| -a));
         for i in 0..N {
             let row = [
                 inp.current_position[i],
