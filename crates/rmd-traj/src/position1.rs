@@ -276,7 +276,23 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     }
     // Its four ramps alone take this long (the plateaus are non-negative).
     let ramps = (a_max - a0) / j + a_max / j - a_min / j + (af - a_min) / j;
-    if !(ramps < sink.bound() * (1.0 + 1e-9)) {
+    let bound = sink.bound() * (1.0 + 1e-9);
+    if !(ramps < bound) {
+        return false;
+    }
+    // With the velocity condition t5 = (r_v − a_max·t1)/a_min, and t5 ≥ 0 needs
+    // t1 ≥ r_v/a_max. The peak velocity (end of phase 2, where a = 0),
+    // v0 + (2·a_max² − a0²)/(2j) + a_max·t1 ≤ v_max, and the duration bound (the duration
+    // ramps + r_v/a_min + t1·(1 − a_max/a_min) grows with t1) bound t1 from above. If no t1
+    // fits, even with a margin far above the validation's tolerances, no candidate can pass:
+    // skip the coefficients.
+    let r_v = vf - v0 - (2.0 * a_max * a_max - 2.0 * a_min * a_min + af * af - a0 * a0) / (2.0 * j);
+    let t1_lo = max(r_v / a_max, 0.0);
+    let t1_hi_v = (pb.v_max - v0 - (2.0 * a_max * a_max - a0 * a0) / (2.0 * j)) / a_max;
+    let t1_hi_b = (bound - ramps - r_v / a_min) / (1.0 - a_max / a_min);
+    let margin =
+        1e-7 * (abs(t1_lo) + abs(t1_hi_v) + ramps + (pb.a_scale() / j) + pb.v_scale() / a_max);
+    if t1_lo > crate::math::min(t1_hi_v, t1_hi_b) + margin {
         return false;
     }
     let c2 = 12.0 * a_max * (j * j) * (-a_max + a_min);
@@ -309,7 +325,6 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
         - 12.0 * (af * af) * j * vf
         - 12.0 * (j * j) * (v0 * v0)
         + 12.0 * (j * j) * (vf * vf);
-    let r_v = vf - v0 - (2.0 * a_max * a_max - 2.0 * a_min * a_min + af * af - a0 * a0) / (2.0 * j);
     let den = 24.0 * j * j * a_min;
     let jj = uddu(j);
     let phases = |t1: f64| -> [f64; 7] {
