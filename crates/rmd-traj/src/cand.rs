@@ -115,8 +115,7 @@ impl Cand {
     /// Total duration.
     #[inline]
     pub(crate) fn total(&self) -> f64 {
-        let t = &self.t;
-        ((t[0] + t[1]) + (t[2] + t[3])) + ((t[4] + t[5]) + t[6])
+        total7(&self.t)
     }
 
     /// The same profile seen in the other direction (jerks negated).
@@ -124,20 +123,7 @@ impl Cand {
         for j in &mut self.j {
             *j = -*j;
         }
-        if let ProfileKind::TimeOptimal { direction, limits } = self.kind {
-            let direction = match direction {
-                Direction::Up => Direction::Down,
-                Direction::Down => Direction::Up,
-            };
-            self.kind = ProfileKind::TimeOptimal { direction, limits };
-        }
-        if let ProfileKind::FixedTimeExtremal { direction } = self.kind {
-            let direction = match direction {
-                Direction::Up => Direction::Down,
-                Direction::Down => Direction::Up,
-            };
-            self.kind = ProfileKind::FixedTimeExtremal { direction };
-        }
+        self.kind = mirrored_kind(self.kind);
         self
     }
 
@@ -149,6 +135,30 @@ impl Cand {
         }
         it.state()
     }
+}
+
+/// The kind of a profile seen in the other direction.
+pub(crate) fn mirrored_kind(kind: ProfileKind) -> ProfileKind {
+    let flip = |d: Direction| match d {
+        Direction::Up => Direction::Down,
+        Direction::Down => Direction::Up,
+    };
+    match kind {
+        ProfileKind::TimeOptimal { direction, limits } => ProfileKind::TimeOptimal {
+            direction: flip(direction),
+            limits,
+        },
+        ProfileKind::FixedTimeExtremal { direction } => ProfileKind::FixedTimeExtremal {
+            direction: flip(direction),
+        },
+        other => other,
+    }
+}
+
+/// Total of 7 phase durations, summed as [`Cand::total`] does.
+#[inline]
+pub(crate) fn total7(t: &[f64; 7]) -> f64 {
+    ((t[0] + t[1]) + (t[2] + t[3])) + ((t[4] + t[5]) + t[6])
 }
 
 /// UDDU jerk pattern with jerk `j`.
@@ -538,32 +548,20 @@ impl<'a> CandList<'a> {
         }
     }
 
-    /// The slot a new candidate is written to.
-    fn slot_index(&self) -> Option<usize> {
-        // Best only: slot 0 while empty, then slot 1 for the challenger.
-        (self.best_only || self.n < self.c.len()).then_some(self.n)
-    }
-
-    /// Accepts the candidate just written to slot `k`.
-    fn accept(&mut self, k: usize) {
-        if self.best_only && k == 1 {
-            if self.c[1].total() < self.c[0].total() {
-                self.c[0] = self.c[1];
+    pub(crate) fn push(&mut self, c: Cand) {
+        if self.best_only && self.n == 1 {
+            if c.total() < self.c[0].total() {
+                self.c[0] = c;
             }
-        } else {
+        } else if self.n < self.c.len() {
+            self.c[self.n] = c;
             self.n += 1;
         }
     }
 
-    pub(crate) fn push(&mut self, c: Cand) {
-        if let Some(k) = self.slot_index() {
-            self.c[k] = c;
-            self.accept(k);
-        }
-    }
-
-    /// Validates phase times `t` with `jerks` in place in the next free slot and keeps the
-    /// candidate if valid, negating its jerks if `mirror` (no copies of the candidate).
+    /// Validates phase times `t` with `jerks` and keeps the candidate if valid (and, keeping
+    /// only the best, if faster than the one kept: a tie keeps the earlier one, as a stable sort
+    /// would), negating its jerks if `mirror`.
     pub(crate) fn push_checked(
         &mut self,
         pb: &Problem,
@@ -572,19 +570,30 @@ impl<'a> CandList<'a> {
         kind: ProfileKind,
         mirror: bool,
     ) -> Result<(), Failure> {
-        let Some(k) = self.slot_index() else {
+        let challenger = self.best_only && self.n == 1;
+        if !self.best_only && self.n >= self.c.len() {
             return Err(Failure::Shape);
-        };
-        let slot = &mut self.c[k];
-        slot.t = *t;
-        let c = validate_why(pb, &mut slot.t, jerks, Free::Nothing)?;
-        slot.j = *jerks;
-        slot.p_tol = c.p_tol;
-        slot.kind = kind;
-        if mirror {
-            *slot = slot.mirrored();
         }
-        self.accept(k);
+        let mut tt = *t;
+        let c = validate_why(pb, &mut tt, jerks, Free::Nothing)?;
+        if challenger && !(total7(&tt) < self.c[0].total()) {
+            return Ok(());
+        }
+        let slot = &mut self.c[if challenger { 0 } else { self.n }];
+        slot.t = tt;
+        slot.p_tol = c.p_tol;
+        if mirror {
+            for (s, j) in slot.j.iter_mut().zip(jerks) {
+                *s = -*j;
+            }
+            slot.kind = mirrored_kind(kind);
+        } else {
+            slot.j = *jerks;
+            slot.kind = kind;
+        }
+        if !challenger {
+            self.n += 1;
+        }
         Ok(())
     }
 

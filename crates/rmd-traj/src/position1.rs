@@ -255,6 +255,12 @@ fn cruise(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     }
     let (p, q) = (left.p, right.p);
     t[3] = (pb.d - p - q) / pb.v_max;
+    // Most cruises are too long for the distance: a clearly negative cruise fails the validation
+    // (which allows −1e-12 × the durations).
+    let ramps = ((t0 + t1) + t2) + ((t4 + t5) + t6);
+    if t[3] < -1e-9 * (ramps + pb.a_scale() / j) {
+        return false;
+    }
     sink.offer(pb, t, jj, kind(t1 > 0.0, true, t5 > 0.0))
 }
 
@@ -292,7 +298,8 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let t1_hi_b = (bound - ramps - r_v / a_min) / (1.0 - a_max / a_min);
     let margin =
         1e-7 * (abs(t1_lo) + abs(t1_hi_v) + ramps + (pb.a_scale() / j) + pb.v_scale() / a_max);
-    if t1_lo > crate::math::min(t1_hi_v, t1_hi_b) + margin {
+    let t1_hi = crate::math::min(t1_hi_v, t1_hi_b) + margin;
+    if t1_lo > t1_hi {
         return false;
     }
     let c2 = 12.0 * a_max * (j * j) * (-a_max + a_min);
@@ -341,6 +348,10 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let coeffs = [c2, c1, c0];
     let roots = roots_in(&coeffs, -1e-9 * (abs(r_v / a_max) + a_max / j), 1e12);
     for &t1 in roots.as_slice() {
+        // Outside the range above no candidate passes.
+        if !(t1 >= t1_lo - margin && t1 <= t1_hi) {
+            continue;
+        }
         if sink.offer_root(
             pb,
             t1,
