@@ -302,37 +302,25 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     if t1_lo > t1_hi {
         return false;
     }
-    let c2 = 12.0 * a_max * (j * j) * (-a_max + a_min);
-    let c1 = 12.0
-        * j
-        * ((a0 * a0) * a_max - (a0 * a0) * a_min - 2.0 * (a_max * a_max * a_max)
-            + 3.0 * (a_max * a_max) * a_min
-            - a_max * (a_min * a_min)
-            - 2.0 * a_max * j * v0
-            + 2.0 * a_min * j * v0);
-    let c0 = -3.0 * (a0 * a0 * a0 * a0)
-        + 8.0 * (a0 * a0 * a0) * a_min
-        + 12.0 * (a0 * a0) * (a_max * a_max)
-        - 24.0 * (a0 * a0) * a_max * a_min
-        + 6.0 * (a0 * a0) * (a_min * a_min)
-        + 12.0 * (a0 * a0) * j * v0
-        - 24.0 * a0 * a_min * j * v0
-        - 12.0 * (a_max * a_max * a_max * a_max)
-        + 24.0 * (a_max * a_max * a_max) * a_min
-        - 12.0 * (a_max * a_max) * (a_min * a_min)
-        - 24.0 * (a_max * a_max) * j * v0
-        + 48.0 * a_max * a_min * j * v0
-        + 6.0 * (a_min * a_min) * (af * af)
-        - 12.0 * (a_min * a_min) * j * v0
-        - 12.0 * (a_min * a_min) * j * vf
-        - 8.0 * a_min * (af * af * af)
-        + 24.0 * a_min * af * j * vf
-        - 24.0 * a_min * d * (j * j)
-        + 3.0 * (af * af * af * af)
-        - 12.0 * (af * af) * j * vf
-        - 12.0 * (j * j) * (v0 * v0)
-        + 12.0 * (j * j) * (vf * vf);
-    let den = 24.0 * j * j * a_min;
+    // The position error is a quadratic A·t1² + B·t1 + C: the rise (phases 0–2) to the peak
+    // velocity vp = vp0 + a_max·t1 (a = 0 at the end of phase 2), then the fall (phases 4–6)
+    // from it, whose plateau t5 = t50 + s·t1 shrinks as t1 grows (s = −a_max/a_min) and whose
+    // last ramp starts at the fixed velocity v6.
+    let (tau0, tau2, tau4, tau6) = ((a_max - a0) / j, a_max / j, -a_min / j, (af - a_min) / j);
+    let v1 = v0 + (a_max * a_max - a0 * a0) / (2.0 * j);
+    let vp0 = v1 + a_max * tau2 / 2.0;
+    let v50 = vp0 + a_min * tau4 / 2.0;
+    let t50 = r_v / a_min;
+    let s = -a_max / a_min;
+    let v6 = v50 + a_min * t50;
+    let qa = 0.5 * a_max * (1.0 + s);
+    let qb = v1 + a_max * (tau2 + tau4) + s * v50;
+    let qc = tau0 * (v0 + tau0 * (a0 / 2.0 + tau0 * j / 6.0))
+        + tau2 * (v1 + a_max * tau2 / 3.0)
+        + tau4 * (vp0 - j * tau4 * tau4 / 6.0)
+        + t50 * (v50 + a_min * t50 / 2.0)
+        + tau6 * (v6 + tau6 * (a_min / 2.0 + j * tau6 / 6.0))
+        - d;
     let jj = uddu(j);
     let phases = |t1: f64| -> [f64; 7] {
         [
@@ -345,8 +333,7 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
             (af - a_min) / j,
         ]
     };
-    let coeffs = [c2, c1, c0];
-    let roots = roots_in(&coeffs, -1e-9 * (abs(r_v / a_max) + a_max / j), 1e12);
+    let roots = roots_in(&[qa, qb, qc], -1e-9 * (abs(r_v / a_max) + a_max / j), 1e12);
     for &t1 in roots.as_slice() {
         // Outside the range above no candidate passes.
         if !(t1 >= t1_lo - margin && t1 <= t1_hi) {
@@ -357,7 +344,7 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
             t1,
             &phases,
             &jj,
-            |x| (2.0 * c2 * x + c1) / den,
+            |x| 2.0 * qa * x + qb,
             kind(true, false, true),
         ) {
             return true;
