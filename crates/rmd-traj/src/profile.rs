@@ -150,26 +150,33 @@ impl AxisProfile {
         out.p[0] = p;
         out.v[0] = v;
         out.a[0] = a;
-        let mut n_brake = 0u8;
-        let brake_pieces = brake.iter().map(|ph| (ph.duration, ph.jerk));
-        let phases = t.iter().copied().zip(j.iter().copied());
-        for (k, (duration, jerk)) in brake_pieces.chain(phases).enumerate() {
-            if n >= MAX_SEGMENTS {
-                break;
+        // At most 2 brake pieces and MAX_PHASES phases: MAX_SEGMENTS slots.
+        let (brake, t) = (
+            &brake[..brake.len().min(MAX_BRAKE_PHASES)],
+            &t[..t.len().min(MAX_PHASES)],
+        );
+        for ph in brake {
+            if ph.duration > 0.0 {
+                out.t[n] = ph.duration;
+                out.j[n] = ph.jerk;
+                it.step(ph.duration, ph.jerk);
+                time += ph.duration;
+                n += 1;
+                out.t0[n] = time;
+                (out.p[n], out.v[n], out.a[n]) = it.state();
             }
-            if !(duration > 0.0) {
-                continue;
+        }
+        let n_brake = n as u8;
+        for (&duration, &jerk) in t.iter().zip(j) {
+            if duration > 0.0 {
+                out.t[n] = duration;
+                out.j[n] = jerk;
+                it.step(duration, jerk);
+                time += duration;
+                n += 1;
+                out.t0[n] = time;
+                (out.p[n], out.v[n], out.a[n]) = it.state();
             }
-            if k < brake.len() {
-                n_brake += 1;
-            }
-            out.t[n] = duration;
-            out.j[n] = jerk;
-            it.step(duration, jerk);
-            time += duration;
-            n += 1;
-            out.t0[n] = time;
-            (out.p[n], out.v[n], out.a[n]) = it.state();
         }
         if let Some((pe, ve, ae)) = end {
             out.p[n] = pe;
