@@ -290,6 +290,10 @@ fn no_root_near(b: f64, c: f64, d: f64, e: f64, m: f64, r: f64) -> bool {
     let q2 = (6.0 * m + 3.0 * b) * m + c;
     let q3 = 4.0 * m + b;
     let swing = (((r + abs(q3)) * r + abs(q2)) * r + abs(q1)) * r;
+    // Without the rounding term first: when that already fails, the full test fails too.
+    if !(abs(q0) > swing * (1.0 + 1e-9)) {
+        return false;
+    }
     let x = abs(m) + r;
     let noise = 8.0 * EPS * ((((x + abs(b)) * x + abs(c)) * x + abs(d)) * x + abs(e));
     abs(q0) > (swing + 2.0 * noise) * (1.0 + 1e-9)
