@@ -236,6 +236,23 @@ fn member(pb: &Problem, tt: f64, vc: f64) -> Option<Member> {
     Some(Member { vc, t, j, p: it.p })
 }
 
+/// d²p/dvc² of the cruise family at a member (Halley's correction): each velocity change
+/// contributes −σ·3/(4s) without plateau (s its peak acceleration) and −σ/a with a plateau at a,
+/// σ = +1 when the change grows with vc (rise before, fall after the cruise), −1 otherwise.
+fn curvature(pb: &Problem, m: &Member) -> f64 {
+    let part = |sigma: f64, ramp: f64, plateau: f64| -> f64 {
+        let s = pb.j * ramp;
+        if plateau > 0.0 {
+            -sigma / s
+        } else {
+            -sigma * 0.75 / s
+        }
+    };
+    let sigma_l = if m.j[0] > 0.0 { 1.0 } else { -1.0 };
+    let sigma_r = if m.j[4] < 0.0 { 1.0 } else { -1.0 };
+    part(sigma_l, m.t[2], m.t[1]) + part(sigma_r, m.t[4], m.t[5])
+}
+
 /// The validated profile of a member, with its final position.
 fn validated(pb: &Problem, m: &Member) -> Option<(Cand, f64)> {
     check_free(pb, m.t, m.j, ProfileKind::Cruise)
@@ -390,7 +407,13 @@ fn cruise_search(
                 above_m = Some(cur);
             }
             let slope = cur.t[3] + 0.5 * (cur.t[2] + cur.t[4]);
-            let mut vn = cur.vc - f / slope;
+            let curv = curvature(pb, &cur);
+            let den = 2.0 * slope * slope - f * curv;
+            let mut vn = if den > slope * slope && curv.is_finite() {
+                cur.vc - 2.0 * f * slope / den
+            } else {
+                cur.vc - f / slope
+            };
             if let (Some(b), Some(a)) = (below_m, above_m) {
                 let (l, h) = (min(b.vc, a.vc), max(b.vc, a.vc));
                 if !(vn > l && vn < h) {
