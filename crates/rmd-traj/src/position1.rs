@@ -427,7 +427,9 @@ fn quartic_types(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
 }
 
 /// No plateau, no cruise: +j (to u), −j (to w), +j (to af). Variable: the middle ramp's
-/// duration `t`; u = (jt + K/(jt))/2, w = (K/(jt) − jt)/2 with K = u² − w².
+/// acceleration change τ = j·t (its duration t); u = (τ + K/τ)/2, w = (K/τ − τ)/2 with
+/// K = u² − w². The quartics of the three types are written in τ (acceleration units), which
+/// makes their coefficients free of divisions.
 fn none_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         d,
@@ -441,57 +443,47 @@ fn none_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
         ..
     } = *pb;
     let k = j * (vf - v0) + (a0 * a0 - af * af) / 2.0;
-    let mut lo = max((a0 - af) / j, 0.0);
-    let mut hi = (a_max - a_min) / j;
-    // u ≤ a_max ⇔ j²t² − 2·a_max·j·t + K ≤ 0; w ≥ a_min ⇔ j²t² + 2·a_min·j·t − K ≤ 0.
+    // u ≤ a_max ⇔ τ² − 2·a_max·τ + K ≤ 0; w ≥ a_min ⇔ τ² + 2·a_min·τ − K ≤ 0.
     let (s1, s2) = (a_max * a_max - k, a_min * a_min + k);
     let tol_a = 1e-9 * (a_max * a_max + a_min * a_min + abs(k));
     if s1 < -tol_a || s2 < -tol_a {
         return false;
     }
     let (r1, r2) = (sqrt(max(s1, 0.0)), sqrt(max(s2, 0.0)));
-    lo = max(lo, max((a_max - r1) / j, (-a_min - r2) / j));
-    hi = crate::math::min(hi, crate::math::min((a_max + r1) / j, (-a_min + r2) / j));
-    // Duration 2t + (af − a0)/j must beat the bound.
-    hi = crate::math::min(hi, (sink.bound() * (1.0 + 1e-9) - (af - a0) / j) / 2.0);
-    let slack = 1e-9 * (abs(hi) + abs(lo)) + 1e-9 * (a_max - a_min) / j;
+    let lo = max(max(a0 - af, 0.0), max(a_max - r1, -a_min - r2));
+    // The duration 2τ/j + (af − a0)/j must beat the bound.
+    let hi = crate::math::min(
+        crate::math::min(a_max - a_min, crate::math::min(a_max + r1, -a_min + r2)),
+        (sink.bound() * (1.0 + 1e-9) * j - (af - a0)) / 2.0,
+    );
+    let slack = 1e-9 * (abs(hi) + abs(lo)) + 1e-9 * (a_max - a_min);
     if !(lo <= hi + slack) {
         return false;
     }
-    let c2 = 2.0 * (-(a0 * a0) - (af * af) + 2.0 * j * (v0 + vf)) / (j * j);
+    let c2 = 2.0 * (-(a0 * a0) - (af * af) + 2.0 * j * (v0 + vf));
     let c1 = (4.0 / 3.0)
-        * ((a0 * a0 * a0) - (af * af * af) - 3.0 * d * (j * j) + 3.0 * j * (-a0 * v0 + af * vf))
-        / (j * j * j);
-    let kj = k / (j * j);
-    let c0 = -(kj * kj);
-    let coeffs = [1.0, 0.0, c2, c1, c0];
+        * ((a0 * a0 * a0) - (af * af * af) - 3.0 * d * (j * j) + 3.0 * j * (-a0 * v0 + af * vf));
+    let c0 = -(k * k);
     let jj = uddu(j);
-    let phases = |t: f64| -> [f64; 7] {
-        let s = k / (j * t);
-        let u = (j * t + s) / 2.0;
-        let w = (s - j * t) / 2.0;
-        [(u - a0) / j, 0.0, t, 0.0, 0.0, 0.0, (af - w) / j]
+    let phases = |tau: f64| -> [f64; 7] {
+        let s = k / tau;
+        let u = (tau + s) / 2.0;
+        let w = (s - tau) / 2.0;
+        [(u - a0) / j, 0.0, tau / j, 0.0, 0.0, 0.0, (af - w) / j]
     };
-    let roots = quartic_roots_in(
-        coeffs[1],
-        coeffs[2],
-        coeffs[3],
-        coeffs[4],
-        max(lo - slack, 0.0),
-        hi + slack,
-    );
-    for &t in roots.as_slice() {
-        if !(t > 0.0) {
+    let roots = quartic_roots_in(0.0, c2, c1, c0, max(lo - slack, 0.0), hi + slack);
+    for &tau in roots.as_slice() {
+        if !(tau > 0.0) {
             continue;
         }
         if sink.offer_root(
             pb,
-            t,
+            tau,
             &phases,
             &jj,
             |x| {
                 let dp = [4.0, 0.0, 2.0 * c2, c1];
-                j * eval(&dp, x) / (4.0 * x)
+                eval(&dp, x) / (4.0 * j * j * x)
             },
             kind(false, false, false),
         ) {
@@ -501,8 +493,8 @@ fn none_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     false
 }
 
-/// Plateau at `a_max` in phase 1, no cruise, no second plateau. Variable: duration `t` of the
-/// ramp from `a_max` down to w = a_max − jt.
+/// Plateau at `a_max` in phase 1, no cruise, no second plateau. Variable: the acceleration
+/// change τ = j·t of the ramp from `a_max` down to w = a_max − τ.
 fn acc0_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         d,
@@ -518,21 +510,21 @@ fn acc0_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     if !(a_max > 0.0) {
         return false;
     }
-    let lo = max((a_max - af) / j, 0.0);
-    // Duration ≥ 2t + (af − a0)/j must beat the bound.
+    let lo = max(a_max - af, 0.0);
+    // Duration ≥ (2τ + af − a0)/j must beat the bound.
     let hi = crate::math::min(
-        (a_max - a_min) / j,
-        (sink.bound() * (1.0 + 1e-9) - (af - a0) / j) / 2.0,
+        a_max - a_min,
+        (sink.bound() * (1.0 + 1e-9) * j - (af - a0)) / 2.0,
     );
     let slack = 1e-9 * (abs(hi) + abs(lo));
-    // The plateau t1 ≥ 0 ⇔ w² ≥ K0 with w = a_max − j·t.
+    // The plateau t1 ≥ 0 ⇔ w² ≥ K0 with w = a_max − τ.
     let k0 = a_max * a_max + (af * af - a0 * a0) / 2.0 - j * (vf - v0);
-    let ranges = split_by_square(lo, hi, slack, k0, a_max, -1.0, j);
+    let ranges = split_by_square(lo, hi, slack, k0, a_max, -1.0, 1.0);
     if ranges.iter().all(Option::is_none) {
         return false;
     }
-    let c3 = -2.0 * a_max / j;
-    let c2 = ((a_max * a_max) - (af * af) + 2.0 * j * vf) / (j * j);
+    let c3 = -2.0 * a_max;
+    let c2 = (a_max * a_max) - (af * af) + 2.0 * j * vf;
     let c0 = (1.0 / 12.0)
         * (-3.0 * (a0 * a0 * a0 * a0) + 8.0 * (a0 * a0 * a0) * a_max
             - 6.0 * (a0 * a0) * (a_max * a_max)
@@ -545,34 +537,25 @@ fn acc0_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
                 * ((a0 * a0) * v0 - 2.0 * a0 * a_max * v0 + (a_max * a_max) * v0
                     - (a_max * a_max) * vf
                     + 2.0 * a_max * af * vf
-                    - (af * af) * vf))
-        / (j * j * j * j);
-    let coeffs = [1.0, c3, c2, 0.0, c0];
+                    - (af * af) * vf));
     let jj = uddu(j);
-    let phases = |t: f64| -> [f64; 7] {
-        let w = a_max - j * t;
+    let phases = |tau: f64| -> [f64; 7] {
+        let w = a_max - tau;
         let t1 =
             (vf - v0 - (2.0 * a_max * a_max - 2.0 * w * w + af * af - a0 * a0) / (2.0 * j)) / a_max;
-        [(a_max - a0) / j, t1, t, 0.0, 0.0, 0.0, (af - w) / j]
+        [(a_max - a0) / j, t1, tau / j, 0.0, 0.0, 0.0, (af - w) / j]
     };
     for &(lo, hi) in ranges.iter().flatten() {
-        let roots = quartic_roots_in(
-            coeffs[1],
-            coeffs[2],
-            coeffs[3],
-            coeffs[4],
-            max(lo - slack, 0.0),
-            hi + slack,
-        );
-        for &t in roots.as_slice() {
+        let roots = quartic_roots_in(c3, c2, 0.0, c0, max(lo - slack, 0.0), hi + slack);
+        for &tau in roots.as_slice() {
             if sink.offer_root(
                 pb,
-                t,
+                tau,
                 &phases,
                 &jj,
                 |x| {
                     let dp = [4.0, 3.0 * c3, 2.0 * c2, 0.0];
-                    j * j * eval(&dp, x) / (2.0 * a_max)
+                    eval(&dp, x) / (2.0 * a_max * j * j)
                 },
                 kind(true, false, false),
             ) {
@@ -583,8 +566,8 @@ fn acc0_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     false
 }
 
-/// Plateau at `a_min` in phase 5, no cruise, no first plateau. Variable: duration `t` of the
-/// first ramp, u = a0 + jt.
+/// Plateau at `a_min` in phase 5, no cruise, no first plateau. Variable: the acceleration
+/// change τ = j·t of the first ramp, u = a0 + τ.
 fn acc1_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         d,
@@ -600,24 +583,23 @@ fn acc1_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     if !(a_min < 0.0) {
         return false;
     }
-    let lo = max((a_min - a0) / j, 0.0);
-    // Duration ≥ 2t + (a0 + af − 2·a_min)/j must beat the bound.
+    let lo = max(a_min - a0, 0.0);
+    // Duration ≥ (2τ + a0 + af − 2·a_min)/j must beat the bound.
     let hi = crate::math::min(
-        (a_max - a0) / j,
-        (sink.bound() * (1.0 + 1e-9) - (a0 + af - 2.0 * a_min) / j) / 2.0,
+        a_max - a0,
+        (sink.bound() * (1.0 + 1e-9) * j - (a0 + af - 2.0 * a_min)) / 2.0,
     );
     let slack = 1e-9 * (abs(hi) + abs(lo));
-    // The plateau t5 ≥ 0 ⇔ u² ≥ K1 with u = a0 + j·t.
+    // The plateau t5 ≥ 0 ⇔ u² ≥ K1 with u = a0 + τ.
     let k1 = j * (vf - v0) + a_min * a_min + (a0 * a0 - af * af) / 2.0;
-    let ranges = split_by_square(lo, hi, slack, k1, a0, 1.0, j);
+    let ranges = split_by_square(lo, hi, slack, k1, a0, 1.0, 1.0);
     if ranges.iter().all(Option::is_none) {
         return false;
     }
-    let c3 = 2.0 * (2.0 * a0 - a_min) / j;
-    let c2 = (5.0 * (a0 * a0) - 6.0 * a0 * a_min + (a_min * a_min) + 2.0 * j * v0) / (j * j);
-    let c1 = 2.0
-        * (a0 * ((a0 * a0) - 2.0 * a0 * a_min + (a_min * a_min)) + 2.0 * j * v0 * (a0 - a_min))
-        / (j * j * j);
+    let c3 = 2.0 * (2.0 * a0 - a_min);
+    let c2 = 5.0 * (a0 * a0) - 6.0 * a0 * a_min + (a_min * a_min) + 2.0 * j * v0;
+    let c1 =
+        2.0 * (a0 * ((a0 * a0) - 2.0 * a0 * a_min + (a_min * a_min)) + 2.0 * j * v0 * (a0 - a_min));
     let c0 = (1.0 / 12.0)
         * (3.0 * (a0 * a0 * a0 * a0) - 8.0 * (a0 * a0 * a0) * a_min
             + 6.0 * (a0 * a0) * (a_min * a_min)
@@ -631,34 +613,33 @@ fn acc1_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
                     + (a_min * a_min) * v0
                     + (a_min * a_min) * vf
                     - 2.0 * a_min * af * vf
-                    + (af * af) * vf))
-        / (j * j * j * j);
-    let coeffs = [1.0, c3, c2, c1, c0];
+                    + (af * af) * vf));
     let jj = uddu(j);
-    let phases = |t: f64| -> [f64; 7] {
-        let u = a0 + j * t;
+    let phases = |tau: f64| -> [f64; 7] {
+        let u = a0 + tau;
         let t5 =
             (vf - v0 - (2.0 * u * u - 2.0 * a_min * a_min + af * af - a0 * a0) / (2.0 * j)) / a_min;
-        [t, 0.0, (u - a_min) / j, 0.0, 0.0, t5, (af - a_min) / j]
+        [
+            tau / j,
+            0.0,
+            (u - a_min) / j,
+            0.0,
+            0.0,
+            t5,
+            (af - a_min) / j,
+        ]
     };
     for &(lo, hi) in ranges.iter().flatten() {
-        let roots = quartic_roots_in(
-            coeffs[1],
-            coeffs[2],
-            coeffs[3],
-            coeffs[4],
-            max(lo - slack, 0.0),
-            hi + slack,
-        );
-        for &t in roots.as_slice() {
+        let roots = quartic_roots_in(c3, c2, c1, c0, max(lo - slack, 0.0), hi + slack);
+        for &tau in roots.as_slice() {
             if sink.offer_root(
                 pb,
-                t,
+                tau,
                 &phases,
                 &jj,
                 |x| {
                     let dp = [4.0, 3.0 * c3, 2.0 * c2, c1];
-                    -j * j * eval(&dp, x) / (2.0 * a_min)
+                    -eval(&dp, x) / (2.0 * a_min * j * j)
                 },
                 kind(false, false, true),
             ) {
