@@ -183,14 +183,20 @@ pub(crate) fn quartic_roots_in(b: f64, c: f64, d: f64, e: f64, lo: f64, hi: f64)
         return out;
     }
     // Most calls have no root in the range: prove that cheaply first (on the whole range, else
-    // on its halves). The search below would find nothing there either.
+    // on its halves). The search below would find nothing there either; a half without a root
+    // is left out of the search.
     let mid = 0.5 * (lo + hi);
-    if no_root_near(b, c, d, e, mid, 0.5 * (hi - lo))
-        || (no_root_near(b, c, d, e, 0.5 * (lo + mid), 0.5 * (mid - lo))
-            && no_root_near(b, c, d, e, 0.5 * (mid + hi), 0.5 * (hi - mid)))
-    {
+    if no_root_near(b, c, d, e, mid, 0.5 * (hi - lo)) {
         return out;
     }
+    let left_clear = no_root_near(b, c, d, e, 0.5 * (lo + mid), 0.5 * (mid - lo));
+    let right_clear = no_root_near(b, c, d, e, 0.5 * (mid + hi), 0.5 * (hi - mid));
+    let (lo, hi) = match (left_clear, right_clear) {
+        (true, true) => return out,
+        (true, false) => (mid, hi),
+        (false, true) => (lo, mid),
+        (false, false) => (lo, hi),
+    };
     // Roots of the derivative (a cubic) in [lo, hi]: between the roots of its derivative.
     let ddq = [12.0, 6.0 * b, 2.0 * c];
     let mut xs = [0.0; 4];
