@@ -6,6 +6,11 @@
 //! 15 % asymmetric minimum limits, non-zero target velocity/acceleration; 6 axes: 40 % all rest to
 //! rest, 40 % the same limits on every axis. They are generated before the timed region; the
 //! "fresh" benchmarks cycle through 4096 different inputs, the "repeated" ones use one input.
+//!
+//! `RMD_TRAJ_BENCH_DUMP=DIR cargo bench --bench trajectory` writes these inputs to
+//! `DIR/{fresh1,fresh6,repeated1,repeated6}.txt` instead of measuring (one input per line: per
+//! axis p0 v0 a0 pf vf af vmax vmin amax amin jmax, shortest round-trip decimal), so that another
+//! implementation can be timed on exactly the same problems.
 
 use std::hint::black_box;
 
@@ -142,7 +147,50 @@ fn bench_repeated<const N: usize>(c: &mut Criterion, name: &str, seed: u64) {
     });
 }
 
+/// Writes `inputs` to `path` in the format described in the module documentation.
+fn dump<const N: usize>(path: &std::path::Path, inputs: &[Input<N>]) {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    for inp in inputs {
+        let v_min = inp.min_velocity.unwrap_or(inp.max_velocity.map(|v| -v));
+        let a_min = inp
+            .min_acceleration
+            .unwrap_or(inp.max_acceleration.map(|a| -a));
+        for i in 0..N {
+            let row = [
+                inp.current_position[i],
+                inp.current_velocity[i],
+                inp.current_acceleration[i],
+                inp.target_position[i],
+                inp.target_velocity[i],
+                inp.target_acceleration[i],
+                inp.max_velocity[i],
+                v_min[i],
+                inp.max_acceleration[i],
+                a_min[i],
+                inp.max_jerk[i],
+            ];
+            for x in row {
+                write!(s, "{x:?} ").unwrap();
+            }
+        }
+        s.pop();
+        s.push('\n');
+    }
+    std::fs::write(path, s).unwrap();
+}
+
 fn trajectory(c: &mut Criterion) {
+    if let Some(dir) = std::env::var_os("RMD_TRAJ_BENCH_DUMP") {
+        let dir = std::path::Path::new(&dir);
+        std::fs::create_dir_all(dir).unwrap();
+        dump(&dir.join("fresh1.txt"), &inputs::<1>(4096, 1));
+        dump(&dir.join("fresh6.txt"), &inputs::<6>(4096, 2));
+        dump(&dir.join("repeated1.txt"), &inputs::<1>(1, 3));
+        dump(&dir.join("repeated6.txt"), &inputs::<6>(1, 4));
+        eprintln!("inputs written to {}", dir.display());
+        return;
+    }
     bench_fresh::<1>(c, "calculate/1 axis/fresh random", 1);
     bench_fresh::<6>(c, "calculate/6 axes/fresh random", 2);
     bench_repeated::<1>(c, "calculate/1 axis/repeated input", 3);

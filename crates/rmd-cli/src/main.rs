@@ -34,6 +34,7 @@ mod safe_stop;
 mod scan;
 mod sim;
 mod status;
+mod traj;
 mod zero;
 
 use std::process::ExitCode;
@@ -92,6 +93,8 @@ enum Command {
     Replay(replay::ReplayArgs),
     /// Benchmarks: the loop on simulated motors, timer jitter, the bus-limited rate.
     Bench(bench::BenchArgs),
+    /// Trajectory generator tools: `rmd traj check FILE` runs a test-vector file.
+    Traj(traj::TrajArgs),
 }
 
 fn main() -> ExitCode {
@@ -119,5 +122,6 @@ fn main() -> ExitCode {
         Command::Log(args) => log::run(args),
         Command::Replay(args) => replay::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Traj(args) => traj::run(args),
     }
 }

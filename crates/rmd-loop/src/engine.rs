@@ -6,7 +6,7 @@
 //! 2. check the stop and emergency-stop flags;
 //! 3. send one 0x280 frame on every bus, carrying the commands of the previous tick;
 //! 4. collect replies from every bus until they are all in or the reply deadline passes,
-//!    matching each to its request (see [`exchange`](crate::exchange));
+//!    matching each to its request (see "Matching replies to requests" in docs/loop.md);
 //! 5. count missing replies and check faults;
 //! 6. run the controller (panics caught), clamp its commands to the current limits;
 //! 7. publish telemetry, serve a statistics snapshot if one was asked for, record statistics.

@@ -48,15 +48,17 @@ impl Block {
     }
 }
 
-/// Builds the block from valid extremal profiles (durations without brake). Their durations,
-/// sorted, are the boundaries of the feasible set; which gaps between them are blocked is
-/// decided by `feasible` at the gap's midpoint. With a target at rest there is no gap.
+/// Builds the block from valid extremal profiles (durations without brake) into `block`; false
+/// if there is none. Their durations, sorted, are the boundaries of the feasible set; which gaps
+/// between them are blocked is decided by `feasible` at the gap's midpoint. With a target at
+/// rest there is no gap. Intervals past `block.n` are left as they were (never read).
 pub(crate) fn make_block(
     cands: &mut [Cand],
     brake: f64,
     rest: bool,
     feasible: &dyn Fn(f64) -> bool,
-) -> Option<Block> {
+    block: &mut Block,
+) -> bool {
     // Sort by duration.
     for i in 1..cands.len() {
         let mut k = i;
@@ -65,12 +67,14 @@ pub(crate) fn make_block(
             k -= 1;
         }
     }
-    let first = *cands.first()?;
-    let mut block = Block::EMPTY;
+    let Some(&first) = cands.first() else {
+        return false;
+    };
     block.t_min = first.total() + brake;
     block.p_min = first;
+    block.n = 0;
     if rest {
-        return Some(block);
+        return true;
     }
     let mut prev = first;
     for &c in cands[1..].iter() {
@@ -95,5 +99,5 @@ pub(crate) fn make_block(
         }
         prev = c;
     }
-    Some(block)
+    true
 }

@@ -73,7 +73,7 @@ pub(crate) fn position_brake(
     } else if (v0 < v_min && v0 + swing < v_max) || (a0 < 0.0 && v0 - swing < v_min) {
         negate(velocity_brake(-v0, -a0, -v_min, -v_max, -a_max, j))
     } else {
-        NONE
+        return NONE;
     };
     sanitize(b)
 }

@@ -2,13 +2,13 @@
 
 use crate::block::{Block, make_block};
 use crate::brake::{Brake, position_brake, velocity_brake_for_velocity_interface};
-use crate::cand::{Cand, CandList, Free, Problem, validate};
+use crate::cand::{Cand, CandList, Free, MAX_CANDS, Problem, validate};
 use crate::error::TrajectoryError;
 use crate::input::{AxisInput, ControlInterface, DurationDiscretization, Options, Synchronization};
 use crate::math::{Integrator, abs, fmod, max, snap_scale};
 use crate::position1::Search;
 use crate::position2::Pieces;
-use crate::profile::{AxisProfile, MAX_PHASES, Phase, ProfileKind};
+use crate::profile::{AxisProfile, Phase, ProfileKind};
 use crate::{position1, position2, velocity};
 
 /// Durations above this are rejected on the synchronized path (as the reference does).
@@ -46,6 +46,8 @@ impl AxisPlan {
             j: 0.0,
             position: true,
             a_snap: 0.0,
+            v_sc: 0.0,
+            a_sc: 0.0,
         },
         block: Block::EMPTY,
         complete: true,
@@ -63,13 +65,15 @@ fn has_zero_limits(ax: &AxisInput) -> bool {
     ax.a_max == 0.0 || ax.a_min == 0.0 || ax.j_max == 0.0
 }
 
-/// Step 1 for one axis: brake, then every extremal profile, then the block of durations.
+/// Step 1 for one axis: brake, then every extremal profile, then the block of durations, into
+/// `out` (in place: the plan is large). On error `out` is partly overwritten.
 pub(crate) fn plan_axis(
     ax: &AxisInput,
     axis: usize,
     interface: ControlInterface,
     all_profiles: bool,
-) -> Result<AxisPlan, TrajectoryError> {
+    out: &mut AxisPlan,
+) -> Result<(), TrajectoryError> {
     let position = interface == ControlInterface::Position;
     let brake = if position {
         position_brake(
@@ -103,18 +107,29 @@ pub(crate) fn plan_axis(
         j: ax.j_max,
         position,
         a_snap,
-    };
+        v_sc: 0.0,
+        a_sc: 0.0,
+    }
+    .with_scales();
     let rest = abs(ax.vf) < f64::EPSILON && abs(ax.af) < f64::EPSILON;
-    let mut cands = CandList::new();
     let at_target = brake_t == 0.0 && pb.at_target();
+    let search = if rest && !at_target {
+        Search::First
+    } else if all_profiles {
+        Search::All
+    } else {
+        Search::Fastest
+    };
+    // Only the search for all profiles keeps more than the fastest one.
+    let mut best_store = [Cand::ZERO; 2];
+    let mut all_store;
+    let mut cands = if search == Search::All {
+        all_store = [Cand::ZERO; MAX_CANDS];
+        CandList::all(&mut all_store)
+    } else {
+        CandList::best(&mut best_store)
+    };
     if !(at_target && rest) && pb.j > 0.0 {
-        let search = if rest && !at_target {
-            Search::First
-        } else if all_profiles {
-            Search::All
-        } else {
-            Search::Fastest
-        };
         if position {
             position1::candidates(&pb, search, &mut cands);
         } else {
@@ -136,17 +151,22 @@ pub(crate) fn plan_axis(
     };
     // Without all profiles only the fastest one is known: no blocked intervals.
     let complete = rest || all_profiles;
-    let block = make_block(cands.as_mut_slice(), brake_t, !complete, &feasible);
-    match block {
-        Some(block) => Ok(AxisPlan {
-            brake,
-            brake_t,
-            pb,
-            block,
-            complete,
-        }),
-        None if has_zero_limits(ax) => Err(TrajectoryError::ZeroLimits { axis }),
-        None => Err(TrajectoryError::NoProfile { axis }),
+    if make_block(
+        cands.as_mut_slice(),
+        brake_t,
+        !complete,
+        &feasible,
+        &mut out.block,
+    ) {
+        out.brake = brake;
+        out.brake_t = brake_t;
+        out.pb = pb;
+        out.complete = complete;
+        Ok(())
+    } else if has_zero_limits(ax) {
+        Err(TrajectoryError::ZeroLimits { axis })
+    } else {
+        Err(TrajectoryError::NoProfile { axis })
     }
 }
 
@@ -295,7 +315,7 @@ pub(crate) fn calculate(
     // computed (all its extremal profiles) only when the common duration turns out to be
     // infeasible for it, which step 2 detects; then the duration is chosen again.
     for (i, ax) in axes.iter().enumerate() {
-        plans[i] = plan_axis(ax, i, opts.control_interface, false)?;
+        plan_axis(ax, i, opts.control_interface, false, &mut plans[i])?;
     }
     let sync = opts.synchronization;
     let axes_sync = |_: usize| sync;
@@ -308,7 +328,6 @@ pub(crate) fn calculate(
         if n == 1 && opts.minimum_duration.is_none() && !discrete {
             duration = plans[0].block.t_min;
             limiting = Some(0);
-            chosen[0] = Some(plans[0].block.p_min.into());
         } else {
             let Some((t, from)) = synchronize(plans, &axes_sync, opts) else {
                 let duration = plans.iter().map(|p| p.block.t_min).fold(0.0, max);
@@ -328,7 +347,7 @@ pub(crate) fn calculate(
             }
             if sync == Synchronization::None {
                 for (i, pl) in plans.iter().enumerate() {
-                    chosen[i] = Some(pl.block.p_min.into());
+                    chosen[i] = None;
                     if pl.block.t_min > duration {
                         duration = pl.block.t_min;
                         limiting = Some(i);
@@ -342,8 +361,8 @@ pub(crate) fn calculate(
 
         let finished = duration == 0.0 || (sync == Synchronization::None && !discrete);
         if duration == 0.0 {
-            for (i, pl) in plans.iter().enumerate() {
-                chosen[i] = Some(pl.block.p_min.into());
+            for c in chosen.iter_mut() {
+                *c = None;
             }
         }
         let mut phase_done = false;
@@ -365,7 +384,7 @@ pub(crate) fn calculate(
                     && abs(pl.pb.vf) < f64::EPSILON
                     && abs(pl.pb.af) < f64::EPSILON
                 {
-                    chosen[i] = Some(pl.block.p_min.into());
+                    chosen[i] = None;
                     continue;
                 }
                 match stretch(pl, duration - pl.brake_t) {
@@ -373,7 +392,7 @@ pub(crate) fn calculate(
                     None if !pl.complete => {
                         // Probably inside a blocked interval of this axis: find them all and
                         // choose the duration again.
-                        plans[i] = plan_axis(&axes[i], i, opts.control_interface, true)?;
+                        plan_axis(&axes[i], i, opts.control_interface, true, &mut plans[i])?;
                         continue 'plan;
                     }
                     None => {
@@ -388,33 +407,24 @@ pub(crate) fn calculate(
         break;
     }
     for (i, (ax, pl)) in axes.iter().zip(plans.iter()).enumerate() {
-        let pieces = chosen[i].unwrap_or_else(|| pl.block.p_min.into());
-        let mut phases = [Phase::default(); MAX_PHASES];
-        for (ph, (&duration, &jerk)) in phases
-            .iter_mut()
-            .zip(pieces.t.iter().zip(&pieces.j))
-            .take(pieces.n)
-        {
-            *ph = Phase { duration, jerk };
-        }
+        // `None`: the axis's own fastest profile.
+        let (t, j, kind) = match &chosen[i] {
+            Some(p) => (&p.t[..p.n], &p.j[..p.n], p.kind),
+            None => {
+                let c = &pl.block.p_min;
+                (&c.t[..], &c.j[..], c.kind)
+            }
+        };
         let end = if pl.pb.position {
             Some((ax.pf, ax.vf, ax.af))
         } else {
             None
         };
         let a_snap = snap_scale(ax.a0, ax.af, ax.a_max, ax.a_min);
-        let mut prof = AxisProfile::build(
-            (ax.p0, ax.v0, ax.a0),
-            &pl.brake,
-            &phases[..pieces.n],
-            end,
-            pieces.kind,
-            a_snap,
-        );
+        out[i].build_into((ax.p0, ax.v0, ax.a0), &pl.brake, t, j, end, kind, a_snap);
         if !pl.pb.position {
-            prof = prof.with_end_velocity(ax.vf, ax.af);
+            out[i].set_end_velocity(ax.vf, ax.af);
         }
-        out[i] = prof;
     }
     Ok(Summary {
         duration,

@@ -29,6 +29,10 @@ pub(crate) struct Problem {
     pub(crate) position: bool,
     /// Acceleration scale of the zero-acceleration convention of [`Integrator`].
     pub(crate) a_snap: f64,
+    /// [`v_scale`](Self::v_scale) and [`a_scale`](Self::a_scale), set by
+    /// [`with_scales`](Self::with_scales).
+    pub(crate) v_sc: f64,
+    pub(crate) a_sc: f64,
 }
 
 impl Problem {
@@ -47,24 +51,36 @@ impl Problem {
             j: self.j,
             position: self.position,
             a_snap: self.a_snap,
+            // Symmetric under the mirroring.
+            v_sc: self.v_sc,
+            a_sc: self.a_sc,
         }
     }
 
-    /// Velocity scale.
-    pub(crate) fn v_scale(&self) -> f64 {
+    /// The problem with its cached scales computed (call after setting the other fields).
+    pub(crate) fn with_scales(mut self) -> Problem {
         let mut s = max(abs(self.v0), abs(self.vf));
         if self.position {
             s = max(s, max(abs(self.v_max), abs(self.v_min)));
         }
-        s
-    }
-
-    /// Acceleration scale.
-    pub(crate) fn a_scale(&self) -> f64 {
-        max(
+        self.v_sc = s;
+        self.a_sc = max(
             max(abs(self.a0), abs(self.af)),
             max(abs(self.a_max), abs(self.a_min)),
-        )
+        );
+        self
+    }
+
+    /// Velocity scale: the largest of |v0|, |vf| and (position interface) the velocity limits.
+    #[inline]
+    pub(crate) fn v_scale(&self) -> f64 {
+        self.v_sc
+    }
+
+    /// Acceleration scale: the largest of |a0|, |af| and the acceleration limits.
+    #[inline]
+    pub(crate) fn a_scale(&self) -> f64 {
+        self.a_sc
     }
 
     /// Is the start state already the target state?
@@ -99,8 +115,7 @@ impl Cand {
     /// Total duration.
     #[inline]
     pub(crate) fn total(&self) -> f64 {
-        let t = &self.t;
-        ((t[0] + t[1]) + (t[2] + t[3])) + ((t[4] + t[5]) + t[6])
+        total7(&self.t)
     }
 
     /// The same profile seen in the other direction (jerks negated).
@@ -108,20 +123,7 @@ impl Cand {
         for j in &mut self.j {
             *j = -*j;
         }
-        if let ProfileKind::TimeOptimal { direction, limits } = self.kind {
-            let direction = match direction {
-                Direction::Up => Direction::Down,
-                Direction::Down => Direction::Up,
-            };
-            self.kind = ProfileKind::TimeOptimal { direction, limits };
-        }
-        if let ProfileKind::FixedTimeExtremal { direction } = self.kind {
-            let direction = match direction {
-                Direction::Up => Direction::Down,
-                Direction::Down => Direction::Up,
-            };
-            self.kind = ProfileKind::FixedTimeExtremal { direction };
-        }
+        self.kind = mirrored_kind(self.kind);
         self
     }
 
@@ -133,6 +135,30 @@ impl Cand {
         }
         it.state()
     }
+}
+
+/// The kind of a profile seen in the other direction.
+pub(crate) fn mirrored_kind(kind: ProfileKind) -> ProfileKind {
+    let flip = |d: Direction| match d {
+        Direction::Up => Direction::Down,
+        Direction::Down => Direction::Up,
+    };
+    match kind {
+        ProfileKind::TimeOptimal { direction, limits } => ProfileKind::TimeOptimal {
+            direction: flip(direction),
+            limits,
+        },
+        ProfileKind::FixedTimeExtremal { direction } => ProfileKind::FixedTimeExtremal {
+            direction: flip(direction),
+        },
+        other => other,
+    }
+}
+
+/// Total of 7 phase durations, summed as [`Cand::total`] does.
+#[inline]
+pub(crate) fn total7(t: &[f64; 7]) -> f64 {
+    ((t[0] + t[1]) + (t[2] + t[3])) + ((t[4] + t[5]) + t[6])
 }
 
 /// UDDU jerk pattern with jerk `j`.
@@ -199,29 +225,45 @@ pub(crate) fn validate_why(
     free: Free,
 ) -> Result<Checked, Failure> {
     const E: f64 = f64::EPSILON;
+    // One pass for the usual case (all durations finite and non-negative): the sum of the
+    // absolute values is then the total and is finite.
     let mut raw = 0.0;
+    let mut negative = false;
     for &ti in t.iter() {
-        if !ti.is_finite() {
-            return Err(Failure::Shape);
-        }
         raw += abs(ti);
+        negative |= ti < 0.0;
+    }
+    if !raw.is_finite() {
+        return Err(Failure::Shape);
     }
     let j_abs = abs(pb.j);
     let as_ = pb.a_scale();
     let vs = pb.v_scale();
-    let t_tol = TIME_REL * (raw + if j_abs > 0.0 { as_ / j_abs } else { 0.0 });
-    let mut total = 0.0;
-    for ti in t.iter_mut() {
-        if *ti < 0.0 {
-            if *ti < -t_tol {
-                return Err(Failure::Shape);
+    let total = if negative {
+        let t_tol = TIME_REL * (raw + if j_abs > 0.0 { as_ / j_abs } else { 0.0 });
+        let mut total = 0.0;
+        for ti in t.iter_mut() {
+            if *ti < 0.0 {
+                if *ti < -t_tol {
+                    return Err(Failure::Shape);
+                }
+                *ti = 0.0;
             }
-            *ti = 0.0;
+            total += *ti;
         }
-        total += *ti;
-    }
+        total
+    } else {
+        raw
+    };
     if !(total <= 1e12) {
         return Err(Failure::Shape);
+    }
+    if free == Free::Nothing {
+        match validate_fast(pb, t, jerks, total) {
+            Fast::Accept(c) => return Ok(c),
+            Fast::Reject => return Err(Failure::Shape),
+            Fast::Undecided => {}
+        }
     }
     let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
     let (mut p, mut v, mut a) = it.state();
@@ -302,6 +344,117 @@ pub(crate) fn validate_why(
     Ok(Checked { total, p, p_tol })
 }
 
+/// What [`validate_fast`] decided.
+enum Fast {
+    /// Accepted: the full test accepts too.
+    Accept(Checked),
+    /// A limit is exceeded by more than any tolerance of the full test: it rejects too.
+    Reject,
+    /// Only the full test can tell.
+    Undecided,
+}
+
+/// The acceptance test of [`validate_why`] (target fully prescribed) with only the tolerance
+/// floors, which need no rounding-error propagation: [`LIMIT_REL`] × the scale on the limits,
+/// [`FINAL_REL`] × the magnitudes on the final state. Those floors are at most the full
+/// tolerances, so a candidate accepted here is accepted there (same integration, same
+/// comparisons). A candidate whose limit overshoot exceeds an upper bound of the full test's
+/// tolerance at that phase ([`full_tolerance_bounds`]) is rejected here; otherwise the full test
+/// decides. Most candidates are decided here.
+fn validate_fast(pb: &Problem, t: &[f64], jerks: &[f64], total: f64) -> Fast {
+    let vs = pb.v_scale();
+    let as_ = pb.a_scale();
+    let a_tol = LIMIT_REL * as_;
+    let v_tol = LIMIT_REL * vs;
+    let (a_hi, a_lo) = (pb.a_max + a_tol, pb.a_min - a_tol);
+    let (v_hi, v_lo) = (pb.v_max + v_tol, pb.v_min - v_tol);
+    let mut it = Integrator::new(0.0, pb.v0, pb.a0, pb.a_snap);
+    let (mut v, mut a) = (pb.v0, pb.a0);
+    let (mut path, mut a_area) = (0.0, 0.0);
+    // A start outside the velocity limits (after a brake) is left to the full test: its
+    // "return, then stay inside" rule depends on the tolerance.
+    if pb.position && !(v >= v_lo && v <= v_hi) {
+        return Fast::Undecided;
+    }
+    for (i, (&ti, &j)) in t.iter().zip(jerks.iter()).enumerate() {
+        if ti == 0.0 {
+            continue;
+        }
+        it.step(ti, j);
+        let (v1, a1) = (it.v, it.a);
+        let v_ext = if j != 0.0 && (a < 0.0) != (a1 < 0.0) && a != 0.0 && a1 != 0.0 {
+            v - a * a / (2.0 * j)
+        } else {
+            v
+        };
+        path += max(max(abs(v), abs(v1)), abs(v_ext)) * ti;
+        a_area += max(abs(a), abs(a1)) * ti;
+        let a_bad = !(a1 <= a_hi && a1 >= a_lo);
+        let (v_top, v_bottom) = (max(v_ext, v1), crate::math::min(v_ext, v1));
+        let v_bad = pb.position && !(v_bottom >= v_lo && v_top <= v_hi);
+        if a_bad || v_bad {
+            let (ua, uv) = full_tolerance_bounds(pb, &t[..=i], &jerks[..=i]);
+            let a_full = a_tol + ROUND_K * ua;
+            let v_full = v_tol + ROUND_K * uv;
+            let a_out = !(a1 <= pb.a_max + a_full && a1 >= pb.a_min - a_full);
+            let v_out = !(v_bottom >= pb.v_min - v_full && v_top <= pb.v_max + v_full);
+            return if (a_bad && a_out) || (!a_bad && v_out) {
+                Fast::Reject
+            } else {
+                Fast::Undecided
+            };
+        }
+        (v, a) = (v1, a1);
+    }
+    let tiny = f64::MIN_POSITIVE;
+    let v_end_tol = FINAL_REL * max(max(abs(pb.v0), abs(pb.vf)), a_area) + tiny;
+    let a_end_tol = FINAL_REL * as_ + tiny;
+    let p_tol = FINAL_REL * max(abs(pb.d), path) + tiny;
+    let p = it.p;
+    let ok = abs(v - pb.vf) <= v_end_tol
+        && abs(a - pb.af) <= a_end_tol
+        && (!pb.position || abs(p - pb.d) <= p_tol)
+        && p.is_finite();
+    if ok {
+        Fast::Accept(Checked { total, p, p_tol })
+    } else {
+        Fast::Undecided
+    }
+}
+
+/// Upper bounds of the propagated rounding bounds `ea` and `ev` of [`validate_why`]'s full
+/// test after the phases `t` (its last one is the phase being checked), for a start velocity
+/// inside the limits and phases that passed [`validate_fast`]'s limit tests before the last one
+/// (so every phase starts with |a| ≤ A and |v| ≤ V, A and V the scales plus a margin).
+///
+/// Per phase i (duration tᵢ, jerk jᵢ, start a, v) the full test adds to `ea` at most
+/// eps·(|a| + 2|jᵢ|tᵢ + A) and to `ev` at most ea·tᵢ + eps·(|v| + |a|tᵢ + |jᵢ|tᵢ²/2) + |a|·dtᵢ
+/// with dtᵢ = eps·(A/|jᵢ| + tᵢ) (eps·tᵢ without jerk), starting from eps·|a0| and eps·|v0|.
+/// Summed with the start values bounded by A and V, and doubled for the rounding of this
+/// evaluation itself.
+fn full_tolerance_bounds(pb: &Problem, t: &[f64], jerks: &[f64]) -> (f64, f64) {
+    const E: f64 = f64::EPSILON;
+    let a_cap = pb.a_scale() * (1.0 + 1e-9);
+    let v_cap = pb.v_scale() * (1.0 + 1e-9);
+    let (mut m, mut s, mut sj, mut sjt, mut sa) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (&ti, &j) in t.iter().zip(jerks) {
+        if ti == 0.0 {
+            continue;
+        }
+        let ja = abs(j);
+        m += 1.0;
+        s += ti;
+        sj += ja * ti;
+        sjt += ja * ti * ti;
+        if ja > 0.0 {
+            sa += pb.a_scale() / ja;
+        }
+    }
+    let ua = E * (a_cap + m * (a_cap + pb.a_scale()) + 2.0 * sj);
+    let uv = E * (v_cap * (1.0 + m) + 2.0 * a_cap * s + sjt / 2.0 + a_cap * sa) + ua * s;
+    (2.0 * ua, 2.0 * uv)
+}
+
 /// [`validate`] for a 7-phase candidate that must reach the target.
 pub(crate) fn check(
     pb: &Problem,
@@ -366,30 +519,49 @@ pub(crate) fn limits_of(acc0: bool, vel: bool, acc1: bool) -> ReachedLimits {
 /// Most candidates kept in step 1.
 pub(crate) const MAX_CANDS: usize = 16;
 
-/// A fixed-capacity list of candidates.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct CandList {
-    pub(crate) c: [Cand; MAX_CANDS],
+/// A fixed-capacity list of candidates in storage owned by the caller: every valid candidate
+/// (blocked intervals need them all), or only the fastest one (`best_only`: two slots, the best
+/// and the one being validated; a tie keeps the earlier one, as a stable sort would).
+#[derive(Debug)]
+pub(crate) struct CandList<'a> {
+    pub(crate) c: &'a mut [Cand],
     pub(crate) n: usize,
+    best_only: bool,
 }
 
-impl CandList {
-    pub(crate) const fn new() -> Self {
+impl<'a> CandList<'a> {
+    /// A list keeping every candidate, up to `storage.len()`.
+    pub(crate) fn all(storage: &'a mut [Cand]) -> Self {
         CandList {
-            c: [Cand::ZERO; MAX_CANDS],
+            c: storage,
             n: 0,
+            best_only: false,
+        }
+    }
+
+    /// A list keeping only the fastest candidate (`storage` has two slots).
+    pub(crate) fn best(storage: &'a mut [Cand; 2]) -> Self {
+        CandList {
+            c: storage,
+            n: 0,
+            best_only: true,
         }
     }
 
     pub(crate) fn push(&mut self, c: Cand) {
-        if self.n < MAX_CANDS {
+        if self.best_only && self.n == 1 {
+            if c.total() < self.c[0].total() {
+                self.c[0] = c;
+            }
+        } else if self.n < self.c.len() {
             self.c[self.n] = c;
             self.n += 1;
         }
     }
 
-    /// Validates phase times `t` with `jerks` in place in the next free slot and keeps the
-    /// candidate if valid, negating its jerks if `mirror` (no copies of the candidate).
+    /// Validates phase times `t` with `jerks` and keeps the candidate if valid (and, keeping
+    /// only the best, if faster than the one kept: a tie keeps the earlier one, as a stable sort
+    /// would), negating its jerks if `mirror`.
     pub(crate) fn push_checked(
         &mut self,
         pb: &Problem,
@@ -398,19 +570,30 @@ impl CandList {
         kind: ProfileKind,
         mirror: bool,
     ) -> Result<(), Failure> {
-        if self.n >= MAX_CANDS {
+        let challenger = self.best_only && self.n == 1;
+        if !self.best_only && self.n >= self.c.len() {
             return Err(Failure::Shape);
         }
-        let slot = &mut self.c[self.n];
-        slot.t = *t;
-        let c = validate_why(pb, &mut slot.t, jerks, Free::Nothing)?;
-        slot.j = *jerks;
-        slot.p_tol = c.p_tol;
-        slot.kind = kind;
-        if mirror {
-            *slot = slot.mirrored();
+        let mut tt = *t;
+        let c = validate_why(pb, &mut tt, jerks, Free::Nothing)?;
+        if challenger && !(total7(&tt) < self.c[0].total()) {
+            return Ok(());
         }
-        self.n += 1;
+        let slot = &mut self.c[if challenger { 0 } else { self.n }];
+        slot.t = tt;
+        slot.p_tol = c.p_tol;
+        if mirror {
+            for (s, j) in slot.j.iter_mut().zip(jerks) {
+                *s = -*j;
+            }
+            slot.kind = mirrored_kind(kind);
+        } else {
+            slot.j = *jerks;
+            slot.kind = kind;
+        }
+        if !challenger {
+            self.n += 1;
+        }
         Ok(())
     }
 

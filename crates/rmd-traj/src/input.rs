@@ -213,8 +213,47 @@ impl AxisInput {
         axis: usize,
         interface: ControlInterface,
     ) -> Result<(), TrajectoryError> {
-        let err = |reason| Err(TrajectoryError::InvalidInput { axis, reason });
         let position = interface == ControlInterface::Position;
+        if position && self.plainly_valid() {
+            return Ok(());
+        }
+        self.validate_in_detail(axis, position)
+    }
+
+    /// The usual position-interface input: every rule of
+    /// [`validate_in_detail`](Self::validate_in_detail) met, tested without naming a field.
+    fn plainly_valid(&self) -> bool {
+        // 0·x is ±0 for a finite x and NaN otherwise (a sum that overflows also goes the
+        // detailed way, which decides).
+        let sum = self.p0
+            + self.v0
+            + self.a0
+            + self.pf
+            + self.vf
+            + self.af
+            + self.v_max
+            + self.v_min
+            + self.a_max
+            + self.a_min
+            + self.j_max;
+        let swing = self.af * self.af / (2.0 * self.j_max);
+        0.0 * sum == 0.0
+            && self.j_max > 0.0
+            && self.a_max >= 0.0
+            && self.a_min <= 0.0
+            && self.af <= self.a_max
+            && self.af >= self.a_min
+            && self.v_max >= 0.0
+            && self.v_min <= 0.0
+            && self.vf <= self.v_max
+            && self.vf >= self.v_min
+            && !(self.af < 0.0 && self.vf + swing > self.v_max)
+            && !(self.af > 0.0 && self.vf - swing < self.v_min)
+    }
+
+    /// [`validate`](Self::validate), naming the first problem found.
+    fn validate_in_detail(&self, axis: usize, position: bool) -> Result<(), TrajectoryError> {
+        let err = |reason| Err(TrajectoryError::InvalidInput { axis, reason });
         let finite: [(f64, Field, bool); 11] = [
             (self.p0, Field::CurrentPosition, position),
             (self.v0, Field::CurrentVelocity, true),

@@ -31,7 +31,7 @@ pub(crate) enum Search {
 }
 
 /// Collects the valid extremal profiles.
-pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList) {
+pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList<'_>) {
     let up_first = pb.d >= 0.0;
     let dirs = if up_first {
         [Direction::Up, Direction::Down]
@@ -92,13 +92,13 @@ pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList) {
 }
 
 /// Receives candidates in a frame and stores them in the caller's frame.
-pub(crate) struct Sink<'a> {
-    pub(crate) out: &'a mut CandList,
+pub(crate) struct Sink<'a, 'b> {
+    pub(crate) out: &'a mut CandList<'b>,
     pub(crate) dir: Direction,
     pub(crate) search: Search,
 }
 
-impl Sink<'_> {
+impl Sink<'_, '_> {
     /// The duration a new candidate must beat to matter (`Fastest`), else +∞.
     pub(crate) fn bound(&self) -> f64 {
         if self.search == Search::Fastest {
@@ -155,7 +155,7 @@ impl Sink<'_> {
     }
 
     /// Runs a type solver; true when the search should stop.
-    pub(crate) fn run(&mut self, pb: &Problem, f: fn(&Problem, &mut Sink<'_>) -> bool) -> bool {
+    pub(crate) fn run(&mut self, pb: &Problem, f: fn(&Problem, &mut Sink<'_, '_>) -> bool) -> bool {
         f(pb, self)
     }
 }
@@ -185,9 +185,16 @@ pub(crate) fn rise_to(v0: f64, a0: f64, v_top: f64, a_max: f64, j: f64) -> Optio
     } else {
         ((a_max - a0) / j, (x - a_max * a_max) / (j * a_max))
     };
-    // A first ramp that is zero up to rounding is zero (the peak is a0 itself).
-    if t0 < 0.0 && t0 >= -1e-12 * (abs(a0) / j + abs(t1)) {
-        t0 = 0.0;
+    // A first ramp that is zero up to rounding is zero (the peak is a0 itself). A negative one
+    // beyond that is impossible: `v_top` is exceeded by ramping a0 to zero. (Not left to the
+    // validation, which would zero it with a tolerance relative to the whole duration after
+    // `t2` was computed from it: the cruise would then start with a residual acceleration.)
+    if t0 < 0.0 {
+        if t0 >= -1e-12 * (abs(a0) / j + abs(t1)) {
+            t0 = 0.0;
+        } else {
+            return None;
+        }
     }
     // The ramp down ends at exactly the acceleration reached, so a following cruise has a = 0
     // up to the rounding of one product (not of the formula for the peak).
@@ -225,7 +232,7 @@ pub(crate) fn fall_from(
 }
 
 /// Cruise at `v_max` between two velocity changes.
-fn cruise(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+fn cruise(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     if !(pb.v_max > 0.0) {
         return false;
     }
@@ -248,11 +255,17 @@ fn cruise(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     }
     let (p, q) = (left.p, right.p);
     t[3] = (pb.d - p - q) / pb.v_max;
+    // Most cruises are too long for the distance: a clearly negative cruise fails the validation
+    // (which allows −1e-12 × the durations).
+    let ramps = ((t0 + t1) + t2) + ((t4 + t5) + t6);
+    if t[3] < -1e-9 * (ramps + pb.a_scale() / j) {
+        return false;
+    }
     sink.offer(pb, t, jj, kind(t1 > 0.0, true, t5 > 0.0))
 }
 
 /// Both acceleration plateaus, no cruise: quadratic in the first plateau's duration.
-fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         d,
         v0,
@@ -267,38 +280,47 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     if !(a_max > 0.0 && a_min < 0.0) {
         return false;
     }
-    let c2 = 12.0 * a_max * (j * j) * (-a_max + a_min);
-    let c1 = 12.0
-        * j
-        * ((a0 * a0) * a_max - (a0 * a0) * a_min - 2.0 * (a_max * a_max * a_max)
-            + 3.0 * (a_max * a_max) * a_min
-            - a_max * (a_min * a_min)
-            - 2.0 * a_max * j * v0
-            + 2.0 * a_min * j * v0);
-    let c0 = -3.0 * (a0 * a0 * a0 * a0)
-        + 8.0 * (a0 * a0 * a0) * a_min
-        + 12.0 * (a0 * a0) * (a_max * a_max)
-        - 24.0 * (a0 * a0) * a_max * a_min
-        + 6.0 * (a0 * a0) * (a_min * a_min)
-        + 12.0 * (a0 * a0) * j * v0
-        - 24.0 * a0 * a_min * j * v0
-        - 12.0 * (a_max * a_max * a_max * a_max)
-        + 24.0 * (a_max * a_max * a_max) * a_min
-        - 12.0 * (a_max * a_max) * (a_min * a_min)
-        - 24.0 * (a_max * a_max) * j * v0
-        + 48.0 * a_max * a_min * j * v0
-        + 6.0 * (a_min * a_min) * (af * af)
-        - 12.0 * (a_min * a_min) * j * v0
-        - 12.0 * (a_min * a_min) * j * vf
-        - 8.0 * a_min * (af * af * af)
-        + 24.0 * a_min * af * j * vf
-        - 24.0 * a_min * d * (j * j)
-        + 3.0 * (af * af * af * af)
-        - 12.0 * (af * af) * j * vf
-        - 12.0 * (j * j) * (v0 * v0)
-        + 12.0 * (j * j) * (vf * vf);
+    // Its four ramps alone take this long (the plateaus are non-negative).
+    let ramps = (a_max - a0) / j + a_max / j - a_min / j + (af - a_min) / j;
+    let bound = sink.bound() * (1.0 + 1e-9);
+    if !(ramps < bound) {
+        return false;
+    }
+    // With the velocity condition t5 = (r_v − a_max·t1)/a_min, and t5 ≥ 0 needs
+    // t1 ≥ r_v/a_max. The peak velocity (end of phase 2, where a = 0),
+    // v0 + (2·a_max² − a0²)/(2j) + a_max·t1 ≤ v_max, and the duration bound (the duration
+    // ramps + r_v/a_min + t1·(1 − a_max/a_min) grows with t1) bound t1 from above. If no t1
+    // fits, even with a margin far above the validation's tolerances, no candidate can pass:
+    // skip the coefficients.
     let r_v = vf - v0 - (2.0 * a_max * a_max - 2.0 * a_min * a_min + af * af - a0 * a0) / (2.0 * j);
-    let den = 24.0 * j * j * a_min;
+    let t1_lo = max(r_v / a_max, 0.0);
+    let t1_hi_v = (pb.v_max - v0 - (2.0 * a_max * a_max - a0 * a0) / (2.0 * j)) / a_max;
+    let t1_hi_b = (bound - ramps - r_v / a_min) / (1.0 - a_max / a_min);
+    let margin =
+        1e-7 * (abs(t1_lo) + abs(t1_hi_v) + ramps + (pb.a_scale() / j) + pb.v_scale() / a_max);
+    let t1_hi = crate::math::min(t1_hi_v, t1_hi_b) + margin;
+    if t1_lo > t1_hi {
+        return false;
+    }
+    // The position error is a quadratic A·t1² + B·t1 + C: the rise (phases 0–2) to the peak
+    // velocity vp = vp0 + a_max·t1 (a = 0 at the end of phase 2), then the fall (phases 4–6)
+    // from it, whose plateau t5 = t50 + s·t1 shrinks as t1 grows (s = −a_max/a_min) and whose
+    // last ramp starts at the fixed velocity v6.
+    let (tau0, tau2, tau4, tau6) = ((a_max - a0) / j, a_max / j, -a_min / j, (af - a_min) / j);
+    let v1 = v0 + (a_max * a_max - a0 * a0) / (2.0 * j);
+    let vp0 = v1 + a_max * tau2 / 2.0;
+    let v50 = vp0 + a_min * tau4 / 2.0;
+    let t50 = r_v / a_min;
+    let s = -a_max / a_min;
+    let v6 = v50 + a_min * t50;
+    let qa = 0.5 * a_max * (1.0 + s);
+    let qb = v1 + a_max * (tau2 + tau4) + s * v50;
+    let qc = tau0 * (v0 + tau0 * (a0 / 2.0 + tau0 * j / 6.0))
+        + tau2 * (v1 + a_max * tau2 / 3.0)
+        + tau4 * (vp0 - j * tau4 * tau4 / 6.0)
+        + t50 * (v50 + a_min * t50 / 2.0)
+        + tau6 * (v6 + tau6 * (a_min / 2.0 + j * tau6 / 6.0))
+        - d;
     let jj = uddu(j);
     let phases = |t1: f64| -> [f64; 7] {
         [
@@ -311,16 +333,18 @@ fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_>) -> bool {
             (af - a_min) / j,
         ]
     };
-    let coeffs = [c2, c1, c0];
-    let roots = roots_in(&coeffs, -1e-9 * (abs(r_v / a_max) + a_max / j), 1e12);
+    let roots = roots_in(&[qa, qb, qc], -1e-9 * (abs(r_v / a_max) + a_max / j), 1e12);
     for &t1 in roots.as_slice() {
-        let t1 = polish(t1, pb, &phases, &jj, |x| (2.0 * c2 * x + c1) / den);
+        // Outside the range above no candidate passes.
+        if !(t1 >= t1_lo - margin && t1 <= t1_hi) {
+            continue;
+        }
         if sink.offer_root(
             pb,
             t1,
             &phases,
             &jj,
-            |x| (2.0 * c2 * x + c1) / den,
+            |x| 2.0 * qa * x + qb,
             kind(true, false, true),
         ) {
             return true;
@@ -398,13 +422,15 @@ fn split_by_square(
 }
 
 /// `None`, `Acc0` and `Acc1` types: quartics.
-fn quartic_types(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+fn quartic_types(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     none_type(pb, sink) || acc0_type(pb, sink) || acc1_type(pb, sink)
 }
 
 /// No plateau, no cruise: +j (to u), −j (to w), +j (to af). Variable: the middle ramp's
-/// duration `t`; u = (jt + K/(jt))/2, w = (K/(jt) − jt)/2 with K = u² − w².
-fn none_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+/// acceleration change τ = j·t (its duration t); u = (τ + K/τ)/2, w = (K/τ − τ)/2 with
+/// K = u² − w². The quartics of the three types are written in τ (acceleration units), which
+/// makes their coefficients free of divisions.
+fn none_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         d,
         v0,
@@ -417,57 +443,47 @@ fn none_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
         ..
     } = *pb;
     let k = j * (vf - v0) + (a0 * a0 - af * af) / 2.0;
-    let c2 = 2.0 * (-(a0 * a0) - (af * af) + 2.0 * j * (v0 + vf)) / (j * j);
-    let c1 = (4.0 / 3.0)
-        * ((a0 * a0 * a0) - (af * af * af) - 3.0 * d * (j * j) + 3.0 * j * (-a0 * v0 + af * vf))
-        / (j * j * j);
-    let kj = k / (j * j);
-    let c0 = -(kj * kj);
-    let coeffs = [1.0, 0.0, c2, c1, c0];
-    let mut lo = max((a0 - af) / j, 0.0);
-    let mut hi = (a_max - a_min) / j;
-    // u ≤ a_max ⇔ j²t² − 2·a_max·j·t + K ≤ 0; w ≥ a_min ⇔ j²t² + 2·a_min·j·t − K ≤ 0.
+    // u ≤ a_max ⇔ τ² − 2·a_max·τ + K ≤ 0; w ≥ a_min ⇔ τ² + 2·a_min·τ − K ≤ 0.
     let (s1, s2) = (a_max * a_max - k, a_min * a_min + k);
     let tol_a = 1e-9 * (a_max * a_max + a_min * a_min + abs(k));
     if s1 < -tol_a || s2 < -tol_a {
         return false;
     }
     let (r1, r2) = (sqrt(max(s1, 0.0)), sqrt(max(s2, 0.0)));
-    lo = max(lo, max((a_max - r1) / j, (-a_min - r2) / j));
-    hi = crate::math::min(hi, crate::math::min((a_max + r1) / j, (-a_min + r2) / j));
-    // Duration 2t + (af − a0)/j must beat the bound.
-    hi = crate::math::min(hi, (sink.bound() * (1.0 + 1e-9) - (af - a0) / j) / 2.0);
-    let slack = 1e-9 * (abs(hi) + abs(lo)) + 1e-9 * (a_max - a_min) / j;
+    let lo = max(max(a0 - af, 0.0), max(a_max - r1, -a_min - r2));
+    // The duration 2τ/j + (af − a0)/j must beat the bound.
+    let hi = crate::math::min(
+        crate::math::min(a_max - a_min, crate::math::min(a_max + r1, -a_min + r2)),
+        (sink.bound() * (1.0 + 1e-9) * j - (af - a0)) / 2.0,
+    );
+    let slack = 1e-9 * (abs(hi) + abs(lo)) + 1e-9 * (a_max - a_min);
     if !(lo <= hi + slack) {
         return false;
     }
+    let c2 = 2.0 * (-(a0 * a0) - (af * af) + 2.0 * j * (v0 + vf));
+    let c1 = (4.0 / 3.0)
+        * ((a0 * a0 * a0) - (af * af * af) - 3.0 * d * (j * j) + 3.0 * j * (-a0 * v0 + af * vf));
+    let c0 = -(k * k);
     let jj = uddu(j);
-    let phases = |t: f64| -> [f64; 7] {
-        let s = k / (j * t);
-        let u = (j * t + s) / 2.0;
-        let w = (s - j * t) / 2.0;
-        [(u - a0) / j, 0.0, t, 0.0, 0.0, 0.0, (af - w) / j]
+    let phases = |tau: f64| -> [f64; 7] {
+        let s = k / tau;
+        let u = (tau + s) / 2.0;
+        let w = (s - tau) / 2.0;
+        [(u - a0) / j, 0.0, tau / j, 0.0, 0.0, 0.0, (af - w) / j]
     };
-    let roots = quartic_roots_in(
-        coeffs[1],
-        coeffs[2],
-        coeffs[3],
-        coeffs[4],
-        max(lo - slack, 0.0),
-        hi + slack,
-    );
-    for &t in roots.as_slice() {
-        if !(t > 0.0) {
+    let roots = quartic_roots_in(0.0, c2, c1, c0, max(lo - slack, 0.0), hi + slack);
+    for &tau in roots.as_slice() {
+        if !(tau > 0.0) {
             continue;
         }
         if sink.offer_root(
             pb,
-            t,
+            tau,
             &phases,
             &jj,
             |x| {
                 let dp = [4.0, 0.0, 2.0 * c2, c1];
-                j * eval(&dp, x) / (4.0 * x)
+                eval(&dp, x) / (4.0 * j * j * x)
             },
             kind(false, false, false),
         ) {
@@ -477,9 +493,9 @@ fn none_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     false
 }
 
-/// Plateau at `a_max` in phase 1, no cruise, no second plateau. Variable: duration `t` of the
-/// ramp from `a_max` down to w = a_max − jt.
-fn acc0_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+/// Plateau at `a_max` in phase 1, no cruise, no second plateau. Variable: the acceleration
+/// change τ = j·t of the ramp from `a_max` down to w = a_max − τ.
+fn acc0_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         d,
         v0,
@@ -494,8 +510,21 @@ fn acc0_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     if !(a_max > 0.0) {
         return false;
     }
-    let c3 = -2.0 * a_max / j;
-    let c2 = ((a_max * a_max) - (af * af) + 2.0 * j * vf) / (j * j);
+    let lo = max(a_max - af, 0.0);
+    // Duration ≥ (2τ + af − a0)/j must beat the bound.
+    let hi = crate::math::min(
+        a_max - a_min,
+        (sink.bound() * (1.0 + 1e-9) * j - (af - a0)) / 2.0,
+    );
+    let slack = 1e-9 * (abs(hi) + abs(lo));
+    // The plateau t1 ≥ 0 ⇔ w² ≥ K0 with w = a_max − τ.
+    let k0 = a_max * a_max + (af * af - a0 * a0) / 2.0 - j * (vf - v0);
+    let ranges = split_by_square(lo, hi, slack, k0, a_max, -1.0, 1.0);
+    if ranges.iter().all(Option::is_none) {
+        return false;
+    }
+    let c3 = -2.0 * a_max;
+    let c2 = (a_max * a_max) - (af * af) + 2.0 * j * vf;
     let c0 = (1.0 / 12.0)
         * (-3.0 * (a0 * a0 * a0 * a0) + 8.0 * (a0 * a0 * a0) * a_max
             - 6.0 * (a0 * a0) * (a_max * a_max)
@@ -508,44 +537,25 @@ fn acc0_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
                 * ((a0 * a0) * v0 - 2.0 * a0 * a_max * v0 + (a_max * a_max) * v0
                     - (a_max * a_max) * vf
                     + 2.0 * a_max * af * vf
-                    - (af * af) * vf))
-        / (j * j * j * j);
-    let coeffs = [1.0, c3, c2, 0.0, c0];
-    let lo = max((a_max - af) / j, 0.0);
-    // Duration ≥ 2t + (af − a0)/j must beat the bound.
-    let hi = crate::math::min(
-        (a_max - a_min) / j,
-        (sink.bound() * (1.0 + 1e-9) - (af - a0) / j) / 2.0,
-    );
-    let slack = 1e-9 * (abs(hi) + abs(lo));
-    // The plateau t1 ≥ 0 ⇔ w² ≥ K0 with w = a_max − j·t.
-    let k0 = a_max * a_max + (af * af - a0 * a0) / 2.0 - j * (vf - v0);
-    let ranges = split_by_square(lo, hi, slack, k0, a_max, -1.0, j);
+                    - (af * af) * vf));
     let jj = uddu(j);
-    let phases = |t: f64| -> [f64; 7] {
-        let w = a_max - j * t;
+    let phases = |tau: f64| -> [f64; 7] {
+        let w = a_max - tau;
         let t1 =
             (vf - v0 - (2.0 * a_max * a_max - 2.0 * w * w + af * af - a0 * a0) / (2.0 * j)) / a_max;
-        [(a_max - a0) / j, t1, t, 0.0, 0.0, 0.0, (af - w) / j]
+        [(a_max - a0) / j, t1, tau / j, 0.0, 0.0, 0.0, (af - w) / j]
     };
     for &(lo, hi) in ranges.iter().flatten() {
-        let roots = quartic_roots_in(
-            coeffs[1],
-            coeffs[2],
-            coeffs[3],
-            coeffs[4],
-            max(lo - slack, 0.0),
-            hi + slack,
-        );
-        for &t in roots.as_slice() {
+        let roots = quartic_roots_in(c3, c2, 0.0, c0, max(lo - slack, 0.0), hi + slack);
+        for &tau in roots.as_slice() {
             if sink.offer_root(
                 pb,
-                t,
+                tau,
                 &phases,
                 &jj,
                 |x| {
                     let dp = [4.0, 3.0 * c3, 2.0 * c2, 0.0];
-                    j * j * eval(&dp, x) / (2.0 * a_max)
+                    eval(&dp, x) / (2.0 * a_max * j * j)
                 },
                 kind(true, false, false),
             ) {
@@ -556,9 +566,9 @@ fn acc0_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     false
 }
 
-/// Plateau at `a_min` in phase 5, no cruise, no first plateau. Variable: duration `t` of the
-/// first ramp, u = a0 + jt.
-fn acc1_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+/// Plateau at `a_min` in phase 5, no cruise, no first plateau. Variable: the acceleration
+/// change τ = j·t of the first ramp, u = a0 + τ.
+fn acc1_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         d,
         v0,
@@ -573,11 +583,23 @@ fn acc1_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
     if !(a_min < 0.0) {
         return false;
     }
-    let c3 = 2.0 * (2.0 * a0 - a_min) / j;
-    let c2 = (5.0 * (a0 * a0) - 6.0 * a0 * a_min + (a_min * a_min) + 2.0 * j * v0) / (j * j);
-    let c1 = 2.0
-        * (a0 * ((a0 * a0) - 2.0 * a0 * a_min + (a_min * a_min)) + 2.0 * j * v0 * (a0 - a_min))
-        / (j * j * j);
+    let lo = max(a_min - a0, 0.0);
+    // Duration ≥ (2τ + a0 + af − 2·a_min)/j must beat the bound.
+    let hi = crate::math::min(
+        a_max - a0,
+        (sink.bound() * (1.0 + 1e-9) * j - (a0 + af - 2.0 * a_min)) / 2.0,
+    );
+    let slack = 1e-9 * (abs(hi) + abs(lo));
+    // The plateau t5 ≥ 0 ⇔ u² ≥ K1 with u = a0 + τ.
+    let k1 = j * (vf - v0) + a_min * a_min + (a0 * a0 - af * af) / 2.0;
+    let ranges = split_by_square(lo, hi, slack, k1, a0, 1.0, 1.0);
+    if ranges.iter().all(Option::is_none) {
+        return false;
+    }
+    let c3 = 2.0 * (2.0 * a0 - a_min);
+    let c2 = 5.0 * (a0 * a0) - 6.0 * a0 * a_min + (a_min * a_min) + 2.0 * j * v0;
+    let c1 =
+        2.0 * (a0 * ((a0 * a0) - 2.0 * a0 * a_min + (a_min * a_min)) + 2.0 * j * v0 * (a0 - a_min));
     let c0 = (1.0 / 12.0)
         * (3.0 * (a0 * a0 * a0 * a0) - 8.0 * (a0 * a0 * a0) * a_min
             + 6.0 * (a0 * a0) * (a_min * a_min)
@@ -591,44 +613,33 @@ fn acc1_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
                     + (a_min * a_min) * v0
                     + (a_min * a_min) * vf
                     - 2.0 * a_min * af * vf
-                    + (af * af) * vf))
-        / (j * j * j * j);
-    let coeffs = [1.0, c3, c2, c1, c0];
-    let lo = max((a_min - a0) / j, 0.0);
-    // Duration ≥ 2t + (a0 + af − 2·a_min)/j must beat the bound.
-    let hi = crate::math::min(
-        (a_max - a0) / j,
-        (sink.bound() * (1.0 + 1e-9) - (a0 + af - 2.0 * a_min) / j) / 2.0,
-    );
-    let slack = 1e-9 * (abs(hi) + abs(lo));
-    // The plateau t5 ≥ 0 ⇔ u² ≥ K1 with u = a0 + j·t.
-    let k1 = j * (vf - v0) + a_min * a_min + (a0 * a0 - af * af) / 2.0;
-    let ranges = split_by_square(lo, hi, slack, k1, a0, 1.0, j);
+                    + (af * af) * vf));
     let jj = uddu(j);
-    let phases = |t: f64| -> [f64; 7] {
-        let u = a0 + j * t;
+    let phases = |tau: f64| -> [f64; 7] {
+        let u = a0 + tau;
         let t5 =
             (vf - v0 - (2.0 * u * u - 2.0 * a_min * a_min + af * af - a0 * a0) / (2.0 * j)) / a_min;
-        [t, 0.0, (u - a_min) / j, 0.0, 0.0, t5, (af - a_min) / j]
+        [
+            tau / j,
+            0.0,
+            (u - a_min) / j,
+            0.0,
+            0.0,
+            t5,
+            (af - a_min) / j,
+        ]
     };
     for &(lo, hi) in ranges.iter().flatten() {
-        let roots = quartic_roots_in(
-            coeffs[1],
-            coeffs[2],
-            coeffs[3],
-            coeffs[4],
-            max(lo - slack, 0.0),
-            hi + slack,
-        );
-        for &t in roots.as_slice() {
+        let roots = quartic_roots_in(c3, c2, c1, c0, max(lo - slack, 0.0), hi + slack);
+        for &tau in roots.as_slice() {
             if sink.offer_root(
                 pb,
-                t,
+                tau,
                 &phases,
                 &jj,
                 |x| {
                     let dp = [4.0, 3.0 * c3, 2.0 * c2, c1];
-                    -j * j * eval(&dp, x) / (2.0 * a_min)
+                    -eval(&dp, x) / (2.0 * a_min * j * j)
                 },
                 kind(false, false, true),
             ) {
@@ -640,7 +651,7 @@ fn acc1_type(pb: &Problem, sink: &mut Sink<'_>) -> bool {
 }
 
 /// Shapes where the general equations degenerate: a single ramp, or two ramps.
-fn degenerate(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+fn degenerate(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         v0, a0, vf, af, j, ..
     } = *pb;

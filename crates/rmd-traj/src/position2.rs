@@ -14,7 +14,7 @@
 //!   change to the target) found by a bracketed search over `vc`; otherwise the blend
 //!   `λ·j₁ + (1−λ)·j₂` of two feasible profiles whose final positions bracket `pf`.
 
-use crate::cand::{Cand, Free, Problem, check_free, validate};
+use crate::cand::{Cand, Free, Problem, check, check_free, validate};
 use crate::math::{Integrator, abs, max, min, sqrt};
 use crate::position1::{fall_from, rise_to};
 use crate::profile::{Direction, MAX_PHASES, ProfileKind};
@@ -236,9 +236,32 @@ fn member(pb: &Problem, tt: f64, vc: f64) -> Option<Member> {
     Some(Member { vc, t, j, p: it.p })
 }
 
+/// d²p/dvc² of the cruise family at a member (Halley's correction): each velocity change
+/// contributes −σ·3/(4s) without plateau (s its peak acceleration) and −σ/a with a plateau at a,
+/// σ = +1 when the change grows with vc (rise before, fall after the cruise), −1 otherwise.
+fn curvature(pb: &Problem, m: &Member) -> f64 {
+    let part = |sigma: f64, ramp: f64, plateau: f64| -> f64 {
+        let s = pb.j * ramp;
+        if plateau > 0.0 {
+            -sigma / s
+        } else {
+            -sigma * 0.75 / s
+        }
+    };
+    let sigma_l = if m.j[0] > 0.0 { 1.0 } else { -1.0 };
+    let sigma_r = if m.j[4] < 0.0 { 1.0 } else { -1.0 };
+    part(sigma_l, m.t[2], m.t[1]) + part(sigma_r, m.t[4], m.t[5])
+}
+
 /// The validated profile of a member, with its final position.
 fn validated(pb: &Problem, m: &Member) -> Option<(Cand, f64)> {
     check_free(pb, m.t, m.j, ProfileKind::Cruise)
+}
+
+/// The validated profile of a member that reaches the target position (the same test as
+/// [`validated`] followed by [`hits`], through the full validation's fast path).
+fn reaching(pb: &Problem, m: &Member) -> Option<Cand> {
+    check(pb, m.t, m.j, ProfileKind::Cruise)
 }
 
 /// Between a cruise velocity whose changes fit into `tt` and one whose changes do not, the
@@ -360,36 +383,55 @@ fn cruise_search(
         np += 1;
     }
     let d = pb.d;
-    // Fast path: from the average velocity, Newton-like steps (dp/dvc ≈ the cruise time) until
-    // two members bracket the target, then refine between them.
+    // Fast path: Newton on the cruise velocity from the average velocity. The final position of
+    // the family grows with vc at the rate dp/dvc = t3 + (t2 + t4)/2 (the cruise plus half of
+    // each ramp adjacent to it: moving the cruise level shifts each velocity change's area by
+    // half its ramp at the cruise), so the steps are exact Newton steps; they stay inside the
+    // bracket once one is known (otherwise a secant or bisection step).
     {
         let clamp_v = |v: f64| min(max(v, lo_v), hi_v);
-        let mut a = member(pb, tt, clamp_v(d / tt));
-        for _ in 0..4 {
-            let Some(ma) = a else { break };
-            let f = ma.p - d;
-            if f == 0.0 {
-                if let Some((c, p)) = validated(pb, &ma)
-                    && hits(pb, &c, p)
-                {
+        let mut m = member(pb, tt, clamp_v(d / tt));
+        let (mut below_m, mut above_m): (Option<Member>, Option<Member>) = (None, None);
+        for _ in 0..12 {
+            let Some(cur) = m else { break };
+            let f = cur.p - d;
+            if abs(f) <= 0.1 * crate::cand::FINAL_REL * max(abs(d), abs(cur.vc) * cur.t[3]) {
+                if let Some(c) = reaching(pb, &cur) {
                     return Some(c);
                 }
                 break;
             }
-            let slope = max(ma.t[3], 0.05 * tt);
-            let vb = clamp_v(ma.vc - 1.5 * f / slope);
-            if vb == ma.vc {
-                break;
+            if f < 0.0 {
+                below_m = Some(cur);
+            } else {
+                above_m = Some(cur);
             }
-            let Some(mb) = member(pb, tt, vb) else { break };
-            if (mb.p < d) != (ma.p < d) {
-                let (mut l, mut h) = (None, None);
-                if let Some(found) = refine(pb, tt, ma, mb, &mut l, &mut h) {
-                    return Some(found);
+            let slope = cur.t[3] + 0.5 * (cur.t[2] + cur.t[4]);
+            let curv = curvature(pb, &cur);
+            let den = 2.0 * slope * slope - f * curv;
+            let mut vn = if den > slope * slope && curv.is_finite() {
+                cur.vc - 2.0 * f * slope / den
+            } else {
+                cur.vc - f / slope
+            };
+            if let (Some(b), Some(a)) = (below_m, above_m) {
+                let (l, h) = (min(b.vc, a.vc), max(b.vc, a.vc));
+                if !(vn > l && vn < h) {
+                    // Secant between the bracket's ends, or its middle.
+                    vn = b.vc - (b.p - d) * (a.vc - b.vc) / (a.p - b.p);
+                    if !(vn > l && vn < h) {
+                        vn = 0.5 * (l + h);
+                    }
                 }
+                if vn == b.vc || vn == a.vc {
+                    break;
+                }
+            }
+            let vn = clamp_v(vn);
+            if vn == cur.vc {
                 break;
             }
-            a = Some(mb);
+            m = member(pb, tt, vn);
         }
     }
     // Walk the samples in order of vc; where the family's feasibility changes between two
@@ -504,24 +546,27 @@ fn refine(
         if abs(f) < abs(best.p - d) {
             best = m;
         }
+        // Anderson–Björck: when the same end is replaced twice in a row, the other end's value
+        // is scaled by 1 − f/f_replaced (or halved, Illinois, if that is not positive).
         if (f < 0.0) == (fa < 0.0) {
+            if side == -1 {
+                let m = 1.0 - f / fa;
+                fb *= if m > 0.0 { m } else { 0.5 };
+            }
             va = vc;
             fa = f;
-            if side == -1 {
-                fb /= 2.0;
-            }
             side = -1;
         } else {
+            if side == 1 {
+                let m = 1.0 - f / fb;
+                fa *= if m > 0.0 { m } else { 0.5 };
+            }
             vb = vc;
             fb = f;
-            if side == 1 {
-                fa /= 2.0;
-            }
             side = 1;
         }
     }
-    let (c, p) = validated(pb, &best)?;
-    if hits(pb, &c, p) { Some(c) } else { None }
+    reaching(pb, &best)
 }
 
 fn sort(x: &mut [f64]) {

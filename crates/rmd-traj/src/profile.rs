@@ -124,17 +124,23 @@ impl AxisProfile {
         kind: ProfileKind::AtTarget,
     };
 
-    /// Builds the profile from its start state, brake pieces and phases. `end` replaces the
-    /// integrated end state (the exact target, to avoid accumulated rounding); `None` keeps it.
-    pub(crate) fn build(
+    /// Builds the profile in place from its start state, brake pieces and phases (durations `t`,
+    /// jerks `j`). `end` replaces the integrated end state (the exact target, to avoid
+    /// accumulated rounding); `None` keeps it. Entries past the last segment are zero (a profile
+    /// equals a freshly built one): only those the previous profile used are cleared.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn build_into(
+        &mut self,
         start: (f64, f64, f64),
         brake: &[Phase],
-        phases: &[Phase],
+        t: &[f64],
+        j: &[f64],
         end: Option<(f64, f64, f64)>,
         kind: ProfileKind,
         a_snap: f64,
-    ) -> AxisProfile {
-        let mut out = AxisProfile::EMPTY;
+    ) {
+        let out = self;
+        let old_n = out.n as usize;
         out.kind = kind;
         let (p, v, a) = start;
         let mut it = Integrator::new(p, v, a, a_snap);
@@ -144,41 +150,55 @@ impl AxisProfile {
         out.p[0] = p;
         out.v[0] = v;
         out.a[0] = a;
-        let mut n_brake = 0u8;
-        for (k, ph) in brake.iter().chain(phases.iter()).enumerate() {
-            if n >= MAX_SEGMENTS {
-                break;
+        // At most 2 brake pieces and MAX_PHASES phases: MAX_SEGMENTS slots.
+        let (brake, t) = (
+            &brake[..brake.len().min(MAX_BRAKE_PHASES)],
+            &t[..t.len().min(MAX_PHASES)],
+        );
+        for ph in brake {
+            if ph.duration > 0.0 {
+                out.t[n] = ph.duration;
+                out.j[n] = ph.jerk;
+                it.step(ph.duration, ph.jerk);
+                time += ph.duration;
+                n += 1;
+                out.t0[n] = time;
+                (out.p[n], out.v[n], out.a[n]) = it.state();
             }
-            if !(ph.duration > 0.0) {
-                continue;
+        }
+        let n_brake = n as u8;
+        for (&duration, &jerk) in t.iter().zip(j) {
+            if duration > 0.0 {
+                out.t[n] = duration;
+                out.j[n] = jerk;
+                it.step(duration, jerk);
+                time += duration;
+                n += 1;
+                out.t0[n] = time;
+                (out.p[n], out.v[n], out.a[n]) = it.state();
             }
-            if k < brake.len() {
-                n_brake += 1;
-            }
-            out.t[n] = ph.duration;
-            out.j[n] = ph.jerk;
-            it.step(ph.duration, ph.jerk);
-            time += ph.duration;
-            n += 1;
-            out.t0[n] = time;
-            (out.p[n], out.v[n], out.a[n]) = it.state();
         }
         if let Some((pe, ve, ae)) = end {
             out.p[n] = pe;
             out.v[n] = ve;
             out.a[n] = ae;
         }
+        if n < old_n {
+            out.t[n..old_n].fill(0.0);
+            out.j[n..old_n].fill(0.0);
+            for x in [&mut out.t0, &mut out.p, &mut out.v, &mut out.a] {
+                x[n + 1..old_n + 1].fill(0.0);
+            }
+        }
         out.n = n as u8;
         out.n_brake = n_brake;
-        out
     }
 
     /// Replaces the end velocity and acceleration (velocity interface: the exact target).
-    pub(crate) fn with_end_velocity(mut self, v: f64, a: f64) -> Self {
+    pub(crate) fn set_end_velocity(&mut self, v: f64, a: f64) {
         let n = self.n as usize;
         self.v[n] = v;
         self.a[n] = a;
-        self
     }
 
     /// The profile's own duration (brake included). An axis may finish before the trajectory's

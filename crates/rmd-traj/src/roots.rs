@@ -58,18 +58,6 @@ pub(crate) fn eval(c: &[f64], x: f64) -> f64 {
     r
 }
 
-/// Value and derivative at `x`.
-#[inline]
-fn eval_d(c: &[f64], x: f64) -> (f64, f64) {
-    let mut r = 0.0;
-    let mut d = 0.0;
-    for &ci in c {
-        d = d * x + r;
-        r = r * x + ci;
-    }
-    (r, d)
-}
-
 /// Rounding-error bound of Horner's scheme at `x`.
 #[inline]
 fn error_bound(c: &[f64], x: f64) -> f64 {
@@ -194,6 +182,21 @@ pub(crate) fn quartic_roots_in(b: f64, c: f64, d: f64, e: f64, lo: f64, hi: f64)
     if !(lo <= hi) || !lo.is_finite() || !hi.is_finite() || q.iter().any(|x| !x.is_finite()) {
         return out;
     }
+    // Most calls have no root in the range: prove that cheaply first (on the whole range, else
+    // on its halves). The search below would find nothing there either; a half without a root
+    // is left out of the search.
+    let mid = 0.5 * (lo + hi);
+    if no_root_near(b, c, d, e, mid, 0.5 * (hi - lo)) {
+        return out;
+    }
+    let left_clear = no_root_near(b, c, d, e, 0.5 * (lo + mid), 0.5 * (mid - lo));
+    let right_clear = no_root_near(b, c, d, e, 0.5 * (mid + hi), 0.5 * (hi - mid));
+    let (lo, hi) = match (left_clear, right_clear) {
+        (true, true) => return out,
+        (true, false) => (mid, hi),
+        (false, true) => (lo, mid),
+        (false, false) => (lo, hi),
+    };
     // Roots of the derivative (a cubic) in [lo, hi]: between the roots of its derivative.
     let ddq = [12.0, 6.0 * b, 2.0 * c];
     let mut xs = [0.0; 4];
@@ -268,17 +271,55 @@ pub(crate) fn quartic_roots_in(b: f64, c: f64, d: f64, e: f64, lo: f64, hi: f64)
     out
 }
 
+/// True if the monic quartic x⁴ + b·x³ + c·x² + d·x + e provably stays away from zero on
+/// `[m − r, m + r]`, by more than the rounding of its evaluation there (so the isolation in
+/// [`quartic_roots_in`] would report no root, not even a double one). Taylor expansion at `m`:
+/// q(m + h) = q(m) + q′(m)·h + q″(m)/2·h² + q‴(m)/6·h³ + h⁴.
+fn no_root_near(b: f64, c: f64, d: f64, e: f64, m: f64, r: f64) -> bool {
+    let q0 = (((m + b) * m + c) * m + d) * m + e;
+    let q1 = ((4.0 * m + 3.0 * b) * m + 2.0 * c) * m + d;
+    let q2 = (6.0 * m + 3.0 * b) * m + c;
+    let q3 = 4.0 * m + b;
+    let swing = (((r + abs(q3)) * r + abs(q2)) * r + abs(q1)) * r;
+    // Without the rounding term first: when that already fails, the full test fails too.
+    if !(abs(q0) > swing * (1.0 + 1e-9)) {
+        return false;
+    }
+    let x = abs(m) + r;
+    let noise = 8.0 * EPS * ((((x + abs(b)) * x + abs(c)) * x + abs(d)) * x + abs(e));
+    abs(q0) > (swing + 2.0 * noise) * (1.0 + 1e-9)
+}
+
+/// Value, first and second derivative at `x`.
+#[inline]
+fn eval_d2(c: &[f64], x: f64) -> (f64, f64, f64) {
+    let mut r = 0.0;
+    let mut d = 0.0;
+    let mut d2 = 0.0;
+    for &ci in c {
+        d2 = d2 * x + d;
+        d = d * x + r;
+        r = r * x + ci;
+    }
+    (r, d, 2.0 * d2)
+}
+
 /// The root of `c` in `[a, b]` where `c` is monotone and changes sign (`fa` = value at `a`).
+/// Laguerre steps (cubically convergent, and unlike Newton not slowed down far from the root of
+/// a polynomial dominated by its leading term), kept inside the shrinking bracket by bisection.
 fn bracketed(c: &[f64], mut a: f64, mut b: f64, fa: f64, fb: f64) -> f64 {
     let a_neg = fa < 0.0;
+    let n = (c.len() - 1) as f64;
     // Start at the secant point (the function is monotone in the bracket).
     let mut x = a - fa * (b - a) / (fb - fa);
     if !(x > a && x < b) {
         x = 0.5 * (a + b);
     }
     for _ in 0..100 {
-        let (f, df) = eval_d(c, x);
-        if f == 0.0 {
+        let (f, df, d2f) = eval_d2(c, x);
+        // At the root to within the rounding of the polynomial's value: no iteration can
+        // tell the points of this neighbourhood apart.
+        if abs(f) <= error_bound(c, x) {
             return x;
         }
         if (f < 0.0) == a_neg {
@@ -286,7 +327,18 @@ fn bracketed(c: &[f64], mut a: f64, mut b: f64, fa: f64, fb: f64) -> f64 {
         } else {
             b = x;
         }
-        let mut next = if df != 0.0 { x - f / df } else { f64::NAN };
+        let g = df / f;
+        let h = g * g - d2f / f;
+        let disc = (n - 1.0) * (n * h - g * g);
+        let mut next = if disc >= 0.0 {
+            let sq = sqrt(disc);
+            let den = if g >= 0.0 { g + sq } else { g - sq };
+            if den != 0.0 { x - n / den } else { f64::NAN }
+        } else if df != 0.0 {
+            x - f / df
+        } else {
+            f64::NAN
+        };
         if !(next > a && next < b) {
             next = 0.5 * (a + b);
         }

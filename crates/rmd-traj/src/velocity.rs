@@ -18,7 +18,7 @@ const fn up_kind(limits: ReachedLimits) -> ProfileKind {
 }
 
 /// Collects the valid minimum-time profiles (both directions).
-pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList) {
+pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList<'_>) {
     let up_first = pb.vf >= pb.v0;
     let dirs = if up_first {
         [Direction::Up, Direction::Down]
@@ -41,7 +41,7 @@ pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList) {
     }
 }
 
-fn up_profiles(pb: &Problem, sink: &mut Sink<'_>) -> bool {
+fn up_profiles(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
     let Problem {
         v0,
         a0,

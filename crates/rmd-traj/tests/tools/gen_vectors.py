@@ -5,7 +5,7 @@ The oracle is the `ruckig` package (PyPI, `pip install ruckig==0.19.4`); nothing
 rmd-rt. The output mimics the hidden acceptance set: 3 samples per case rounded to 12 significant
 digits, no `profiles` / `position_extrema`, and wider random ranges than the public set.
 
-Usage: gen_vectors.py OUT.json [--cases N] [--seed S] [--digits 12]
+Usage: gen_vectors.py OUT.json [--cases N] [--seed S] [--digits 12] [--extreme] [--p-outside P]
 """
 import argparse
 import json
@@ -237,9 +237,13 @@ def main():
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--digits", type=int, default=12)
     ap.add_argument("--extreme", action="store_true", help="much wider ranges (stress test)")
+    ap.add_argument("--p-outside", type=float, default=None,
+                    help="probability of an initial state outside the limits (default 0.25; 0.3 extreme)")
     args = ap.parse_args()
     if args.extreme:
         RANGES.update(EXTREME)
+    if args.p_outside is not None:
+        RANGES["p_outside"] = args.p_outside
     rng = random.Random(args.seed)
     mix = [("pos1_random", 0.3), ("pos1_rest", 0.15), ("pos3_sync", 0.15), ("pos6_sync", 0.15),
            ("vel1", 0.07), ("vel3_sync", 0.05), ("options", 0.13)]

@@ -1,0 +1,170 @@
+//! Cartesian impedance control of one leg's foot:
+//!
+//! ```text
+//! torque = J^T (K (x_d - x) + D (v_d - v)) + g(q) + joint-limit springs
+//! ```
+//!
+//! with `x`, `v = J q'` the foot's task coordinates and velocity, `J` the 4 x 4 Jacobian, `K`, `D`
+//! diagonal stiffness and damping, and `g(q)` the torques that hold the leg's weight
+//! (the negative of [`LegModel::gravity_torques`]). Near a joint limit a one-sided spring pushes
+//! the joint back; a joint beyond its limit is a fault the controller stops on.
+//!
+//! Everything is fixed-size nalgebra arithmetic on the stack: no allocation, suitable for the
+//! loop's `update`.
+
+use nalgebra::{Matrix4, Vector4};
+use rmd_rt::Feedback;
+
+use super::leg::{JOINTS, LegModel};
+
+/// Stiffness and damping of the foot, and the joint-limit springs.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct Gains {
+    /// Stiffness along x, y, z (N/m) and about the pitch (N*m/rad).
+    pub(crate) stiffness: Vector4<f64>,
+    /// Damping along x, y, z (N*s/m) and about the pitch (N*m*s/rad).
+    pub(crate) damping: Vector4<f64>,
+    /// Whether to add the gravity torques.
+    pub(crate) gravity_compensation: bool,
+    /// Width of the zone inside each joint limit where the limit spring acts, rad.
+    pub(crate) limit_zone_rad: f64,
+    /// Stiffness of the limit springs, N*m/rad.
+    pub(crate) limit_stiffness: f64,
+}
+
+impl Gains {
+    /// 3000 N/m and 60 N*s/m along the axes, 30 N*m/rad and 0.8 N*m*s/rad in pitch, gravity
+    /// compensation on, 5 degree limit zones with 60 N*m/rad springs.
+    pub(crate) fn new() -> Self {
+        Self {
+            stiffness: Vector4::new(3000.0, 3000.0, 3000.0, 30.0),
+            damping: Vector4::new(60.0, 60.0, 60.0, 0.8),
+            gravity_compensation: true,
+            limit_zone_rad: 5f64.to_radians(),
+            limit_stiffness: 60.0,
+        }
+    }
+}
+
+/// One leg's joint state read from the loop's feedback.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct JointState {
+    /// Joint angles, rad.
+    pub(crate) q: Vector4<f64>,
+    /// Joint velocities, rad/s.
+    pub(crate) qd: Vector4<f64>,
+    /// Whether every motor's feedback is fresh this tick.
+    pub(crate) fresh: bool,
+}
+
+impl JointState {
+    /// The leg whose motors are `first..first + 4` in robot-description order.
+    pub(crate) fn read(feedback: &Feedback<'_>, first: usize) -> Self {
+        let mut s = Self {
+            q: Vector4::zeros(),
+            qd: Vector4::zeros(),
+            fresh: true,
+        };
+        for i in 0..JOINTS {
+            if let Some(m) = feedback.get(first + i) {
+                s.q[i] = m.joint_angle_rad();
+                s.qd[i] = m.joint_velocity_rad_s();
+                s.fresh &= m.fresh;
+            }
+        }
+        s
+    }
+}
+
+/// What the impedance law computed in one tick.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct Output {
+    /// Joint torques to command, N*m.
+    pub(crate) torque: Vector4<f64>,
+    /// The foot's task coordinates (m, rad).
+    pub(crate) foot: Vector4<f64>,
+    /// The foot's task velocity (m/s, rad/s).
+    pub(crate) foot_velocity: Vector4<f64>,
+    /// The first joint beyond its limit, if any (the caller stops).
+    pub(crate) beyond_limit: Option<usize>,
+}
+
+impl Output {
+    /// Distance from the foot to `target` in x, y, z, m.
+    pub(crate) fn position_error_m(&self, target: &Vector4<f64>) -> f64 {
+        (target - self.foot).fixed_rows::<3>(0).norm()
+    }
+}
+
+/// The impedance law for one leg.
+pub(crate) fn impedance(
+    model: &LegModel,
+    gains: &Gains,
+    joints: &JointState,
+    target: &Vector4<f64>,
+    target_velocity: &Vector4<f64>,
+) -> Output {
+    let (foot, jacobian): (Vector4<f64>, Matrix4<f64>) = model.foot_and_jacobian(&joints.q);
+    let foot_velocity = jacobian * joints.qd;
+    let force = gains.stiffness.component_mul(&(target - foot))
+        + gains
+            .damping
+            .component_mul(&(target_velocity - foot_velocity));
+    let mut torque = jacobian.transpose() * force;
+    if gains.gravity_compensation {
+        torque -= model.gravity_torques(&joints.q);
+    }
+    let mut beyond_limit = None;
+    for i in 0..JOINTS {
+        let (low, high) = (
+            model.limits[i].min_deg.to_radians(),
+            model.limits[i].max_deg.to_radians(),
+        );
+        let q = joints.q[i];
+        if q < low || q > high {
+            beyond_limit.get_or_insert(i);
+        }
+        let into_low = low + gains.limit_zone_rad - q;
+        let into_high = q - (high - gains.limit_zone_rad);
+        if into_low > 0.0 {
+            torque[i] += gains.limit_stiffness * into_low;
+        } else if into_high > 0.0 {
+            torque[i] -= gains.limit_stiffness * into_high;
+        }
+    }
+    Output {
+        torque,
+        foot,
+        foot_velocity,
+        beyond_limit,
+    }
+}
+
+/// Running statistics of a tracking error (allocation-free).
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub(crate) struct ErrorStats {
+    /// Samples.
+    pub(crate) count: u64,
+    /// Sum of squares.
+    pub(crate) sum_sq: f64,
+    /// Largest error.
+    pub(crate) max: f64,
+}
+
+impl ErrorStats {
+    /// Adds one sample.
+    pub(crate) fn add(&mut self, e: f64) {
+        self.count += 1;
+        self.sum_sq += e * e;
+        self.max = self.max.max(e);
+    }
+
+    /// Root mean square (0 without samples).
+    pub(crate) fn rms(&self) -> f64 {
+        if self.count == 0 {
+            0.0
+        } else {
+            (self.sum_sq / self.count as f64).sqrt()
+        }
+    }
+}
