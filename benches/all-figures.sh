@@ -2,7 +2,8 @@
 # Re-runs every figure of docs/benchmarks.md, in order, with the machine's state before each:
 #   1. cargo bench --bench tick                          (tick overhead, allocations per tick)
 #   2. benches/jitter-vs-cyclictest.sh                   (wake latency vs cyclictest, plot)
-#   3. rmd bench rate --buses 1 and --buses 4            (bus-limited rate vs the wire limit)
+#   3. rmd bench rate --buses 1 and --buses 4, blocking and polling receive (--rx-spin-us 50)
+#                                                         (bus-limited rate vs the wire limit)
 #   4. rmd bench loop, 4 motors and 4 x 4 motors at 1 kHz (the loop report)
 # Logs go to target/figures/; the plot to docs/img/jitter-histograms.svg.
 #
@@ -22,7 +23,7 @@ while [[ $# -gt 0 ]]; do
   case "$1" in
     --quiet-load) quiet_load=${2-}; shift 2 ;;
     --max-wait) max_wait=${2-}; shift 2 ;;
-    -h|--help) sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "error: unknown argument '$1'" >&2; exit 2 ;;
   esac
 done
@@ -63,10 +64,12 @@ wait_quiet; stamp "jitter vs cyclictest"
 benches/jitter-vs-cyclictest.sh --rounds 3 --seconds 30 --period-us 1000 --prio 80 --cpu 1 \
   --spin-us 50 --out "$out/jitter" --svg docs/img/jitter-histograms.svg 2>&1 | tee "$out/jitter.txt"
 
-for buses in 1 4; do
-  wait_quiet; stamp "rate, $buses bus(es)"
-  "$rmd" bench rate --buses "$buses" --seconds 10 --cpu 1 --fifo 80 --spin-us 100 2>&1 \
-    | tee "$out/rate-$buses.txt"
+for rx in 0 50; do
+  for buses in 1 4; do
+    wait_quiet; stamp "rate, $buses bus(es), rx spin $rx us"
+    "$rmd" bench rate --buses "$buses" --seconds 10 --cpu 1 --fifo 80 --spin-us 100 --rx-spin-us "$rx" 2>&1 \
+      | tee "$out/rate-$buses-rx$rx.txt"
+  done
 done
 
 for buses in 1 4; do
