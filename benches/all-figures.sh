@@ -4,6 +4,7 @@
 #   2. benches/jitter-vs-cyclictest.sh                   (wake latency vs cyclictest, plot)
 #   3. rmd bench rate --buses 1 and --buses 4, blocking and polling receive (--rx-spin-us 50)
 #                                                         (bus-limited rate vs the wire limit)
+#      and one trial each at 1165 Hz (95% of the wire limit)
 #   4. rmd bench loop, 4 motors and 4 x 4 motors at 1 kHz (the loop report)
 # Logs go to target/figures/; the plot to docs/img/jitter-histograms.svg.
 #
@@ -23,7 +24,7 @@ while [[ $# -gt 0 ]]; do
   case "$1" in
     --quiet-load) quiet_load=${2-}; shift 2 ;;
     --max-wait) max_wait=${2-}; shift 2 ;;
-    -h|--help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "error: unknown argument '$1'" >&2; exit 2 ;;
   esac
 done
@@ -61,8 +62,8 @@ wait_quiet; stamp "tick overhead"
 cargo bench --bench tick 2>&1 | tee "$out/tick.txt"
 
 wait_quiet; stamp "jitter vs cyclictest"
-benches/jitter-vs-cyclictest.sh --rounds 3 --seconds 30 --period-us 1000 --prio 80 --cpu 1 \
-  --spin-us 50 --out "$out/jitter" --svg docs/img/jitter-histograms.svg 2>&1 | tee "$out/jitter.txt"
+benches/jitter-vs-cyclictest.sh --rounds 6 --seconds 30 --period-us 1000 --prio 80 --cpu 1 \
+  --spin-us 100 --out "$out/jitter" --svg docs/img/jitter-histograms.svg 2>&1 | tee "$out/jitter.txt"
 
 for rx in 0 50; do
   for buses in 1 4; do
@@ -72,9 +73,16 @@ for rx in 0 50; do
   done
 done
 
+# One trial each at 95% of the wire limit (about 1225 Hz): how many ticks miss there.
+for buses in 1 4; do
+  wait_quiet; stamp "rate 1165 Hz, $buses bus(es), rx spin 50 us"
+  "$rmd" bench rate --buses "$buses" --rate 1165 --seconds 10 --cpu 1 --fifo 80 --spin-us 100 \
+    --rx-spin-us 50 2>&1 | tee "$out/rate-$buses-1165.txt"
+done
+
 for buses in 1 4; do
   wait_quiet; stamp "loop report, 4 motors x $buses bus(es)"
   "$rmd" bench loop --motors 4 --buses "$buses" --rate 1000 --seconds 10 --cpu 1 --fifo 80 \
-    --spin-us 50 | tee "$out/loop-$buses.txt"
+    --spin-us 100 | tee "$out/loop-$buses.txt"
 done
 stamp "done"
