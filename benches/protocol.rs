@@ -36,15 +36,11 @@ fn tick(c: &mut Criterion) {
     c.bench_function("encode 0x280 + decode 4 replies", |b| {
         b.iter(|| {
             let frame = black_box(&command).encode();
-            let mut speed_sum = i32::from(frame.data()[0]);
+            black_box(&frame);
             for reply in black_box(&replies) {
-                if let Ok((_, r)) = decode_reply_to(reply, Command::Torque)
-                    && let Some(s) = r.status2()
-                {
-                    speed_sum += i32::from(s.speed.raw());
-                }
+                // Every decoded reply escapes whole, so no field's decoding can be optimised away.
+                let _ = black_box(decode_reply_to(reply, Command::Torque));
             }
-            black_box((frame, speed_sum))
         })
     });
     c.bench_function("decode 1 reply (0xA1)", |b| {

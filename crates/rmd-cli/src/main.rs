@@ -9,6 +9,7 @@
 //! (Ctrl-C), [`safe_stop`] (motors off when a motion ends), [`confirm`] (ROM writes).
 
 mod accel;
+mod bench;
 mod confirm;
 mod connect;
 mod decode;
@@ -90,6 +91,8 @@ enum Command {
     Log(log::LogArgs),
     /// Play a candump -L log back in time: printed, or onto an interface or the simulator.
     Replay(replay::ReplayArgs),
+    /// Benchmarks: the loop on simulated motors, timer jitter, the bus-limited rate.
+    Bench(bench::BenchArgs),
     /// Trajectory generator tools: `rmd traj check FILE` runs a test-vector file.
     Traj(traj::TrajArgs),
 }
@@ -118,6 +121,7 @@ fn main() -> ExitCode {
         Command::Monitor(args) => monitor::run(args),
         Command::Log(args) => log::run(args),
         Command::Replay(args) => replay::run(args),
+        Command::Bench(args) => bench::run(args),
         Command::Traj(args) => traj::run(args),
     }
 }

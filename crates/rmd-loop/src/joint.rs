@@ -79,7 +79,13 @@ pub struct JointMap {
     sign: f64,
     gear_ratio: f64,
     zero_offset_deg: f64,
-    torque_constant: Option<f64>,
+    /// The torque constant, 0.0 when unknown. Kept as a plain `f64` beside `has_torque_constant`
+    /// rather than an `Option<f64>`: the optimiser computes `sign * amps * kt` without a branch
+    /// and discards it when the constant is absent, and the payload of a `None` is whatever bits
+    /// were there (a stale pointer reads as a subnormal double, which costs a microcode assist of
+    /// ~100+ cycles per multiply: measured 3x slower ticks, see docs/benchmarks.md).
+    torque_constant: f64,
+    has_torque_constant: bool,
 }
 
 impl JointMap {
@@ -89,7 +95,8 @@ impl JointMap {
             sign: motor.direction.sign(),
             gear_ratio: motor.gear_ratio,
             zero_offset_deg: motor.zero_offset_deg,
-            torque_constant: motor.torque_constant_nm_per_amp,
+            torque_constant: motor.torque_constant_nm_per_amp.unwrap_or(0.0),
+            has_torque_constant: motor.torque_constant_nm_per_amp.is_some(),
         }
     }
 
@@ -105,7 +112,8 @@ impl JointMap {
 
     /// Joint torque (N*m) from the motor's torque current, if the torque constant is known.
     pub fn joint_torque_nm(&self, motor_amps: f64) -> Option<f64> {
-        self.torque_constant.map(|kt| self.sign * motor_amps * kt)
+        self.has_torque_constant
+            .then_some(self.sign * motor_amps * self.torque_constant)
     }
 
     /// Motor current (amperes, motor sign) for a joint-side current (joint sign).
@@ -115,7 +123,8 @@ impl JointMap {
 
     /// Motor current (amperes, motor sign) for a joint torque, if the torque constant is known.
     pub fn motor_amps_for_torque(&self, joint_nm: f64) -> Option<f64> {
-        self.torque_constant.map(|kt| self.sign * joint_nm / kt)
+        self.has_torque_constant
+            .then(|| self.sign * joint_nm / self.torque_constant)
     }
 }
 
@@ -168,6 +177,10 @@ mod tests {
         assert_eq!(j.joint_torque_nm(2.0), Some(-1.0));
         assert_eq!(j.motor_amps_for_torque(-1.0), Some(2.0));
         assert_eq!(j.motor_amps(3.0), -3.0);
+        // Without a torque constant there is no torque.
+        let j = JointMap::from_config(&MotorConfig::new(1));
+        assert_eq!(j.joint_torque_nm(2.0), None);
+        assert_eq!(j.motor_amps_for_torque(1.0), None);
     }
 
     proptest! {

@@ -1,0 +1,126 @@
+//! The benchmark controller: PD position control of every joint towards a moving target, so that
+//! the loop, the motors and the bus do real work (commands and replies change every tick).
+//!
+//! Joint `i` follows `AMPLITUDE_DEG * sin(2 pi FREQUENCY_HZ t + i pi / 2)` with
+//! `amps = KP (target - angle) + KD (target velocity - velocity)`; the gains suit the simulator's
+//! default motor (RMD-X8 class, 1:9, 2.09 N*m/A at the output): about 8 Hz bandwidth, damping 0.6.
+//! The controller also measures, without allocating, how well it tracks and when the replies
+//! reached it (for `rmd bench rate`).
+
+use core::f64::consts::PI;
+
+use rmd_bus::{Clock, MonotonicClock, Timestamp};
+use rmd_loop::stats::LatencyHistogram;
+use rmd_loop::{Commands, Controller, Feedback, Flow, TickContext};
+
+/// Target amplitude, joint degrees.
+pub(crate) const AMPLITUDE_DEG: f64 = 20.0;
+/// Target frequency.
+pub(crate) const FREQUENCY_HZ: f64 = 0.5;
+/// Proportional gain, amperes per degree.
+const KP: f64 = 0.4;
+/// Derivative gain, amperes per degree per second.
+const KD: f64 = 0.01;
+/// Tracking is measured after this long (the joints start at rest at 0 degrees).
+const SETTLE_S: f64 = 0.5;
+
+/// PD control towards moving targets, with tracking and timing measurements.
+#[derive(Debug)]
+pub(crate) struct MovingTargetPd {
+    squared_error_sum: f64,
+    error_samples: u64,
+    max_error_deg: f64,
+    /// Time from the last fresh reply's arrival to the start of `update` (real clock), only when
+    /// `measure_handoff` is set (real time).
+    pub(crate) handoff: LatencyHistogram,
+    /// Time from the tick's scheduled start to the last fresh reply's arrival.
+    pub(crate) last_reply: LatencyHistogram,
+    measure_handoff: bool,
+    /// When the first and the last tick the controller ran were due.
+    pub(crate) ticks_due: Option<(Timestamp, Timestamp)>,
+}
+
+impl MovingTargetPd {
+    /// A controller; `real_time` enables the hand-off measurement (which reads the real clock).
+    pub(crate) fn new(real_time: bool) -> Self {
+        Self {
+            squared_error_sum: 0.0,
+            error_samples: 0,
+            max_error_deg: 0.0,
+            handoff: LatencyHistogram::new(),
+            last_reply: LatencyHistogram::new(),
+            measure_handoff: real_time,
+            ticks_due: None,
+        }
+    }
+
+    /// The target of joint `i` at `t` seconds: angle (deg) and velocity (deg/s).
+    pub(crate) fn target(i: usize, t: f64) -> (f64, f64) {
+        let w = 2.0 * PI * FREQUENCY_HZ;
+        let phase = w * t + i as f64 * PI / 2.0;
+        (AMPLITUDE_DEG * phase.sin(), AMPLITUDE_DEG * w * phase.cos())
+    }
+
+    /// RMS tracking error after the settling time, degrees (`None` if the run was shorter).
+    pub(crate) fn rms_error_deg(&self) -> Option<f64> {
+        (self.error_samples > 0)
+            .then(|| (self.squared_error_sum / self.error_samples as f64).sqrt())
+    }
+
+    /// Largest tracking error after the settling time, degrees.
+    pub(crate) fn max_error_deg(&self) -> Option<f64> {
+        (self.error_samples > 0).then_some(self.max_error_deg)
+    }
+}
+
+impl Controller for MovingTargetPd {
+    fn update(&mut self, ctx: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
+        let entered = self.measure_handoff.then(|| MonotonicClock.now());
+        let t = ctx.time_s();
+        self.ticks_due = Some(match self.ticks_due {
+            None => (ctx.scheduled, ctx.scheduled),
+            Some((first, _)) => (first, ctx.scheduled),
+        });
+        let mut latest: Option<Timestamp> = None;
+        for (i, joint) in fb.iter().enumerate() {
+            if joint.fresh {
+                latest = Some(latest.map_or(joint.received_at, |l| l.max(joint.received_at)));
+            }
+            let (angle, velocity) = Self::target(i, t);
+            let error = angle - joint.joint_angle_deg;
+            let amps = KP * error + KD * (velocity - joint.joint_velocity_dps);
+            // Finite by construction; the loop clamps to the current limit.
+            let _ = cmd.set_current(i, amps);
+            if t >= SETTLE_S {
+                self.squared_error_sum += error * error;
+                self.error_samples += 1;
+                self.max_error_deg = self.max_error_deg.max(error.abs());
+            }
+        }
+        if fb.all_fresh()
+            && let Some(last) = latest
+        {
+            self.last_reply.record(last - ctx.scheduled);
+            if let Some(entered) = entered {
+                self.handoff.record(entered - last);
+            }
+        }
+        Flow::Continue
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn targets_move_and_are_out_of_phase() {
+        let (a0, v0) = MovingTargetPd::target(0, 0.0);
+        let (a1, _) = MovingTargetPd::target(1, 0.0);
+        assert_eq!(a0, 0.0);
+        assert!((a1 - AMPLITUDE_DEG).abs() < 1e-9);
+        assert!((v0 - AMPLITUDE_DEG * 2.0 * PI * FREQUENCY_HZ).abs() < 1e-9);
+        let (a, _) = MovingTargetPd::target(0, 0.5);
+        assert!((a - AMPLITUDE_DEG).abs() < 1e-9);
+    }
+}

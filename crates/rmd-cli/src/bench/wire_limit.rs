@@ -1,0 +1,200 @@
+//! The theoretical wire limit of a run, from the frames that were actually on the simulated wire.
+//!
+//! One 0x280 exchange occupies the bus from the start of the 0x280 frame to the end of the last
+//! reply's intermission: the 0x280 frame up to its end of frame, the motors' turnaround, then the
+//! replies back to back, each with its intermission. The 0x280's own 3-bit intermission passes
+//! during the turnaround, so
+//!
+//! ```text
+//! cycle = sum of the (1 + motors) frame times (rmd_bus::wire::frame_duration, stuffed, with
+//!         intermission) + turnaround - 3 bit times
+//! ```
+//!
+//! No loop, however fast, can start the next exchange on the bus before the cycle of this one has
+//! ended, so the highest rate any loop can sustain without a single overrun is `1 / max cycle`.
+
+use core::time::Duration;
+
+use rmd_bus::Timestamp;
+use rmd_bus::wire::{INTERFRAME_BITS, bits_to_duration, frame_bits, frame_duration};
+use rmd_protocol::MULTI_TORQUE_CAN_ID;
+use rmd_sim::{Node, Transmission};
+use serde_json::{Value, json};
+
+/// One exchange as it went over the wire.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct Exchange {
+    /// When the 0x280 frame started on the wire.
+    pub(crate) start: Timestamp,
+    /// 0x280 start to the end of the last reply's intermission (the bus is free again).
+    pub(crate) cycle: Duration,
+    /// Sum of the frame times of the 0x280 frame and its replies (stuffed, with intermission).
+    pub(crate) frames: Duration,
+    /// From the 0x280's end of frame to the first reply's start.
+    pub(crate) turnaround: Duration,
+    /// Bits of the longest frame of the exchange.
+    pub(crate) max_frame_bits: u32,
+    /// Bits of the shortest frame of the exchange.
+    pub(crate) min_frame_bits: u32,
+}
+
+/// The complete exchanges of a bus's trace: each 0x280 frame the host sent followed by exactly
+/// `motors` motor frames. This includes the loop's start-up probes and the zero-torque frame of
+/// its safe stop: select the ticks' exchanges by their [`start`](Exchange::start).
+pub(crate) fn exchanges(trace: &[Transmission], motors: usize, bitrate: u32) -> Vec<Exchange> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < trace.len() {
+        let tx = &trace[i];
+        i += 1;
+        if !(tx.from == Node::Host && tx.frame.id() == MULTI_TORQUE_CAN_ID) {
+            continue;
+        }
+        let replies: Vec<&Transmission> = trace[i..]
+            .iter()
+            .take_while(|t| matches!(t.from, Node::Motor(_)))
+            .collect();
+        i += replies.len();
+        if replies.len() != motors {
+            continue;
+        }
+        let all: Vec<&Transmission> = core::iter::once(tx)
+            .chain(replies.iter().copied())
+            .collect();
+        let bits: Vec<u32> = all.iter().map(|t| frame_bits(&t.frame)).collect();
+        out.push(Exchange {
+            start: tx.start,
+            cycle: replies[motors - 1].end - tx.start,
+            frames: all.iter().map(|t| frame_duration(&t.frame, bitrate)).sum(),
+            turnaround: replies[0].start - tx.delivered,
+            max_frame_bits: bits.iter().copied().max().unwrap_or(0),
+            min_frame_bits: bits.iter().copied().min().unwrap_or(0),
+        });
+    }
+    out
+}
+
+/// What the exchanges of a run say about the wire limit.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct WireLimit {
+    /// Exchanges analysed.
+    pub(crate) exchanges: usize,
+    /// Longest cycle: the wire-limited period.
+    pub(crate) max_cycle: Duration,
+    /// Mean cycle.
+    pub(crate) mean_cycle: Duration,
+    /// Frame times of the exchange with the longest cycle.
+    pub(crate) frames_at_max: Duration,
+    /// Turnaround of the exchange with the longest cycle.
+    pub(crate) turnaround_at_max: Duration,
+    /// Longest turnaround seen.
+    pub(crate) max_turnaround: Duration,
+    /// Shortest and longest frame of the run, bits.
+    pub(crate) frame_bits: (u32, u32),
+}
+
+impl WireLimit {
+    /// The summary of `exchanges` (several buses: pass them all, the buses run in parallel and
+    /// the slowest sets the limit). `None` without exchanges.
+    pub(crate) fn of(exchanges: &[Exchange]) -> Option<Self> {
+        let worst = exchanges.iter().max_by_key(|e| e.cycle)?;
+        let total: Duration = exchanges.iter().map(|e| e.cycle).sum();
+        Some(Self {
+            exchanges: exchanges.len(),
+            max_cycle: worst.cycle,
+            mean_cycle: total / exchanges.len() as u32,
+            frames_at_max: worst.frames,
+            turnaround_at_max: worst.turnaround,
+            max_turnaround: exchanges.iter().map(|e| e.turnaround).max()?,
+            frame_bits: (
+                exchanges.iter().map(|e| e.min_frame_bits).min()?,
+                exchanges.iter().map(|e| e.max_frame_bits).max()?,
+            ),
+        })
+    }
+
+    /// The highest rate the wire allows for every exchange of the run, Hz.
+    pub(crate) fn rate_hz(&self) -> f64 {
+        1.0 / self.max_cycle.as_secs_f64()
+    }
+
+    /// As JSON (microseconds).
+    pub(crate) fn to_json(self) -> Value {
+        json!({
+            "exchanges": self.exchanges,
+            "limit_hz": self.rate_hz(),
+            "max_cycle_us": us(self.max_cycle),
+            "mean_cycle_us": us(self.mean_cycle),
+            "frames_at_max_us": us(self.frames_at_max),
+            "turnaround_at_max_us": us(self.turnaround_at_max),
+            "max_turnaround_us": us(self.max_turnaround),
+            "frame_bits_min": self.frame_bits.0,
+            "frame_bits_max": self.frame_bits.1,
+        })
+    }
+}
+
+/// The 3-bit intermission at `bitrate` (the overlap of the 0x280's intermission and the
+/// turnaround).
+pub(crate) fn intermission(bitrate: u32) -> Duration {
+    bits_to_duration(INTERFRAME_BITS, bitrate)
+}
+
+/// Microseconds as a float.
+pub(crate) fn us(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e6
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rmd_bus::{CanBus, Clock, VirtualClock};
+    use rmd_protocol::{IqControl, MultiTorque};
+    use rmd_sim::{SimBus, SimConfig};
+
+    #[test]
+    fn the_cycle_is_the_frames_plus_the_turnaround_minus_one_intermission() {
+        let clock = VirtualClock::new();
+        let mut bus = SimBus::new(clock.clone(), SimConfig::with_motors(4).seed(3)).unwrap();
+        bus.record_trace(1000);
+        for k in 0..20 {
+            let iq = IqControl::new(37 * k - 300).unwrap();
+            bus.send(&MultiTorque::new([iq; 4]).encode()).unwrap();
+            let end = clock.now() + Duration::from_millis(2);
+            while bus.recv_until(end).unwrap().is_some() {}
+        }
+        let ex = exchanges(bus.trace(), 4, 1_000_000);
+        assert_eq!(ex.len(), 20);
+        for e in &ex {
+            assert_eq!(e.cycle, e.frames + e.turnaround - intermission(1_000_000));
+            // The simulator's default turnaround: 200 us + 0..=20 us.
+            assert!(e.turnaround >= Duration::from_micros(200));
+            assert!(e.turnaround <= Duration::from_micros(220));
+            assert!((111..=135).contains(&e.min_frame_bits));
+            assert!(e.max_frame_bits <= 135);
+        }
+        let limit = WireLimit::of(&ex).unwrap();
+        assert_eq!(limit.max_cycle, ex.iter().map(|e| e.cycle).max().unwrap());
+        assert!(limit.mean_cycle <= limit.max_cycle);
+        // Five frames of at most 135 bits plus at most 220 us: at least 1117 Hz.
+        assert!(limit.rate_hz() > 1117.0, "{limit:?}");
+        assert_eq!(WireLimit::of(&[]), None);
+    }
+
+    #[test]
+    fn incomplete_exchanges_and_other_frames_are_skipped() {
+        let clock = VirtualClock::new();
+        let mut bus = SimBus::new(clock.clone(), SimConfig::with_motors(2).seed(1)).unwrap();
+        bus.record_trace(100);
+        bus.send(&MultiTorque::new([IqControl::default(); 4]).encode())
+            .unwrap();
+        while bus
+            .recv_until(clock.now() + Duration::from_millis(2))
+            .unwrap()
+            .is_some()
+        {}
+        // Counted with the wrong number of motors: not an exchange of 4.
+        assert_eq!(exchanges(bus.trace(), 4, 1_000_000).len(), 0);
+        assert_eq!(exchanges(bus.trace(), 2, 1_000_000).len(), 1);
+    }
+}

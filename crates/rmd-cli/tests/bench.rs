@@ -1,0 +1,280 @@
+//! `rmd bench`: flags, output shape and the error contract. Real-time runs are short and only
+//! their shape is checked (this is a shared, noisy machine: timing goals live in the benchmarks,
+//! see docs/benchmarks.md); virtual-time runs are deterministic and checked exactly.
+
+use assert_cmd::Command;
+use serde_json::Value;
+
+struct Run {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+fn rmd(args: &str) -> Run {
+    let out = Command::cargo_bin("rmd")
+        .unwrap()
+        .args(args.split_whitespace())
+        .output()
+        .unwrap();
+    Run {
+        code: out.status.code(),
+        stdout: String::from_utf8(out.stdout).unwrap(),
+        stderr: String::from_utf8(out.stderr).unwrap(),
+    }
+}
+
+/// Runs a command that must succeed and print one JSON object.
+fn json(args: &str) -> Value {
+    let run = rmd(args);
+    assert_eq!(run.code, Some(0), "rmd {args}: {}", run.stderr);
+    assert_eq!(run.stdout.lines().count(), 1, "one line: {}", run.stdout);
+    serde_json::from_str(&run.stdout).unwrap_or_else(|e| panic!("{e}: {}", run.stdout))
+}
+
+/// Asserts a usage error: exit 2, nothing on stdout, one line on stderr containing `needle`.
+fn usage_error(args: &str, needle: &str) {
+    let run = rmd(args);
+    assert_eq!(
+        run.code,
+        Some(2),
+        "rmd {args}: {}{}",
+        run.stdout,
+        run.stderr
+    );
+    assert!(run.stdout.is_empty(), "rmd {args}: stdout {}", run.stdout);
+    assert_eq!(run.stderr.lines().count(), 1, "rmd {args}: {}", run.stderr);
+    assert!(
+        run.stderr.contains(needle),
+        "rmd {args}: `{needle}` not in {}",
+        run.stderr
+    );
+}
+
+fn assert_percentiles(v: &Value, key: &str) {
+    let p = &v[key];
+    for k in ["min", "p50", "p90", "p99", "p999", "max"] {
+        assert!(p[k].is_number(), "{key}.{k} in {p}");
+    }
+    assert!(p["p50"].as_f64() <= p["p99"].as_f64(), "{key}: {p}");
+}
+
+#[test]
+fn loop_in_virtual_time_reports_every_tick_and_tracks_the_targets() {
+    let v = json("bench loop --virtual-time --seconds 1 --json");
+    for key in [
+        "ticks",
+        "deadline_misses",
+        "missing_replies",
+        "late_replies",
+        "telemetry_drops",
+    ] {
+        assert!(v[key].is_u64(), "{key} in {v}");
+    }
+    for key in [
+        "wake_latency_us",
+        "round_trip_us",
+        "controller_us",
+        "work_us",
+    ] {
+        assert_percentiles(&v, key);
+    }
+    assert_eq!(v["ticks"], 1000);
+    assert_eq!(v["deadline_misses"], 0);
+    assert_eq!(v["missing_replies"], 0);
+    assert_eq!(v["late_replies"], 0);
+    assert_eq!(v["telemetry_drops"], 0);
+    assert_eq!(v["normal_stop"], true);
+    // Virtual time: the timer is exact, and an exchange of 5 frames + 200 us turnaround takes
+    // about 0.8 ms of simulated wire time.
+    assert_eq!(v["wake_latency_us"]["max"], 0.0);
+    let rtt = v["round_trip_us"]["p50"].as_f64().unwrap();
+    assert!((700.0..900.0).contains(&rtt), "{rtt}");
+    let bench = &v["bench"];
+    assert_eq!(bench["motors_per_bus"], 4);
+    assert_eq!(bench["buses"], 1);
+    assert_eq!(bench["virtual_time"], true);
+    // The PD controller follows its 20-degree sines within a degree once settled.
+    let rms = bench["tracking_rms_error_deg"].as_f64().unwrap();
+    assert!(rms > 0.0 && rms < 1.0, "{rms}");
+}
+
+#[test]
+fn motors_count_per_bus() {
+    let run = rmd("bench loop --virtual-time --motors 2 --buses 3 --seconds 0.6 --rate 500");
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(
+        run.stdout
+            .starts_with("rmd-rt loop report: 6 motor(s) on 3 bus(es) at 500 Hz"),
+        "{}",
+        run.stdout
+    );
+    assert!(run.stdout.contains("ticks 300 "), "{}", run.stdout);
+    assert!(run.stdout.contains("bus 2 motor 2:"), "{}", run.stdout);
+    assert!(!run.stdout.contains("motor 3:"), "{}", run.stdout);
+    assert!(run.stdout.contains("rms error"), "{}", run.stdout);
+}
+
+#[test]
+fn loop_in_real_time_has_the_same_shape() {
+    let v = json("bench loop --seconds 0.3 --spin-us 20 --cpu 0 --json");
+    for key in [
+        "wake_latency_us",
+        "round_trip_us",
+        "controller_us",
+        "work_us",
+    ] {
+        assert_percentiles(&v, key);
+    }
+    assert!(v["ticks"].as_u64().unwrap() > 0);
+    assert_eq!(v["bench"]["virtual_time"], false);
+    assert_eq!(v["bench"]["spin_us"], 20);
+    assert_eq!(v["bench"]["cpu"], 0);
+}
+
+#[test]
+fn loop_rejects_bad_values() {
+    usage_error("bench loop --motors 5", "--buses");
+    usage_error("bench loop --motors 0", "1..=4");
+    usage_error("bench loop --buses 0", "1..=8");
+    usage_error("bench loop --buses 9", "1..=8");
+    usage_error("bench loop --rate 0", "--rate");
+    usage_error("bench loop --rate abc", "--rate");
+    usage_error("bench loop --rate 1e9", "shorter than the minimum");
+    usage_error("bench loop --seconds 0", "--seconds");
+    usage_error("bench loop --seconds nan", "--seconds");
+    usage_error("bench loop --fifo 0", "1..=99");
+    usage_error("bench loop --fifo 100", "1..=99");
+    usage_error("bench loop --cpu 100000", "not available");
+    usage_error("bench loop --spin-us x", "--spin-us");
+    // Valid flags, impossible set-ups: the loop's own validation, naming the key.
+    usage_error(
+        "bench loop --virtual-time --rate 2000 --seconds 0.1",
+        "cannot carry one exchange per tick",
+    );
+    usage_error(
+        "bench loop --virtual-time --spin-us 1000 --seconds 0.1",
+        "spin_margin_us",
+    );
+}
+
+#[test]
+fn jitter_json_has_the_stable_keys_and_a_whole_microsecond_histogram() {
+    let v = json("bench jitter --seconds 0.2 --json");
+    assert_eq!(v["ticks"], 200);
+    assert!(v["deadline_misses"].is_u64());
+    assert_percentiles(&v, "wake_latency_us");
+    assert_eq!(v["wake_latency_us"]["count"], 200);
+    let hist = v["histogram_us"].as_array().unwrap();
+    let total: u64 = hist.iter().map(|b| b[1].as_u64().unwrap()).sum();
+    assert_eq!(total, 200);
+    // Buckets ascend, and the min falls in the first one (or, above 16 us, one higher: see
+    // bench/histogram.rs).
+    let ks: Vec<u64> = hist.iter().map(|b| b[0].as_u64().unwrap()).collect();
+    assert!(ks.windows(2).all(|w| w[0] < w[1]), "{ks:?}");
+    let min = v["wake_latency_us"]["min"].as_f64().unwrap().trunc() as u64;
+    assert!(ks[0] == min || ks[0] == min + 1, "{ks:?} min {min}");
+
+    let v = json("bench jitter --period-us 500 --seconds 0.1 --spin-us 50 --cpu 0 --json");
+    assert_eq!(v["ticks"], 200);
+    assert_eq!(v["period_us"], 500.0);
+    assert_eq!(v["spin_us"], 50.0);
+    assert_eq!(v["cpu"], 0);
+}
+
+#[test]
+fn jitter_prints_a_cyclictest_like_line() {
+    let run = rmd("bench jitter --seconds 0.1 --period-us 2000");
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let first = run.stdout.lines().next().unwrap();
+    assert!(first.starts_with("T: 0 ("), "{first}");
+    for field in ["P:0", "I:2000", "C:", "Min:", "Avg:", "Max:"] {
+        assert!(first.contains(field), "{field} in {first}");
+    }
+    assert!(first.contains("C:      50 "), "{first}");
+    assert!(run.stdout.contains("p99.9"), "{}", run.stdout);
+}
+
+#[test]
+fn jitter_rejects_bad_values() {
+    usage_error("bench jitter --period-us 5", "shorter than the minimum");
+    usage_error("bench jitter --period-us abc", "--period-us");
+    usage_error(
+        "bench jitter --period-us 1000 --spin-us 1000",
+        "shorter than the period",
+    );
+    usage_error("bench jitter --seconds -1", "--seconds");
+    usage_error("bench jitter --fifo 120", "1..=99");
+    usage_error("bench jitter --cpu 100000", "not available");
+}
+
+#[test]
+fn rate_search_in_virtual_time_finds_the_wire_limit() {
+    // In virtual time the loop itself costs nothing: the highest rate with zero misses is the
+    // wire limit of the frames sent, to the search's resolution.
+    let v = json("bench rate --virtual-time --seconds 0.5 --resolution-pct 0.5 --json");
+    let best = v["best_rate_hz"].as_f64().unwrap();
+    let limit = v["wire_limit"]["limit_hz"].as_f64().unwrap();
+    assert!(best <= limit, "{best} > {limit}");
+    assert!(best >= limit * (1.0 - 0.005), "{best} vs {limit}");
+    let ratio = v["ratio_to_wire_limit"].as_f64().unwrap();
+    assert!((ratio - best / limit).abs() < 1e-12, "{ratio}");
+    // An exchange of four motors at 1 Mbit/s: five frames of 111..135 bits + 200..220 us.
+    let cycle = v["wire_limit"]["max_cycle_us"].as_f64().unwrap();
+    assert!((755.0..=895.0).contains(&cycle), "{cycle}");
+    let trials = v["trials"].as_array().unwrap();
+    assert!(trials.len() >= 3);
+    // Below the wire limit every trial passes in virtual time.
+    assert!(trials.iter().all(|t| t["passed"] == true));
+    assert_eq!(v["confirmations"], 1);
+    let last = trials.last().unwrap();
+    assert_eq!(last["passed"], true);
+    assert_eq!(last["ticks"], last["expected_ticks"]);
+}
+
+#[test]
+fn one_rate_trial_passes_below_and_fails_above_the_wire_limit() {
+    let v = json("bench rate --virtual-time --rate 1000 --seconds 0.3 --json");
+    let t = &v["trials"][0];
+    assert_eq!(t["passed"], true);
+    assert_eq!(t["ticks"], 300);
+    assert_eq!(v["best_rate_hz"], 1000.0);
+
+    // Four buses in parallel in virtual time: the same limit as one.
+    let v = json("bench rate --virtual-time --buses 4 --rate 1000 --seconds 0.3 --json");
+    assert_eq!(v["trials"][0]["passed"], true);
+
+    // 1400 Hz is a 714 us period: shorter than any 4-motor exchange at 1 Mbit/s.
+    let v = json("bench rate --virtual-time --rate 1400 --seconds 0.3 --json");
+    let t = &v["trials"][0];
+    assert_eq!(t["passed"], false);
+    assert!(
+        t["deadline_misses"].as_u64().unwrap() + t["missing_replies"].as_u64().unwrap() > 0,
+        "{t}"
+    );
+    assert!(v["best_rate_hz"].is_null());
+}
+
+#[test]
+fn rate_in_real_time_has_the_same_shape() {
+    let v = json("bench rate --rate 500 --seconds 0.2 --json");
+    let t = &v["trials"][0];
+    for key in [
+        "wake_latency_us",
+        "round_trip_us",
+        "work_us",
+        "last_reply_after_start_us",
+        "reply_to_controller_us",
+    ] {
+        assert_percentiles(t, key);
+    }
+    assert!(t["wire_limit"]["limit_hz"].as_f64().unwrap() > 500.0);
+}
+
+#[test]
+fn rate_rejects_bad_values() {
+    usage_error("bench rate --resolution-pct 0", "0.01..=50");
+    usage_error("bench rate --confirm 100", "at most");
+    usage_error("bench rate --motors 7", "1..=4");
+    usage_error("bench rate --rate -3", "--rate");
+}
