@@ -8,7 +8,8 @@ mount -t sysfs sysfs /sys
 mount -t devtmpfs devtmpfs /dev
 mkdir -p /dev/pts /tmp
 mount -t devpts devpts /dev/pts
-mount -t tmpfs tmpfs /tmp
+# No tmpfs on /tmp: the root is already in RAM, and the test binaries are installed at their
+# host paths, which may lie under /tmp (a CI clone in /tmp would be hidden by a mount).
 
 finish() {
   printf '\nRMD_VM_EXIT=%s\n' "$1"

@@ -63,5 +63,9 @@ for suite in "${SUITES[@]}"; do
     fi
   done
 done
-vcan_log "kernel tests done in $((SECONDS - start)) s ($mode)"
+if [ "$failed" -ne 0 ]; then
+  vcan_log "kernel tests FAILED ($mode, $((SECONDS - start)) s): see the output above"
+else
+  vcan_log "kernel tests passed in $((SECONDS - start)) s ($mode)"
+fi
 exit "$failed"
