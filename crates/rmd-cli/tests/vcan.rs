@@ -457,6 +457,65 @@ fn the_loop_drives_four_motors_against_rmd_sim_with_every_reply_matched() {
     assert_eq!(code, 0, "{stderr}");
 }
 
+// The `pd_hold` example's own code (robot description, controller), compiled into this test.
+#[allow(dead_code)]
+#[path = "../../../examples/pd_hold.rs"]
+mod pd_hold;
+
+/// The examples' way onto a real interface: `rmd_rt::connect` given an interface name (what
+/// `pd_hold --iface vcan0` does) opens SocketCAN, and the example's controller holds the motor
+/// that `rmd sim` runs there. At 10 Hz and pipelined, as above: function here, timing elsewhere.
+#[test]
+fn an_example_runs_on_the_interface_through_connect() {
+    use rmd_rt::connect::{self, Target};
+    let _serial = serial();
+    const TICKS: u64 = 50;
+    let vcan = Vcan::up();
+    let sim = SimProcess::start(&vcan.name, &["--ids", "1", "--seed", "3"]);
+    let target = Target::from_args(std::slice::from_ref(&vcan.name), false).unwrap();
+    assert!(!target.is_simulated());
+    let mut robot = pd_hold::robot(&vcan.name);
+    robot.loop_config.rate_hz = 10.0;
+    robot.loop_config.reply_mode = rmd_rt::rt::config::ReplyMode::Pipelined;
+    let connection = connect::open(&target, &robot, pd_hold::sim(&robot)).unwrap();
+    // Hold where the motor is (a move at 10 Hz would only test the gains' stability).
+    let controller = pd_hold::controller(0.0);
+    let rt = rmd_rt::RtLoop::new(robot, connection.clock, connection.buses, controller).unwrap();
+    let telemetry = rt.telemetry();
+    let outcome = rt.run(rmd_rt::RunLimit::Ticks(TICKS));
+    let report = &outcome.report;
+    println!("{report}");
+
+    assert_eq!(report.stop_reason, StopReason::TickLimit, "{report}");
+    assert_eq!(report.stats.ticks, TICKS);
+    let motor = &report.stats.motors[0];
+    assert_eq!(
+        (
+            motor.missing_replies,
+            motor.unexpected_replies,
+            motor.bad_frames
+        ),
+        (0, 0, 0),
+        "{report}"
+    );
+    assert!(
+        report.safe_stop.all_off_confirmed(),
+        "{:?}",
+        report.safe_stop
+    );
+    // The target came from the first feedback read over the interface, and the joint held it.
+    let last = telemetry.latest().expect("telemetry of the last tick");
+    let joint = last.joints()[0];
+    let target_deg = outcome.controller.targets[0];
+    assert!(
+        (joint.joint_angle_deg - target_deg).abs() < 2.0,
+        "joint at {:.2} deg, target {target_deg:.2} deg",
+        joint.joint_angle_deg
+    );
+    let (code, stderr) = sim.stop();
+    assert_eq!(code, 0, "{stderr}");
+}
+
 /// The host's single-motor commands in a recorded log, in order.
 fn host_commands(path: &Path) -> Vec<(u8, Cmd)> {
     std::fs::read_to_string(path)
