@@ -4,54 +4,15 @@
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command as StdCommand, Output, Stdio};
+use std::process::{Child, Command as StdCommand, Stdio};
 use std::time::{Duration, Instant};
 
-use assert_cmd::Command;
 use rmd_bus::candump::{Direction, parse_line};
 use rmd_protocol::{Command as Cmd, DecodedRequest, Reply, decode_request};
 use serde_json::Value;
 
-fn rmd(args: &[&str]) -> Output {
-    Command::cargo_bin("rmd")
-        .unwrap()
-        .args(args)
-        .write_stdin("")
-        .output()
-        .unwrap()
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-/// Runs `rmd ARGS`, asserting success; returns stdout.
-fn ok(args: &[&str]) -> String {
-    let out = rmd(args);
-    assert!(
-        out.status.success(),
-        "rmd {}: exit {:?}\nstdout: {}\nstderr: {}",
-        args.join(" "),
-        out.status.code(),
-        text(&out.stdout),
-        text(&out.stderr)
-    );
-    text(&out.stdout)
-}
-
-/// Runs `rmd ARGS`, asserting exit status `code`; returns stderr.
-fn fails(code: i32, args: &[&str]) -> String {
-    let out = rmd(args);
-    assert_eq!(
-        out.status.code(),
-        Some(code),
-        "rmd {}\nstdout: {}\nstderr: {}",
-        args.join(" "),
-        text(&out.stdout),
-        text(&out.stderr)
-    );
-    text(&out.stderr)
-}
+mod support;
+use support::{fails, ok, rmd, text};
 
 fn json_lines(stdout: &str) -> Vec<Value> {
     stdout

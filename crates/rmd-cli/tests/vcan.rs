@@ -14,7 +14,7 @@
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStderr, Command, Output, Stdio};
+use std::process::{Child, ChildStderr, Command, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
@@ -32,6 +32,9 @@ use rmd_protocol::{
 
 /// The `rmd` binary under test.
 const RMD: &str = env!("CARGO_BIN_EXE_rmd");
+
+mod support;
+use support::{fails, ok, rmd, text};
 /// Reply timeout for the commands: replies take well under a millisecond natively, but the
 /// emulated VM can stall a process for tens of milliseconds.
 const TIMEOUT_MS: &str = "300";
@@ -175,46 +178,11 @@ impl Drop for SimProcess {
     }
 }
 
-fn rmd(args: &[&str]) -> Output {
-    Command::new(RMD)
-        .args(args)
-        .stdin(Stdio::null())
-        .output()
-        .expect("run rmd")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
 /// Runs `rmd ARGS --iface IFACE --timeout-ms T`, asserting success; returns stdout.
 fn ok_on(iface: &str, args: &[&str]) -> String {
     let mut all = args.to_vec();
     all.extend(["--iface", iface, "--timeout-ms", TIMEOUT_MS]);
-    let out = rmd(&all);
-    assert!(
-        out.status.success(),
-        "rmd {}: exit {:?}\nstdout: {}\nstderr: {}",
-        all.join(" "),
-        out.status.code(),
-        text(&out.stdout),
-        text(&out.stderr)
-    );
-    text(&out.stdout)
-}
-
-/// Runs `rmd ARGS` and asserts exit status `code`; returns stderr.
-fn fails(code: i32, args: &[&str]) -> String {
-    let out = rmd(args);
-    assert_eq!(
-        out.status.code(),
-        Some(code),
-        "rmd {}\nstdout: {}\nstderr: {}",
-        args.join(" "),
-        text(&out.stdout),
-        text(&out.stderr)
-    );
-    text(&out.stderr)
+    ok(&all)
 }
 
 fn json(stdout: &str) -> serde_json::Value {
