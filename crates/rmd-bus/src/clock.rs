@@ -29,6 +29,26 @@ pub trait Clock: Send {
             core::hint::spin_loop();
         }
     }
+
+    /// Waits until `deadline`: sleeps until `spin_margin` before it, then busy-waits the rest
+    /// (a zero margin only sleeps). The margin buys sub-microsecond precision for one busy CPU.
+    ///
+    /// ```
+    /// use core::time::Duration;
+    /// use rmd_bus::{Clock, VirtualClock};
+    /// let clock = VirtualClock::new();
+    /// let deadline = clock.now() + Duration::from_millis(1);
+    /// clock.wait_until(deadline, Duration::from_micros(50));
+    /// assert_eq!(clock.now(), deadline);
+    /// ```
+    fn wait_until(&self, deadline: Timestamp, spin_margin: Duration) {
+        if spin_margin.is_zero() {
+            self.sleep_until(deadline);
+        } else {
+            self.sleep_until(deadline.saturating_sub(spin_margin));
+            self.spin_until(deadline);
+        }
+    }
 }
 
 /// The system's monotonic clock (`CLOCK_MONOTONIC` on Linux), sleeping with

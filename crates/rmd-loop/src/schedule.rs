@@ -208,12 +208,7 @@ impl Scheduler {
         }
         let index = self.next;
         let scheduled = self.scheduled(index);
-        if self.spin_margin.is_zero() {
-            clock.sleep_until(scheduled);
-        } else {
-            clock.sleep_until(scheduled.saturating_sub(self.spin_margin));
-            clock.spin_until(scheduled);
-        }
+        clock.wait_until(scheduled, self.spin_margin);
         let woke = clock.now();
         self.current = index;
         self.next = index + 1;

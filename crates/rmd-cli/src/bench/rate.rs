@@ -175,12 +175,7 @@ impl Clock for ReceiveClock {
     }
 
     fn sleep_until(&self, deadline: Timestamp) {
-        if self.spin.is_zero() {
-            MonotonicClock.sleep_until(deadline);
-        } else {
-            MonotonicClock.sleep_until(deadline.saturating_sub(self.spin));
-            MonotonicClock.spin_until(deadline);
-        }
+        MonotonicClock.wait_until(deadline, self.spin);
     }
 }
 
