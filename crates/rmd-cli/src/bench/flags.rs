@@ -6,7 +6,7 @@
 use core::time::Duration;
 
 use clap::Args;
-use rmd_loop::config::{MAX_BUSES, MAX_MOTORS_PER_BUS};
+use rmd_loop::config::{LoopConfig, MAX_BUSES, MAX_MOTORS_PER_BUS};
 use rmd_loop::os::RtRequest;
 
 /// Longest run a bench accepts (one day).
@@ -38,6 +38,15 @@ impl RtFlags {
             lock_memory: self.fifo.is_some(),
             prefault_stack_bytes: PREFAULT_STACK_BYTES,
         }
+    }
+
+    /// Writes these settings into a loop's configuration (the loop applies them to its thread).
+    pub(crate) fn configure(&self, config: &mut LoopConfig) {
+        let request = self.request();
+        config.cpu = request.cpu;
+        config.fifo_priority = request.fifo_priority;
+        config.lock_memory = request.lock_memory;
+        config.spin_margin_us = self.spin_us;
     }
 
     /// The spin margin.

@@ -132,12 +132,7 @@ fn run_on<C: Clock + Clone + 'static>(
     args: &LoopArgs,
 ) -> Result<LoopOutcome<MovingTargetPd>, Failure> {
     let mut robot = robot::robot(args.rate, args.buses, args.motors);
-    let request = args.rt.request();
-    let l = &mut robot.loop_config;
-    l.cpu = request.cpu;
-    l.fifo_priority = request.fifo_priority;
-    l.lock_memory = request.lock_memory;
-    l.spin_margin_us = args.rt.spin_us;
+    args.rt.configure(&mut robot.loop_config);
     let buses = robot::sim_buses(&clock, args.buses, args.motors)
         .map_err(|e| Failure::Run(format!("simulator: {e}")))?;
     let rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))

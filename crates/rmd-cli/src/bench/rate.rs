@@ -214,12 +214,8 @@ fn run_trial<L: Clock, S: Clock + Clone>(
 ) -> Result<Trial, String> {
     let mut robot = robot::robot(rate_hz, args.buses, args.motors);
     let period = robot.period().map_err(|e| e.to_string())?.get();
-    let request = args.rt.request();
+    args.rt.configure(&mut robot.loop_config);
     let l = &mut robot.loop_config;
-    l.cpu = request.cpu;
-    l.fifo_priority = request.fifo_priority;
-    l.lock_memory = request.lock_memory;
-    l.spin_margin_us = args.rt.spin_us;
     l.allow_over_budget = true;
     // Wait for replies as long as the period allows: the loop adds no gap of its own.
     l.reply_deadline_us = Some((period.as_nanos() / 1000) as u64);
