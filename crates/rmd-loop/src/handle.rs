@@ -2,17 +2,19 @@
 
 use core::time::Duration;
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
 use std::thread::JoinHandle;
 
 use rmd_bus::{CanBus, Clock};
 
 use crate::controller::Controller;
-use crate::engine::{
-    LOOP_STACK_BYTES, LoopOutcome, RtLoop, RunLimit, STOP_DROPPED, STOP_EMERGENCY, STOP_REQUESTED,
-    Shared, Stopper,
-};
+use crate::engine::{RtLoop, RunLimit};
+use crate::finish::{LoopOutcome, panic_message};
+use crate::shared::Shared;
 use crate::stats::{LoopStats, StatsSummary};
+use crate::stop::{StopRequest, Stopper};
+
+/// Stack size of the loop thread; the start-up pre-faults part of it.
+pub(crate) const LOOP_STACK_BYTES: usize = 8 * 1024 * 1024;
 
 /// The loop thread ended without a report (a panic escaped the loop's own recovery, which
 /// would be a bug in rmd-rt).
@@ -62,20 +64,20 @@ impl<K: Send + 'static> LoopHandle<K> {
         self.thread.as_ref().is_some_and(|t| !t.is_finished())
     }
 
-    /// Emergency stop: zero torque and motor-off at the loop's next tick (within one period).
+    /// Emergency stop: zero torque and motor-off at the loop's next tick.
     /// Returns at once; `join` to wait for the report.
     pub fn emergency_stop(&self) {
-        self.shared.request_stop(STOP_EMERGENCY);
+        self.shared.stop.request(StopRequest::EmergencyStop);
     }
 
     /// A cheap, cloneable stopper usable from any thread (e.g. a signal handler thread).
     pub fn stopper(&self) -> Stopper {
-        Stopper::from_shared(Arc::clone(&self.shared))
+        Stopper::new(Arc::clone(&self.shared))
     }
 
     /// Asks the loop to stop and waits for its report.
     pub fn stop(mut self) -> Result<LoopOutcome<K>, LoopThreadDied> {
-        self.shared.request_stop(STOP_REQUESTED);
+        self.shared.stop.request(StopRequest::Stop);
         self.take_outcome()
     }
 
@@ -91,14 +93,14 @@ impl<K: Send + 'static> LoopHandle<K> {
             .ok_or_else(|| LoopThreadDied("already joined".to_string()))?;
         thread
             .join()
-            .map_err(|p| LoopThreadDied(crate::engine::panic_message(p.as_ref())))
+            .map_err(|p| LoopThreadDied(panic_message(p.as_ref())))
     }
 
     /// The statistics so far, read without disturbing the loop: the loop thread copies them
     /// into a buffer this call allocates, between two ticks. `None` if the loop does not answer
     /// within `timeout` (e.g. it has stopped).
     pub fn snapshot(&self, timeout: Duration) -> Option<StatsSummary> {
-        if !self.shared.running.load(Ordering::Acquire) && !self.is_running() {
+        if !self.shared.is_running() && !self.is_running() {
             return None;
         }
         // Reclaim answers to earlier requests that timed out.
@@ -125,7 +127,7 @@ impl<K: Send + 'static> LoopHandle<K> {
 impl<K: Send + 'static> Drop for LoopHandle<K> {
     fn drop(&mut self) {
         if let Some(thread) = self.thread.take() {
-            self.shared.request_stop(STOP_DROPPED);
+            self.shared.stop.request(StopRequest::HandleDropped);
             let _ = thread.join();
         }
     }

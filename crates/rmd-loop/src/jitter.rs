@@ -81,7 +81,7 @@ pub fn measure<C: Clock + ?Sized>(clock: &C, config: &JitterConfig) -> JitterRep
 pub fn measure_real_time(config: JitterConfig) -> std::io::Result<JitterReport> {
     let thread = std::thread::Builder::new()
         .name("rmd-rt-jitter".to_string())
-        .stack_size(crate::engine::LOOP_STACK_BYTES)
+        .stack_size(crate::handle::LOOP_STACK_BYTES)
         .spawn(move || measure(&MonotonicClock, &config))?;
     thread
         .join()

@@ -1,211 +1,128 @@
-//! From what a motor reports (single-turn encoder, motor-side speed and current) to what a
-//! controller wants (continuous joint angle and velocity, torque).
+//! Joint handles: a [`JointId`] names one joint of a [`Robot`](crate::robot::Robot) (resolved
+//! once from its name, then used every tick), and a [`JointArray`] holds one value per joint.
 //!
-//! The 0xA1 reply carries the encoder position within one motor turn. The loop unwraps it into a
-//! continuous multi-turn motor angle: between two readings the motor moved by the encoder
-//! difference plus a whole number of turns, and the number of turns is the one closest to what
-//! the reported speed predicts over the elapsed time. With one reading per tick that is the usual
-//! "less than half a turn per tick" rule; after missing replies the speed keeps the count right.
+//! ```
+//! use rmd_loop::robot::{BusConfig, MotorConfig, Robot, RobotConfig};
+//! use rmd_loop::joint::JointArray;
 //!
-//! The joint angle is `direction * motor_angle / gear_ratio - zero_offset_deg`, continuous from
-//! the first reading (which lies within the first motor turn: a geared joint must be homed).
+//! let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(
+//!     BusConfig::new("can0")
+//!         .with_motor(MotorConfig::new(1).name("hip"))
+//!         .with_motor(MotorConfig::new(2).name("knee")),
+//! ))?;
+//! let knee = robot.joint("knee")?;
+//! let mut targets = JointArray::new(&robot, 0.0_f64);
+//! targets[knee] = 45.0;
+//! assert_eq!(targets.iter().map(|(_, t)| *t).collect::<Vec<_>>(), [0.0, 45.0]);
+//! # Ok::<(), rmd_loop::robot::RobotError>(())
+//! ```
 
-use core::time::Duration;
+use core::fmt;
+use core::ops::{Index, IndexMut};
 
-use rmd_protocol::EncoderWidth;
+use crate::robot::Robot;
 
-use crate::config::MotorConfig;
+/// One joint of a robot: its position in the robot description (bus by bus, motor by motor).
+///
+/// Get it from the joint's name with [`Robot::joint`], or iterate with [`Robot::joint_ids`].
+/// It is an index: cheap to copy, and valid for the robot it came from.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct JointId(u16);
 
-/// Unwraps single-turn encoder readings into a continuous angle.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub struct EncoderUnwrapper {
-    counts_per_turn: i64,
-    last: Option<u16>,
-    /// Accumulated counts since the first reading, plus the first reading.
-    counts: i64,
+impl JointId {
+    /// The joint at `index` in description order (no check against a robot: prefer
+    /// [`Robot::joint`] or [`Robot::joint_ids`]).
+    pub const fn from_index(index: usize) -> Self {
+        Self(index as u16)
+    }
+
+    /// The position in description order (also the index into per-joint slices).
+    pub const fn index(self) -> usize {
+        self.0 as usize
+    }
 }
 
-impl EncoderUnwrapper {
-    /// An unwrapper for encoders of `width` (values above 16 bits are reported in the u16 field
-    /// modulo 65536, so the turn is at most 65536 counts).
-    pub fn new(width: EncoderWidth) -> Self {
+impl fmt::Display for JointId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "joint #{}", self.0)
+    }
+}
+
+/// One value per joint of a robot, indexed by [`JointId`]: a controller's per-joint state,
+/// sized to the robot (allocated when built, never on the real-time path).
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointArray<T> {
+    values: Vec<T>,
+}
+
+impl<T: Clone> JointArray<T> {
+    /// `value` for every joint of `robot`.
+    pub fn new(robot: &Robot, value: T) -> Self {
         Self {
-            counts_per_turn: 1i64 << width.bits().min(16),
-            last: None,
-            counts: 0,
+            values: vec![value; robot.joint_count()],
         }
-    }
-
-    /// Counts in one motor turn as reported in the frame.
-    pub fn counts_per_turn(&self) -> i64 {
-        self.counts_per_turn
-    }
-
-    /// Whether `encoder` is a possible reading.
-    pub fn in_range(&self, encoder: u16) -> bool {
-        i64::from(encoder) < self.counts_per_turn
-    }
-
-    /// Feeds one reading taken `elapsed` after the previous one while the motor turned at
-    /// `speed_dps` (motor side); returns the continuous motor angle in degrees.
-    pub fn update(&mut self, encoder: u16, speed_dps: f64, elapsed: Duration) -> f64 {
-        let n = self.counts_per_turn;
-        let reading = i64::from(encoder) % n;
-        match self.last {
-            None => self.counts = reading,
-            Some(last) => {
-                let raw = (reading - i64::from(last)).rem_euclid(n); // 0..n
-                let expected = speed_dps * elapsed.as_secs_f64() / 360.0 * n as f64;
-                // The whole number of turns k that puts raw + k*n closest to the prediction.
-                let expected = if expected.is_finite() { expected } else { 0.0 };
-                let k = ((expected - raw as f64) / n as f64).round();
-                let k = k.clamp(-1e9, 1e9) as i64;
-                self.counts = self.counts.saturating_add(raw + k * n);
-            }
-        }
-        self.last = Some(encoder);
-        self.degrees()
-    }
-
-    /// The continuous motor angle in degrees (0 before the first reading).
-    pub fn degrees(&self) -> f64 {
-        self.counts as f64 * 360.0 / self.counts_per_turn as f64
     }
 }
 
-/// The fixed mapping between one motor and its joint.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub struct JointMap {
-    sign: f64,
-    gear_ratio: f64,
-    zero_offset_deg: f64,
-    /// The torque constant, 0.0 when unknown. Kept as a plain `f64` beside `has_torque_constant`
-    /// rather than an `Option<f64>`: the optimiser computes `sign * amps * kt` without a branch
-    /// and discards it when the constant is absent, and the payload of a `None` is whatever bits
-    /// were there (a stale pointer reads as a subnormal double, which costs a microcode assist of
-    /// ~100+ cycles per multiply: measured 3x slower ticks, see docs/benchmarks.md).
-    torque_constant: f64,
-    has_torque_constant: bool,
-}
-
-impl JointMap {
-    /// The mapping described by a motor's configuration.
-    pub fn from_config(motor: &MotorConfig) -> Self {
+impl<T> JointArray<T> {
+    /// The value of each joint of `robot`, from a function of its id.
+    pub fn from_fn(robot: &Robot, f: impl FnMut(JointId) -> T) -> Self {
         Self {
-            sign: motor.direction.sign(),
-            gear_ratio: motor.gear_ratio,
-            zero_offset_deg: motor.zero_offset_deg,
-            torque_constant: motor.torque_constant_nm_per_amp.unwrap_or(0.0),
-            has_torque_constant: motor.torque_constant_nm_per_amp.is_some(),
+            values: robot.joint_ids().map(f).collect(),
         }
     }
 
-    /// Joint angle (degrees) from the continuous motor angle.
-    pub fn joint_angle_deg(&self, motor_deg: f64) -> f64 {
-        self.sign * motor_deg / self.gear_ratio - self.zero_offset_deg
+    /// Number of joints.
+    pub fn len(&self) -> usize {
+        self.values.len()
     }
 
-    /// Joint velocity (deg/s) from the motor speed.
-    pub fn joint_velocity_dps(&self, motor_dps: f64) -> f64 {
-        self.sign * motor_dps / self.gear_ratio
+    /// Whether there are no joints.
+    pub fn is_empty(&self) -> bool {
+        self.values.is_empty()
     }
 
-    /// Joint torque (N*m) from the motor's torque current, if the torque constant is known.
-    pub fn joint_torque_nm(&self, motor_amps: f64) -> Option<f64> {
-        self.has_torque_constant
-            .then_some(self.sign * motor_amps * self.torque_constant)
+    /// The value of joint `id`, if the robot has it.
+    pub fn get(&self, id: JointId) -> Option<&T> {
+        self.values.get(id.index())
     }
 
-    /// Motor current (amperes, motor sign) for a joint-side current (joint sign).
-    pub fn motor_amps(&self, joint_amps: f64) -> f64 {
-        self.sign * joint_amps
+    /// Every joint with its value, in description order.
+    pub fn iter(&self) -> impl Iterator<Item = (JointId, &T)> {
+        self.values
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (JointId::from_index(i), v))
     }
 
-    /// Motor current (amperes, motor sign) for a joint torque, if the torque constant is known.
-    pub fn motor_amps_for_torque(&self, joint_nm: f64) -> Option<f64> {
-        self.has_torque_constant
-            .then(|| self.sign * joint_nm / self.torque_constant)
+    /// Every joint with its value, mutable.
+    pub fn iter_mut(&mut self) -> impl Iterator<Item = (JointId, &mut T)> {
+        self.values
+            .iter_mut()
+            .enumerate()
+            .map(|(i, v)| (JointId::from_index(i), v))
+    }
+
+    /// The values in description order.
+    pub fn as_slice(&self) -> &[T] {
+        &self.values
+    }
+
+    /// The values in description order, mutable.
+    pub fn as_mut_slice(&mut self) -> &mut [T] {
+        &mut self.values
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::config::Direction;
-    use proptest::prelude::*;
-
-    fn w14() -> EncoderUnwrapper {
-        EncoderUnwrapper::new(EncoderWidth::new(14).unwrap())
+impl<T> Index<JointId> for JointArray<T> {
+    type Output = T;
+    fn index(&self, id: JointId) -> &T {
+        &self.values[id.index()]
     }
+}
 
-    const MS: Duration = Duration::from_millis(1);
-
-    #[test]
-    fn wraps_forward_and_backward_across_zero() {
-        let mut u = w14();
-        assert_eq!(u.update(16_000, 0.0, MS), 16_000.0 * 360.0 / 16_384.0);
-        // 16000 -> 200 going forward is +584 counts, not -15800.
-        let a = u.update(200, 100.0, MS);
-        assert!((a - (16_584.0 * 360.0 / 16_384.0)).abs() < 1e-9);
-        // And back.
-        let b = u.update(16_000, -100.0, MS);
-        assert!((b - 16_000.0 * 360.0 / 16_384.0).abs() < 1e-9);
-    }
-
-    #[test]
-    fn speed_disambiguates_after_a_long_gap() {
-        // 3.5 turns in 10 ms at 126000 deg/s: the encoder alone would say half a turn.
-        let mut u = w14();
-        u.update(0, 0.0, MS);
-        let a = u.update(8_192, 126_000.0, Duration::from_millis(10));
-        assert!((a - 3.5 * 360.0).abs() < 1e-9, "{a}");
-        // And 3.5 turns back to encoder 0: the encoder alone would say half a turn forward.
-        let b = u.update(0, -126_000.0, Duration::from_millis(10));
-        assert!(b.abs() < 1e-9, "{b}");
-    }
-
-    #[test]
-    fn joint_mapping_applies_gear_direction_and_offset() {
-        let motor = MotorConfig::new(1)
-            .gear_ratio(6.0)
-            .direction(Direction::Reversed)
-            .zero_offset_deg(10.0)
-            .torque_constant(0.5);
-        let j = JointMap::from_config(&motor);
-        assert_eq!(j.joint_angle_deg(600.0), -110.0);
-        assert_eq!(j.joint_velocity_dps(60.0), -10.0);
-        assert_eq!(j.joint_torque_nm(2.0), Some(-1.0));
-        assert_eq!(j.motor_amps_for_torque(-1.0), Some(2.0));
-        assert_eq!(j.motor_amps(3.0), -3.0);
-        // Without a torque constant there is no torque.
-        let j = JointMap::from_config(&MotorConfig::new(1));
-        assert_eq!(j.joint_torque_nm(2.0), None);
-        assert_eq!(j.motor_amps_for_torque(1.0), None);
-    }
-
-    proptest! {
-        /// Any motion slower than half a turn per reading, sampled every tick, is tracked exactly.
-        #[test]
-        fn tracks_any_slow_motion(steps in proptest::collection::vec(-8000i64..8000, 1..200), start in 0i64..16384) {
-            let mut u = w14();
-            let mut truth = start;
-            u.update(start as u16, 0.0, MS);
-            for s in steps {
-                truth += s;
-                let speed = s as f64 * 360.0 / 16384.0 / MS.as_secs_f64();
-                let reading = truth.rem_euclid(16384) as u16;
-                let got = u.update(reading, speed, MS);
-                prop_assert!((got - truth as f64 * 360.0 / 16384.0).abs() < 1e-6);
-            }
-        }
-
-        /// Garbage never panics.
-        #[test]
-        fn never_panics(readings in proptest::collection::vec((any::<u16>(), any::<f64>(), any::<u64>()), 1..50)) {
-            let mut u = EncoderUnwrapper::new(EncoderWidth::new(18).unwrap());
-            for (r, s, ns) in readings {
-                let _ = u.update(r, s, Duration::from_nanos(ns));
-            }
-        }
+impl<T> IndexMut<JointId> for JointArray<T> {
+    fn index_mut(&mut self, id: JointId) -> &mut T {
+        &mut self.values[id.index()]
     }
 }

@@ -1,43 +1,61 @@
 //! # rmd-loop: the real-time loop of rmd-rt
 //!
-//! Runs a [`Controller`] at a fixed rate for one or more CAN buses of up to four RMD motors
-//! each. Every tick it sends one 0x280 multi-motor torque frame per bus, collects the 0xA1
-//! replies of motors 1..=4 (matched by id, late ones recognised), hands the controller fresh
-//! feedback, and measures itself: wake latency, round trip, controller time and work per tick
-//! in HdrHistograms, deadline misses, missing and late replies. When it stops, for whatever
-//! reason (request, emergency stop, fault, controller panic, dropped handle), it sends zero torque
-//! and then motor-off to every motor, and reports why.
+//! Runs a [`Controller`] at a fixed rate for a [`Robot`](robot::Robot) of one or more CAN buses
+//! of up to four RMD motors each. Every tick it sends one 0x280 multi-motor torque frame per bus,
+//! collects the 0xA1 replies of motors 1..=4 (matched to their requests, late ones recognised),
+//! hands the controller each joint's feedback by [`JointId`], and measures itself: wake latency,
+//! round trip, controller time and work per tick in HdrHistograms, deadline misses, missing and
+//! late replies. When it stops, for whatever reason (request, emergency stop, fault, controller
+//! panic, dropped handle), it sends zero torque and then motor-off to every motor, and reports why.
 //!
-//! It runs on any [`CanBus`](rmd_bus::CanBus) (SocketCAN, the simulator) and any
-//! [`Clock`](rmd_bus::Clock) (real time, or virtual time for fast deterministic tests).
+//! It sits above `rmd-bus` (any [`CanBus`](rmd_bus::CanBus), any [`Clock`](rmd_bus::Clock)) and
+//! `rmd-protocol`; `rmd-rig` opens real or simulated buses for it.
 //!
-//! - [`config`]: the robot description (TOML or builder).
-//! - [`Controller`]: what you write; [`RtLoop`]: what runs it; [`LoopHandle`]: its remote control.
+//! - [`robot`]: the robot description (TOML or builder), parsed once into a checked [`Robot`](robot::Robot).
+//! - [`Controller`] with [`Feedback`] and [`Commands`]: what you write; [`RtLoop`]: what runs it;
+//!   [`LoopHandle`]: its remote control; [`Stopper`]: a stop button for any thread.
 //! - [`schedule`]: the absolute-deadline scheduler (also used by `rmd bench jitter`).
-//! - [`mailbox`]: lock-free channels to and from the loop thread.
+//! - [`mailbox`]: lock-free channels to and from the loop thread; [`telemetry`]: what it publishes.
 //!
 //! Real-time rules the loop keeps, and asks of controllers: after start-up, a tick allocates no
 //! memory, takes no lock and blocks only in the bus I/O and the timed wait.
+//!
+//! Inside, each file has one job: `engine` (the tick sequence), `startup` (thread setup and the
+//! probe), `exchange/` (send, collect, match, account), `stop` (stop requests), `safe_stop`
+//! (zero torque then motor off), `finish` (the report).
 
-pub mod config;
+mod bus_link;
+pub mod commands;
 pub mod controller;
 pub mod engine;
 mod exchange;
+pub mod feedback;
+mod finish;
 pub mod handle;
 pub mod jitter;
 pub mod joint;
 pub mod mailbox;
+pub mod mapping;
 pub mod os;
 pub mod report;
-mod safety;
+pub mod robot;
+mod safe_stop;
 pub mod schedule;
+mod shared;
+mod startup;
 pub mod stats;
+pub mod stop;
 pub mod telemetry;
 
-pub use config::{BusConfig, MotorConfig, RobotConfig};
-pub use controller::{Commands, Controller, Feedback, Flow, MotorFeedback, TickContext};
-pub use engine::{BuildError, LoopOutcome, RtLoop, RunLimit, Stopper};
+pub use commands::{Commands, MAX_SIGNALS, Rejection};
+pub use controller::{Controller, Flow, TickContext};
+pub use engine::{BuildError, RtLoop, RunLimit, Running};
+pub use feedback::{Feedback, Freshness, JointFeedback, JointState, MotorState, RawStatus};
+pub use finish::LoopOutcome;
 pub use handle::{LoopHandle, LoopThreadDied, SpawnError};
-pub use report::{Fault, LoopReport, SafeStopReport, StopReason};
+pub use joint::{JointArray, JointId};
+pub use report::{Fault, LoopReport, MotorRef, SafeStopReport, StopReason};
+pub use robot::{Robot, RobotError};
 pub use stats::{LoopStats, Percentiles, StatsSummary};
-pub use telemetry::TelemetrySample;
+pub use stop::{StopRequest, Stopper};
+pub use telemetry::{JointSample, TelemetrySample};

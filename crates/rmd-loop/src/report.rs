@@ -7,27 +7,53 @@ use rmd_bus::BusError;
 use rmd_protocol::MotorId;
 use serde::Serialize;
 
+use crate::commands::Rejection;
+use crate::joint::JointId;
 use crate::os::RtStatus;
+use crate::robot::Robot;
 use crate::stats::StatsSummary;
+
+/// Which joint, on which bus, driven by which motor: how faults point at a motor.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub struct MotorRef {
+    /// The joint.
+    pub joint: JointId,
+    /// Its bus (index in description order).
+    pub bus: usize,
+    /// Its motor's id.
+    pub motor: MotorId,
+}
+
+impl MotorRef {
+    /// `joint knee (motor 3 on bus 0)`, with the name from `robot`.
+    pub fn describe(&self, robot: &Robot) -> String {
+        match robot.joints().get(self.joint.index()) {
+            Some(spec) => format!("joint {} ({self})", spec.name),
+            None => self.to_string(),
+        }
+    }
+}
+
+impl fmt::Display for MotorRef {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "motor {} on bus {}", self.motor.get(), self.bus)
+    }
+}
 
 /// A condition that stops the loop and makes every motor safe.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub enum Fault {
     /// A motor gave no fresh feedback for `ticks` consecutive ticks.
     MotorSilent {
-        /// Bus index.
-        bus: usize,
-        /// Motor id.
-        motor: MotorId,
+        /// The motor.
+        at: MotorRef,
         /// Consecutive ticks without fresh feedback.
         ticks: u32,
     },
-    /// Not every motor answered during the start-up ticks.
+    /// Not every motor answered during the start-up probe.
     StartupTimeout {
-        /// Bus of the first motor that never answered.
-        bus: usize,
         /// The first motor that never answered.
-        motor: MotorId,
+        at: MotorRef,
         /// How many motors never answered.
         missing: usize,
     },
@@ -50,31 +76,59 @@ pub enum Fault {
     },
     /// A motor reported a temperature at or above its configured limit.
     OverTemperature {
-        /// Bus index.
-        bus: usize,
-        /// Motor id.
-        motor: MotorId,
+        /// The motor.
+        at: MotorRef,
         /// The reported temperature.
         celsius: f64,
     },
+    /// The controller wrote a command the loop cannot send as given (with
+    /// `loop.rejected_command = "fault"`, the default).
+    RejectedCommand {
+        /// The joint, when the command named one of the robot's.
+        joint: Option<JointId>,
+        /// Why it was rejected.
+        reason: Rejection,
+    },
+}
+
+impl Fault {
+    /// The fault in words, naming joints by their names in `robot`.
+    pub fn describe(&self, robot: &Robot) -> String {
+        match self {
+            Fault::MotorSilent { at, ticks } => format!(
+                "{} gave no feedback for {ticks} consecutive ticks (check its power, wiring and id)",
+                at.describe(robot)
+            ),
+            Fault::StartupTimeout { at, missing } => format!(
+                "{missing} motor(s) never answered at start, first: {} (check power, id and bit rate)",
+                at.describe(robot)
+            ),
+            Fault::OverTemperature { at, celsius } => format!(
+                "{} reports {celsius} degC, at or above its limit",
+                at.describe(robot)
+            ),
+            Fault::RejectedCommand {
+                joint: Some(joint),
+                reason,
+            } => match robot.joints().get(joint.index()) {
+                Some(spec) => format!("the controller's command for joint {}: {reason}", spec.name),
+                None => self.to_string(),
+            },
+            _ => self.to_string(),
+        }
+    }
 }
 
 impl fmt::Display for Fault {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Fault::MotorSilent { bus, motor, ticks } => write!(
+            Fault::MotorSilent { at, ticks } => write!(
                 f,
-                "motor {} on bus {bus} gave no feedback for {ticks} consecutive ticks (check its power, wiring and id)",
-                motor.get()
+                "{at} gave no feedback for {ticks} consecutive ticks (check its power, wiring and id)"
             ),
-            Fault::StartupTimeout {
-                bus,
-                motor,
-                missing,
-            } => write!(
+            Fault::StartupTimeout { at, missing } => write!(
                 f,
-                "{missing} motor(s) never answered at start, first: motor {} on bus {bus} (check power, id and bit rate)",
-                motor.get()
+                "{missing} motor(s) never answered at start, first: {at} (check power, id and bit rate)"
             ),
             Fault::BusOff { bus } => write!(
                 f,
@@ -85,15 +139,16 @@ impl fmt::Display for Fault {
                 f,
                 "{consecutive} consecutive deadline misses (lower the rate, pin the loop to an isolated CPU, use SCHED_FIFO)"
             ),
-            Fault::OverTemperature {
-                bus,
-                motor,
-                celsius,
-            } => write!(
-                f,
-                "motor {} on bus {bus} reports {celsius} degC, at or above its limit",
-                motor.get()
-            ),
+            Fault::OverTemperature { at, celsius } => {
+                write!(f, "{at} reports {celsius} degC, at or above its limit")
+            }
+            Fault::RejectedCommand { joint, reason } => match joint {
+                Some(joint) => write!(f, "the controller's command for {joint}: {reason}"),
+                None => write!(
+                    f,
+                    "the controller commanded a joint this robot does not have"
+                ),
+            },
         }
     }
 }
@@ -101,9 +156,10 @@ impl fmt::Display for Fault {
 /// Why the loop ended.
 #[derive(Clone, Debug, PartialEq)]
 pub enum StopReason {
-    /// [`LoopHandle::stop`](crate::LoopHandle::stop) was called.
+    /// A stop was requested ([`LoopHandle::stop`](crate::LoopHandle::stop), a
+    /// [`Stopper`](crate::Stopper)).
     Requested,
-    /// [`LoopHandle::emergency_stop`](crate::LoopHandle::emergency_stop) was called.
+    /// An emergency stop was requested.
     EmergencyStop,
     /// The [`LoopHandle`](crate::LoopHandle) was dropped while the loop ran.
     HandleDropped,
@@ -142,11 +198,21 @@ impl StopReason {
                 | StopReason::TickLimit
         )
     }
+
+    /// The reason in words, naming joints by their names in `robot`.
+    pub fn describe(&self, robot: &Robot) -> String {
+        match self {
+            StopReason::Fault(fault) => format!("FAULT: {}", fault.describe(robot)),
+            other => other.to_string(),
+        }
+    }
 }
 
 /// What the safe stop did for one motor.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct MotorSafeStop {
+    /// The joint's name.
+    pub joint: String,
     /// Bus index.
     pub bus: usize,
     /// Motor id.
@@ -189,7 +255,8 @@ impl fmt::Display for SafeStopReport {
         for m in self.motors.iter().filter(|m| !m.off_confirmed) {
             write!(
                 f,
-                "; motor {} on bus {}: {}",
+                "; joint {} (motor {} on bus {}): {}",
+                m.joint,
                 m.motor.get(),
                 m.bus,
                 if !m.zero_torque_sent {
@@ -209,8 +276,11 @@ impl fmt::Display for SafeStopReport {
 #[derive(Clone, Debug, Serialize)]
 pub struct LoopReport {
     /// Why the loop ended.
-    #[serde(serialize_with = "serialize_display")]
+    #[serde(skip)]
     pub stop_reason: StopReason,
+    /// Why the loop ended, in words (joints named).
+    #[serde(rename = "stop_reason")]
+    pub stop_description: String,
     /// Whether that is a normal end.
     pub normal_stop: bool,
     /// Loop rate, Hz.
@@ -259,7 +329,7 @@ impl fmt::Display for LoopReport {
             "rmd-rt loop report: {} motor(s) on {} bus(es) at {} Hz for {:.3} s",
             self.motors, self.buses, self.rate_hz, self.duration_s
         )?;
-        writeln!(f, "stopped: {}", self.stop_reason)?;
+        writeln!(f, "stopped: {}", self.stop_description)?;
         writeln!(f, "{}", self.safe_stop)?;
         writeln!(f, "real-time: {}", self.realtime)?;
         for w in &self.realtime_warnings {

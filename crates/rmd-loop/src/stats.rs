@@ -11,6 +11,8 @@ use rmd_bus::BusEvent;
 use rmd_protocol::MotorId;
 use serde::Serialize;
 
+use crate::robot::Robot;
+
 /// Highest value a histogram resolves; longer durations are recorded as this (1 s).
 const HIGHEST_NANOS: u64 = 1_000_000_000;
 /// Significant decimal digits kept by every histogram.
@@ -137,6 +139,9 @@ pub struct MotorCounters {
     pub bad_frames: u64,
     /// Torque commands that were clamped to the motor's current limit.
     pub clamped_commands: u64,
+    /// Commands the controller wrote that could not be sent as given (not finite, a torque
+    /// without a torque constant): sent as zero torque.
+    pub rejected_commands: u64,
     /// Longest run of consecutive ticks without fresh feedback.
     pub max_consecutive_missing: u64,
 }
@@ -156,6 +161,7 @@ impl MotorCounters {
             unexpected_replies: 0,
             bad_frames: 0,
             clamped_commands: 0,
+            rejected_commands: 0,
             max_consecutive_missing: 0,
         }
     }
@@ -201,8 +207,13 @@ pub struct LoopStats {
     pub deadline_misses: u64,
     /// Ticks skipped by the `skip` overrun policy.
     pub skipped_ticks: u64,
-    /// Telemetry samples dropped because the telemetry queue was full.
+    /// Telemetry samples dropped because the telemetry queue was full (only when something
+    /// receives the telemetry).
     pub telemetry_drops: u64,
+    /// Commands for joints the robot does not have.
+    pub unknown_joint_commands: u64,
+    /// User signals written with an index the controller did not declare.
+    pub unknown_signals: u64,
     /// Wake latency: actual wake time minus scheduled time.
     pub wake_latency: LatencyHistogram,
     /// Exchange round trip: first 0x280 sent to last reply received, ticks with every reply only.
@@ -215,25 +226,31 @@ pub struct LoopStats {
     pub motors: Vec<MotorCounters>,
     /// Per bus, in robot-description order.
     pub buses: Vec<BusCounters>,
+    /// The joints' names, in description order.
+    names: Vec<String>,
 }
 
 impl LoopStats {
-    /// Empty statistics for the given motors and number of buses.
-    pub fn new(motors: impl IntoIterator<Item = (usize, MotorId)>, buses: usize) -> Self {
+    /// Empty statistics for the joints and buses of `robot`.
+    pub fn new(robot: &Robot) -> Self {
         Self {
             ticks: 0,
             deadline_misses: 0,
             skipped_ticks: 0,
             telemetry_drops: 0,
+            unknown_joint_commands: 0,
+            unknown_signals: 0,
             wake_latency: LatencyHistogram::new(),
             round_trip: LatencyHistogram::new(),
             controller: LatencyHistogram::new(),
             work: LatencyHistogram::new(),
-            motors: motors
-                .into_iter()
-                .map(|(bus, id)| MotorCounters::new(bus, id))
+            motors: robot
+                .joints()
+                .iter()
+                .map(|j| MotorCounters::new(j.bus, j.motor))
                 .collect(),
-            buses: vec![BusCounters::default(); buses],
+            buses: vec![BusCounters::default(); robot.buses().len()],
+            names: robot.joints().iter().map(|j| j.name.clone()).collect(),
         }
     }
 
@@ -243,6 +260,8 @@ impl LoopStats {
         self.deadline_misses = other.deadline_misses;
         self.skipped_ticks = other.skipped_ticks;
         self.telemetry_drops = other.telemetry_drops;
+        self.unknown_joint_commands = other.unknown_joint_commands;
+        self.unknown_signals = other.unknown_signals;
         self.wake_latency.copy_from(&other.wake_latency);
         self.round_trip.copy_from(&other.round_trip);
         self.controller.copy_from(&other.controller);
@@ -274,14 +293,34 @@ impl LoopStats {
             missing_replies: self.missing_replies(),
             late_replies: self.late_replies(),
             telemetry_drops: self.telemetry_drops,
+            unknown_joint_commands: self.unknown_joint_commands,
+            unknown_signals: self.unknown_signals,
             wake_latency_us: self.wake_latency.percentiles(),
             round_trip_us: self.round_trip.percentiles(),
             controller_us: self.controller.percentiles(),
             work_us: self.work.percentiles(),
-            motors: self.motors.clone(),
+            motors: self
+                .motors
+                .iter()
+                .zip(&self.names)
+                .map(|(counters, name)| JointCounters {
+                    joint: name.clone(),
+                    counters: *counters,
+                })
+                .collect(),
             buses: self.buses.clone(),
         }
     }
+}
+
+/// One joint's counters, with its name.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct JointCounters {
+    /// The joint's name.
+    pub joint: String,
+    /// Its motor's counters.
+    #[serde(flatten)]
+    pub counters: MotorCounters,
 }
 
 /// The statistics of a run in a form ready to print or serialise.
@@ -299,6 +338,10 @@ pub struct StatsSummary {
     pub late_replies: u64,
     /// Telemetry samples dropped.
     pub telemetry_drops: u64,
+    /// Commands for joints the robot does not have.
+    pub unknown_joint_commands: u64,
+    /// User signals written with an undeclared index.
+    pub unknown_signals: u64,
     /// Wake latency percentiles, microseconds.
     pub wake_latency_us: Percentiles,
     /// Exchange round trip percentiles, microseconds.
@@ -307,8 +350,8 @@ pub struct StatsSummary {
     pub controller_us: Percentiles,
     /// Work per tick percentiles, microseconds.
     pub work_us: Percentiles,
-    /// Per-motor counters.
-    pub motors: Vec<MotorCounters>,
+    /// Per-joint counters.
+    pub motors: Vec<JointCounters>,
     /// Per-bus counters.
     pub buses: Vec<BusCounters>,
 }
@@ -342,10 +385,17 @@ impl core::fmt::Display for StatsSummary {
                 name, p.min, p.p50, p.p90, p.p99, p.p999, p.max
             )?;
         }
-        for m in &self.motors {
+        if self.unknown_joint_commands + self.unknown_signals > 0 {
             writeln!(
                 f,
-                "bus {} motor {}: missing {} late {} unexpected {} bad frames {} clamped {} (longest gap {} ticks)",
+                "commands for unknown joints {}   undeclared signals {}",
+                self.unknown_joint_commands, self.unknown_signals
+            )?;
+        }
+        for JointCounters { joint, counters: m } in &self.motors {
+            writeln!(
+                f,
+                "{joint} (bus {} motor {}): missing {} late {} unexpected {} bad frames {} clamped {} rejected {} (longest gap {} ticks)",
                 m.bus,
                 m.motor.get(),
                 m.missing_replies,
@@ -353,6 +403,7 @@ impl core::fmt::Display for StatsSummary {
                 m.unexpected_replies,
                 m.bad_frames,
                 m.clamped_commands,
+                m.rejected_commands,
                 m.max_consecutive_missing
             )?;
         }
@@ -413,15 +464,18 @@ mod tests {
 
     #[test]
     fn copy_from_reproduces_the_source() {
-        let m = MotorId::new(1).unwrap();
-        let mut a = LoopStats::new([(0, m)], 1);
+        let robot = Robot::try_from(crate::robot::RobotConfig::new(100.0).with_bus(
+            crate::robot::BusConfig::new("can0").with_motor(crate::robot::MotorConfig::new(1)),
+        ))
+        .unwrap();
+        let mut a = LoopStats::new(&robot);
         a.ticks = 7;
         a.motors[0].missing_replies = 3;
         a.buses[0].tx_errors = 2;
         for i in 0..100 {
             a.work.record(us(i));
         }
-        let mut b = LoopStats::new([(0, m)], 1);
+        let mut b = LoopStats::new(&robot);
         b.work.record(us(12345));
         b.copy_from(&a);
         assert_eq!(b.summary(), a.summary());

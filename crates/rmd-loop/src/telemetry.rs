@@ -1,43 +1,57 @@
-//! The loop's per-tick telemetry: a fixed-size sample pushed into a lock-free mailbox every tick.
+//! The loop's per-tick telemetry: a fixed-size sample pushed into a lock-free mailbox every tick,
+//! once something asked for it ([`RtLoop::telemetry`](crate::RtLoop::telemetry)).
 //!
 //! When the consumer falls behind, the oldest samples are overwritten (the newest state is what a
-//! live display wants) and each one overwritten is counted in `telemetry_drops`.
+//! live display wants) and each one overwritten is counted in `telemetry_drops`. Without a
+//! consumer nothing is published and nothing is counted.
 
 use rmd_bus::Timestamp;
 
-use crate::config::MAX_MOTORS;
-use crate::controller::MotorFeedback;
+use crate::commands::MAX_SIGNALS;
+use crate::feedback::JointFeedback;
+use crate::robot::MAX_JOINTS;
 
-/// One motor in a telemetry sample.
-#[derive(Copy, Clone, Debug, Default, PartialEq)]
+/// One joint in a telemetry sample: its feedback and the command the controller wrote.
+#[derive(Copy, Clone, Debug, PartialEq)]
 pub struct JointSample {
-    /// Joint angle, degrees.
-    pub joint_angle_deg: f64,
-    /// Joint velocity, deg/s.
-    pub joint_velocity_dps: f64,
-    /// Measured torque current, amperes (motor sign).
-    pub iq_amps: f64,
-    /// Torque current commanded by the controller in this tick (sent next tick), amperes (motor
-    /// sign, after clamping to the current limit).
+    /// The feedback the controller saw in this tick.
+    pub feedback: JointFeedback,
+    /// Torque current commanded in this tick (sent next tick), amperes, motor sign, after
+    /// clamping to the current limit.
     pub command_amps: f64,
-    /// Temperature, degrees Celsius.
-    pub temperature_celsius: f64,
-    /// Whether the feedback was fresh in this tick.
-    pub fresh: bool,
 }
 
-impl JointSample {
-    /// The sample of one motor's feedback and command.
-    pub fn new(feedback: &MotorFeedback, command_amps: f64) -> Self {
+impl Default for JointSample {
+    fn default() -> Self {
         Self {
-            joint_angle_deg: feedback.joint_angle_deg,
-            joint_velocity_dps: feedback.joint_velocity_dps,
-            iq_amps: feedback.iq_amps,
-            command_amps,
-            temperature_celsius: feedback.temperature_celsius,
-            fresh: feedback.fresh,
+            feedback: JointFeedback::UNSET,
+            command_amps: 0.0,
         }
     }
+}
+
+/// How one tick went, in nanoseconds.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct TickTimes {
+    /// How late the tick woke.
+    pub wake_latency_ns: u64,
+    /// From this tick's 0x280 frames to the last reply, when every reply came.
+    pub round_trip_ns: Option<u64>,
+    /// The controller's `update`.
+    pub controller_ns: u64,
+    /// The previous tick's whole work (wake to end).
+    pub previous_work_ns: u64,
+}
+
+/// Running totals at the end of a tick.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct Totals {
+    /// Deadline misses so far.
+    pub deadline_misses: u64,
+    /// Missing replies so far, all joints.
+    pub missing_replies: u64,
+    /// Late replies so far, all joints.
+    pub late_replies: u64,
 }
 
 /// The state of the robot in one tick.
@@ -45,34 +59,51 @@ impl JointSample {
 pub struct TelemetrySample {
     /// Tick index.
     pub tick: u64,
-    /// When the tick was due.
+    /// When the tick was due (bus clock).
     pub scheduled: Timestamp,
     /// Seconds since tick 0 was due.
     pub time_s: f64,
-    /// How late the tick woke, nanoseconds.
-    pub wake_latency_ns: u64,
-    /// Number of motors (entries of `joints` in use).
-    pub motors: usize,
-    /// Per motor, robot-description order; entries beyond `motors` are zero.
-    pub joints: [JointSample; MAX_MOTORS],
+    /// Timing of this tick.
+    pub times: TickTimes,
+    /// Running totals.
+    pub totals: Totals,
+    joint_count: usize,
+    joints: [JointSample; MAX_JOINTS],
+    signal_count: usize,
+    signals: [f64; MAX_SIGNALS],
 }
 
 impl TelemetrySample {
-    /// The motors in use.
-    pub fn joints(&self) -> &[JointSample] {
-        &self.joints[..self.motors.min(MAX_MOTORS)]
-    }
-}
-
-impl Default for TelemetrySample {
-    fn default() -> Self {
+    /// An empty sample for `joints` joints and `signals` user signals (each at most its maximum).
+    pub(crate) fn new(joints: usize, signals: usize) -> Self {
         Self {
             tick: 0,
             scheduled: Timestamp::ZERO,
             time_s: 0.0,
-            wake_latency_ns: 0,
-            motors: 0,
-            joints: [JointSample::default(); MAX_MOTORS],
+            times: TickTimes::default(),
+            totals: Totals::default(),
+            joint_count: joints.min(MAX_JOINTS),
+            joints: [JointSample::default(); MAX_JOINTS],
+            signal_count: signals.min(MAX_SIGNALS),
+            signals: [0.0; MAX_SIGNALS],
         }
+    }
+
+    /// Every joint, in description order (index with a [`JointId`](crate::JointId)'s `index()`).
+    pub fn joints(&self) -> &[JointSample] {
+        &self.joints[..self.joint_count]
+    }
+
+    pub(crate) fn joints_mut(&mut self) -> &mut [JointSample] {
+        &mut self.joints[..self.joint_count]
+    }
+
+    /// The user signals, in the order the controller declared them.
+    pub fn signals(&self) -> &[f64] {
+        &self.signals[..self.signal_count]
+    }
+
+    pub(crate) fn signals_mut(&mut self) -> &mut [f64] {
+        &mut self.signals[..self.signal_count]
     }
 }

@@ -68,8 +68,9 @@ fn steady_state_ticks_allocate_nothing() {
     ];
     let mut bus0 = sim(&clock, 4, 21, &faults);
     let mut bus1 = sim(&clock, 4, 22, &faults);
-    let mut robot = robot(1000.0, 2, 4);
-    robot.loop_config.missing_reply_fault_after = 1000;
+    let mut config = robot_config(1000.0, 2, 4);
+    config.loop_config.missing_reply_fault_after = 1000;
+    let robot = rmd_loop::Robot::try_from(config).unwrap();
     let mut rt = RtLoop::new(
         robot,
         clock.clone(),
@@ -78,13 +79,13 @@ fn steady_state_ticks_allocate_nothing() {
     )
     .unwrap();
     let telemetry = rt.telemetry();
-    rt.start().unwrap();
+    let mut rt = rt.start().unwrap();
     for _ in 0..100 {
-        assert!(rt.step().is_none());
+        assert!(rt.step().is_continue());
     }
     COUNTING.store(true, Ordering::SeqCst);
     for _ in 0..2_000 {
-        assert!(rt.step().is_none());
+        assert!(rt.step().is_continue());
         let _ = telemetry.try_recv();
     }
     COUNTING.store(false, Ordering::SeqCst);

@@ -45,8 +45,8 @@ struct Recorder {
 
 impl Controller for Recorder {
     fn update(&mut self, _: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
-        for i in 0..fb.len() {
-            let _ = cmd.set_current(i, 0.5);
+        for (joint, _) in fb.iter() {
+            cmd.set_current(joint, 0.5);
         }
         Flow::Continue
     }
@@ -182,9 +182,10 @@ fn missing_privileges_are_reported_not_fatal() {
     // Asks for SCHED_FIFO, which an unprivileged test run may not get; either way the loop runs.
     let clock = VirtualClock::new();
     let bus = SharedBus::new(clock.clone(), 2);
-    let mut robot = robot(1000.0, 1, 2);
-    robot.loop_config.fifo_priority = Some(10);
-    robot.loop_config.cpu = Some(0);
+    let mut config = robot_config(1000.0, 1, 2);
+    config.loop_config.fifo_priority = Some(10);
+    config.loop_config.cpu = Some(0);
+    let robot = rmd_loop::Robot::try_from(config).unwrap();
     let rt = RtLoop::new(robot, clock, vec![bus], PdTo::hold(2)).unwrap();
     let out = rt.spawn(RunLimit::Ticks(100)).unwrap().join().unwrap();
     assert_eq!(out.report.stats.ticks, 100);

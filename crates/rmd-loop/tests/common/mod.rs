@@ -5,7 +5,7 @@
 use core::time::Duration;
 
 use rmd_bus::VirtualClock;
-use rmd_loop::config::{BusConfig, MotorConfig, RobotConfig};
+use rmd_loop::robot::{BusConfig, MotorConfig, Robot, RobotConfig};
 use rmd_loop::{Commands, Controller, Fault, Feedback, Flow, StopReason, TickContext};
 use rmd_protocol::MotorId;
 use rmd_sim::{ControlMode, FaultRule, SimBus, SimConfig};
@@ -19,8 +19,13 @@ pub fn id(n: u8) -> MotorId {
     MotorId::new(n).unwrap()
 }
 
-/// One bus with motors 1..=n, at `rate_hz`.
-pub fn robot(rate_hz: f64, buses: usize, motors: u8) -> RobotConfig {
+/// `buses` buses with motors 1..=n each, at `rate_hz`.
+pub fn robot(rate_hz: f64, buses: usize, motors: u8) -> Robot {
+    Robot::try_from(robot_config(rate_hz, buses, motors)).unwrap()
+}
+
+/// The file form of [`robot`], to change before building.
+pub fn robot_config(rate_hz: f64, buses: usize, motors: u8) -> RobotConfig {
     let mut robot = RobotConfig::new(rate_hz);
     for b in 0..buses {
         let mut bus = BusConfig::new(&format!("sim{b}"));
@@ -111,10 +116,7 @@ impl PdTo {
 
 impl Controller for PdTo {
     fn start(&mut self, _ctx: &TickContext, feedback: &Feedback<'_>) {
-        assert!(
-            feedback.iter().all(|m| m.valid),
-            "start without full feedback"
-        );
+        assert!(feedback.all_fresh(), "start without full feedback");
         self.started = true;
     }
 
@@ -123,13 +125,13 @@ impl Controller for PdTo {
             panic!("controller bug at tick {}", ctx.index);
         }
         self.updates += 1;
-        for (i, j) in fb.iter().enumerate() {
-            if !j.fresh {
+        for (joint, f) in fb.iter() {
+            if !f.is_fresh() {
                 self.stale_seen += 1;
             }
-            let target = self.targets.get(i).copied().unwrap_or(0.0);
-            let amps = self.kp * (target - j.joint_angle_deg) - self.kd * j.joint_velocity_dps;
-            cmd.set_current(i, amps).unwrap();
+            let target = self.targets.get(joint.index()).copied().unwrap_or(0.0);
+            let amps = self.kp * (target - f.joint.angle_deg) - self.kd * f.joint.velocity_dps;
+            cmd.set_current(joint, amps);
         }
         if self.finish_at == Some(ctx.index) {
             Flow::Stop

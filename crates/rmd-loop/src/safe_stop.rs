@@ -5,13 +5,12 @@
 use core::time::Duration;
 
 use rmd_bus::{BusError, BusMessage, CanBus, Clock, Timestamp};
-use rmd_protocol::{
-    CanFrame, Command, IqControl, MULTI_TORQUE_MOTORS, MultiTorque, Request, decode_reply_to,
-};
+use rmd_protocol::{CanFrame, Command, Reply, Request};
 
-use crate::engine::BusLink;
-use crate::exchange::MotorState;
+use crate::exchange::Exchange;
+use crate::exchange::frames::{Incoming, ZERO_TORQUE, match_reply, torque_frame};
 use crate::report::{MotorSafeStop, SafeStopReport};
+use crate::robot::Robot;
 
 /// How long to keep retrying a frame the transmit queue refuses.
 const SEND_RETRY_FOR: Duration = Duration::from_millis(20);
@@ -38,54 +37,56 @@ fn send_with_retry<B: CanBus, C: Clock>(bus: &mut B, clock: &C, frame: &CanFrame
 /// Zero torque, then motor off, to every motor on every bus; reports what was confirmed.
 pub(crate) fn make_safe<B: CanBus, C: Clock>(
     clock: &C,
-    buses: &mut [BusLink<B>],
-    motors: &[MotorState],
+    exchange: &mut Exchange<B>,
+    robot: &Robot,
 ) -> SafeStopReport {
     let mut report = SafeStopReport {
-        motors: motors
+        motors: robot
+            .joints()
             .iter()
-            .map(|m| MotorSafeStop {
-                bus: m.bus,
-                motor: m.id,
+            .map(|j| MotorSafeStop {
+                joint: j.name.clone(),
+                bus: j.bus,
+                motor: j.motor,
                 zero_torque_sent: false,
                 off_sent: false,
                 off_confirmed: false,
             })
             .collect(),
     };
+    let Exchange { links, motors, .. } = exchange;
     // 1. Zero torque on every bus first: the fastest way to remove torque everywhere.
-    let zero = MultiTorque::new([IqControl::default(); MULTI_TORQUE_MOTORS]).encode();
-    for link in buses.iter_mut() {
+    let zero = torque_frame(&ZERO_TORQUE);
+    for link in links.iter_mut() {
         let sent = send_with_retry(&mut link.bus, clock, &zero);
-        for m in link.motors() {
+        for m in link.joints() {
             report.motors[m].zero_torque_sent = sent;
         }
     }
     // 2. Motor off to each motor (clears its state and commands; it stays off until commanded).
-    for link in buses.iter_mut() {
-        for m in link.motors() {
+    for link in links.iter_mut() {
+        for m in link.joints() {
             let off = Request::MotorOff.encode(motors[m].id);
             report.motors[m].off_sent = send_with_retry(&mut link.bus, clock, &off);
         }
     }
     // 3. Wait for the echoes of motor-off (torque replies to the zero frame are skipped).
     let deadline: Timestamp = clock.now() + CONFIRM_WITHIN;
-    for link in buses.iter_mut() {
-        let range = link.motors();
-        loop {
-            let pending = range
-                .clone()
-                .any(|m| report.motors[m].off_sent && !report.motors[m].off_confirmed);
-            if !pending {
-                break;
-            }
+    for link in links.iter_mut() {
+        let range = link.joints();
+        while range
+            .clone()
+            .any(|m| report.motors[m].off_sent && !report.motors[m].off_confirmed)
+        {
             match link.bus.recv_until(deadline) {
                 Ok(Some(received)) => {
                     if let BusMessage::Frame(frame) = received.message
-                        && let Ok((id, _)) = decode_reply_to(&frame, Command::MotorOff)
-                        && let Some(m) = range.clone().find(|&m| motors[m].id == id)
+                        && let Incoming::Reply {
+                            motor,
+                            reply: Reply::MotorOff,
+                        } = match_reply(&frame, Command::MotorOff, motors, range.clone())
                     {
-                        report.motors[m].off_confirmed = true;
+                        report.motors[motor].off_confirmed = true;
                     }
                 }
                 Ok(None) | Err(_) => break,

@@ -1,115 +1,17 @@
-//! Matching replies to requests, per motor.
-//!
-//! Every 0x280 frame asks each motor on its bus for one 0xA1 reply, and all replies look alike,
-//! so the loop keeps, per motor, the frames not answered yet and the motor's round-trip time
-//! (measured in the start-up probe exchange, when only one request is outstanding, then tracked
-//! with a moving average). A reply can be late but not (much) early: it can only answer a request
-//! whose expected arrival (`sent + round trip - tolerance`) it has reached. Among those it answers
-//! the newest; the firmware answers in order, so older outstanding requests are then known lost.
-//! The reply's age (this tick minus that request's tick) says whether it is this tick's reply or
-//! one that missed an earlier deadline (late). A reply with nothing outstanding is a duplicate or
-//! an answer to somebody else's request (unexpected).
-//!
-//! Why not first-in-first-out: after one lost reply, FIFO would take every later reply as the
-//! answer to the previous tick (all late, for ever). Why the round trip: a motor slower than the
-//! period answers the previous tick's frame shortly after this tick's frame was sent, and a late
-//! reply arrives before the next request's reply is due; only the round trip tells them apart
-//! from fresh replies.
+//! Everything the loop keeps about one motor between ticks, and what a reply does to it.
 
 use core::time::Duration;
 
 use rmd_bus::Timestamp;
 use rmd_protocol::{EncoderWidth, MotorId, Status2};
 
-use crate::config::MotorConfig;
-use crate::controller::MotorFeedback;
-use crate::joint::{EncoderUnwrapper, JointMap};
+use super::pending::PendingRequests;
+use crate::feedback::{Freshness, JointFeedback, JointState, MotorState, RawStatus};
+use crate::joint::JointId;
+use crate::mapping::{EncoderUnwrapper, JointMap};
+use crate::report::MotorRef;
+use crate::robot::JointSpec;
 use crate::stats::MotorCounters;
-
-/// Outstanding requests kept per motor.
-const PENDING_CAPACITY: usize = 8;
-
-/// How much earlier than its tracked round trip a reply may arrive: a quarter of the round trip
-/// plus 20 us (turnaround jitter, arbitration behind other motors).
-fn early_tolerance(round_trip: Duration) -> Duration {
-    round_trip / 4 + Duration::from_micros(20)
-}
-
-/// The ticks (and send times) of the frames a motor has not answered yet, oldest first.
-#[derive(Copy, Clone, Debug)]
-pub(crate) struct PendingRequests {
-    entries: [(u64, Timestamp); PENDING_CAPACITY],
-    head: usize,
-    len: usize,
-}
-
-impl PendingRequests {
-    pub(crate) fn new() -> Self {
-        Self {
-            entries: [(0, Timestamp::ZERO); PENDING_CAPACITY],
-            head: 0,
-            len: 0,
-        }
-    }
-
-    fn get(&self, i: usize) -> (u64, Timestamp) {
-        self.entries[(self.head + i) % PENDING_CAPACITY]
-    }
-
-    /// Records a request sent in `tick` at `at`; the oldest is given up if the ring is full.
-    pub(crate) fn push(&mut self, tick: u64, at: Timestamp) {
-        if self.len == PENDING_CAPACITY {
-            self.head = (self.head + 1) % PENDING_CAPACITY;
-            self.len -= 1;
-        }
-        self.entries[(self.head + self.len) % PENDING_CAPACITY] = (tick, at);
-        self.len += 1;
-    }
-
-    /// Takes the request that a reply received at `received` answers: the newest request whose
-    /// expected arrival, `sent + round_trip - tolerance`, has passed (any request sent before
-    /// the reply when the round trip is not known yet). If the reply came earlier than expected
-    /// for every request, it answers the oldest one sent before it. Older outstanding requests
-    /// are dropped as lost.
-    pub(crate) fn answer(
-        &mut self,
-        received: Timestamp,
-        round_trip: Option<Duration>,
-    ) -> Option<(u64, Timestamp)> {
-        let mut oldest_causal = None;
-        let mut newest_plausible = None;
-        for i in 0..self.len {
-            let (_, sent) = self.get(i);
-            if sent > received {
-                break; // sent after the reply arrived: cannot be what it answers
-            }
-            oldest_causal.get_or_insert(i);
-            let plausible = match round_trip {
-                None => true,
-                Some(rtt) => received >= (sent + rtt).saturating_sub(early_tolerance(rtt)),
-            };
-            if plausible {
-                newest_plausible = Some(i);
-            }
-        }
-        let i = newest_plausible.or(oldest_causal)?;
-        let answered = self.get(i);
-        self.head = (self.head + i + 1) % PENDING_CAPACITY;
-        self.len -= i + 1;
-        Some(answered)
-    }
-
-    /// Forgets everything outstanding.
-    pub(crate) fn clear(&mut self) {
-        self.len = 0;
-    }
-
-    /// Number of outstanding requests.
-    #[cfg(test)]
-    pub(crate) fn len(&self) -> usize {
-        self.len
-    }
-}
 
 /// How a received reply was classified.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -118,47 +20,60 @@ pub(crate) enum ReplyClass {
     Fresh,
     /// Answers an earlier tick than accepted: counted late, its values still update the state.
     Late,
-    /// No outstanding request: counted unexpected, ignored.
+    /// No outstanding request, or an impossible value: counted, ignored.
     Unexpected,
 }
 
 /// Everything the loop keeps about one motor.
 #[derive(Clone, Debug)]
-pub(crate) struct MotorState {
-    pub(crate) bus: usize,
+pub(crate) struct MotorLink {
+    /// Which joint, bus and motor this is.
+    pub(crate) at: MotorRef,
     pub(crate) id: MotorId,
     /// Index in the 0x280 frame (id - 1).
     pub(crate) slot: usize,
-    pub(crate) width: EncoderWidth,
+    width: EncoderWidth,
     pub(crate) map: JointMap,
-    pub(crate) unwrapper: EncoderUnwrapper,
+    unwrapper: EncoderUnwrapper,
     pub(crate) limit_raw: i16,
     pub(crate) temperature_limit: Option<f64>,
     pub(crate) pending: PendingRequests,
-    pub(crate) last_reply_at: Option<Timestamp>,
+    last_reply_at: Option<Timestamp>,
+    ticks_since_reply: u32,
     pub(crate) consecutive_missing: u32,
     /// Estimated round trip (request sent to reply received); `None` until the first reply.
     pub(crate) round_trip: Option<Duration>,
 }
 
-impl MotorState {
-    pub(crate) fn new(bus: usize, config: &MotorConfig) -> Self {
-        let id = config.motor_id();
-        let width = config.encoder_width();
+impl MotorLink {
+    pub(crate) fn new(index: usize, joint: &JointSpec) -> Self {
         Self {
-            bus,
-            id,
-            slot: usize::from(id.get().saturating_sub(1)).min(3),
-            width,
-            map: JointMap::from_config(config),
-            unwrapper: EncoderUnwrapper::new(width),
-            limit_raw: config.current_limit_raw(),
-            temperature_limit: config.temperature_limit_celsius,
+            at: MotorRef {
+                joint: JointId::from_index(index),
+                bus: joint.bus,
+                motor: joint.motor,
+            },
+            id: joint.motor,
+            slot: joint.slot(),
+            width: joint.encoder,
+            map: JointMap::from_spec(joint),
+            unwrapper: EncoderUnwrapper::new(joint.encoder),
+            limit_raw: joint.current_limit.raw(),
+            temperature_limit: joint.temperature_limit_celsius,
             pending: PendingRequests::new(),
             last_reply_at: None,
+            ticks_since_reply: 0,
             consecutive_missing: 0,
             round_trip: None,
         }
+    }
+
+    /// Marks the start of a tick: until a reply comes, the feedback is missing.
+    pub(crate) fn begin_tick(&mut self, feedback: &mut JointFeedback) {
+        self.ticks_since_reply = self.ticks_since_reply.saturating_add(1);
+        feedback.freshness = Freshness::Missing {
+            ticks_since_reply: self.ticks_since_reply,
+        };
     }
 
     /// Folds one measured round trip into the estimate (moving average, weight 1/8).
@@ -181,7 +96,7 @@ impl MotorState {
         at: Timestamp,
         tick: u64,
         max_age: u64,
-        feedback: &mut MotorFeedback,
+        feedback: &mut JointFeedback,
         counters: &mut MotorCounters,
     ) -> ReplyClass {
         if status.encoder.check(self.width).is_err() {
@@ -194,6 +109,7 @@ impl MotorState {
         };
         self.track_round_trip(at - sent_at);
         let age = tick.saturating_sub(sent_tick);
+        let age_ticks = u32::try_from(age).unwrap_or(u32::MAX);
         let class = if age <= max_age {
             ReplyClass::Fresh
         } else {
@@ -207,25 +123,34 @@ impl MotorState {
         let motor_deg = self
             .unwrapper
             .update(status.encoder.raw(), speed_dps, elapsed);
-        let iq_amps = status.iq.amps();
+        let current_amps = status.iq.amps();
         self.last_reply_at = Some(at);
-        *feedback = MotorFeedback {
-            bus: self.bus,
-            motor: self.id,
-            valid: true,
-            fresh: feedback.fresh || class == ReplyClass::Fresh,
-            age_ticks: u32::try_from(age).unwrap_or(u32::MAX),
-            ticks_since_reply: 0,
+        self.ticks_since_reply = 0;
+        let freshness = match (class, feedback.freshness) {
+            (ReplyClass::Fresh, _) => Freshness::Fresh { age_ticks },
+            (_, fresh @ Freshness::Fresh { .. }) => fresh,
+            _ => Freshness::Late { age_ticks },
+        };
+        *feedback = JointFeedback {
+            joint: JointState {
+                angle_deg: self.map.joint_angle_deg(motor_deg),
+                velocity_dps: self.map.joint_velocity_dps(speed_dps),
+                torque_nm: self.map.joint_torque_nm(current_amps),
+            },
+            motor: MotorState {
+                angle_deg: motor_deg,
+                speed_dps,
+                current_amps,
+                temperature_celsius: status.temperature.celsius(),
+            },
+            raw: RawStatus {
+                temperature: status.temperature.raw(),
+                iq: status.iq.raw(),
+                speed: status.speed.raw(),
+                encoder: status.encoder.raw(),
+            },
+            freshness,
             received_at: at,
-            temperature_celsius: status.temperature.celsius(),
-            iq: status.iq.raw(),
-            iq_amps,
-            speed_dps,
-            encoder: status.encoder.raw(),
-            motor_angle_deg: motor_deg,
-            joint_angle_deg: self.map.joint_angle_deg(motor_deg),
-            joint_velocity_dps: self.map.joint_velocity_dps(speed_dps),
-            joint_torque_nm: self.map.joint_torque_nm(iq_amps),
         };
         class
     }
@@ -233,7 +158,9 @@ impl MotorState {
 
 #[cfg(test)]
 mod tests {
+    use super::super::pending::PENDING_CAPACITY;
     use super::*;
+    use crate::robot::{BusConfig, MotorConfig, Robot, RobotConfig};
     use rmd_protocol::{EncoderValue, Iq, Speed, Temperature};
 
     fn t(us: u64) -> Timestamp {
@@ -249,12 +176,19 @@ mod tests {
         }
     }
 
-    fn motor() -> (MotorState, MotorFeedback, MotorCounters) {
-        let config = MotorConfig::new(2).gear_ratio(2.0);
-        let m = MotorState::new(0, &config);
-        let fb = MotorFeedback::empty(0, m.id);
+    fn motor() -> (MotorLink, JointFeedback, MotorCounters) {
+        let robot = Robot::try_from(
+            RobotConfig::new(100.0)
+                .with_bus(BusConfig::new("can0").with_motor(MotorConfig::new(2).gear_ratio(2.0))),
+        )
+        .unwrap();
+        let m = MotorLink::new(0, &robot.joints()[0]);
         let c = MotorCounters::new(0, m.id);
-        (m, fb, c)
+        (m, JointFeedback::UNSET, c)
+    }
+
+    fn fresh(fb: &JointFeedback) -> bool {
+        fb.freshness.is_fresh()
     }
 
     #[test]
@@ -317,12 +251,12 @@ mod tests {
         m.pending.push(7, t(7000));
         let class = m.on_reply(&status(4096), t(7300), 7, 0, &mut fb, &mut c);
         assert_eq!(class, ReplyClass::Fresh);
-        assert!(fb.valid && fb.fresh);
-        assert_eq!(fb.age_ticks, 0);
-        assert_eq!(fb.motor_angle_deg, 90.0);
-        assert_eq!(fb.joint_angle_deg, 45.0);
-        assert_eq!(fb.temperature_celsius, 30.0);
-        assert_eq!(fb.iq, 100);
+        assert_eq!(fb.freshness, Freshness::Fresh { age_ticks: 0 });
+        assert_eq!(fb.motor.angle_deg, 90.0);
+        assert_eq!(fb.joint.angle_deg, 45.0);
+        assert_eq!(fb.motor.temperature_celsius, 30.0);
+        assert_eq!(fb.raw.iq, 100);
+        assert_eq!(fb.joint.torque_nm, None);
         assert_eq!(m.round_trip, Some(Duration::from_micros(300)));
     }
 
@@ -334,11 +268,12 @@ mod tests {
         m.on_reply(&status(0), t(300), 0, 0, &mut fb, &mut c);
         m.pending.push(1, t(1000));
         for k in 2..50u64 {
-            fb.fresh = false;
+            m.begin_tick(&mut fb);
+            assert!(!fresh(&fb));
             m.pending.push(k, t(k * 1000));
             let class = m.on_reply(&status(0), t(k * 1000 + 300), k, 0, &mut fb, &mut c);
             assert_eq!(class, ReplyClass::Fresh, "tick {k}");
-            assert_eq!(fb.age_ticks, 0);
+            assert_eq!(fb.freshness, Freshness::Fresh { age_ticks: 0 });
         }
         assert_eq!(c.late_replies, 0);
         assert_eq!(m.pending.len(), 0);
@@ -356,12 +291,17 @@ mod tests {
             let send = |k: u64| t(200_000 + k * 1000);
             m.pending.push(0, send(0));
             for k in 1..20u64 {
-                fb.fresh = false;
+                m.begin_tick(&mut fb);
                 m.pending.push(k, send(k));
                 let at = Timestamp::from_nanos(send(k).as_nanos() + 300_000);
                 let class = m.on_reply(&status(0), at, k, max_age, &mut fb, &mut c);
                 assert_eq!(class, expect, "tick {k}");
-                assert_eq!(fb.age_ticks, 1);
+                let expected = if max_age == 0 {
+                    Freshness::Late { age_ticks: 1 }
+                } else {
+                    Freshness::Fresh { age_ticks: 1 }
+                };
+                assert_eq!(fb.freshness, expected);
             }
             assert_eq!(c.late_replies, if max_age == 0 { 19 } else { 0 });
         }

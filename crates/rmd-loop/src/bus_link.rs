@@ -1,0 +1,17 @@
+//! One bus of the loop and the joints on it.
+
+use core::ops::Range;
+
+/// A bus and the consecutive range of joints (motors) it carries.
+#[derive(Debug)]
+pub(crate) struct BusLink<B> {
+    pub(crate) bus: B,
+    pub(crate) joints: Range<usize>,
+}
+
+impl<B> BusLink<B> {
+    /// The joints on this bus, as indices in description order.
+    pub(crate) fn joints(&self) -> Range<usize> {
+        self.joints.clone()
+    }
+}

@@ -1,0 +1,210 @@
+//! What a controller reads every tick: each joint's latest state, grouped by side (joint,
+//! motor, raw wire values) with how fresh it is.
+//!
+//! The loop starts the controller only once every motor has answered (the start-up probe), so a
+//! controller never sees a joint without feedback: [`JointFeedback`] always holds a reply's
+//! values, and [`Freshness`] says whether they came in this tick.
+
+use rmd_bus::Timestamp;
+
+use crate::joint::JointId;
+use crate::robot::JointSpec;
+
+/// The joint side of a joint's state: after the gear ratio, direction and zero offset.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct JointState {
+    /// Joint angle, degrees (continuous: unwrapped by the loop).
+    pub angle_deg: f64,
+    /// Joint velocity, deg/s.
+    pub velocity_dps: f64,
+    /// Joint torque from the measured current, N*m; `None` without a torque constant in the
+    /// description.
+    pub torque_nm: Option<f64>,
+}
+
+impl JointState {
+    /// Joint angle in radians.
+    pub fn angle_rad(&self) -> f64 {
+        self.angle_deg.to_radians()
+    }
+
+    /// Joint velocity in rad/s.
+    pub fn velocity_rad_s(&self) -> f64 {
+        self.velocity_dps.to_radians()
+    }
+}
+
+/// The motor side of a joint's state, in the motor's own frame and units.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct MotorState {
+    /// Continuous rotor angle, degrees (the single-turn encoder unwrapped by the loop).
+    pub angle_deg: f64,
+    /// Rotor speed, deg/s (1 dps resolution).
+    pub speed_dps: f64,
+    /// Torque current, amperes (motor sign).
+    pub current_amps: f64,
+    /// Temperature, degrees Celsius.
+    pub temperature_celsius: f64,
+}
+
+/// The 0xA1 reply's fields as the motor sent them (the spec's names).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct RawStatus {
+    /// `temperature`, 1 degC per LSB.
+    pub temperature: i8,
+    /// `iq`, torque current, -2048..=2048 for -33..=33 A.
+    pub iq: i16,
+    /// `speed`, 1 dps per LSB.
+    pub speed: i16,
+    /// `encoder`, single-turn position.
+    pub encoder: u16,
+}
+
+/// How current a joint's feedback is in this tick.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Freshness {
+    /// A reply answering this tick's frame (or, in pipelined mode, the previous tick's) came in
+    /// this tick. `age_ticks` is 0 in same-tick mode, 1 in pipelined mode.
+    Fresh {
+        /// Ticks between the frame the reply answers and this tick.
+        age_ticks: u32,
+    },
+    /// The newest reply came in this tick but answers an older frame than accepted: its values
+    /// are used, `age_ticks` old.
+    Late {
+        /// Ticks between the frame the reply answers and this tick.
+        age_ticks: u32,
+    },
+    /// No reply came in this tick: the values are from an earlier tick.
+    Missing {
+        /// Ticks since the last reply was received.
+        ticks_since_reply: u32,
+    },
+}
+
+impl Freshness {
+    /// Whether this tick's feedback is fresh.
+    pub fn is_fresh(self) -> bool {
+        matches!(self, Freshness::Fresh { .. })
+    }
+}
+
+/// One joint's latest feedback.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct JointFeedback {
+    /// Joint side: angle, velocity, torque.
+    pub joint: JointState,
+    /// Motor side: rotor angle and speed, current, temperature.
+    pub motor: MotorState,
+    /// The reply's wire values.
+    pub raw: RawStatus,
+    /// Whether it came in this tick.
+    pub freshness: Freshness,
+    /// When the reply was received (bus clock).
+    pub received_at: Timestamp,
+}
+
+impl JointFeedback {
+    /// Feedback slot before a reply (never shown to a controller).
+    pub(crate) const UNSET: Self = Self {
+        joint: JointState {
+            angle_deg: 0.0,
+            velocity_dps: 0.0,
+            torque_nm: None,
+        },
+        motor: MotorState {
+            angle_deg: 0.0,
+            speed_dps: 0.0,
+            current_amps: 0.0,
+            temperature_celsius: 0.0,
+        },
+        raw: RawStatus {
+            temperature: 0,
+            iq: 0,
+            speed: 0,
+            encoder: 0,
+        },
+        freshness: Freshness::Missing {
+            ticks_since_reply: 0,
+        },
+        received_at: Timestamp::ZERO,
+    };
+
+    /// Whether it came in this tick.
+    pub fn is_fresh(&self) -> bool {
+        self.freshness.is_fresh()
+    }
+}
+
+/// The feedback of every joint in this tick, indexed by [`JointId`].
+///
+/// ```
+/// # use rmd_loop::{Feedback, Commands, Controller, Flow, TickContext};
+/// struct Hold;
+/// impl Controller for Hold {
+///     fn update(&mut self, _: &TickContext, feedback: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
+///         for (joint, state) in feedback.iter() {
+///             cmd.set_current(joint, -0.5 * state.joint.angle_deg - 0.02 * state.joint.velocity_dps);
+///         }
+///         Flow::Continue
+///     }
+/// }
+/// ```
+#[derive(Copy, Clone, Debug)]
+pub struct Feedback<'a> {
+    joints: &'a [JointFeedback],
+    specs: &'a [JointSpec],
+}
+
+impl<'a> Feedback<'a> {
+    pub(crate) fn new(joints: &'a [JointFeedback], specs: &'a [JointSpec]) -> Self {
+        Self { joints, specs }
+    }
+
+    /// Number of joints.
+    pub fn len(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// Whether there are no joints.
+    pub fn is_empty(&self) -> bool {
+        self.joints.is_empty()
+    }
+
+    /// Joint `id`'s feedback, if the robot has it.
+    pub fn get(&self, id: JointId) -> Option<&'a JointFeedback> {
+        self.joints.get(id.index())
+    }
+
+    /// Every joint with its feedback, in description order.
+    pub fn iter(&self) -> impl ExactSizeIterator<Item = (JointId, &'a JointFeedback)> + 'a {
+        self.joints
+            .iter()
+            .enumerate()
+            .map(|(i, f)| (JointId::from_index(i), f))
+    }
+
+    /// The description of joint `id` (its name, motor, limits), if the robot has it.
+    pub fn spec(&self, id: JointId) -> Option<&'a JointSpec> {
+        self.specs.get(id.index())
+    }
+
+    /// Whether every joint's feedback is fresh this tick.
+    pub fn all_fresh(&self) -> bool {
+        self.joints.iter().all(JointFeedback::is_fresh)
+    }
+
+    /// All joints' feedback as a slice, in description order.
+    pub fn as_slice(&self) -> &'a [JointFeedback] {
+        self.joints
+    }
+}
+
+impl core::ops::Index<JointId> for Feedback<'_> {
+    type Output = JointFeedback;
+    /// # Panics
+    /// If `id` belongs to a larger robot.
+    fn index(&self, id: JointId) -> &JointFeedback {
+        &self.joints[id.index()]
+    }
+}

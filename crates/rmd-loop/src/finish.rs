@@ -1,0 +1,64 @@
+//! Ending a run: telling the controller, making every motor safe, and the final report.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+
+use rmd_bus::{CanBus, Clock, Timestamp};
+
+use crate::controller::Controller;
+use crate::engine::Parts;
+use crate::os::RtStatus;
+use crate::report::{LoopReport, StopReason};
+use crate::safe_stop;
+
+/// The result of a run: the report, and the controller back.
+#[derive(Debug)]
+pub struct LoopOutcome<K> {
+    /// The final report.
+    pub report: LoopReport,
+    /// The controller, as the loop left it.
+    pub controller: K,
+}
+
+/// Tells the controller of a fault, makes every motor safe, tells it the loop stopped, and
+/// reports. `start` is when tick 0 was due, if the loop got that far.
+pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
+    mut parts: Parts<B, C>,
+    mut controller: K,
+    reason: StopReason,
+    realtime: RtStatus,
+    start: Option<Timestamp>,
+) -> LoopOutcome<K> {
+    if let StopReason::Fault(fault) = &reason {
+        let _ = catch_unwind(AssertUnwindSafe(|| controller.fault(fault)));
+    }
+    let safe_stop = safe_stop::make_safe(&parts.clock, &mut parts.exchange, &parts.robot);
+    let _ = catch_unwind(AssertUnwindSafe(|| controller.stop(&reason)));
+    parts.shared.set_running(false);
+    let duration_s = start.map_or(0.0, |t0| (parts.clock.now() - t0).as_secs_f64());
+    let robot = &parts.robot;
+    let report = LoopReport {
+        normal_stop: reason.is_normal(),
+        stop_description: reason.describe(robot),
+        stop_reason: reason,
+        rate_hz: robot.settings().period.hz(),
+        buses: robot.buses().len(),
+        motors: robot.joint_count(),
+        duration_s,
+        stats: parts.stats.summary(),
+        safe_stop,
+        realtime_warnings: realtime.warnings().map(str::to_string).collect(),
+        realtime,
+    };
+    LoopOutcome { report, controller }
+}
+
+/// The message of a panic payload, if it was a string.
+pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "(non-string panic payload)".to_string()
+    }
+}

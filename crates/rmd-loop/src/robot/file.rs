@@ -1,0 +1,348 @@
+//! The file form of a robot description: what a TOML file (or a builder in code) says, before
+//! it is checked. [`Robot::try_from`](crate::robot::Robot) turns it, once, into a validated
+//! [`Robot`](crate::robot::Robot); nothing else reads these types.
+//!
+//! ```toml
+//! [loop]
+//! rate_hz = 1000.0
+//! cpu = 1
+//! fifo_priority = 80
+//! spin_margin_us = 50
+//!
+//! [[bus]]
+//! name = "leg"
+//! interface = "can0"     # a SocketCAN interface, or "sim" for simulated motors
+//! bitrate = 1000000
+//!
+//! [[bus.motor]]
+//! id = 1
+//! name = "hip"
+//! gear_ratio = 6.0
+//! current_limit_amps = 8.0
+//! torque_constant_nm_per_amp = 0.52
+//! ```
+//!
+//! The same in code:
+//!
+//! ```
+//! use rmd_loop::robot::{BusConfig, MotorConfig, Robot, RobotConfig};
+//! let file = RobotConfig::new(1000.0).with_bus(
+//!     BusConfig::new("can0").with_motor(MotorConfig::new(1).name("hip").gear_ratio(6.0).current_limit(8.0)),
+//! );
+//! let robot = Robot::try_from(file)?;
+//! assert_eq!(robot.joint("hip")?.index(), 0);
+//! # Ok::<(), rmd_loop::robot::RobotError>(())
+//! ```
+
+use core::time::Duration;
+
+use serde::{Deserialize, Serialize};
+
+use crate::schedule::OverrunPolicy;
+
+/// When the loop takes a reply as this tick's feedback.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReplyMode {
+    /// Replies to this tick's 0x280 frame must arrive before the reply deadline of the same tick.
+    #[default]
+    SameTick,
+    /// For motors whose turnaround exceeds the reply window: the reply to the previous tick's
+    /// frame is accepted as feedback (age 1 tick, reported to the controller) and is not missing.
+    Pipelined,
+}
+
+/// Loop settings, as written (`[loop]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LoopConfig {
+    /// Tick rate in Hz.
+    pub rate_hz: f64,
+    /// CPU to pin the loop thread to.
+    pub cpu: Option<usize>,
+    /// `SCHED_FIFO` priority (1..=99); none runs under the normal scheduler.
+    pub fifo_priority: Option<u8>,
+    /// Lock the process's memory (`mlockall`) when the loop starts.
+    pub lock_memory: bool,
+    /// Busy-wait this long before each deadline for a precise wake (0: sleep only).
+    pub spin_margin_us: u64,
+    /// Replies are collected until this long after the tick's scheduled start; the rest of the
+    /// period is left for the controller. Default: the period minus 10% (at least 50 us).
+    pub reply_deadline_us: Option<u64>,
+    /// Same-tick or pipelined replies.
+    pub reply_mode: ReplyMode,
+    /// What to do when a tick overruns the next tick's start.
+    pub overrun: OverrunPolicy,
+    /// Consecutive ticks without fresh feedback from one motor that make a fault.
+    pub missing_reply_fault_after: u32,
+    /// Start-up probe exchanges (zero torque, each waiting up to max(4 periods, 20 ms)) allowed
+    /// for every motor to answer once before the loop gives up.
+    pub startup_probes: u32,
+    /// Capacity of the telemetry queue, in ticks.
+    pub telemetry_capacity: usize,
+    /// Accept a period shorter than the worst-case exchange on a bus (benchmarks only: the loop
+    /// then relies on frames being shorter than the worst case).
+    pub allow_over_budget: bool,
+    /// What the loop does with a command it cannot send as given (not a finite number, a torque
+    /// without a torque constant, an unknown joint): `"fault"` (the default) or `"zero"`.
+    pub rejected_command: RejectedCommandPolicy,
+}
+
+impl Default for LoopConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: 1000.0,
+            cpu: None,
+            fifo_priority: None,
+            lock_memory: false,
+            spin_margin_us: 0,
+            reply_deadline_us: None,
+            reply_mode: ReplyMode::SameTick,
+            overrun: OverrunPolicy::Skip,
+            missing_reply_fault_after: 20,
+            startup_probes: 5,
+            telemetry_capacity: 4096,
+            allow_over_budget: false,
+            rejected_command: RejectedCommandPolicy::Fault,
+        }
+    }
+}
+
+/// What the loop does when a controller writes a command it cannot send as given.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RejectedCommandPolicy {
+    /// Stop the run with a fault (motors made safe), naming the joint and the reason.
+    #[default]
+    Fault,
+    /// Send zero torque to that joint for this tick, count it per joint, and go on.
+    Zero,
+}
+
+/// Which way a joint turns relative to its motor.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Direction {
+    /// Joint angle grows with the motor angle.
+    #[default]
+    Normal,
+    /// Joint angle grows when the motor angle shrinks.
+    Reversed,
+}
+
+impl Direction {
+    /// +1.0 or -1.0.
+    pub fn sign(self) -> f64 {
+        match self {
+            Direction::Normal => 1.0,
+            Direction::Reversed => -1.0,
+        }
+    }
+}
+
+/// One motor and the joint it drives, as written (`[[bus.motor]]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotorConfig {
+    /// Motor id (1..=4: one 0x280 frame drives ids 1..4).
+    pub id: u8,
+    /// The joint's name (e.g. "knee"): how controllers, reports and telemetry address it.
+    /// Default: `bus<b>_motor<id>`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Encoder resolution in bits (12..=18, default 14).
+    #[serde(default = "default_encoder_bits")]
+    pub encoder_bits: u8,
+    /// Motor turns per joint turn (e.g. 6.0 for a 1:6 gearbox).
+    #[serde(default = "one")]
+    pub gear_ratio: f64,
+    /// Joint direction relative to the motor.
+    #[serde(default)]
+    pub direction: Direction,
+    /// Joint angle (degrees) subtracted after scaling: joint = dir * motor / gear - offset.
+    #[serde(default)]
+    pub zero_offset_deg: f64,
+    /// Torque current limit in amperes applied to every command (0 < limit <= 32). The 0x280
+    /// frame bypasses the motor's own "Max Torque Current" setting (spec, 0xA1 memo 1), so this
+    /// is the only limit on the torque the loop commands.
+    #[serde(default = "default_current_limit")]
+    pub current_limit_amps: f64,
+    /// Joint-side torque per ampere of torque current (N*m/A), for commands and feedback in N*m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub torque_constant_nm_per_amp: Option<f64>,
+    /// A reported temperature at or above this is a fault (degrees Celsius).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature_limit_celsius: Option<f64>,
+}
+
+fn default_encoder_bits() -> u8 {
+    14
+}
+fn one() -> f64 {
+    1.0
+}
+fn default_current_limit() -> f64 {
+    5.0
+}
+
+impl MotorConfig {
+    /// A motor with default settings (14-bit encoder, no gearbox, 5 A limit).
+    pub fn new(id: u8) -> Self {
+        Self {
+            id,
+            name: None,
+            encoder_bits: default_encoder_bits(),
+            gear_ratio: 1.0,
+            direction: Direction::Normal,
+            zero_offset_deg: 0.0,
+            current_limit_amps: default_current_limit(),
+            torque_constant_nm_per_amp: None,
+            temperature_limit_celsius: None,
+        }
+    }
+
+    /// Sets the joint's name.
+    pub fn name(mut self, name: &str) -> Self {
+        self.name = Some(name.to_string());
+        self
+    }
+    /// Sets the encoder resolution.
+    pub fn encoder_bits(mut self, bits: u8) -> Self {
+        self.encoder_bits = bits;
+        self
+    }
+    /// Sets the gear ratio.
+    pub fn gear_ratio(mut self, ratio: f64) -> Self {
+        self.gear_ratio = ratio;
+        self
+    }
+    /// Sets the direction.
+    pub fn direction(mut self, direction: Direction) -> Self {
+        self.direction = direction;
+        self
+    }
+    /// Sets the zero offset (joint degrees).
+    pub fn zero_offset_deg(mut self, deg: f64) -> Self {
+        self.zero_offset_deg = deg;
+        self
+    }
+    /// Sets the current limit (amperes).
+    pub fn current_limit(mut self, amps: f64) -> Self {
+        self.current_limit_amps = amps;
+        self
+    }
+    /// Sets the joint-side torque constant (N*m/A).
+    pub fn torque_constant(mut self, nm_per_amp: f64) -> Self {
+        self.torque_constant_nm_per_amp = Some(nm_per_amp);
+        self
+    }
+    /// Sets the temperature fault limit.
+    pub fn temperature_limit(mut self, celsius: f64) -> Self {
+        self.temperature_limit_celsius = Some(celsius);
+        self
+    }
+}
+
+/// One CAN bus and the motors on it, as written (`[[bus]]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BusConfig {
+    /// A name for reports and for `--iface NAME=IFACE` (default: `bus<b>`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// SocketCAN interface (e.g. "can0"), or "sim" for simulated motors.
+    pub interface: String,
+    /// Bit rate in bit/s.
+    #[serde(default = "default_bitrate")]
+    pub bitrate: u32,
+    /// Expected motor turnaround (request received to reply queued), microseconds, for the
+    /// exchange budget.
+    #[serde(default = "default_turnaround")]
+    pub turnaround_us: u64,
+    /// The motors.
+    #[serde(default, rename = "motor")]
+    pub motors: Vec<MotorConfig>,
+}
+
+fn default_bitrate() -> u32 {
+    1_000_000
+}
+fn default_turnaround() -> u64 {
+    200
+}
+
+impl BusConfig {
+    /// A bus on `interface` at 1 Mbit/s with no motors yet.
+    pub fn new(interface: &str) -> Self {
+        Self {
+            name: None,
+            interface: interface.to_string(),
+            bitrate: default_bitrate(),
+            turnaround_us: default_turnaround(),
+            motors: Vec::new(),
+        }
+    }
+    /// Sets the bus's name.
+    pub fn name(mut self, name: &str) -> Self {
+        self.name = Some(name.to_string());
+        self
+    }
+    /// Adds a motor.
+    pub fn with_motor(mut self, motor: MotorConfig) -> Self {
+        self.motors.push(motor);
+        self
+    }
+    /// Sets the bit rate.
+    pub fn bitrate(mut self, bitrate: u32) -> Self {
+        self.bitrate = bitrate;
+        self
+    }
+    /// Sets the expected turnaround.
+    pub fn turnaround(mut self, turnaround: Duration) -> Self {
+        self.turnaround_us = turnaround.as_micros() as u64;
+        self
+    }
+}
+
+/// A whole robot as written: the loop settings and its buses.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotConfig {
+    /// Loop settings.
+    #[serde(default, rename = "loop")]
+    pub loop_config: LoopConfig,
+    /// Buses, in order; joints are numbered bus by bus in this order.
+    #[serde(default, rename = "bus")]
+    pub buses: Vec<BusConfig>,
+}
+
+impl RobotConfig {
+    /// An empty robot running at `rate_hz`.
+    pub fn new(rate_hz: f64) -> Self {
+        Self {
+            loop_config: LoopConfig {
+                rate_hz,
+                ..LoopConfig::default()
+            },
+            buses: Vec::new(),
+        }
+    }
+
+    /// Adds a bus.
+    pub fn with_bus(mut self, bus: BusConfig) -> Self {
+        self.buses.push(bus);
+        self
+    }
+
+    /// Parses TOML text (syntax and types only; [`Robot::try_from`](crate::robot::Robot)
+    /// checks the values).
+    pub fn from_toml(text: &str) -> Result<Self, super::RobotError> {
+        toml::from_str(text).map_err(|e| super::RobotError::Parse(e.to_string()))
+    }
+
+    /// The description as TOML.
+    pub fn to_toml(&self) -> String {
+        // Serialising plain structs of numbers and strings cannot fail.
+        toml::to_string_pretty(self).unwrap_or_default()
+    }
+}

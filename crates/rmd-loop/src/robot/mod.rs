@@ -1,0 +1,803 @@
+//! The robot description: its buses, its joints (one motor each) and the loop settings.
+//!
+//! A description is written as TOML (or built in code) in its [file form](file), then
+//! converted once, with [`Robot::try_from`] or [`Robot::from_file`], into a [`Robot`] whose
+//! every value is checked and typed: motor ids are [`MotorId`]s that fit a 0x280 frame, encoder
+//! widths are [`EncoderWidth`]s, the rate is a [`Period`], the reply deadline a [`Duration`].
+//! Errors name the key. Nothing downstream validates again.
+//!
+//! ```
+//! use rmd_loop::robot::Robot;
+//!
+//! let robot = Robot::from_toml(r#"
+//!     [loop]
+//!     rate_hz = 500.0
+//!
+//!     [[bus]]
+//!     interface = "can0"
+//!
+//!     [[bus.motor]]
+//!     id = 1
+//!     name = "hip"
+//!     gear_ratio = 6.0
+//! "#)?;
+//! let hip = robot.joint("hip")?;
+//! assert_eq!(robot.spec(hip).motor.get(), 1);
+//! assert_eq!(robot.settings().period.get().as_millis(), 2);
+//! assert!(Robot::from_toml("[[bus]]\ninterface = \"can0\"\n[[bus.motor]]\nid = 5").is_err());
+//! # Ok::<(), rmd_loop::robot::RobotError>(())
+//! ```
+
+mod error;
+pub mod file;
+
+use core::num::{NonZeroU32, NonZeroUsize};
+use core::ops::Range;
+use core::time::Duration;
+use std::path::Path;
+
+use rmd_bus::wire;
+use rmd_protocol::{EncoderWidth, IqControl, MULTI_TORQUE_MOTORS, MotorId};
+
+pub use error::RobotError;
+use error::invalid;
+pub use file::{
+    BusConfig, Direction, LoopConfig, MotorConfig, RejectedCommandPolicy, ReplyMode, RobotConfig,
+};
+
+use crate::joint::JointId;
+use crate::schedule::{OverrunPolicy, Period};
+
+/// Most buses one loop drives.
+pub const MAX_BUSES: usize = 8;
+/// Most motors one bus carries: one 0x280 frame addresses ids 1..=4.
+pub const MAX_MOTORS_PER_BUS: usize = MULTI_TORQUE_MOTORS;
+/// Most joints one loop drives.
+pub const MAX_JOINTS: usize = MAX_BUSES * MAX_MOTORS_PER_BUS;
+/// Largest torque current a 0x280 command can carry (iqControl 2000 = 32 A).
+pub const MAX_COMMAND_AMPS: f64 = 32.0;
+
+/// A `SCHED_FIFO` priority, 1..=99.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct FifoPriority(u8);
+
+impl FifoPriority {
+    /// `priority` if it is in 1..=99.
+    pub fn new(priority: u8) -> Option<Self> {
+        (1..=99).contains(&priority).then_some(Self(priority))
+    }
+
+    /// The priority.
+    pub fn get(self) -> u8 {
+        self.0
+    }
+}
+
+/// What the loop thread asks of the operating system.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct RealtimeSettings {
+    /// Pin the loop thread to this CPU.
+    pub cpu: Option<usize>,
+    /// Run it under `SCHED_FIFO` at this priority.
+    pub fifo_priority: Option<FifoPriority>,
+    /// Lock the process's memory when the loop starts.
+    pub lock_memory: bool,
+}
+
+/// The loop settings, checked.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct LoopSettings {
+    /// The tick period.
+    pub period: Period,
+    /// Replies are collected until this long after a tick's scheduled start (within the period).
+    pub reply_deadline: Duration,
+    /// Same-tick or pipelined replies.
+    pub reply_mode: ReplyMode,
+    /// What to do when a tick overruns the next tick's start.
+    pub overrun: OverrunPolicy,
+    /// Busy-wait this long before each deadline (shorter than the period).
+    pub spin_margin: Duration,
+    /// CPU, priority, memory locking.
+    pub realtime: RealtimeSettings,
+    /// Consecutive ticks without fresh feedback from one motor that make a fault.
+    pub missing_reply_fault_after: NonZeroU32,
+    /// Start-up probe exchanges allowed for every motor to answer once.
+    pub startup_probes: NonZeroU32,
+    /// Capacity of the telemetry queue, in ticks.
+    pub telemetry_capacity: NonZeroUsize,
+    /// A period shorter than the worst-case exchange was accepted (benchmarks only).
+    pub allow_over_budget: bool,
+    /// What to do with a command that cannot be sent as given.
+    pub rejected_command: RejectedCommandPolicy,
+}
+
+/// Where a bus's motors are.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Interface {
+    /// A SocketCAN interface, by name (e.g. `can0`).
+    SocketCan(String),
+    /// Simulated motors matching the description (`interface = "sim"`).
+    Simulator,
+}
+
+impl Interface {
+    /// `"sim"` is the simulator; anything else names a SocketCAN interface.
+    pub fn parse(name: &str) -> Option<Self> {
+        let name = name.trim();
+        match name {
+            "" => None,
+            "sim" => Some(Interface::Simulator),
+            _ => Some(Interface::SocketCan(name.to_string())),
+        }
+    }
+}
+
+impl core::fmt::Display for Interface {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Interface::SocketCan(name) => f.write_str(name),
+            Interface::Simulator => f.write_str("sim"),
+        }
+    }
+}
+
+/// One bus, checked.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BusSpec {
+    /// Its name (from the description, or `bus<b>`).
+    pub name: String,
+    /// Where its motors are.
+    pub interface: Interface,
+    /// Bit rate, bit/s (10 000..=1 000 000).
+    pub bitrate: u32,
+    /// Expected motor turnaround, for the exchange budget.
+    pub turnaround: Duration,
+    joints: Range<usize>,
+}
+
+impl BusSpec {
+    /// The joints on this bus (consecutive in description order).
+    pub fn joints(&self) -> impl Iterator<Item = JointId> + Clone + use<> {
+        self.joints.clone().map(JointId::from_index)
+    }
+
+    /// The joints on this bus as indices.
+    pub fn joint_range(&self) -> Range<usize> {
+        self.joints.clone()
+    }
+
+    /// Number of motors on the bus.
+    pub fn motor_count(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// Worst-case duration of one exchange (one 0x280 frame, every reply) on this bus.
+    pub fn exchange_budget(&self) -> Duration {
+        wire::exchange_budget(self.joints.len() as u32, self.bitrate, self.turnaround)
+    }
+}
+
+/// A torque current limit: amperes, and the raw `iqControl` it allows.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct CurrentLimit {
+    amps: f64,
+    raw: i16,
+}
+
+impl CurrentLimit {
+    /// The limit in amperes (0 < limit <= 32).
+    pub fn amps(self) -> f64 {
+        self.amps
+    }
+
+    /// The largest raw `iqControl` magnitude it allows.
+    pub fn raw(self) -> i16 {
+        self.raw
+    }
+}
+
+/// One joint and its motor, checked.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointSpec {
+    /// The joint's name (unique in the robot).
+    pub name: String,
+    /// The bus it is on (index in description order).
+    pub bus: usize,
+    /// Its motor's id (1..=4).
+    pub motor: MotorId,
+    /// The motor's encoder width.
+    pub encoder: EncoderWidth,
+    /// Motor turns per joint turn (positive).
+    pub gear_ratio: f64,
+    /// Joint direction relative to the motor.
+    pub direction: Direction,
+    /// Joint angle subtracted after scaling, degrees.
+    pub zero_offset_deg: f64,
+    /// The limit applied to every torque command.
+    pub current_limit: CurrentLimit,
+    /// Joint-side torque per ampere (N*m/A), if known.
+    pub torque_constant_nm_per_amp: Option<f64>,
+    /// A reported temperature at or above this is a fault.
+    pub temperature_limit_celsius: Option<f64>,
+}
+
+impl JointSpec {
+    /// The motor's slot in its bus's 0x280 frame (id - 1).
+    pub fn slot(&self) -> usize {
+        usize::from(self.motor.get() - 1)
+    }
+}
+
+/// A robot description whose every value was checked: build it with [`Robot::try_from`] (from
+/// a [`RobotConfig`]), [`Robot::from_toml`] or [`Robot::from_file`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Robot {
+    settings: LoopSettings,
+    buses: Vec<BusSpec>,
+    joints: Vec<JointSpec>,
+    config: RobotConfig,
+}
+
+impl Robot {
+    /// Parses and checks a TOML robot description.
+    pub fn from_toml(text: &str) -> Result<Self, RobotError> {
+        Self::try_from(RobotConfig::from_toml(text)?)
+    }
+
+    /// Reads, parses and checks a TOML robot description file.
+    pub fn from_file(path: impl AsRef<Path>) -> Result<Self, RobotError> {
+        Self::try_from(read_config(path)?)
+    }
+
+    /// The loop settings.
+    pub fn settings(&self) -> &LoopSettings {
+        &self.settings
+    }
+
+    /// The buses, in description order.
+    pub fn buses(&self) -> &[BusSpec] {
+        &self.buses
+    }
+
+    /// The joints, in description order (bus by bus).
+    pub fn joints(&self) -> &[JointSpec] {
+        &self.joints
+    }
+
+    /// Number of joints (= motors).
+    pub fn joint_count(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// Every joint's id, in description order.
+    pub fn joint_ids(&self) -> impl Iterator<Item = JointId> + Clone + use<> {
+        (0..self.joints.len()).map(JointId::from_index)
+    }
+
+    /// The joint named `name`.
+    pub fn joint(&self, name: &str) -> Result<JointId, RobotError> {
+        self.joints
+            .iter()
+            .position(|j| j.name == name)
+            .map(JointId::from_index)
+            .ok_or_else(|| RobotError::UnknownJoint {
+                name: name.to_string(),
+                known: self
+                    .joints
+                    .iter()
+                    .map(|j| j.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })
+    }
+
+    /// The joints named `names`, in that order (e.g. to fill a fixed-size array of handles).
+    pub fn joints_named<const N: usize>(
+        &self,
+        names: [&str; N],
+    ) -> Result<[JointId; N], RobotError> {
+        let mut ids = [JointId::from_index(0); N];
+        for (id, name) in ids.iter_mut().zip(names) {
+            *id = self.joint(name)?;
+        }
+        Ok(ids)
+    }
+
+    /// The description of joint `id`.
+    ///
+    /// # Panics
+    /// If `id` belongs to a larger robot.
+    pub fn spec(&self, id: JointId) -> &JointSpec {
+        &self.joints[id.index()]
+    }
+
+    /// The joint driven by motor `motor` on bus `bus`.
+    pub fn joint_at(&self, bus: usize, motor: MotorId) -> Option<JointId> {
+        let range = self.buses.get(bus)?.joint_range();
+        range
+            .into_iter()
+            .find(|&j| self.joints[j].motor == motor)
+            .map(JointId::from_index)
+    }
+
+    /// The file form this robot was built from (to change a setting and build again, or to
+    /// write it out with [`RobotConfig::to_toml`]).
+    pub fn config(&self) -> &RobotConfig {
+        &self.config
+    }
+}
+
+/// Reads and parses (but does not check) a TOML robot description file.
+pub fn read_config(path: impl AsRef<Path>) -> Result<RobotConfig, RobotError> {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path).map_err(|source| RobotError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    RobotConfig::from_toml(&text)
+}
+
+impl TryFrom<RobotConfig> for Robot {
+    type Error = RobotError;
+
+    fn try_from(config: RobotConfig) -> Result<Self, RobotError> {
+        let settings = loop_settings(&config.loop_config)?;
+        if config.buses.is_empty() {
+            return Err(invalid("bus", "the robot has no bus: add a [[bus]] table"));
+        }
+        if config.buses.len() > MAX_BUSES {
+            return Err(invalid(
+                "bus",
+                format!(
+                    "has {} buses, at most {MAX_BUSES} are supported",
+                    config.buses.len()
+                ),
+            ));
+        }
+        let mut buses = Vec::with_capacity(config.buses.len());
+        let mut joints: Vec<JointSpec> = Vec::new();
+        for (b, bus) in config.buses.iter().enumerate() {
+            let key = format!("bus[{b}]");
+            let spec = bus_spec(b, bus, &key, joints.len())?;
+            if let Some(other) = buses.iter().position(|o: &BusSpec| o.name == spec.name) {
+                return Err(invalid(
+                    format!("{key}.name"),
+                    format!("`{}` is also the name of bus[{other}]", spec.name),
+                ));
+            }
+            for (m, motor) in bus.motors.iter().enumerate() {
+                let mkey = format!("{key}.motor[{m}]");
+                let joint = joint_spec(b, motor, &mkey)?;
+                if bus.motors[..m].iter().any(|o| o.id == motor.id) {
+                    return Err(invalid(
+                        format!("{mkey}.id"),
+                        format!("motor id {} appears twice on {key}", motor.id),
+                    ));
+                }
+                if let Some(other) = joints.iter().position(|o| o.name == joint.name) {
+                    return Err(invalid(
+                        format!("{mkey}.name"),
+                        format!(
+                            "joint name `{}` is also used by joint {other}: joint names must be unique",
+                            joint.name
+                        ),
+                    ));
+                }
+                joints.push(joint);
+            }
+            check_budget(&spec, &settings, &key)?;
+            buses.push(spec);
+        }
+        Ok(Self {
+            settings,
+            buses,
+            joints,
+            config,
+        })
+    }
+}
+
+fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
+    let period = Period::from_hz(l.rate_hz).map_err(|e| invalid("loop.rate_hz", e.to_string()))?;
+    let p = period.get();
+    let fifo_priority =
+        match l.fifo_priority {
+            None => None,
+            Some(prio) => Some(FifoPriority::new(prio).ok_or_else(|| {
+                invalid("loop.fifo_priority", format!("is {prio}, must be 1..=99"))
+            })?),
+        };
+    let spin_margin = Duration::from_micros(l.spin_margin_us);
+    if spin_margin >= p {
+        return Err(invalid(
+            "loop.spin_margin_us",
+            format!(
+                "is {} us, must be shorter than the period ({} us)",
+                l.spin_margin_us,
+                p.as_micros()
+            ),
+        ));
+    }
+    let reply_deadline = match l.reply_deadline_us {
+        Some(us) => Duration::from_micros(us),
+        None => p
+            .saturating_sub((p / 10).max(Duration::from_micros(50)))
+            .max(p / 2),
+    };
+    if reply_deadline.is_zero() || reply_deadline > p {
+        return Err(invalid(
+            "loop.reply_deadline_us",
+            format!(
+                "is {} us, must be within the period (1..={} us)",
+                reply_deadline.as_micros(),
+                p.as_micros()
+            ),
+        ));
+    }
+    let at_least_one =
+        |key: &str, v: u32| NonZeroU32::new(v).ok_or_else(|| invalid(key, "must be at least 1"));
+    if let OverrunPolicy::Fault { after: 0 } = l.overrun {
+        return Err(invalid("loop.overrun.after", "must be at least 1"));
+    }
+    Ok(LoopSettings {
+        period,
+        reply_deadline,
+        reply_mode: l.reply_mode,
+        overrun: l.overrun,
+        spin_margin,
+        realtime: RealtimeSettings {
+            cpu: l.cpu,
+            fifo_priority,
+            lock_memory: l.lock_memory,
+        },
+        missing_reply_fault_after: at_least_one(
+            "loop.missing_reply_fault_after",
+            l.missing_reply_fault_after,
+        )?,
+        startup_probes: at_least_one("loop.startup_probes", l.startup_probes)?,
+        telemetry_capacity: NonZeroUsize::new(l.telemetry_capacity)
+            .ok_or_else(|| invalid("loop.telemetry_capacity", "must be at least 1"))?,
+        allow_over_budget: l.allow_over_budget,
+        rejected_command: l.rejected_command,
+    })
+}
+
+fn bus_spec(b: usize, bus: &BusConfig, key: &str, first: usize) -> Result<BusSpec, RobotError> {
+    let interface = Interface::parse(&bus.interface).ok_or_else(|| {
+        invalid(
+            format!("{key}.interface"),
+            "must not be empty: a SocketCAN interface (e.g. \"can0\") or \"sim\"",
+        )
+    })?;
+    if !(10_000..=1_000_000).contains(&bus.bitrate) {
+        return Err(invalid(
+            format!("{key}.bitrate"),
+            format!(
+                "is {}, must be 10000..=1000000 bit/s (classic CAN)",
+                bus.bitrate
+            ),
+        ));
+    }
+    if bus.motors.is_empty() {
+        return Err(invalid(
+            format!("{key}.motor"),
+            "a bus needs at least one motor",
+        ));
+    }
+    if bus.motors.len() > MAX_MOTORS_PER_BUS {
+        return Err(invalid(
+            format!("{key}.motor"),
+            format!(
+                "has {} motors, one 0x280 frame drives at most 4 (ids 1..=4)",
+                bus.motors.len()
+            ),
+        ));
+    }
+    let name = match &bus.name {
+        Some(name) if name.trim().is_empty() => {
+            return Err(invalid(format!("{key}.name"), "must not be empty"));
+        }
+        Some(name) => name.clone(),
+        None => format!("bus{b}"),
+    };
+    Ok(BusSpec {
+        name,
+        interface,
+        bitrate: bus.bitrate,
+        turnaround: Duration::from_micros(bus.turnaround_us),
+        joints: first..first + bus.motors.len(),
+    })
+}
+
+fn joint_spec(b: usize, m: &MotorConfig, key: &str) -> Result<JointSpec, RobotError> {
+    let motor = MotorId::new(m.id)
+        .ok()
+        .filter(|id| usize::from(id.get()) <= MAX_MOTORS_PER_BUS)
+        .ok_or_else(|| {
+            invalid(
+                format!("{key}.id"),
+                format!(
+                    "is {}, must be 1..=4 (one 0x280 frame drives motor ids 1 to 4; put more motors on another bus)",
+                    m.id
+                ),
+            )
+        })?;
+    let encoder = EncoderWidth::new(m.encoder_bits).map_err(|_| {
+        invalid(
+            format!("{key}.encoder_bits"),
+            format!(
+                "is {}, must be {}..={}",
+                m.encoder_bits,
+                EncoderWidth::MIN_BITS,
+                EncoderWidth::MAX_BITS
+            ),
+        )
+    })?;
+    if !(m.gear_ratio.is_finite() && m.gear_ratio > 0.0) {
+        return Err(invalid(
+            format!("{key}.gear_ratio"),
+            format!("is {}, must be a positive number", m.gear_ratio),
+        ));
+    }
+    if !m.zero_offset_deg.is_finite() {
+        return Err(invalid(format!("{key}.zero_offset_deg"), "must be finite"));
+    }
+    let amps = m.current_limit_amps;
+    if !(amps.is_finite() && amps > 0.0 && amps <= MAX_COMMAND_AMPS) {
+        return Err(invalid(
+            format!("{key}.current_limit_amps"),
+            format!("is {amps}, must be in (0, {MAX_COMMAND_AMPS}] A"),
+        ));
+    }
+    if let Some(kt) = m.torque_constant_nm_per_amp
+        && !(kt.is_finite() && kt > 0.0)
+    {
+        return Err(invalid(
+            format!("{key}.torque_constant_nm_per_amp"),
+            format!("is {kt}, must be a positive number"),
+        ));
+    }
+    if let Some(t) = m.temperature_limit_celsius
+        && !(t.is_finite() && (-40.0..=127.0).contains(&t))
+    {
+        return Err(invalid(
+            format!("{key}.temperature_limit_celsius"),
+            format!("is {t}, must be in -40..=127 degC"),
+        ));
+    }
+    let name = match &m.name {
+        Some(name) if name.trim().is_empty() => {
+            return Err(invalid(format!("{key}.name"), "must not be empty"));
+        }
+        Some(name) => name.clone(),
+        None => format!("bus{b}_motor{}", m.id),
+    };
+    Ok(JointSpec {
+        name,
+        bus: b,
+        motor,
+        encoder,
+        gear_ratio: m.gear_ratio,
+        direction: m.direction,
+        zero_offset_deg: m.zero_offset_deg,
+        current_limit: CurrentLimit {
+            amps,
+            raw: IqControl::from_amps_saturating(amps).raw(),
+        },
+        torque_constant_nm_per_amp: m.torque_constant_nm_per_amp,
+        temperature_limit_celsius: m.temperature_limit_celsius,
+    })
+}
+
+/// The bus must carry one exchange per tick (same tick: before the reply deadline).
+fn check_budget(bus: &BusSpec, s: &LoopSettings, key: &str) -> Result<(), RobotError> {
+    let budget = bus.exchange_budget();
+    let (window, window_name) = match s.reply_mode {
+        ReplyMode::SameTick => (s.reply_deadline, "reply deadline"),
+        ReplyMode::Pipelined => (s.period.get(), "period"),
+    };
+    if budget > window && !s.allow_over_budget {
+        return Err(invalid(
+            key,
+            format!(
+                "cannot carry one exchange per tick: {} motors at {} bit/s with {} us \
+                 turnaround need up to {} us (worst-case bit stuffing), but the {window_name} is \
+                 {} us. Lower loop.rate_hz, raise the bit rate, spread the motors over more \
+                 buses, or use reply_mode = \"pipelined\"",
+                bus.motor_count(),
+                bus.bitrate,
+                bus.turnaround.as_micros(),
+                budget.as_micros(),
+                window.as_micros()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LEG: &str = r#"
+        [loop]
+        rate_hz = 500.0
+        cpu = 1
+        spin_margin_us = 20
+        overrun = { policy = "fault", after = 5 }
+
+        [[bus]]
+        interface = "can0"
+
+        [[bus.motor]]
+        id = 1
+        name = "hip"
+        gear_ratio = 6.0
+        direction = "reversed"
+        current_limit_amps = 8.0
+        torque_constant_nm_per_amp = 0.52
+
+        [[bus.motor]]
+        id = 2
+    "#;
+
+    fn expect_invalid(text: &str, key: &str) {
+        match Robot::from_toml(text) {
+            Err(RobotError::Invalid { key: k, problem }) => assert_eq!(k, key, "{problem}"),
+            other => panic!("expected an error on {key}, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_leg_description_parses_into_typed_values() {
+        let robot = Robot::from_toml(LEG).unwrap();
+        let s = robot.settings();
+        assert_eq!(s.period.get(), Duration::from_millis(2));
+        assert_eq!(s.overrun, OverrunPolicy::Fault { after: 5 });
+        assert_eq!(s.reply_deadline, Duration::from_micros(1800));
+        assert_eq!(s.realtime.cpu, Some(1));
+        assert_eq!(robot.joint_count(), 2);
+        let hip = robot.spec(robot.joint("hip").unwrap());
+        assert_eq!(hip.direction, Direction::Reversed);
+        assert_eq!(hip.encoder.bits(), 14);
+        assert_eq!(hip.current_limit.raw(), 500);
+        // Unnamed joints get a name from their bus and id.
+        assert_eq!(robot.joints()[1].name, "bus0_motor2");
+        assert_eq!(robot.buses()[0].name, "bus0");
+        assert_eq!(
+            robot.buses()[0].interface,
+            Interface::SocketCan("can0".into())
+        );
+        assert_eq!(robot.buses()[0].bitrate, 1_000_000);
+        // Round trip through TOML.
+        assert_eq!(Robot::from_toml(&robot.config().to_toml()).unwrap(), robot);
+    }
+
+    #[test]
+    fn bad_values_name_their_key() {
+        expect_invalid(&LEG.replace("id = 2", "id = 5"), "bus[0].motor[1].id");
+        expect_invalid(&LEG.replace("id = 2", "id = 0"), "bus[0].motor[1].id");
+        expect_invalid(&LEG.replace("id = 2", "id = 1"), "bus[0].motor[1].id");
+        expect_invalid(
+            &LEG.replace("gear_ratio = 6.0", "gear_ratio = -6.0"),
+            "bus[0].motor[0].gear_ratio",
+        );
+        expect_invalid(
+            &LEG.replace("current_limit_amps = 8.0", "current_limit_amps = 40.0"),
+            "bus[0].motor[0].current_limit_amps",
+        );
+        expect_invalid(
+            &LEG.replace("rate_hz = 500.0", "rate_hz = 0.0"),
+            "loop.rate_hz",
+        );
+        expect_invalid(
+            &LEG.replace("spin_margin_us = 20", "spin_margin_us = 5000"),
+            "loop.spin_margin_us",
+        );
+        expect_invalid(&LEG.replace("after = 5", "after = 0"), "loop.overrun.after");
+        expect_invalid(
+            &LEG.replace("cpu = 1", "cpu = 1\nfifo_priority = 100"),
+            "loop.fifo_priority",
+        );
+        expect_invalid(
+            &LEG.replace(
+                "[[bus.motor]]\n        id = 2",
+                "[[bus.motor]]\n        id = 2\n        encoder_bits = 20",
+            ),
+            "bus[0].motor[1].encoder_bits",
+        );
+        expect_invalid(
+            &LEG.replace(
+                "[[bus.motor]]\n        id = 2",
+                "[[bus.motor]]\n        id = 2\n        name = \"hip\"",
+            ),
+            "bus[0].motor[1].name",
+        );
+        expect_invalid(
+            &LEG.replace("interface = \"can0\"", "interface = \" \""),
+            "bus[0].interface",
+        );
+        expect_invalid("[loop]\nrate_hz = 100.0", "bus");
+    }
+
+    #[test]
+    fn every_width_from_12_to_18_bits_is_accepted() {
+        for bits in 12..=18 {
+            let text = LEG.replace(
+                "[[bus.motor]]\n        id = 2",
+                &format!("[[bus.motor]]\n        id = 2\n        encoder_bits = {bits}"),
+            );
+            let robot = Robot::from_toml(&text).unwrap();
+            assert_eq!(robot.joints()[1].encoder.bits(), bits);
+        }
+    }
+
+    #[test]
+    fn unknown_keys_and_wrong_types_are_parse_errors_naming_the_key() {
+        let err = Robot::from_toml(&LEG.replace("cpu = 1", "cpus = 1")).unwrap_err();
+        assert!(
+            matches!(&err, RobotError::Parse(m) if m.contains("cpus")),
+            "{err}"
+        );
+        let err = Robot::from_toml(&LEG.replace("cpu = 1", "cpu = \"one\"")).unwrap_err();
+        assert!(
+            matches!(&err, RobotError::Parse(m) if m.contains("cpu")),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_period_the_bus_cannot_carry_is_refused() {
+        // 4 motors at 1 Mbit/s need up to 875 us: 2 kHz (500 us period) cannot work.
+        let mut bus = BusConfig::new("can0");
+        for id in 1..=4 {
+            bus = bus.with_motor(MotorConfig::new(id));
+        }
+        let err = Robot::try_from(RobotConfig::new(2000.0).with_bus(bus.clone())).unwrap_err();
+        assert!(err.to_string().contains("875 us"), "{err}");
+        // 1 kHz fits with the default 900 us reply deadline.
+        Robot::try_from(RobotConfig::new(1000.0).with_bus(bus.clone())).unwrap();
+        // Pipelined mode only needs the exchange to fit in the period.
+        let mut pipelined = RobotConfig::new(1100.0).with_bus(bus.clone());
+        pipelined.loop_config.reply_mode = ReplyMode::Pipelined;
+        Robot::try_from(pipelined).unwrap();
+        // A lower bit rate needs a lower rate.
+        assert!(Robot::try_from(RobotConfig::new(1000.0).with_bus(bus.bitrate(500_000))).is_err());
+    }
+
+    #[test]
+    fn more_than_four_motors_on_a_bus_is_refused() {
+        let mut bus = BusConfig::new("can0");
+        for id in [1, 2, 3, 4, 4] {
+            bus = bus.with_motor(MotorConfig::new(id));
+        }
+        let err = Robot::try_from(RobotConfig::new(100.0).with_bus(bus)).unwrap_err();
+        assert!(matches!(err, RobotError::Invalid { ref key, .. } if key == "bus[0].motor"));
+    }
+
+    #[test]
+    fn joints_are_found_by_name_and_by_bus_and_id() {
+        let two_buses = RobotConfig::new(1000.0)
+            .with_bus(BusConfig::new("can0").with_motor(MotorConfig::new(1).name("a")))
+            .with_bus(
+                BusConfig::new("can1")
+                    .name("right")
+                    .with_motor(MotorConfig::new(3).name("b"))
+                    .with_motor(MotorConfig::new(1).name("c")),
+            );
+        let robot = Robot::try_from(two_buses).unwrap();
+        let [a, b, c] = robot.joints_named(["a", "b", "c"]).unwrap();
+        assert_eq!((a.index(), b.index(), c.index()), (0, 1, 2));
+        let one = MotorId::new(1).unwrap();
+        assert_eq!(robot.joint_at(1, one), Some(c));
+        assert_eq!(robot.joint_at(0, one), Some(a));
+        assert_eq!(robot.joint_at(2, one), None);
+        assert_eq!(robot.spec(b).slot(), 2);
+        assert_eq!(robot.buses()[1].joints().collect::<Vec<_>>(), [b, c]);
+        let err = robot.joint("knee").unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "the robot has no joint named `knee` (its joints: a, b, c)"
+        );
+    }
+}

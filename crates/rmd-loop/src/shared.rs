@@ -1,0 +1,51 @@
+//! What the loop thread shares with the threads that control and watch it: the stop request,
+//! whether it runs, and the statistics snapshot exchange. Everything here is lock-free.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use crossbeam_queue::ArrayQueue;
+
+use crate::stats::LoopStats;
+use crate::stop::StopSignal;
+
+/// Shared between the loop thread and its handles.
+#[derive(Debug)]
+pub(crate) struct Shared {
+    /// The pending stop request.
+    pub(crate) stop: StopSignal,
+    running: AtomicBool,
+    /// Empty statistics buffers sent by readers, filled by the loop thread.
+    pub(crate) snapshot_requests: ArrayQueue<Box<LoopStats>>,
+    /// Filled statistics buffers.
+    pub(crate) snapshot_replies: ArrayQueue<Box<LoopStats>>,
+}
+
+impl Shared {
+    pub(crate) fn new() -> Self {
+        Self {
+            stop: StopSignal::default(),
+            running: AtomicBool::new(false),
+            snapshot_requests: ArrayQueue::new(4),
+            snapshot_replies: ArrayQueue::new(4),
+        }
+    }
+
+    /// Whether the loop is between its start and its end.
+    pub(crate) fn is_running(&self) -> bool {
+        self.running.load(Ordering::Acquire)
+    }
+
+    pub(crate) fn set_running(&self, running: bool) {
+        self.running.store(running, Ordering::Release);
+    }
+
+    /// Fills one waiting snapshot buffer with `stats` (on the loop thread, between ticks).
+    pub(crate) fn serve_snapshot(&self, stats: &LoopStats) {
+        if let Some(mut buffer) = self.snapshot_requests.pop() {
+            buffer.copy_from(stats);
+            // The reply queue has room for every request buffer; if a reader abandoned its
+            // buffers, drop this one (the reader times out and retries).
+            let _ = self.snapshot_replies.push(buffer);
+        }
+    }
+}
