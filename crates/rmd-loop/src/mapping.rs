@@ -14,7 +14,7 @@ use core::time::Duration;
 
 use rmd_protocol::EncoderWidth;
 
-use crate::robot::JointSpec;
+use crate::robot::{Direction, JointSpec};
 
 /// Unwraps single-turn encoder readings into a continuous angle.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -133,10 +133,50 @@ impl JointMap {
     }
 }
 
+/// The joint angles (degrees, `[low, high)`) in which a geared joint must be at power-up for the
+/// loop to read its angle right: one motor turn of the single-turn encoder, starting where the
+/// encoder reads zero, `-zero_offset_deg` (for a reversed joint the window extends below it).
+/// See docs/getting-started.md, "Homing a geared joint".
+///
+/// ```
+/// use rmd_loop::mapping::power_up_window;
+/// use rmd_loop::robot::{BusConfig, Direction, MotorConfig, Robot, RobotConfig};
+/// let hip = MotorConfig::new(2).gear_ratio(9.0).zero_offset_deg(-30.0);
+/// let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(BusConfig::new("can0")
+///     .with_motor(hip.clone())
+///     .with_motor(hip.clone().direction(Direction::Reversed).name("reversed").zero_offset_deg(-30.0))))?;
+/// # let _ = robot.joint("reversed")?;
+/// assert_eq!(power_up_window(&robot.joints()[0]), (30.0, 70.0));
+/// assert_eq!(power_up_window(&robot.joints()[1]), (-10.0, 30.0));
+/// # Ok::<(), rmd_loop::robot::RobotError>(())
+/// ```
+pub fn power_up_window(joint: &JointSpec) -> (f64, f64) {
+    let width = 360.0 / joint.gear_ratio;
+    let start = -joint.zero_offset_deg;
+    match joint.direction {
+        Direction::Normal => (start, start + width),
+        Direction::Reversed => (start - width, start),
+    }
+}
+
+/// The `zero_offset_deg` that centres a joint's [`power_up_window`] on `joint_deg`, for a joint
+/// whose encoder reads zero at `encoder_zero_joint_deg` (on a simulated motor matching the
+/// description, the offset alone decides where the encoder reads zero, so any value works).
+///
+/// On a real motor, read the encoder (e.g. `rmd status ID`) with the joint at a known angle and
+/// compute the offset from that: see docs/getting-started.md.
+pub fn centred_zero_offset_deg(gear_ratio: f64, direction: Direction, joint_deg: f64) -> f64 {
+    let half = 180.0 / gear_ratio;
+    match direction {
+        Direction::Normal => -(joint_deg - half),
+        Direction::Reversed => -(joint_deg + half),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::{BusConfig, Direction, MotorConfig, Robot, RobotConfig};
+    use crate::robot::{BusConfig, MotorConfig, Robot, RobotConfig};
     use proptest::prelude::*;
 
     fn map(motor: MotorConfig) -> JointMap {
@@ -194,6 +234,23 @@ mod tests {
         let j = map(MotorConfig::new(1));
         assert_eq!(j.joint_torque_nm(2.0), None);
         assert_eq!(j.motor_amps_for_torque(1.0), None);
+    }
+
+    #[test]
+    fn power_up_windows_are_centred_where_asked() {
+        for d in [Direction::Normal, Direction::Reversed] {
+            let motor = MotorConfig::new(1)
+                .gear_ratio(6.0)
+                .direction(d)
+                .zero_offset_deg(centred_zero_offset_deg(6.0, d, 12.0));
+            let robot = Robot::try_from(
+                RobotConfig::new(100.0).with_bus(BusConfig::new("can0").with_motor(motor)),
+            )
+            .unwrap();
+            let (low, high) = power_up_window(&robot.joints()[0]);
+            assert!((high - low - 60.0).abs() < 1e-9);
+            assert!(((low + high) / 2.0 - 12.0).abs() < 1e-9, "{d:?}: {low}..{high}");
+        }
     }
 
     proptest! {

@@ -1,0 +1,301 @@
+//! The standard command-line flags of every program that runs the loop (the examples, `rmd
+//! bench`, `rmd drill`, ...): one vocabulary, flattened into each program's own clap arguments.
+//!
+//! ```
+//! use clap::Parser;
+//! use rmd_rig::args::{LoopArgs, OutputArgs, RobotArgs};
+//!
+//! #[derive(Parser)]
+//! struct Args {
+//!     #[command(flatten)]
+//!     robot: RobotArgs,
+//!     #[command(flatten)]
+//!     run: LoopArgs,
+//!     #[command(flatten)]
+//!     output: OutputArgs,
+//! }
+//! let args = Args::parse_from(["leg", "--iface", "can0", "--duration", "1500ms", "--fifo", "80"]);
+//! assert_eq!(args.robot.iface, ["can0"]);
+//! assert_eq!(args.run.duration, Some(std::time::Duration::from_millis(1500)));
+//! assert_eq!(args.run.fifo, Some(80));
+//! // Seconds without a unit, and the examples' older spelling, work too.
+//! let args = Args::parse_from(["leg", "--seconds", "2.5", "--fifo-priority", "70", "--rate-hz", "500"]);
+//! assert_eq!(args.run.duration, Some(std::time::Duration::from_millis(2500)));
+//! assert_eq!(args.run.rate, Some(500.0));
+//! ```
+
+use core::time::Duration;
+use std::io::{BufRead, IsTerminal, Write};
+use std::path::PathBuf;
+
+use rmd_loop::robot::{RobotConfig, read_config};
+use rmd_loop::{Robot, RunLimit};
+
+use crate::error::RigError;
+use crate::placement::{Overrides, Placement, PlacementDefault};
+use crate::runner::Display;
+
+/// Longest duration accepted on the command line (about 31 years): longer is a typo.
+pub const MAX_DURATION: Duration = Duration::from_secs(1_000_000_000);
+
+/// Parses a duration: seconds without a unit (`2.5`), or a number with units (`1500ms`, `2m`,
+/// `1h 30m`). NaN, infinities, negative and absurdly long values are errors that say so.
+///
+/// ```
+/// use core::time::Duration;
+/// use rmd_rig::args::parse_duration;
+/// assert_eq!(parse_duration("2.5"), Ok(Duration::from_millis(2500)));
+/// assert_eq!(parse_duration("20ms"), Ok(Duration::from_millis(20)));
+/// assert!(parse_duration("inf").is_err());
+/// assert!(parse_duration("-1").is_err());
+/// assert!(parse_duration("1e300").is_err());
+/// ```
+pub fn parse_duration(text: &str) -> Result<Duration, String> {
+    let text = text.trim();
+    let duration = if let Ok(seconds) = text.parse::<f64>() {
+        if !seconds.is_finite() {
+            return Err(format!(
+                "`{text}` is not a duration: give seconds (2.5) or a number with units (1500ms, 2m)"
+            ));
+        }
+        if seconds < 0.0 {
+            return Err(format!("`{text}`: a duration cannot be negative"));
+        }
+        if seconds > MAX_DURATION.as_secs_f64() {
+            return Err(format!(
+                "`{text}` s is longer than the longest accepted duration ({} s)",
+                MAX_DURATION.as_secs()
+            ));
+        }
+        Duration::from_secs_f64(seconds)
+    } else {
+        humantime::parse_duration(text).map_err(|e| {
+            format!("`{text}` is not a duration ({e}): give seconds (2.5) or a number with units (1500ms, 2m)")
+        })?
+    };
+    if duration > MAX_DURATION {
+        return Err(format!(
+            "`{text}` is longer than the longest accepted duration ({} s)",
+            MAX_DURATION.as_secs()
+        ));
+    }
+    Ok(duration)
+}
+
+/// Where the robot is: its description and its buses.
+#[derive(clap::Args, Debug, Clone, Default, PartialEq, Eq)]
+pub struct RobotArgs {
+    /// Robot description file (TOML), replacing the program's own (see examples/robots/).
+    #[arg(long, value_name = "FILE")]
+    pub robot: Option<PathBuf>,
+    /// Simulated motors matching the description, on every bus.
+    #[arg(long, conflicts_with = "iface")]
+    pub sim: bool,
+    /// CAN interface of each bus: in bus order (`can0,can1`) or by bus name (`front=can0`);
+    /// repeatable. Without it: the description's interfaces (the examples: simulated motors).
+    #[arg(long = "iface", value_name = "[BUS=]IFACE")]
+    pub iface: Vec<String>,
+    /// Run simulated motors in virtual time: deterministic, as fast as the CPU allows.
+    #[arg(long)]
+    pub virtual_time: bool,
+    /// Seed of the simulated motors (turnaround jitter, faults).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub seed: u64,
+    /// Do not ask for confirmation before moving real motors.
+    #[arg(long, short)]
+    pub yes: bool,
+}
+
+impl RobotArgs {
+    /// The robot description: `--robot FILE`, or `default_toml` (the program's own, usually
+    /// `include_str!` of a file in examples/robots/). Parsed only: apply [`LoopArgs`] and
+    /// build the [`Robot`] with `Robot::try_from`.
+    pub fn description(&self, default_toml: &str) -> Result<RobotConfig, RigError> {
+        Ok(match &self.robot {
+            Some(path) => read_config(path)?,
+            None => RobotConfig::from_toml(default_toml)?,
+        })
+    }
+
+    /// What the flags say about where the motors are.
+    pub fn overrides(&self) -> Overrides {
+        Overrides {
+            simulate: self.sim,
+            interfaces: self.iface.clone(),
+            virtual_time: self.virtual_time,
+        }
+    }
+
+    /// Where every bus of `robot` is for this run.
+    pub fn placement(
+        &self,
+        robot: &Robot,
+        default: PlacementDefault,
+    ) -> Result<Placement, RigError> {
+        Placement::resolve(robot, &self.overrides(), default)
+    }
+
+    /// With real motors, says what is about to move and waits for Enter (unless `--yes`);
+    /// returns whether to go on. With simulated motors, always goes on. Without a terminal to
+    /// ask on, refuses (use `--yes`).
+    pub fn confirm_motion(&self, placement: &Placement, what: &str) -> bool {
+        if !placement.has_real_motors() || self.yes {
+            return true;
+        }
+        let mut err = std::io::stderr();
+        let _ = writeln!(err, "REAL MOTORS on {placement}: {what}");
+        if !std::io::stdin().is_terminal() {
+            let _ = writeln!(
+                err,
+                "no terminal to confirm on: add --yes to move real motors without asking"
+            );
+            return false;
+        }
+        let _ = writeln!(
+            err,
+            "Make sure nothing and nobody is in the way. Ctrl-C stops the motors at any time."
+        );
+        let _ = write!(err, "Press Enter to start (or Ctrl-C to quit): ");
+        let _ = err.flush();
+        let mut line = String::new();
+        matches!(std::io::stdin().lock().read_line(&mut line), Ok(n) if n > 0)
+    }
+}
+
+/// How the loop runs: rate, length, real-time settings.
+#[derive(clap::Args, Debug, Clone, Default, PartialEq)]
+pub struct LoopArgs {
+    /// Loop rate, Hz (default: the description's).
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ")]
+    pub rate: Option<f64>,
+    /// How long to run: seconds (`10`) or with units (`1500ms`, `2m`).
+    #[arg(long, visible_alias = "seconds", value_name = "DURATION", value_parser = parse_duration)]
+    pub duration: Option<Duration>,
+    /// Pin the loop thread to this CPU (ideally an isolated one: see docs/realtime.md).
+    #[arg(long, value_name = "CPU")]
+    pub cpu: Option<usize>,
+    /// Run the loop thread under SCHED_FIFO at this priority (1..=99; needs the privilege).
+    #[arg(long, visible_alias = "fifo-priority", value_name = "PRIO")]
+    pub fifo: Option<u8>,
+    /// Lock the process's memory (mlockall) when the loop starts.
+    #[arg(long)]
+    pub lock_memory: bool,
+    /// Busy-wait this long before each tick for a precise wake (0: sleep only).
+    #[arg(long, value_name = "US")]
+    pub spin_us: Option<u64>,
+}
+
+impl LoopArgs {
+    /// Writes the flags that were given into a description's `[loop]` settings.
+    pub fn apply(&self, config: &mut RobotConfig) {
+        let l = &mut config.loop_config;
+        if let Some(rate) = self.rate {
+            l.rate_hz = rate;
+        }
+        if self.cpu.is_some() {
+            l.cpu = self.cpu;
+        }
+        if self.fifo.is_some() {
+            l.fifo_priority = self.fifo;
+        }
+        l.lock_memory |= self.lock_memory;
+        if let Some(us) = self.spin_us {
+            l.spin_margin_us = us;
+        }
+    }
+
+    /// How long to run: `--duration`, else `default` (`None`: until stopped).
+    pub fn limit(&self, default: Option<Duration>) -> RunLimit {
+        match self.duration.or(default) {
+            Some(d) => RunLimit::Duration(d),
+            None => RunLimit::Forever,
+        }
+    }
+}
+
+/// What a run shows and writes.
+#[derive(clap::Args, Debug, Clone, Default, PartialEq, Eq)]
+pub struct OutputArgs {
+    /// Write every tick's telemetry (joints, commands, user signals) to this CSV file.
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// No live display: only the final report.
+    #[arg(long, short)]
+    pub quiet: bool,
+    /// Print the final report as one JSON object (and no live display).
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl OutputArgs {
+    /// The live display: none with `--quiet` or `--json`, a bar updated in place on a terminal,
+    /// a line per second otherwise (logs).
+    pub fn display(&self) -> Display {
+        if self.quiet || self.json {
+            Display::Quiet
+        } else if std::io::stderr().is_terminal() {
+            Display::Terminal
+        } else {
+            Display::Lines
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn durations_with_and_without_units() {
+        assert_eq!(parse_duration("10"), Ok(Duration::from_secs(10)));
+        assert_eq!(parse_duration(" 0.001 "), Ok(Duration::from_millis(1)));
+        assert_eq!(parse_duration("2m"), Ok(Duration::from_secs(120)));
+        assert_eq!(parse_duration("1h 30m"), Ok(Duration::from_secs(5400)));
+        for bad in [
+            "inf",
+            "NaN",
+            "-3",
+            "-1s",
+            "1e12",
+            "ten",
+            "",
+            "100000000000s",
+        ] {
+            let err = parse_duration(bad).unwrap_err();
+            assert!(err.contains(bad.trim()) || bad.is_empty(), "{bad}: {err}");
+        }
+    }
+
+    #[test]
+    fn loop_flags_write_into_the_description() {
+        let mut config = RobotConfig::new(1000.0);
+        LoopArgs {
+            rate: Some(500.0),
+            cpu: Some(1),
+            fifo: Some(80),
+            lock_memory: true,
+            spin_us: Some(50),
+            duration: None,
+        }
+        .apply(&mut config);
+        let l = &config.loop_config;
+        assert_eq!(
+            (
+                l.rate_hz,
+                l.cpu,
+                l.fifo_priority,
+                l.lock_memory,
+                l.spin_margin_us
+            ),
+            (500.0, Some(1), Some(80), true, 50)
+        );
+        // Flags not given leave the description alone.
+        let mut config = RobotConfig::new(250.0);
+        config.loop_config.cpu = Some(3);
+        LoopArgs::default().apply(&mut config);
+        assert_eq!(
+            (config.loop_config.rate_hz, config.loop_config.cpu),
+            (250.0, Some(3))
+        );
+    }
+}

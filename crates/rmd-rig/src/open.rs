@@ -1,0 +1,92 @@
+//! Opening a robot's buses where the [`Placement`] says: SocketCAN interfaces, or simulated
+//! motors matching the description, on one clock.
+
+use rmd_bus::Clock;
+use rmd_loop::Robot;
+use rmd_sim::{SimBus, SimConfig};
+
+use crate::bus::AnyBus;
+use crate::clock::AnyClock;
+use crate::error::RigError;
+use crate::placement::{BusTarget, Placement};
+
+/// A robot's buses, open, and the clock they run on: ready for
+/// [`RtLoop::new`](rmd_loop::RtLoop::new).
+#[derive(Debug)]
+pub struct Rig {
+    /// The clock.
+    pub clock: AnyClock,
+    /// One bus per bus of the robot description, in its order.
+    pub buses: Vec<AnyBus>,
+    /// Where they are.
+    pub placement: Placement,
+}
+
+impl Rig {
+    /// Opens every bus of `robot` where `placement` says. `sims` describes the simulated motors
+    /// of each bus, in description order (usually [`sim_configs`](crate::sim::sim_configs) plus
+    /// the robot's loads); entries of buses on real interfaces are not used.
+    pub fn open(
+        robot: &Robot,
+        placement: &Placement,
+        sims: Vec<SimConfig>,
+    ) -> Result<Self, RigError> {
+        if sims.len() != robot.buses().len() {
+            return Err(RigError::SimCount {
+                expected: robot.buses().len(),
+                given: sims.len(),
+            });
+        }
+        let clock = AnyClock::new(placement.time());
+        let mut buses = Vec::with_capacity(sims.len());
+        for ((spec, target), sim) in robot.buses().iter().zip(placement.buses()).zip(sims) {
+            buses.push(match target {
+                BusTarget::Simulator => AnyBus::Sim(Box::new(
+                    SimBus::new(clock.clone(), sim).map_err(|source| RigError::Sim {
+                        bus: spec.name.clone(),
+                        source,
+                    })?,
+                )),
+                BusTarget::SocketCan(name) => open_socketcan(&spec.name, name)?,
+            });
+        }
+        Ok(Self {
+            clock,
+            buses,
+            placement: placement.clone(),
+        })
+    }
+}
+
+#[cfg(target_os = "linux")]
+fn open_socketcan(bus: &str, iface: &str) -> Result<AnyBus, RigError> {
+    use rmd_bus::socketcan::{SocketCanBus, SocketCanOptions};
+    SocketCanBus::open(iface, &SocketCanOptions::new())
+        .map(|bus| AnyBus::SocketCan(Box::new(bus)))
+        .map_err(|source| RigError::Open {
+            bus: bus.to_string(),
+            source,
+        })
+}
+
+#[cfg(not(target_os = "linux"))]
+fn open_socketcan(_bus: &str, _iface: &str) -> Result<AnyBus, RigError> {
+    Err(RigError::Unsupported)
+}
+
+/// Builds one simulated bus per configuration, all on `clock` (clones of one clock share one
+/// time line). Tests use it to keep the buses and look at the simulated motors after a run.
+pub fn sim_buses<C: Clock + Clone>(
+    clock: &C,
+    sims: Vec<SimConfig>,
+) -> Result<Vec<SimBus<C>>, RigError> {
+    sims.into_iter()
+        .enumerate()
+        .map(|(bus, config)| {
+            SimBus::new(clock.clone(), config).map_err(|source| RigError::Sim {
+                bus: format!("bus{bus}"),
+                source,
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,245 @@
+//! Running a loop the way every program of rmd-rt does: on its own thread, stopped safely by
+//! the project's signal policy, with a live status line, every tick's telemetry in a CSV file,
+//! the report at the end, and the standard exit codes.
+//!
+//! ```no_run
+//! use rmd_rig::runner::Runner;
+//! # fn demo(rt: rmd_loop::RtLoop<rmd_rig::AnyBus, rmd_rig::AnyClock, impl rmd_loop::Controller + 'static>) -> std::process::ExitCode {
+//! let finished = match Runner::new().csv(Some("target/run.csv".as_ref())).run(rt, rmd_loop::RunLimit::Forever) {
+//!     Ok(finished) => finished,
+//!     Err(e) => return rmd_rig::runner::exit_with_error("my-robot", &e),
+//! };
+//! finished.print_report(false);
+//! finished.exit_code()
+//! # }
+//! ```
+
+mod csv;
+mod progress;
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use rmd_bus::{CanBus, Clock};
+use rmd_loop::{Controller, LoopOutcome, RtLoop, RunLimit, TelemetrySample};
+
+pub use progress::Display;
+
+use crate::args::OutputArgs;
+use crate::error::RigError;
+use crate::signals::{self, EXIT_INTERRUPTED};
+use csv::CsvWriter;
+
+/// Exit status of a run that ended normally.
+pub const EXIT_OK: u8 = 0;
+/// Exit status of a run that ended on a fault, a panic or an emergency stop.
+pub const EXIT_FAULT: u8 = 1;
+/// Exit status of a program that could not start (bad arguments, description, interface).
+pub const EXIT_USAGE: u8 = 2;
+
+/// How often the runner takes the telemetry in (the loop's queue holds
+/// `loop.telemetry_capacity` ticks: 4 s at 1 kHz by default, or far less in virtual time).
+const DRAIN_EVERY: Duration = Duration::from_millis(5);
+/// How often the status line is redrawn.
+const SHOW_EVERY: Duration = Duration::from_millis(100);
+
+/// A program's part of the status line: sees every tick's telemetry, shows the newest.
+pub trait Status {
+    /// Takes one tick's sample into account (every sample of the run, in order).
+    fn observe(&mut self, sample: &TelemetrySample);
+    /// The program's part of the status line, now.
+    fn line(&self) -> String;
+}
+
+/// What the CSV file got.
+#[derive(Debug)]
+pub struct CsvResult {
+    /// The file.
+    pub path: PathBuf,
+    /// Rows written, or the first error (the run went on regardless).
+    pub rows: Result<u64, std::io::Error>,
+}
+
+/// What a run produced.
+#[derive(Debug)]
+pub struct Finished<K> {
+    /// The loop's report and the controller.
+    pub outcome: LoopOutcome<K>,
+    /// Whether a signal stopped it.
+    pub interrupted: bool,
+    /// The CSV file, if one was asked for.
+    pub csv: Option<CsvResult>,
+    /// How long it took on the wall clock.
+    pub wall_time: Duration,
+}
+
+impl<K> Finished<K> {
+    /// The exit status: [`EXIT_INTERRUPTED`] when a signal stopped the run, [`EXIT_OK`] when
+    /// it ended normally, [`EXIT_FAULT`] otherwise.
+    pub fn exit_code(&self) -> ExitCode {
+        ExitCode::from(self.exit_status())
+    }
+
+    /// [`exit_code`](Self::exit_code) as a number.
+    pub fn exit_status(&self) -> u8 {
+        if self.interrupted {
+            EXIT_INTERRUPTED
+        } else if self.outcome.report.normal_stop {
+            EXIT_OK
+        } else {
+            EXIT_FAULT
+        }
+    }
+
+    /// Prints the report on standard output (as one JSON object with `json`), then what the
+    /// CSV file got. A closed standard output is ignored.
+    pub fn print_report(&self, json: bool) {
+        let mut out = std::io::stdout();
+        if json {
+            let _ = writeln!(out, "{}", self.outcome.report.to_json());
+        } else {
+            let _ = write!(out, "{}", self.outcome.report);
+        }
+        if let Some(csv) = &self.csv {
+            let mut err = std::io::stderr();
+            let _ = match &csv.rows {
+                Ok(rows) => writeln!(err, "telemetry: {rows} rows in {}", csv.path.display()),
+                Err(e) => writeln!(err, "telemetry: writing {} failed: {e}", csv.path.display()),
+            };
+        }
+    }
+}
+
+/// Prints `error` as `program: error` on standard error and returns [`EXIT_USAGE`].
+pub fn exit_with_error(program: &str, error: &dyn std::fmt::Display) -> ExitCode {
+    let _ = writeln!(std::io::stderr(), "{program}: {error}");
+    ExitCode::from(EXIT_USAGE)
+}
+
+/// Runs loops: display, CSV, status, signals.
+#[derive(Default)]
+pub struct Runner<'a> {
+    display: Option<Display>,
+    csv: Option<PathBuf>,
+    status: Option<&'a mut dyn Status>,
+}
+
+impl std::fmt::Debug for Runner<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Runner")
+            .field("display", &self.display)
+            .field("csv", &self.csv)
+            .field("status", &self.status.is_some())
+            .finish()
+    }
+}
+
+impl<'a> Runner<'a> {
+    /// A runner without display, CSV or status.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// A runner as the standard output flags say (`--csv`, `--quiet`, `--json`).
+    pub fn from_args(output: &OutputArgs) -> Self {
+        Self::new()
+            .display(output.display())
+            .csv(output.csv.as_deref())
+    }
+
+    /// How to show progress (default: nothing).
+    pub fn display(mut self, display: Display) -> Self {
+        self.display = Some(display);
+        self
+    }
+
+    /// Writes every tick to this CSV file.
+    pub fn csv(mut self, path: Option<&Path>) -> Self {
+        self.csv = path.map(Path::to_path_buf);
+        self
+    }
+
+    /// The program's part of the status line.
+    pub fn status(mut self, status: &'a mut dyn Status) -> Self {
+        self.status = Some(status);
+        self
+    }
+
+    /// Runs `rt` on its own thread until `limit` (or a signal, the controller, a fault) and
+    /// returns what it produced. Prints nothing but progress: the caller prints the report.
+    pub fn run<B, C, K>(
+        self,
+        mut rt: RtLoop<B, C, K>,
+        limit: RunLimit,
+    ) -> Result<Finished<K>, RigError>
+    where
+        B: CanBus + Send + 'static,
+        C: Clock + 'static,
+        K: Controller + 'static,
+    {
+        let signals = signals::install()?;
+        let display = self.display.unwrap_or(Display::Quiet);
+        let mut status = self.status;
+        let robot = rt.robot().clone();
+        let rate_hz = robot.settings().period.hz();
+        let joints: Vec<String> = robot.joints().iter().map(|j| j.name.clone()).collect();
+        let mut csv = match &self.csv {
+            Some(path) => Some(CsvWriter::create(
+                path,
+                &joints,
+                &rt.controller().signals(),
+            )?),
+            None => None,
+        };
+        let telemetry = (csv.is_some() || status.is_some()).then(|| rt.telemetry());
+        let total_ticks = match limit {
+            RunLimit::Ticks(n) => Some(n),
+            RunLimit::Duration(d) => Some((d.as_secs_f64() * rate_hz) as u64),
+            RunLimit::Forever => None,
+        };
+        let mut progress = progress::Progress::new(display, total_ticks, rate_hz);
+        let started = Instant::now();
+        let handle = rt.spawn(limit)?;
+        let watch = signals.watch(handle.stopper());
+        let drain = |csv: &mut Option<CsvWriter>, status: &mut Option<&mut dyn Status>| {
+            if let Some(telemetry) = &telemetry {
+                for sample in telemetry.drain() {
+                    if let Some(csv) = csv.as_mut() {
+                        csv.write(&sample);
+                    }
+                    if let Some(status) = status.as_mut() {
+                        status.observe(&sample);
+                    }
+                }
+            }
+        };
+        let mut last_show = Instant::now();
+        while handle.is_running() {
+            std::thread::sleep(DRAIN_EVERY);
+            drain(&mut csv, &mut status);
+            if last_show.elapsed() >= SHOW_EVERY && progress.due() {
+                last_show = Instant::now();
+                if let Some(stats) = handle.snapshot(Duration::from_millis(50)) {
+                    let line = status.as_ref().map(|s| s.line()).unwrap_or_default();
+                    progress.show(&stats, &line);
+                }
+            }
+        }
+        let outcome = handle.join()?;
+        drop(watch);
+        drain(&mut csv, &mut status);
+        progress.finish();
+        let csv = csv.map(|csv| {
+            let (path, rows) = csv.finish();
+            CsvResult { path, rows }
+        });
+        Ok(Finished {
+            outcome,
+            interrupted: signals.interrupted(),
+            csv,
+            wall_time: started.elapsed(),
+        })
+    }
+}

@@ -1,0 +1,125 @@
+//! One signal policy for every program of rmd-rt (the `rmd` tool and the examples): Ctrl-C
+//! (SIGINT), SIGTERM and SIGHUP.
+//!
+//! - the first asks the watched loop to stop (zero torque, then motor off, then the report);
+//!   commands without a loop see it with [`Signals::interrupted`] and stop their motors;
+//! - the second is an emergency stop of the watched loop;
+//! - the third exits the process at once with status [`EXIT_INTERRUPTED`].
+//!
+//! A program that was stopped by a signal exits with [`EXIT_INTERRUPTED`] (130, as shells
+//! report SIGINT) after its motors are safe.
+//!
+//! The handler runs on the `ctrlc` crate's own thread (an ordinary thread, never the loop's),
+//! and is installed once per process by [`install`].
+
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::{Mutex, OnceLock, PoisonError};
+
+use rmd_bus::{Clock, Timestamp};
+use rmd_loop::Stopper;
+
+use crate::error::RigError;
+
+/// Exit status of a program stopped by a signal (128 + SIGINT).
+pub const EXIT_INTERRUPTED: u8 = 130;
+
+/// Signals received since the handler was installed.
+static COUNT: AtomicU32 = AtomicU32::new(0);
+/// The loop the signals stop, if one is watched.
+static WATCHED: Mutex<Option<Stopper>> = Mutex::new(None);
+/// Whether the handler is installed (or why it could not be).
+static INSTALLED: OnceLock<Result<(), String>> = OnceLock::new();
+
+/// Proof that the process's signal handler is installed; cheap to copy.
+#[derive(Copy, Clone, Debug)]
+pub struct Signals {
+    _installed: (),
+}
+
+/// Installs the handler (once per process; later calls return the same result).
+pub fn install() -> Result<Signals, RigError> {
+    INSTALLED
+        .get_or_init(|| ctrlc::set_handler(on_signal).map_err(|e| e.to_string()))
+        .clone()
+        .map(|()| Signals { _installed: () })
+        .map_err(RigError::Signals)
+}
+
+/// Runs on the handler thread for every signal.
+fn on_signal() {
+    let count = COUNT.fetch_add(1, Ordering::SeqCst) + 1;
+    let watched = WATCHED
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .clone();
+    match (count, watched) {
+        (1, Some(stopper)) => {
+            eprintln!(
+                "\ninterrupted: stopping (zero torque, then motor off); again for an emergency stop"
+            );
+            stopper.stop();
+        }
+        (2, Some(stopper)) => {
+            eprintln!("\ninterrupted again: EMERGENCY STOP; once more exits at once");
+            stopper.emergency_stop();
+        }
+        (1 | 2, None) => {}
+        _ => std::process::exit(i32::from(EXIT_INTERRUPTED)),
+    }
+}
+
+impl Signals {
+    /// How many signals were received.
+    pub fn count(&self) -> u32 {
+        COUNT.load(Ordering::SeqCst)
+    }
+
+    /// Whether a signal was received.
+    pub fn interrupted(&self) -> bool {
+        self.count() > 0
+    }
+
+    /// Forgets the signals received so far (before another run in the same process, once the
+    /// program decided to go on after an interrupted one).
+    pub fn reset(&self) {
+        COUNT.store(0, Ordering::SeqCst);
+    }
+
+    /// Makes signals stop the loop `stopper` belongs to, until the returned guard is dropped.
+    /// A signal that came before (e.g. during start-up) stops it at once.
+    pub fn watch(&self, stopper: Stopper) -> Watch {
+        if self.interrupted() {
+            stopper.stop();
+        }
+        *WATCHED.lock().unwrap_or_else(PoisonError::into_inner) = Some(stopper);
+        Watch { _private: () }
+    }
+
+    /// Sleeps until `deadline` on `clock`, waking regularly to check for a signal. Returns
+    /// `false` if interrupted (at once, not at the deadline).
+    pub fn sleep_until(&self, clock: &dyn Clock, deadline: Timestamp) -> bool {
+        const SLICE: core::time::Duration = core::time::Duration::from_millis(20);
+        loop {
+            if self.interrupted() {
+                return false;
+            }
+            let now = clock.now();
+            if now >= deadline {
+                return true;
+            }
+            clock.sleep_until(deadline.min(now + SLICE));
+        }
+    }
+}
+
+/// While it lives, signals stop the watched loop.
+#[derive(Debug)]
+pub struct Watch {
+    _private: (),
+}
+
+impl Drop for Watch {
+    fn drop(&mut self) {
+        *WATCHED.lock().unwrap_or_else(PoisonError::into_inner) = None;
+    }
+}

@@ -1,0 +1,80 @@
+//! Simulated motors that match a robot description.
+//!
+//! [`sim_motor`] builds a simulated motor with the joint's gear ratio, torque constant and
+//! encoder width, and mounts its encoder so that the loop's joint angle is the simulated joint's
+//! true angle. That holds, as on a real geared motor, only when the joint powers up inside its
+//! [`power_up_window`](rmd_loop::mapping::power_up_window): the loop sees one motor turn of the
+//! single-turn encoder at start-up, which is `360 / gear_ratio` degrees of joint (40 degrees
+//! with a 1:9 gearbox), starting at `-zero_offset_deg`. A robot description sets each
+//! `zero_offset_deg` so that the joint's power-up pose lies in that window (see
+//! docs/getting-started.md, "Homing a geared joint").
+
+use rmd_loop::Robot;
+use rmd_loop::robot::{BusSpec, JointSpec};
+use rmd_sim::{SimConfig, WireTiming};
+
+/// Simulated buses matching every bus of `robot` ([`sim_config`]), seeded `seed`, `seed + 1`, ...
+pub fn sim_configs(robot: &Robot, seed: u64) -> Vec<SimConfig> {
+    robot
+        .buses()
+        .iter()
+        .zip(seed..)
+        .map(|(bus, seed)| sim_config(robot, bus, seed))
+        .collect()
+}
+
+/// A simulated bus matching `bus` of `robot`: its bit rate, and a [`sim_motor`] for each of its
+/// joints, with no load (add the robot's loads and power-up pose to the returned motors).
+pub fn sim_config(robot: &Robot, bus: &BusSpec, seed: u64) -> SimConfig {
+    let mut config = SimConfig::with_motors(0).seed(seed);
+    config.bus.timing = WireTiming::Bitrate(bus.bitrate);
+    config.motors = bus.joints().map(|j| sim_motor(robot.spec(j))).collect();
+    config
+}
+
+/// A simulated motor matching `joint` (RMD-X8-class defaults for everything the description
+/// does not say): same id, gear ratio, encoder width and, when given, output torque constant;
+/// its encoder mounted so that the loop reads the joint's true angle whenever the joint powers
+/// up inside its power-up window. The simulated output angle is `direction * joint angle` (see
+/// [`sim_output_angle_deg`]).
+///
+/// ```
+/// use rmd_loop::Robot;
+/// let robot = Robot::from_toml(r#"
+///     [[bus]]
+///     interface = "sim"
+///     [[bus.motor]]
+///     id = 3
+///     name = "knee"
+///     gear_ratio = 9.0
+///     torque_constant_nm_per_amp = 2.09
+///     zero_offset_deg = 110.0
+/// "#)?;
+/// let sim = rmd_rig::sim::sim_motor(robot.spec(robot.joint("knee")?));
+/// assert_eq!(sim.id.get(), 3);
+/// assert_eq!(sim.motor.gear_ratio, 9.0);
+/// assert!((sim.motor.torque_constant_nm_per_a * 9.0 - 2.09).abs() < 1e-12);
+/// # Ok::<(), rmd_loop::RobotError>(())
+/// ```
+pub fn sim_motor(joint: &JointSpec) -> rmd_sim::MotorConfig {
+    let mut sim = rmd_sim::MotorConfig::new(joint.motor);
+    sim.motor.gear_ratio = joint.gear_ratio;
+    if let Some(kt) = joint.torque_constant_nm_per_amp {
+        sim.motor.torque_constant_nm_per_a = kt / joint.gear_ratio;
+    }
+    sim.firmware.encoder_width = joint.encoder;
+    // The loop reads joint = s * m / G - z from the first reading m in [0, 360) degrees of
+    // motor; the simulated encoder reads (G * output + 360 * offset) mod 360. With
+    // offset = s * z * G / 360 the two agree (joint = s * output) as long as the first reading
+    // did not wrap, i.e. inside the power-up window.
+    let turns = joint.direction.sign() * joint.zero_offset_deg * joint.gear_ratio / 360.0;
+    sim.motor.encoder_mount_offset_turns = turns.rem_euclid(1.0);
+    sim
+}
+
+/// The simulated output angle (degrees) at which a [`sim_motor`] of `joint` shows `joint_deg`
+/// to the loop: `direction * joint_deg` (for a simulated motor's `initial_output_angle_deg`,
+/// and for its gravity link's angle).
+pub fn sim_output_angle_deg(joint: &JointSpec, joint_deg: f64) -> f64 {
+    joint.direction.sign() * joint_deg
+}
