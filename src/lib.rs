@@ -1,72 +1,72 @@
 //! # rmd-rt
 //!
-//! Real-time control of GYEMS / MyActuator RMD servo motors over CAN. This facade re-exports the
-//! member crates:
+//! Real-time control of GYEMS / MyActuator RMD servo motors over CAN. This facade only
+//! re-exports the member crates (see docs/architecture.md for who owns what):
 //!
 //! - [`protocol`]: the wire format (every command and reply of protocol v1.61, typed, `no_std`);
 //! - [`bus`]: the [`bus::CanBus`] and [`bus::Clock`] abstractions, CAN wire timing, candump
 //!   formats and the Linux SocketCAN backend;
 //! - [`sim`]: simulated RMD motors and a simulated CAN bus (virtual or real time, fault injection);
-//! - [`rt`]: the real-time loop; its main types are also at the root of this crate;
-//! - [`traj`]: time-optimal, jerk-limited multi-axis trajectories (`no_std`, allocation-free);
-//! - [`connect`]: one bus per bus of a robot description, simulated or SocketCAN, and Ctrl-C.
+//! - [`rt`]: the real-time loop and the robot description; its main types are also at the root
+//!   of this crate;
+//! - [`rig`]: opening a robot on its buses (SocketCAN or simulated motors matching the
+//!   description), the signal policy, the runner and the standard flags;
+//! - [`traj`]: time-optimal, jerk-limited multi-axis trajectories (`no_std`, allocation-free).
 //!
-//! A controller, a robot, motors, a run: the whole path, here on a simulated motor in virtual
-//! time (with `Target::SocketCan(vec!["can0".into()])` the same code drives a real one). See
-//! `examples/` and `docs/getting-started.md` in the repository for more.
+//! A controller by joint names, a robot from its description, simulated motors, a run:
 //!
 //! ```
 //! use std::time::Duration;
-//! use rmd_rt::connect::{self, SimTime, Target};
-//! use rmd_rt::{BusConfig, Commands, Controller, Feedback, Flow, MotorConfig, RobotConfig};
-//! use rmd_rt::{RtLoop, RunLimit, StopReason, TickContext};
+//! use rmd_rt::rig::{Placement, Rig, SimTime, sim};
+//! use rmd_rt::{Commands, Controller, Feedback, Flow, JointId, Robot, RtLoop, RunLimit, StopReason, TickContext};
 //!
-//! /// The smallest useful controller: hold every joint at a target angle.
-//! struct PdHold { target_deg: f64 }
+//! /// The smallest useful controller: hold the elbow at a target angle.
+//! struct Hold { elbow: JointId, target_deg: f64 }
 //!
-//! impl Controller for PdHold {
+//! impl Controller for Hold {
 //!     fn update(&mut self, _: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
-//!         for (i, joint) in fb.iter().enumerate() {
-//!             let amps = 0.8 * (self.target_deg - joint.joint_angle_deg) - 0.03 * joint.joint_velocity_dps;
-//!             let _ = cmd.set_current(i, amps); // joint sign, clamped to the current limit
-//!         }
+//!         let elbow = fb[self.elbow].joint;
+//!         cmd.set_current(self.elbow, 0.8 * (self.target_deg - elbow.angle_deg) - 0.03 * elbow.velocity_dps);
 //!         Flow::Continue
 //!     }
 //! }
 //!
-//! // One bus, one RMD-X8-class motor (1:9 gearbox), at most 3 A, at 1 kHz.
-//! let motor = MotorConfig::new(1).gear_ratio(9.0).torque_constant(2.09).current_limit(3.0);
-//! let robot = RobotConfig::new(1000.0).with_bus(BusConfig::new("can0").with_motor(motor));
+//! // One RMD-X8-class motor (1:9 gearbox), at most 3 A, at 1 kHz.
+//! let robot = Robot::from_toml(r#"
+//!     [[bus]]
+//!     interface = "can0"
+//!     [[bus.motor]]
+//!     id = 1
+//!     name = "elbow"
+//!     gear_ratio = 9.0
+//!     torque_constant_nm_per_amp = 2.09
+//!     current_limit_amps = 3.0
+//! "#)?;
+//! let hold = Hold { elbow: robot.joint("elbow")?, target_deg: 10.0 };
 //!
-//! // Simulated motors matching the description, in virtual time.
-//! let target = Target::Simulator(SimTime::Virtual);
-//! let connection = connect::open(&target, &robot, connect::sim_configs(&robot, 1))?;
-//! let rt = RtLoop::new(robot, connection.clock, connection.buses, PdHold { target_deg: 10.0 })?;
+//! // Simulated motors matching the description, in virtual time (`Placement::resolve` with
+//! // the command line's `--iface` picks real interfaces instead).
+//! let rig = Rig::open(&robot, &Placement::simulated(&robot, SimTime::Virtual), sim::sim_configs(&robot, 1))?;
+//! let mut rt = RtLoop::new(robot, rig.clock, rig.buses, hold)?;
 //! let telemetry = rt.telemetry();
-//!
-//! // On its own thread for 2 s; Ctrl-C would stop it (zero torque, then motor off).
-//! connect::stop_on_ctrl_c(rt.stopper())?;
-//! let handle = rt.spawn(RunLimit::Duration(Duration::from_secs(2)))?;
-//! let outcome = handle.join()?;
+//! let outcome = rt.spawn(RunLimit::Duration(Duration::from_secs(2)))?.join()?;
 //!
 //! assert_eq!(outcome.report.stop_reason, StopReason::TickLimit);
-//! assert_eq!(outcome.report.stats.deadline_misses, 0);
 //! assert!(outcome.report.safe_stop.all_off_confirmed());
-//! let joint = telemetry.latest().unwrap().joints()[0];
-//! assert!((joint.joint_angle_deg - 10.0).abs() < 0.3);
-//! println!("{}", outcome.report); // latencies, misses, per-motor counters, safe stop
+//! let elbow = telemetry.latest().unwrap().joints()[0].feedback.joint;
+//! assert!((elbow.angle_deg - 10.0).abs() < 0.3);
+//! println!("{}", outcome.report); // latencies, misses, per-joint counters, safe stop
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
-
-pub mod connect;
 
 pub use rmd_bus as bus;
 pub use rmd_loop as rt;
 pub use rmd_protocol as protocol;
+pub use rmd_rig as rig;
 pub use rmd_sim as sim;
 pub use rmd_traj as traj;
 
 pub use rmd_loop::{
-    BusConfig, Commands, Controller, Fault, Feedback, Flow, LoopHandle, LoopOutcome, LoopReport,
-    MotorConfig, MotorFeedback, RobotConfig, RtLoop, RunLimit, StopReason, TickContext,
+    Commands, Controller, Fault, Feedback, Flow, JointArray, JointFeedback, JointId, LoopHandle,
+    LoopOutcome, LoopReport, Robot, RtLoop, RunLimit, StopReason, TickContext,
 };
