@@ -28,7 +28,8 @@ use rmd_rt::bus::{BusError, BusMessage, CanBus, Clock, Received, Timestamp, Virt
 use rmd_rt::protocol::{
     CanFrame, EncoderValue, Iq, IqControl, MotorId, MultiTorque, Reply, Speed, Status2, Temperature,
 };
-use rmd_rt::rt::config::{BusConfig, MotorConfig, RobotConfig};
+use rmd_rt::rt::robot::{BusConfig, MotorConfig, RobotConfig};
+use rmd_rt::rt::{Running, TelemetrySample, mailbox::Receiver};
 use rmd_rt::sim::{SimBus, SimConfig};
 use rmd_rt::{Commands, Controller, Feedback, Flow, RtLoop, TickContext};
 
@@ -47,7 +48,7 @@ impl Controller for NoOp {
     }
 }
 
-fn robot(buses: usize) -> RobotConfig {
+fn robot(buses: usize) -> rmd_rt::Robot {
     let mut robot = RobotConfig::new(RATE_HZ);
     for b in 0..buses {
         let mut bus = BusConfig::new(&format!("bench{b}"));
@@ -56,7 +57,7 @@ fn robot(buses: usize) -> RobotConfig {
         }
         robot = robot.with_bus(bus);
     }
-    robot
+    rmd_rt::Robot::try_from(robot).expect("valid robot")
 }
 
 /// A bus that answers each 0x280 frame at once with the pre-encoded 0xA1 replies of motors
@@ -121,28 +122,32 @@ impl CanBus for CannedBus {
     }
 }
 
-/// A started loop over `buses`, warmed up, after printing its allocations per tick.
+/// A started loop over `buses` publishing telemetry (to a receiver nobody drains: the queue
+/// overwrites), warmed up, after printing its allocations per tick.
 fn started<B: CanBus>(
     name: &str,
     clock: VirtualClock,
     buses: Vec<B>,
-) -> RtLoop<B, VirtualClock, NoOp> {
+) -> (Running<B, VirtualClock, NoOp>, Receiver<TelemetrySample>) {
     let n = buses.len();
     let mut rt = RtLoop::new(robot(n), clock, buses, NoOp).expect("valid robot");
-    rt.start().expect("every motor answers the start-up probe");
+    let telemetry = rt.telemetry();
+    let Ok(mut rt) = rt.start() else {
+        panic!("every motor answers the start-up probe")
+    };
     for _ in 0..1_000 {
-        assert!(rt.step().is_none());
+        assert!(rt.step().is_continue());
     }
     let ((), allocations) = support::allocations_during(|| {
         for _ in 0..COUNTED_TICKS {
-            assert!(rt.step().is_none());
+            assert!(rt.step().is_continue());
         }
     });
     println!(
         "{name}: {allocations} allocations in {COUNTED_TICKS} ticks ({} per tick)",
         allocations as f64 / COUNTED_TICKS as f64
     );
-    rt
+    (rt, telemetry)
 }
 
 fn sim_buses(clock: &VirtualClock, n: usize) -> Vec<SimBus<VirtualClock>> {
@@ -163,7 +168,7 @@ fn tick(c: &mut Criterion) {
         let label = format!("{buses}x{MOTORS}");
 
         let clock = VirtualClock::new();
-        let mut rt = started(
+        let (mut rt, _telemetry) = started(
             &format!("loop+sim {label}"),
             clock.clone(),
             sim_buses(&clock, buses),
@@ -196,7 +201,7 @@ fn tick(c: &mut Criterion) {
 
         let clock = VirtualClock::new();
         let canned = (0..buses).map(|_| CannedBus::new(clock.clone())).collect();
-        let mut rt = started(&format!("loop alone {label}"), clock, canned);
+        let (mut rt, _telemetry) = started(&format!("loop alone {label}"), clock, canned);
         group.bench_function(format!("loop alone {label}"), |b| {
             b.iter(|| black_box(rt.step()))
         });
