@@ -70,3 +70,9 @@ pub use rmd_loop::{
     Commands, Controller, Fault, Feedback, Flow, JointArray, JointFeedback, JointId, LoopHandle,
     LoopOutcome, LoopReport, Robot, RtLoop, RunLimit, StopReason, TickContext,
 };
+
+/// docs/controller.md, whose code blocks `cargo test --doc` compiles and runs (the guide's
+/// complete 4-joint program among them).
+#[cfg(doctest)]
+#[doc = include_str!("../docs/controller.md")]
+pub struct ControllerGuide;
