@@ -31,7 +31,14 @@ pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
     if let StopReason::Fault(fault) = &reason {
         let _ = catch_unwind(AssertUnwindSafe(|| controller.fault(fault)));
     }
-    let safe_stop = safe_stop::make_safe(&parts.clock, &mut parts.exchange, &parts.robot);
+    let ids: Vec<_> = parts.exchange.motors.iter().map(|m| m.id).collect();
+    let safe_stop = safe_stop::make_safe(
+        &parts.clock,
+        &mut parts.exchange.links,
+        &ids,
+        &parts.robot,
+        parts.robot.safe_stop(),
+    );
     let _ = catch_unwind(AssertUnwindSafe(|| controller.stop(&reason)));
     parts.shared.set_running(false);
     let duration_s = start.map_or(0.0, |t0| (parts.clock.now() - t0).as_secs_f64());

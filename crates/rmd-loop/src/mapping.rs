@@ -249,7 +249,10 @@ mod tests {
             .unwrap();
             let (low, high) = power_up_window(&robot.joints()[0]);
             assert!((high - low - 60.0).abs() < 1e-9);
-            assert!(((low + high) / 2.0 - 12.0).abs() < 1e-9, "{d:?}: {low}..{high}");
+            assert!(
+                ((low + high) / 2.0 - 12.0).abs() < 1e-9,
+                "{d:?}: {low}..{high}"
+            );
         }
     }
 

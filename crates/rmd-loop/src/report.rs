@@ -11,6 +11,9 @@ use crate::commands::Rejection;
 use crate::joint::JointId;
 use crate::os::RtStatus;
 use crate::robot::Robot;
+pub use crate::safe_stop::{
+    BusSafeStop, BusStopOutcome, MotorSafeStop, SafeStopBy, SafeStopReport,
+};
 use crate::stats::StatsSummary;
 
 /// Which joint, on which bus, driven by which motor: how faults point at a motor.
@@ -205,70 +208,6 @@ impl StopReason {
             StopReason::Fault(fault) => format!("FAULT: {}", fault.describe(robot)),
             other => other.to_string(),
         }
-    }
-}
-
-/// What the safe stop did for one motor.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
-pub struct MotorSafeStop {
-    /// The joint's name.
-    pub joint: String,
-    /// Bus index.
-    pub bus: usize,
-    /// Motor id.
-    #[serde(serialize_with = "serialize_motor_id")]
-    pub motor: MotorId,
-    /// A zero-torque 0x280 frame was queued on its bus.
-    pub zero_torque_sent: bool,
-    /// A motor-off (0x80) command was queued.
-    pub off_sent: bool,
-    /// The motor answered the motor-off command.
-    pub off_confirmed: bool,
-}
-
-fn serialize_motor_id<S: serde::Serializer>(id: &MotorId, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_u8(id.get())
-}
-
-/// The outcome of the safe-stop sequence (zero torque, then motor off, to every motor).
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
-pub struct SafeStopReport {
-    /// Per motor.
-    pub motors: Vec<MotorSafeStop>,
-}
-
-impl SafeStopReport {
-    /// Whether every motor confirmed motor-off.
-    pub fn all_off_confirmed(&self) -> bool {
-        self.motors.iter().all(|m| m.off_confirmed)
-    }
-}
-
-impl fmt::Display for SafeStopReport {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let confirmed = self.motors.iter().filter(|m| m.off_confirmed).count();
-        write!(
-            f,
-            "safe stop: zero torque then motor off; {confirmed}/{} motors confirmed off",
-            self.motors.len()
-        )?;
-        for m in self.motors.iter().filter(|m| !m.off_confirmed) {
-            write!(
-                f,
-                "; joint {} (motor {} on bus {}): {}",
-                m.joint,
-                m.motor.get(),
-                m.bus,
-                if !m.zero_torque_sent {
-                    "could not send zero torque"
-                } else if !m.off_sent {
-                    "zero torque sent, could not send motor-off"
-                } else {
-                    "zero torque and motor-off sent, no answer"
-                }
-            )?;
-        }
-        Ok(())
     }
 }
 

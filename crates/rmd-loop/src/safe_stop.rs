@@ -1,44 +1,205 @@
-//! Making the motors safe when the loop ends, whatever the reason: a zero-torque 0x280 frame on
-//! every bus, then motor-off (0x80) to every motor, then a bounded wait for each motor to
-//! confirm. A fault on one bus does not stop the others from being made safe.
+//! Making the motors safe when the loop ends, whatever the reason: zero torque (one 0x280 frame
+//! per bus), then motor-off (0x80) to every motor, confirmed by each motor's echo.
+//!
+//! A stop that finishes, bus by bus, each on its own so that a fault on one never abandons the
+//! others:
+//!
+//! - a full or stalled transmit queue is retried until the stop's deadline
+//!   (`safe_stop.deadline_ms`);
+//! - a bus that is bus-off is waited for (at most `safe_stop.bus_off_wait_ms`) until its
+//!   controller restarts, then zero torque and motor-off go out;
+//! - a motor that does not confirm motor-off is sent it again (every `safe_stop.retry_ms`)
+//!   until the deadline.
+//!
+//! The report names every motor that did not confirm and says plainly that it may still be
+//! energised, and why.
 
+use core::fmt;
 use core::time::Duration;
 
-use rmd_bus::{BusError, BusMessage, CanBus, Clock, Timestamp};
-use rmd_protocol::{CanFrame, Command, Reply, Request};
+use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, Clock, Timestamp};
+use rmd_protocol::{Command, MotorId, Reply, Request};
+use serde::Serialize;
 
-use crate::exchange::Exchange;
-use crate::exchange::frames::{Incoming, ZERO_TORQUE, match_reply, torque_frame};
-use crate::report::{MotorSafeStop, SafeStopReport};
-use crate::robot::Robot;
+use crate::bus_link::BusLink;
+use crate::exchange::frames::{ZERO_TORQUE, torque_frame};
+use crate::robot::{Robot, SafeStopSettings};
 
-/// How long to keep retrying a frame the transmit queue refuses.
-const SEND_RETRY_FOR: Duration = Duration::from_millis(20);
-/// Pause between retries.
-const SEND_RETRY_EVERY: Duration = Duration::from_micros(200);
-/// How long to wait for the motors to confirm motor-off.
-const CONFIRM_WITHIN: Duration = Duration::from_millis(50);
+/// What the safe stop did for one motor.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct MotorSafeStop {
+    /// The joint's name.
+    pub joint: String,
+    /// Bus index.
+    pub bus: usize,
+    /// Motor id.
+    #[serde(serialize_with = "serialize_motor_id")]
+    pub motor: MotorId,
+    /// A zero-torque 0x280 frame was queued on its bus.
+    pub zero_torque_sent: bool,
+    /// Motor-off (0x80) commands queued to it.
+    pub off_attempts: u32,
+    /// The motor answered the motor-off command.
+    pub off_confirmed: bool,
+}
 
-/// Sends `frame`, retrying while the transmit queue is full; gives up on other errors.
-fn send_with_retry<B: CanBus, C: Clock>(bus: &mut B, clock: &C, frame: &CanFrame) -> bool {
-    let give_up = clock.now() + SEND_RETRY_FOR;
-    loop {
-        match bus.send(frame) {
-            Ok(()) => return true,
-            Err(BusError::TxQueueFull) if clock.now() < give_up => {
-                let now = clock.now();
-                clock.sleep_until(now + SEND_RETRY_EVERY);
-            }
-            Err(_) => return false,
-        }
+fn serialize_motor_id<S: serde::Serializer>(id: &MotorId, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_u8(id.get())
+}
+
+/// How the safe stop ended on one bus.
+#[derive(Copy, Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "outcome", rename_all = "kebab-case")]
+pub enum BusStopOutcome {
+    /// Every motor of the bus confirmed motor-off.
+    Confirmed {
+        /// From the start of the safe stop, milliseconds.
+        after_ms: f64,
+    },
+    /// The bus stayed bus-off longer than `safe_stop.bus_off_wait_ms`.
+    BusOff {
+        /// How long it was waited for, milliseconds.
+        waited_ms: f64,
+    },
+    /// The deadline passed with motors unconfirmed (their replies were lost, or the bus would not
+    /// take the frames).
+    Deadline {
+        /// The last error the bus reported, if any.
+        #[serde(serialize_with = "serialize_error")]
+        last_error: Option<BusError>,
+    },
+}
+
+fn serialize_error<S: serde::Serializer>(e: &Option<BusError>, s: S) -> Result<S::Ok, S::Error> {
+    match e {
+        Some(e) => s.collect_str(e),
+        None => s.serialize_none(),
     }
 }
 
-/// Zero torque, then motor off, to every motor on every bus; reports what was confirmed.
+/// What the safe stop did on one bus.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BusSafeStop {
+    /// Bus index.
+    pub bus: usize,
+    /// The bus's name.
+    pub name: String,
+    /// How it ended.
+    #[serde(flatten)]
+    pub outcome: BusStopOutcome,
+}
+
+/// The outcome of the safe-stop sequence (zero torque, then motor off, to every motor).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct SafeStopReport {
+    /// Per motor.
+    pub motors: Vec<MotorSafeStop>,
+    /// Per bus.
+    pub buses: Vec<BusSafeStop>,
+    /// Who made the motors safe: the loop thread, or the supervisor beside it.
+    pub by: SafeStopBy,
+}
+
+/// Who ran the safe stop.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SafeStopBy {
+    /// The loop thread, at the end of the run.
+    #[default]
+    Loop,
+    /// The supervisor thread, because the loop thread did not come back in time.
+    Supervisor,
+}
+
+impl SafeStopReport {
+    /// Whether every motor confirmed motor-off.
+    pub fn all_off_confirmed(&self) -> bool {
+        self.motors.iter().all(|m| m.off_confirmed)
+    }
+
+    /// The motors that did not confirm motor-off (they may still be energised).
+    pub fn unconfirmed(&self) -> impl Iterator<Item = &MotorSafeStop> {
+        self.motors.iter().filter(|m| !m.off_confirmed)
+    }
+}
+
+impl fmt::Display for SafeStopReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let confirmed = self.motors.iter().filter(|m| m.off_confirmed).count();
+        write!(
+            f,
+            "safe stop{}: zero torque then motor off; {confirmed}/{} motors confirmed off",
+            match self.by {
+                SafeStopBy::Loop => "",
+                SafeStopBy::Supervisor => " (by the supervisor)",
+            },
+            self.motors.len()
+        )?;
+        for m in self.unconfirmed() {
+            let bus = self.buses.iter().find(|b| b.bus == m.bus);
+            write!(
+                f,
+                "\n  joint {} (motor {} on bus {}) NOT CONFIRMED OFF: it may still be energised. {}",
+                m.joint,
+                m.motor.get(),
+                m.bus,
+                why(m, bus)
+            )?;
+        }
+        Ok(())
+    }
+}
+
+fn why(m: &MotorSafeStop, bus: Option<&BusSafeStop>) -> String {
+    match bus.map(|b| (b.name.as_str(), b.outcome)) {
+        Some((name, BusStopOutcome::BusOff { waited_ms })) => format!(
+            "Bus {name} stayed bus-off for {waited_ms:.0} ms and nothing could be sent: make its \
+             controller restart by itself (`ip link set <iface> type can restart-ms 100`) or raise \
+             safe_stop.bus_off_wait_ms; cut the motor's power now if in doubt."
+        ),
+        Some((_, BusStopOutcome::Deadline { last_error })) if !m.zero_torque_sent => format!(
+            "Not even zero torque could be sent before safe_stop.deadline_ms{}; cut the motor's \
+             power now if in doubt.",
+            last_error
+                .map(|e| format!(" (last error: {e})"))
+                .unwrap_or_default()
+        ),
+        _ => format!(
+            "Zero torque and {} motor-off command(s) were sent, and no answer came; turn it off \
+             with `rmd off` or cut its power.",
+            m.off_attempts
+        ),
+    }
+}
+
+/// Progress of the safe stop on one bus.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+enum Phase {
+    /// Zero torque is next.
+    Zero,
+    /// Motor-off to the bus's motors from this one (index in description order) on.
+    Off { next: usize },
+    /// Waiting for confirmations since the last round was sent.
+    Confirm { round_sent: Timestamp },
+    /// Finished.
+    Done,
+}
+
+/// The state of one bus during the safe stop.
+struct BusStop {
+    phase: Phase,
+    bus_off_since: Option<Timestamp>,
+    last_error: Option<BusError>,
+}
+
+/// Zero torque, then motor off, to every motor on every bus (`ids`: each joint's motor id in
+/// description order); reports what was confirmed.
 pub(crate) fn make_safe<B: CanBus, C: Clock>(
     clock: &C,
-    exchange: &mut Exchange<B>,
+    links: &mut [BusLink<B>],
+    ids: &[MotorId],
     robot: &Robot,
+    settings: &SafeStopSettings,
 ) -> SafeStopReport {
     let mut report = SafeStopReport {
         motors: robot
@@ -49,49 +210,175 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
                 bus: j.bus,
                 motor: j.motor,
                 zero_torque_sent: false,
-                off_sent: false,
+                off_attempts: 0,
                 off_confirmed: false,
             })
             .collect(),
+        buses: Vec::with_capacity(links.len()),
+        by: SafeStopBy::Loop,
     };
-    let Exchange { links, motors, .. } = exchange;
-    // 1. Zero torque on every bus first: the fastest way to remove torque everywhere.
-    let zero = torque_frame(&ZERO_TORQUE);
-    for link in links.iter_mut() {
-        let sent = send_with_retry(&mut link.bus, clock, &zero);
-        for m in link.joints() {
-            report.motors[m].zero_torque_sent = sent;
-        }
-    }
-    // 2. Motor off to each motor (clears its state and commands; it stays off until commanded).
-    for link in links.iter_mut() {
-        for m in link.joints() {
-            let off = Request::MotorOff.encode(motors[m].id);
-            report.motors[m].off_sent = send_with_retry(&mut link.bus, clock, &off);
-        }
-    }
-    // 3. Wait for the echoes of motor-off (torque replies to the zero frame are skipped).
-    let deadline: Timestamp = clock.now() + CONFIRM_WITHIN;
-    for link in links.iter_mut() {
-        let range = link.joints();
-        while range
-            .clone()
-            .any(|m| report.motors[m].off_sent && !report.motors[m].off_confirmed)
-        {
-            match link.bus.recv_until(deadline) {
-                Ok(Some(received)) => {
-                    if let BusMessage::Frame(frame) = received.message
-                        && let Incoming::Reply {
-                            motor,
-                            reply: Reply::MotorOff,
-                        } = match_reply(&frame, Command::MotorOff, motors, range.clone())
-                    {
-                        report.motors[motor].off_confirmed = true;
-                    }
-                }
-                Ok(None) | Err(_) => break,
+    let start = clock.now();
+    let deadline = start + settings.deadline;
+    let mut stops: Vec<BusStop> = links
+        .iter()
+        .map(|_| BusStop {
+            phase: Phase::Zero,
+            bus_off_since: None,
+            last_error: None,
+        })
+        .collect();
+    let mut outcomes: Vec<Option<BusStopOutcome>> = vec![None; links.len()];
+    loop {
+        let now = clock.now();
+        for (b, (link, stop)) in links.iter_mut().zip(&mut stops).enumerate() {
+            if outcomes[b].is_some() {
+                continue;
             }
+            step_bus(link, stop, ids, &mut report, now, settings);
+            outcomes[b] = match stop.phase {
+                Phase::Done => Some(BusStopOutcome::Confirmed {
+                    after_ms: ms(now - start),
+                }),
+                _ => match stop.bus_off_since {
+                    Some(since) if now - since >= settings.bus_off_wait => {
+                        Some(BusStopOutcome::BusOff {
+                            waited_ms: ms(now - since),
+                        })
+                    }
+                    _ => None,
+                },
+            };
+        }
+        if outcomes.iter().all(Option::is_some) {
+            break;
+        }
+        if now >= deadline {
+            for (outcome, stop) in outcomes.iter_mut().zip(&stops) {
+                outcome.get_or_insert(BusStopOutcome::Deadline {
+                    last_error: stop.last_error,
+                });
+            }
+            break;
+        }
+        clock.sleep_until((now + POLL_EVERY).min(deadline));
+    }
+    report.buses = robot
+        .buses()
+        .iter()
+        .zip(outcomes)
+        .enumerate()
+        .map(|(bus, (spec, outcome))| BusSafeStop {
+            bus,
+            name: spec.name.clone(),
+            outcome: outcome.unwrap_or(BusStopOutcome::Deadline { last_error: None }),
+        })
+        .collect();
+    report
+}
+
+/// How long the safe stop waits between two rounds over the buses.
+const POLL_EVERY: Duration = Duration::from_micros(200);
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1000.0
+}
+
+/// One round on one bus: take in what came (confirmations, bus events), then send what is next.
+fn step_bus<B: CanBus>(
+    link: &mut BusLink<B>,
+    stop: &mut BusStop,
+    ids: &[MotorId],
+    report: &mut SafeStopReport,
+    now: Timestamp,
+    settings: &SafeStopSettings,
+) {
+    receive(link, stop, ids, report, now);
+    loop {
+        match stop.phase {
+            Phase::Zero => match link.bus.send(&torque_frame(&ZERO_TORQUE)) {
+                Ok(()) => {
+                    for m in link.joints() {
+                        report.motors[m].zero_torque_sent = true;
+                    }
+                    stop.phase = Phase::Off {
+                        next: link.joints.start,
+                    };
+                }
+                Err(e) => return note(stop, e, now),
+            },
+            Phase::Off { next } if next >= link.joints.end => {
+                stop.phase = Phase::Confirm { round_sent: now };
+            }
+            Phase::Off { next } => {
+                if report.motors[next].off_confirmed {
+                    stop.phase = Phase::Off { next: next + 1 };
+                    continue;
+                }
+                match link.bus.send(&Request::MotorOff.encode(ids[next])) {
+                    Ok(()) => {
+                        report.motors[next].off_attempts += 1;
+                        stop.phase = Phase::Off { next: next + 1 };
+                    }
+                    Err(e) => return note(stop, e, now),
+                }
+            }
+            Phase::Confirm { round_sent } => {
+                if link.joints().all(|m| report.motors[m].off_confirmed) {
+                    stop.phase = Phase::Done;
+                } else if now - round_sent >= settings.retry_every {
+                    // Another round of motor-off for the unconfirmed (not zero torque again: a
+                    // 0x280 frame would put the motors already off back in torque mode).
+                    stop.phase = Phase::Off {
+                        next: link.joints.start,
+                    };
+                    continue;
+                }
+                return;
+            }
+            Phase::Done => return,
         }
     }
-    report
+}
+
+/// Takes in everything the bus has received: motor-off echoes confirm their motor; bus-off and
+/// restart events start and end the wait for the controller.
+fn receive<B: CanBus>(
+    link: &mut BusLink<B>,
+    stop: &mut BusStop,
+    ids: &[MotorId],
+    report: &mut SafeStopReport,
+    now: Timestamp,
+) {
+    loop {
+        match link.bus.recv_until(now) {
+            Ok(Some(received)) => match received.message {
+                BusMessage::Frame(frame) => {
+                    if let Ok((id, Reply::MotorOff)) =
+                        rmd_protocol::decode_reply_to(&frame, Command::MotorOff)
+                        && let Some(m) = link.joints().find(|&m| ids[m] == id)
+                    {
+                        report.motors[m].off_confirmed = true;
+                    }
+                    // Any frame received means the controller is on the bus again.
+                    stop.bus_off_since = None;
+                }
+                BusMessage::Event(BusEvent::BusOff) => {
+                    stop.bus_off_since.get_or_insert(received.at);
+                }
+                BusMessage::Event(
+                    BusEvent::Restarted | BusEvent::ErrorActive | BusEvent::ErrorWarning,
+                ) => stop.bus_off_since = None,
+                BusMessage::Event(_) => {}
+            },
+            Ok(None) => return,
+            Err(e) => return note(stop, e, now),
+        }
+    }
+}
+
+fn note(stop: &mut BusStop, error: BusError, now: Timestamp) {
+    if error == BusError::BusOff {
+        stop.bus_off_since.get_or_insert(now);
+    }
+    stop.last_error = Some(error);
 }

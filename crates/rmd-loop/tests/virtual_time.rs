@@ -170,14 +170,19 @@ fn a_silent_motor_is_a_fault_and_every_motor_is_made_safe() {
     assert!(!r.normal_stop);
     assert_eq!(out.controller.faults.len(), 1);
     assert_eq!(out.controller.stop, Some(r.stop_reason.clone()));
-    // The silent motor cannot confirm; the three others did.
+    // The silent motor cannot confirm; the three others did. The silent one was sent motor-off
+    // again and again until the stop's deadline, and the report says it may still be energised.
     let confirmed: Vec<_> = r.safe_stop.motors.iter().map(|m| m.off_confirmed).collect();
     assert_eq!(confirmed, [true, false, true, true]);
+    assert!(r.safe_stop.motors.iter().all(|m| m.zero_torque_sent));
+    assert_eq!(r.safe_stop.motors[0].off_attempts, 1);
+    assert!(r.safe_stop.motors[1].off_attempts > 10, "{:?}", r.safe_stop);
+    let text = r.safe_stop.to_string();
     assert!(
-        r.safe_stop
-            .motors
-            .iter()
-            .all(|m| m.zero_torque_sent && m.off_sent)
+        text.contains(
+            "joint bus0_motor2 (motor 2 on bus 0) NOT CONFIRMED OFF: it may still be energised"
+        ),
+        "{text}"
     );
     for m in [1, 3, 4] {
         assert_eq!(bus.snapshot(id(m)).unwrap().mode, rmd_sim::ControlMode::Off);
@@ -185,7 +190,7 @@ fn a_silent_motor_is_a_fault_and_every_motor_is_made_safe() {
 }
 
 #[test]
-fn bus_off_on_one_bus_stops_every_bus() {
+fn bus_off_on_one_bus_stops_every_bus_and_the_safe_stop_waits_for_its_restart() {
     let clock = VirtualClock::new();
     let bus_off = FaultRule::new(FaultKind::BusOff {
         duration: Duration::from_millis(50),
@@ -207,18 +212,27 @@ fn bus_off_on_one_bus_stops_every_bus() {
         StopReason::Fault(Fault::BusOff { bus: 1 })
     );
     assert_eq!(out.report.stats.buses[1].bus_off, 1);
-    // Bus 0 was made safe; bus 1 could not be reached while bus-off.
+    // Bus 0 was made safe at once; bus 1 once its controller restarted (50 ms later).
     assert_safe(&mut bus0, 4);
-    let confirmed: Vec<_> = out
+    assert_safe(&mut bus1, 4);
+    assert!(
+        out.report.safe_stop.all_off_confirmed(),
+        "{}",
+        out.report.safe_stop
+    );
+    let after: Vec<f64> = out
         .report
         .safe_stop
-        .motors
+        .buses
         .iter()
-        .map(|m| m.off_confirmed)
+        .map(|b| match b.outcome {
+            rmd_loop::report::BusStopOutcome::Confirmed { after_ms } => after_ms,
+            other => panic!("{other:?}"),
+        })
         .collect();
-    assert_eq!(
-        confirmed,
-        [true, true, true, true, false, false, false, false]
+    assert!(
+        after[0] < 5.0 && (45.0..60.0).contains(&after[1]),
+        "{after:?}"
     );
 }
 

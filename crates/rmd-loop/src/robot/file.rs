@@ -304,6 +304,30 @@ impl BusConfig {
     }
 }
 
+/// How the safe stop at the end of a run behaves, as written (`[safe_stop]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SafeStopConfig {
+    /// How long the safe stop keeps trying, per bus, to get zero torque and motor-off through
+    /// (a full or stalled transmit queue, unconfirmed motors), milliseconds.
+    pub deadline_ms: u64,
+    /// How long a bus that is bus-off may take to restart before the safe stop gives up on it,
+    /// milliseconds (the CAN controller restarts by itself only with `restart-ms` set).
+    pub bus_off_wait_ms: u64,
+    /// How often motor-off is sent again to a motor that has not confirmed it, milliseconds.
+    pub retry_ms: u64,
+}
+
+impl Default for SafeStopConfig {
+    fn default() -> Self {
+        Self {
+            deadline_ms: 2000,
+            bus_off_wait_ms: 1000,
+            retry_ms: 20,
+        }
+    }
+}
+
 /// A whole robot as written: the loop settings and its buses.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -311,6 +335,9 @@ pub struct RobotConfig {
     /// Loop settings.
     #[serde(default, rename = "loop")]
     pub loop_config: LoopConfig,
+    /// The safe stop's patience.
+    #[serde(default)]
+    pub safe_stop: SafeStopConfig,
     /// Buses, in order; joints are numbered bus by bus in this order.
     #[serde(default, rename = "bus")]
     pub buses: Vec<BusConfig>,
@@ -324,6 +351,7 @@ impl RobotConfig {
                 rate_hz,
                 ..LoopConfig::default()
             },
+            safe_stop: SafeStopConfig::default(),
             buses: Vec::new(),
         }
     }

@@ -43,6 +43,7 @@ pub use error::RobotError;
 use error::invalid;
 pub use file::{
     BusConfig, Direction, LoopConfig, MotorConfig, RejectedCommandPolicy, ReplyMode, RobotConfig,
+    SafeStopConfig,
 };
 
 use crate::joint::JointId;
@@ -109,6 +110,28 @@ pub struct LoopSettings {
     pub allow_over_budget: bool,
     /// What to do with a command that cannot be sent as given.
     pub rejected_command: RejectedCommandPolicy,
+}
+
+/// The safe stop's patience, checked.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct SafeStopSettings {
+    /// How long the safe stop keeps trying on each bus.
+    pub deadline: Duration,
+    /// How long a bus-off bus may take to restart (at most the deadline).
+    pub bus_off_wait: Duration,
+    /// How often motor-off is sent again to a motor that has not confirmed it.
+    pub retry_every: Duration,
+}
+
+impl Default for SafeStopSettings {
+    fn default() -> Self {
+        let c = SafeStopConfig::default();
+        Self {
+            deadline: Duration::from_millis(c.deadline_ms),
+            bus_off_wait: Duration::from_millis(c.bus_off_wait_ms),
+            retry_every: Duration::from_millis(c.retry_ms),
+        }
+    }
 }
 
 /// Where a bus's motors are.
@@ -233,6 +256,7 @@ impl JointSpec {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Robot {
     settings: LoopSettings,
+    safe_stop: SafeStopSettings,
     buses: Vec<BusSpec>,
     joints: Vec<JointSpec>,
     config: RobotConfig,
@@ -252,6 +276,11 @@ impl Robot {
     /// The loop settings.
     pub fn settings(&self) -> &LoopSettings {
         &self.settings
+    }
+
+    /// The safe stop's patience.
+    pub fn safe_stop(&self) -> &SafeStopSettings {
+        &self.safe_stop
     }
 
     /// The buses, in description order.
@@ -342,6 +371,7 @@ impl TryFrom<RobotConfig> for Robot {
 
     fn try_from(config: RobotConfig) -> Result<Self, RobotError> {
         let settings = loop_settings(&config.loop_config)?;
+        let safe_stop = safe_stop_settings(&config.safe_stop)?;
         if config.buses.is_empty() {
             return Err(invalid("bus", "the robot has no bus: add a [[bus]] table"));
         }
@@ -390,6 +420,7 @@ impl TryFrom<RobotConfig> for Robot {
         }
         Ok(Self {
             settings,
+            safe_stop,
             buses,
             joints,
             config,
@@ -459,6 +490,38 @@ fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
             .ok_or_else(|| invalid("loop.telemetry_capacity", "must be at least 1"))?,
         allow_over_budget: l.allow_over_budget,
         rejected_command: l.rejected_command,
+    })
+}
+
+fn safe_stop_settings(c: &SafeStopConfig) -> Result<SafeStopSettings, RobotError> {
+    if c.deadline_ms == 0 || c.deadline_ms > 60_000 {
+        return Err(invalid(
+            "safe_stop.deadline_ms",
+            format!("is {}, must be 1..=60000 ms", c.deadline_ms),
+        ));
+    }
+    if c.bus_off_wait_ms > c.deadline_ms {
+        return Err(invalid(
+            "safe_stop.bus_off_wait_ms",
+            format!(
+                "is {} ms, must be at most safe_stop.deadline_ms ({} ms)",
+                c.bus_off_wait_ms, c.deadline_ms
+            ),
+        ));
+    }
+    if c.retry_ms == 0 || c.retry_ms > c.deadline_ms {
+        return Err(invalid(
+            "safe_stop.retry_ms",
+            format!(
+                "is {}, must be 1..=safe_stop.deadline_ms ({} ms)",
+                c.retry_ms, c.deadline_ms
+            ),
+        ));
+    }
+    Ok(SafeStopSettings {
+        deadline: Duration::from_millis(c.deadline_ms),
+        bus_off_wait: Duration::from_millis(c.bus_off_wait_ms),
+        retry_every: Duration::from_millis(c.retry_ms),
     })
 }
 
