@@ -246,6 +246,7 @@ impl<B: CanBus, C: Clock, K: Controller> RtLoop<B, C, K> {
             mut controller,
         } = self;
         parts.shared.set_running(true);
+        crate::panics::enter();
         let realtime = startup::prepare_thread(parts.robot.settings());
         if let Err(reason) = startup::probe(&mut parts) {
             return Err(Box::new(finish::finish(

@@ -7,7 +7,8 @@ use rmd_bus::{CanBus, Clock, Timestamp};
 use crate::controller::Controller;
 use crate::engine::Parts;
 use crate::os::RtStatus;
-use crate::report::{LoopReport, StopReason};
+use crate::panics;
+use crate::report::{LoopReport, PanicReport, StopReason};
 use crate::safe_stop;
 
 /// The result of a run: the report, and the controller back.
@@ -41,6 +42,19 @@ pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
     );
     let _ = catch_unwind(AssertUnwindSafe(|| controller.stop(&reason)));
     parts.shared.set_running(false);
+    // After the motors are safe: what the panic left (its backtrace is resolved only here).
+    let panic = match &reason {
+        StopReason::ControllerPanic(message) => {
+            let record = panics::take_record();
+            Some(PanicReport {
+                message: message.clone(),
+                location: record.as_ref().and_then(|r| r.location.clone()),
+                backtrace: record.and_then(|r| r.backtrace).map(|b| b.to_string()),
+            })
+        }
+        _ => None,
+    };
+    panics::leave();
     let duration_s = start.map_or(0.0, |t0| (parts.clock.now() - t0).as_secs_f64());
     let robot = &parts.robot;
     let report = LoopReport {
@@ -55,6 +69,7 @@ pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
         safe_stop,
         realtime_warnings: realtime.warnings().map(str::to_string).collect(),
         realtime,
+        panic,
     };
     LoopOutcome { report, controller }
 }

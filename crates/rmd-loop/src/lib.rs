@@ -37,6 +37,7 @@ pub mod joint;
 pub mod mailbox;
 pub mod mapping;
 pub mod os;
+mod panics;
 pub mod report;
 pub mod robot;
 mod safe_stop;

@@ -240,6 +240,20 @@ pub struct LoopReport {
     pub realtime: RtStatus,
     /// Warnings about real-time privileges that were not granted.
     pub realtime_warnings: Vec<String>,
+    /// The controller's panic, if it panicked: reported once the motors were safe.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub panic: Option<PanicReport>,
+}
+
+/// A panic of the controller (or of the loop itself), as reported after the safe stop.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct PanicReport {
+    /// The panic message.
+    pub message: String,
+    /// Where it happened (`file:line:column`).
+    pub location: Option<String>,
+    /// The backtrace, when `RUST_BACKTRACE` asked for one.
+    pub backtrace: Option<String>,
 }
 
 fn serialize_display<T: fmt::Display, S: serde::Serializer>(
@@ -274,6 +288,19 @@ impl fmt::Display for LoopReport {
         for w in &self.realtime_warnings {
             writeln!(f, "  warning: {w}")?;
         }
-        write!(f, "{}", self.stats)
+        write!(f, "{}", self.stats)?;
+        if let Some(panic) = &self.panic {
+            writeln!(
+                f,
+                "panic: {} at {}",
+                panic.message,
+                panic.location.as_deref().unwrap_or("an unknown location")
+            )?;
+            match &panic.backtrace {
+                Some(bt) => writeln!(f, "backtrace (resolved after the safe stop):\n{bt}")?,
+                None => writeln!(f, "(run with RUST_BACKTRACE=1 for a backtrace)")?,
+            }
+        }
+        Ok(())
     }
 }

@@ -247,6 +247,21 @@ fn a_controller_panic_is_caught_reported_and_made_safe() {
     );
     // Ticks 0..=123 started; the 124th panicked.
     assert_eq!(out.report.stats.ticks, 124);
+    // The panic was recorded (not printed) and reported after the safe stop, with its place.
+    let panic = out.report.panic.as_ref().expect("a panic report");
+    assert_eq!(panic.message, "controller bug at tick 123");
+    assert!(
+        panic
+            .location
+            .as_deref()
+            .is_some_and(|l| l.contains("common/mod.rs")),
+        "{panic:?}"
+    );
+    assert!(
+        out.report
+            .to_string()
+            .contains("panic: controller bug at tick 123 at")
+    );
     assert!(out.report.safe_stop.all_off_confirmed());
     assert_safe(&mut bus, 4);
 }
