@@ -19,10 +19,12 @@ use core::ops::ControlFlow;
 use core::time::Duration;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::Arc;
+use std::thread::JoinHandle;
 
 use rmd_bus::{CanBus, Clock, MonotonicClock, Timestamp};
 use rmd_protocol::IqControl;
 
+use crate::bus_link::BusLink;
 use crate::commands::{Commands, MAX_SIGNALS, Rejections};
 use crate::controller::{Controller, Flow, TickContext};
 use crate::exchange::Exchange;
@@ -39,7 +41,9 @@ use crate::shared::Shared;
 use crate::startup;
 use crate::stats::LoopStats;
 use crate::stop::Stopper;
+use crate::supervisor::{SafetyPort, Supervisor};
 use crate::telemetry::TelemetrySample;
+use crate::watch::{Phase, Takeover};
 
 /// How long a run lasts.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -63,6 +67,17 @@ pub enum BuildError {
         /// Buses given.
         given: usize,
     },
+    /// The number of safety ports does not match the robot's buses.
+    #[error("the supervisor needs one safety port per bus: {expected} expected, {given} given")]
+    PortCount {
+        /// Buses in the description.
+        expected: usize,
+        /// Ports given.
+        given: usize,
+    },
+    /// The supervisor's thread could not be started.
+    #[error("cannot start the supervisor thread: {0}")]
+    Supervisor(String),
     /// The controller declares more user signals than a telemetry sample carries.
     #[error("the controller declares {declared} user signals, at most {MAX_SIGNALS} are supported")]
     TooManySignals {
@@ -117,10 +132,22 @@ pub(crate) struct Parts<B, C> {
 /// assert!(outcome.report.stop_description.contains("never answered"));
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-#[derive(Debug)]
 pub struct RtLoop<B, C, K> {
     parts: Parts<B, C>,
     controller: K,
+    ports: Option<Vec<SafetyPort>>,
+}
+
+impl<B: core::fmt::Debug, C: core::fmt::Debug, K: core::fmt::Debug> core::fmt::Debug
+    for RtLoop<B, C, K>
+{
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("RtLoop")
+            .field("parts", &self.parts)
+            .field("controller", &self.controller)
+            .field("supervised", &self.ports.is_some())
+            .finish()
+    }
 }
 
 /// A started loop: the motors answered, the controller started; [`step`](Running::step) runs
@@ -132,9 +159,10 @@ pub struct Running<B, C, K> {
     scheduler: Scheduler,
     start: Timestamp,
     realtime: RtStatus,
+    supervisor: Option<JoinHandle<()>>,
 }
 
-impl<B: CanBus, C: Clock, K: Controller> RtLoop<B, C, K> {
+impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
     /// Prepares a loop of `robot` over `buses` (in description order) with `controller`.
     /// Allocates everything the loop needs; running it allocates nothing more.
     pub fn new(robot: Robot, clock: C, buses: Vec<B>, controller: K) -> Result<Self, BuildError> {
@@ -167,7 +195,22 @@ impl<B: CanBus, C: Clock, K: Controller> RtLoop<B, C, K> {
                 robot,
             },
             controller,
+            ports: None,
         })
+    }
+
+    /// Puts a supervisor beside the loop thread, with its own way onto each bus (`ports`, in
+    /// description order): see [`supervisor`](crate::supervisor). It watches the run from the
+    /// first tick to the start of the loop's own safe stop.
+    pub fn supervise(mut self, ports: Vec<SafetyPort>) -> Result<Self, BuildError> {
+        if ports.len() != self.parts.robot.buses().len() {
+            return Err(BuildError::PortCount {
+                expected: self.parts.robot.buses().len(),
+                given: ports.len(),
+            });
+        }
+        self.ports = Some(ports);
+        Ok(self)
     }
 
     /// A receiver of the per-tick telemetry (clone it freely; each sample is received once).
@@ -244,13 +287,14 @@ impl<B: CanBus, C: Clock, K: Controller> RtLoop<B, C, K> {
         let Self {
             mut parts,
             mut controller,
+            ports,
         } = self;
         parts.shared.set_running(true);
         crate::panics::enter();
         let realtime = startup::prepare_thread(parts.robot.settings());
         if let Err(reason) = startup::probe(&mut parts) {
             return Err(Box::new(finish::finish(
-                parts, controller, reason, realtime, None,
+                parts, controller, reason, realtime, None, None,
             )));
         }
         let settings = *parts.robot.settings();
@@ -267,10 +311,41 @@ impl<B: CanBus, C: Clock, K: Controller> RtLoop<B, C, K> {
         if let Err(payload) = started {
             let reason = StopReason::ControllerPanic(finish::panic_message(payload.as_ref()));
             return Err(Box::new(finish::finish(
-                parts, controller, reason, realtime, None,
+                parts, controller, reason, realtime, None, None,
             )));
         }
+        parts.shared.watch.progress(parts.clock.now(), 0);
+        parts.shared.watch.set_phase(Phase::Running);
+        let supervisor = match ports {
+            None => None,
+            Some(ports) => {
+                let supervisor = Supervisor {
+                    clock: parts.clock.clone(),
+                    shared: Arc::clone(&parts.shared),
+                    links: ports
+                        .into_iter()
+                        .zip(parts.robot.buses())
+                        .map(|(bus, spec)| BusLink {
+                            bus,
+                            joints: spec.joint_range(),
+                        })
+                        .collect(),
+                    ids: parts.exchange.motors.iter().map(|m| m.id).collect(),
+                    robot: parts.robot.clone(),
+                };
+                match supervisor.spawn() {
+                    Ok(handle) => Some(handle),
+                    Err(_) => {
+                        let reason = StopReason::Fault(Fault::Supervisor);
+                        return Err(Box::new(finish::finish(
+                            parts, controller, reason, realtime, None, None,
+                        )));
+                    }
+                }
+            }
+        };
         Ok(Running {
+            supervisor,
             scheduler: Scheduler::new(settings.period, settings.spin_margin, settings.overrun, t0),
             start: t0,
             realtime,
@@ -280,7 +355,7 @@ impl<B: CanBus, C: Clock, K: Controller> RtLoop<B, C, K> {
     }
 }
 
-impl<B: CanBus, C: Clock, K: Controller> Running<B, C, K> {
+impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
     /// The statistics so far (on the loop's own thread; other threads use a handle's snapshot).
     pub fn stats(&self) -> &LoopStats {
         &self.parts.stats
@@ -299,6 +374,11 @@ impl<B: CanBus, C: Clock, K: Controller> Running<B, C, K> {
     /// Runs one tick. Breaks with the reason the loop must stop, if it must.
     pub fn step(&mut self) -> ControlFlow<StopReason> {
         let timing = self.scheduler.wait_next(&self.parts.clock);
+        let watch = &self.parts.shared.watch;
+        watch.progress(timing.woke, timing.index);
+        if watch.phase() != Phase::Running {
+            return ControlFlow::Break(StopReason::EmergencyStop); // replaced by the supervisor's
+        }
         if let Some(request) = self.parts.shared.stop.pending() {
             return ControlFlow::Break(request.into());
         }
@@ -307,14 +387,15 @@ impl<B: CanBus, C: Clock, K: Controller> Running<B, C, K> {
         stats.ticks += 1;
         stats.skipped_ticks += timing.skipped;
         stats.wake_latency.record(timing.wake_latency());
-        if let Err(fault) = self.exchange(&timing) {
-            return ControlFlow::Break(StopReason::Fault(fault));
+        if let Err(reason) = self.exchange(&timing) {
+            return ControlFlow::Break(reason);
         }
         self.run_controller(&timing)?;
         self.parts.stage_commands();
         self.parts.publish(&timing, self.start);
         self.parts.shared.serve_snapshot(&self.parts.stats);
         let end = self.parts.clock.now();
+        self.parts.shared.watch.progress(end, timing.index);
         let work = end - timing.woke;
         self.parts.stats.work.record(work);
         self.parts.sample.times.previous_work_ns = work.as_nanos() as u64;
@@ -331,33 +412,45 @@ impl<B: CanBus, C: Clock, K: Controller> Running<B, C, K> {
     }
 
     /// Send on every bus, then collect from every bus, then account for missing replies.
-    fn exchange(&mut self, timing: &TickTiming) -> Result<(), Fault> {
+    fn exchange(&mut self, timing: &TickTiming) -> Result<(), StopReason> {
         let Parts {
             exchange,
             stats,
             clock,
             robot,
             sample,
+            shared,
             ..
         } = &mut self.parts;
         exchange.begin_tick();
         let sent_at = clock.now();
         for b in 0..exchange.links.len() {
             let slots = exchange.staged[b];
-            exchange.send(b, &slots, timing.index, sent_at, stats)?;
+            // Never after the supervisor took over (it may be sending motor-off right now).
+            if !shared.watch.begin_send() {
+                return Err(StopReason::EmergencyStop); // replaced by the supervisor's reason
+            }
+            let sent = exchange.send(b, &slots, timing.index, sent_at, stats);
+            shared.watch.end_send();
+            sent.map_err(StopReason::Fault)?;
         }
         let deadline = timing.scheduled + robot.settings().reply_deadline;
         let max_age = exchange.max_age;
         let mut last_reply: Option<Timestamp> = None;
         let mut rtt_max = Duration::ZERO;
         for b in 0..exchange.links.len() {
-            if let Some((at, rtt)) = exchange.collect(b, timing.index, deadline, max_age, stats)? {
+            if let Some((at, rtt)) = exchange
+                .collect(b, timing.index, deadline, max_age, stats)
+                .map_err(StopReason::Fault)?
+            {
                 last_reply = Some(last_reply.map_or(at, |l| l.max(at)));
                 rtt_max = rtt_max.max(rtt);
             }
         }
         let fault_after = robot.settings().missing_reply_fault_after.get();
-        let all_fresh = exchange.account(fault_after, stats)?;
+        let all_fresh = exchange
+            .account(fault_after, stats)
+            .map_err(StopReason::Fault)?;
         sample.times.round_trip_ns = None;
         if all_fresh && let Some(last) = last_reply {
             // Same tick: from this tick's send to the last reply. Pipelined: the replies answer
@@ -417,16 +510,32 @@ impl<B: CanBus, C: Clock, K: Controller> Running<B, C, K> {
         }
     }
 
-    /// Makes every motor safe, tells the controller, and builds the report.
+    /// Makes every motor safe, tells the controller, and builds the report. If the supervisor
+    /// took over, its safe stop and its reason are the run's.
     pub fn finish(self, reason: StopReason) -> LoopOutcome<K> {
+        let watch = &self.parts.shared.watch;
+        let takeover = if watch.swap_phase(Phase::Running, Phase::Finishing) {
+            None
+        } else {
+            wait_for_takeover(&self.parts.shared, self.supervisor)
+        };
         finish::finish(
             self.parts,
             self.controller,
             reason,
             self.realtime,
             Some(self.start),
+            takeover,
         )
     }
+}
+
+/// Waits for the supervisor that took over to finish its safe stop, and takes what it did.
+fn wait_for_takeover(shared: &Shared, supervisor: Option<JoinHandle<()>>) -> Option<Takeover> {
+    if let Some(handle) = supervisor {
+        let _ = handle.join();
+    }
+    shared.watch.take_takeover()
 }
 
 impl<B, C> Parts<B, C> {

@@ -10,6 +10,7 @@ use crate::os::RtStatus;
 use crate::panics;
 use crate::report::{LoopReport, PanicReport, StopReason};
 use crate::safe_stop;
+use crate::watch::{Phase, Takeover};
 
 /// The result of a run: the report, and the controller back.
 #[derive(Debug)]
@@ -20,27 +21,39 @@ pub struct LoopOutcome<K> {
     pub controller: K,
 }
 
-/// Tells the controller of a fault, makes every motor safe, tells it the loop stopped, and
-/// reports. `start` is when tick 0 was due, if the loop got that far.
+/// Tells the controller of a fault, makes every motor safe (unless the supervisor took over and
+/// did), tells it the loop stopped, and reports. `start` is when tick 0 was due, if the loop got
+/// that far.
 pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
     mut parts: Parts<B, C>,
     mut controller: K,
     reason: StopReason,
     realtime: RtStatus,
     start: Option<Timestamp>,
+    takeover: Option<Takeover>,
 ) -> LoopOutcome<K> {
+    // The supervisor's reason is the run's: the loop thread only noticed it had taken over.
+    let reason = takeover.as_ref().map_or(reason, |t| t.reason.clone());
     if let StopReason::Fault(fault) = &reason {
         let _ = catch_unwind(AssertUnwindSafe(|| controller.fault(fault)));
     }
-    let ids: Vec<_> = parts.exchange.motors.iter().map(|m| m.id).collect();
-    let safe_stop = safe_stop::make_safe(
-        &parts.clock,
-        &mut parts.exchange.links,
-        &ids,
-        &parts.robot,
-        parts.robot.safe_stop(),
-    );
+    let safe_stop = match takeover {
+        Some(takeover) => takeover.report,
+        None => {
+            let ids: Vec<_> = parts.exchange.motors.iter().map(|m| m.id).collect();
+            let watch = &parts.shared.watch;
+            safe_stop::make_safe(
+                &parts.clock,
+                &mut parts.exchange.links,
+                &ids,
+                &parts.robot,
+                parts.robot.safe_stop(),
+                || watch.set_motors_off_sent(),
+            )
+        }
+    };
     let _ = catch_unwind(AssertUnwindSafe(|| controller.stop(&reason)));
+    parts.shared.watch.set_phase(Phase::Finished);
     parts.shared.set_running(false);
     // After the motors are safe: what the panic left (its backtrace is resolved only here).
     let panic = match &reason {

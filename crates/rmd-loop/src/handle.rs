@@ -30,7 +30,7 @@ pub struct SpawnError(#[from] std::io::Error);
 impl<B, C, K> RtLoop<B, C, K>
 where
     B: CanBus + Send + 'static,
-    C: Clock + 'static,
+    C: Clock + Clone + 'static,
     K: Controller + 'static,
 {
     /// Starts the loop on a dedicated thread (named `rmd-rt-loop`, 8 MiB stack, pinned and

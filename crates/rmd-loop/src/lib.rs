@@ -46,7 +46,9 @@ mod shared;
 mod startup;
 pub mod stats;
 pub mod stop;
+pub mod supervisor;
 pub mod telemetry;
+mod watch;
 
 pub use commands::{Commands, MAX_SIGNALS, Rejection};
 pub use controller::{Controller, Flow, TickContext};

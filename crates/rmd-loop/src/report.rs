@@ -84,6 +84,16 @@ pub enum Fault {
         /// The reported temperature.
         celsius: f64,
     },
+    /// The supervisor thread could not be started: the run did not begin.
+    Supervisor,
+    /// A tick did not complete within the stall bound (the controller or the bus I/O hung): the
+    /// supervisor made every motor safe.
+    TickStalled {
+        /// The tick that did not complete.
+        tick: u64,
+        /// The bound (`loop.stall_bound_ms`).
+        bound: Duration,
+    },
     /// The controller wrote a command the loop cannot send as given (with
     /// `loop.rejected_command = "fault"`, the default).
     RejectedCommand {
@@ -145,6 +155,15 @@ impl fmt::Display for Fault {
             Fault::OverTemperature { at, celsius } => {
                 write!(f, "{at} reports {celsius} degC, at or above its limit")
             }
+            Fault::Supervisor => f.write_str(
+                "the supervisor thread could not be started (out of threads or memory?)",
+            ),
+            Fault::TickStalled { tick, bound } => write!(
+                f,
+                "tick {tick} did not complete within {} ms (the controller or the bus I/O hung): \
+                 the supervisor made every motor safe",
+                bound.as_millis()
+            ),
             Fault::RejectedCommand { joint, reason } => match joint {
                 Some(joint) => write!(f, "the controller's command for {joint}: {reason}"),
                 None => write!(

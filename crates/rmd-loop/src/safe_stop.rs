@@ -194,12 +194,15 @@ struct BusStop {
 
 /// Zero torque, then motor off, to every motor on every bus (`ids`: each joint's motor id in
 /// description order); reports what was confirmed.
+/// `on_off_sent` runs once, as soon as every bus has sent motor-off to each of its motors (or
+/// has given up).
 pub(crate) fn make_safe<B: CanBus, C: Clock>(
     clock: &C,
     links: &mut [BusLink<B>],
     ids: &[MotorId],
     robot: &Robot,
     settings: &SafeStopSettings,
+    mut on_off_sent: impl FnMut(),
 ) -> SafeStopReport {
     let mut report = SafeStopReport {
         motors: robot
@@ -228,6 +231,7 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
         })
         .collect();
     let mut outcomes: Vec<Option<BusStopOutcome>> = vec![None; links.len()];
+    let mut off_sent_told = false;
     loop {
         let now = clock.now();
         for (b, (link, stop)) in links.iter_mut().zip(&mut stops).enumerate() {
@@ -249,6 +253,15 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
                 },
             };
         }
+        if !off_sent_told
+            && stops
+                .iter()
+                .zip(&outcomes)
+                .all(|(s, o)| o.is_some() || matches!(s.phase, Phase::Confirm { .. } | Phase::Done))
+        {
+            off_sent_told = true;
+            on_off_sent();
+        }
         if outcomes.iter().all(Option::is_some) {
             break;
         }
@@ -261,6 +274,9 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
             break;
         }
         clock.sleep_until((now + POLL_EVERY).min(deadline));
+    }
+    if !off_sent_told {
+        on_off_sent();
     }
     report.buses = robot
         .buses()

@@ -7,6 +7,7 @@ use crossbeam_queue::ArrayQueue;
 
 use crate::stats::LoopStats;
 use crate::stop::StopSignal;
+use crate::watch::Watch;
 
 /// Shared between the loop thread and its handles.
 #[derive(Debug)]
@@ -18,6 +19,8 @@ pub(crate) struct Shared {
     pub(crate) snapshot_requests: ArrayQueue<Box<LoopStats>>,
     /// Filled statistics buffers.
     pub(crate) snapshot_replies: ArrayQueue<Box<LoopStats>>,
+    /// What the supervisor watches.
+    pub(crate) watch: Watch,
 }
 
 impl Shared {
@@ -27,6 +30,7 @@ impl Shared {
             running: AtomicBool::new(false),
             snapshot_requests: ArrayQueue::new(4),
             snapshot_replies: ArrayQueue::new(4),
+            watch: Watch::new(),
         }
     }
 

@@ -102,6 +102,13 @@ impl Stopper {
     pub fn is_running(&self) -> bool {
         self.shared.is_running()
     }
+
+    /// Whether motor-off has gone out on every bus (by the loop's safe stop or the
+    /// supervisor's): after this, exiting the process leaves no motor commanded to torque by
+    /// this run, confirmed or not.
+    pub fn motors_off_sent(&self) -> bool {
+        self.shared.watch.motors_off_sent()
+    }
 }
 
 #[cfg(test)]

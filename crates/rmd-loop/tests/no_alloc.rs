@@ -8,9 +8,12 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use common::*;
-use rmd_bus::VirtualClock;
+use std::sync::{Arc, Mutex};
+
+use rmd_bus::{BusError, CanBus, Received, Timestamp, VirtualClock};
 use rmd_loop::RtLoop;
-use rmd_sim::{FaultKind, FaultRule};
+use rmd_protocol::CanFrame;
+use rmd_sim::{FaultKind, FaultRule, SimBus};
 
 struct Counting;
 
@@ -43,6 +46,25 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
+/// A simulated bus shared by the loop thread and the supervisor.
+#[derive(Clone)]
+struct Shared(Arc<Mutex<SimBus<VirtualClock>>>);
+
+impl Shared {
+    fn new(bus: SimBus<VirtualClock>) -> Self {
+        Self(Arc::new(Mutex::new(bus)))
+    }
+}
+
+impl CanBus for Shared {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        self.0.lock().unwrap().send(frame)
+    }
+    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
+        self.0.lock().unwrap().recv_until(deadline)
+    }
+}
+
 #[test]
 fn steady_state_ticks_allocate_nothing() {
     // Two buses of four motors, with faults on the way (drops, late and corrupt replies, a
@@ -66,17 +88,21 @@ fn steady_state_ticks_allocate_nothing() {
         .multi_torque()
         .frames_window(700, 1),
     ];
-    let mut bus0 = sim(&clock, 4, 21, &faults);
-    let mut bus1 = sim(&clock, 4, 22, &faults);
+    // Shared with the supervisor, which watches every tick from its own thread (and must not
+    // allocate either: the counting allocator counts every thread).
+    let bus0 = Shared::new(sim(&clock, 4, 21, &faults));
+    let bus1 = Shared::new(sim(&clock, 4, 22, &faults));
     let mut config = robot_config(1000.0, 2, 4);
     config.loop_config.missing_reply_fault_after = 1000;
     let robot = rmd_loop::Robot::try_from(config).unwrap();
     let mut rt = RtLoop::new(
         robot,
         clock.clone(),
-        vec![&mut bus0, &mut bus1],
+        vec![bus0.clone(), bus1.clone()],
         PdTo::new(&[10.0; 8]),
     )
+    .unwrap()
+    .supervise(vec![Box::new(bus0), Box::new(bus1)])
     .unwrap();
     let telemetry = rt.telemetry();
     let mut rt = rt.start().unwrap();

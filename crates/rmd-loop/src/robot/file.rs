@@ -83,6 +83,10 @@ pub struct LoopConfig {
     /// Accept a period shorter than the worst-case exchange on a bus (benchmarks only: the loop
     /// then relies on frames being shorter than the worst case).
     pub allow_over_budget: bool,
+    /// A tick that does not complete within this long (the controller or the bus I/O hangs) is
+    /// ended by the supervisor, which makes the motors safe itself. Default: ten periods, at
+    /// least 20 ms.
+    pub stall_bound_ms: Option<u64>,
     /// What the loop does with a command it cannot send as given (not a finite number, a torque
     /// without a torque constant, an unknown joint): `"fault"` (the default) or `"zero"`.
     pub rejected_command: RejectedCommandPolicy,
@@ -103,6 +107,7 @@ impl Default for LoopConfig {
             startup_probes: 5,
             telemetry_capacity: 4096,
             allow_over_budget: false,
+            stall_bound_ms: None,
             rejected_command: RejectedCommandPolicy::Fault,
         }
     }

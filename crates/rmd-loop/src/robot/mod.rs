@@ -110,6 +110,8 @@ pub struct LoopSettings {
     pub allow_over_budget: bool,
     /// What to do with a command that cannot be sent as given.
     pub rejected_command: RejectedCommandPolicy,
+    /// A tick not complete after this long is ended by the supervisor (more than a period).
+    pub stall_bound: Duration,
 }
 
 /// The safe stop's patience, checked.
@@ -467,6 +469,20 @@ fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
     }
     let at_least_one =
         |key: &str, v: u32| NonZeroU32::new(v).ok_or_else(|| invalid(key, "must be at least 1"));
+    let stall_bound = match l.stall_bound_ms {
+        Some(ms) => Duration::from_millis(ms),
+        None => (p * 10).max(Duration::from_millis(20)),
+    };
+    if stall_bound <= p {
+        return Err(invalid(
+            "loop.stall_bound_ms",
+            format!(
+                "is {} ms, must be longer than the period ({} us)",
+                stall_bound.as_millis(),
+                p.as_micros()
+            ),
+        ));
+    }
     if let OverrunPolicy::Fault { after: 0 } = l.overrun {
         return Err(invalid("loop.overrun.after", "must be at least 1"));
     }
@@ -490,6 +506,7 @@ fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
             .ok_or_else(|| invalid("loop.telemetry_capacity", "must be at least 1"))?,
         allow_over_budget: l.allow_over_budget,
         rejected_command: l.rejected_command,
+        stall_bound,
     })
 }
 

@@ -1,0 +1,189 @@
+//! The supervisor beside the loop thread, on simulated motors in real time, judged by the
+//! simulated firmware's ground truth. No assertion depends on how fast anything is (shared VM):
+//! only on what happened before what.
+
+mod common;
+
+use core::time::Duration;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use common::*;
+use rmd_bus::{BusError, CanBus, Clock, MonotonicClock, Received, Timestamp};
+use rmd_loop::report::SafeStopBy;
+use rmd_loop::supervisor::SafetyPort;
+use rmd_loop::{
+    Commands, Controller, Fault, Feedback, Flow, RtLoop, RunLimit, StopReason, TickContext,
+};
+use rmd_protocol::CanFrame;
+use rmd_sim::{ControlMode, SimBus, SimConfig};
+
+/// A simulated bus shared by the loop thread and the supervisor.
+#[derive(Clone)]
+struct SharedBus(Arc<Mutex<SimBus<MonotonicClock>>>);
+
+impl CanBus for SharedBus {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        self.0.lock().unwrap().send(frame)
+    }
+    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
+        self.0.lock().unwrap().recv_until(deadline)
+    }
+}
+
+impl SharedBus {
+    fn new(seed: u64) -> Self {
+        Self(Arc::new(Mutex::new(
+            SimBus::new(MonotonicClock, SimConfig::with_motors(4).seed(seed)).unwrap(),
+        )))
+    }
+    fn modes(&self) -> Vec<ControlMode> {
+        let mut bus = self.0.lock().unwrap();
+        (1..=4).map(|m| bus.snapshot(id(m)).unwrap().mode).collect()
+    }
+    fn all_off(&self) -> bool {
+        self.modes().iter().all(|m| *m == ControlMode::Off)
+    }
+    fn port(&self) -> SafetyPort {
+        Box::new(self.clone())
+    }
+}
+
+/// Pushes 1 A on every joint; from tick `hang_at` on, its update blocks for `hang` (once).
+struct Hanging {
+    hang_at: u64,
+    hang: Duration,
+    /// Set when the hanging update returns.
+    returned: Arc<AtomicBool>,
+}
+
+impl Controller for Hanging {
+    fn update(&mut self, ctx: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
+        for (j, _) in fb.iter() {
+            cmd.set_current(j, 1.0);
+        }
+        if ctx.index == self.hang_at {
+            std::thread::sleep(self.hang);
+            self.returned.store(true, Ordering::SeqCst);
+        }
+        Flow::Continue
+    }
+}
+
+/// A supervised loop whose controller hangs for `hang` at tick 200; the stall bound is `bound`.
+fn supervised(
+    bus: &SharedBus,
+    hang: Duration,
+    bound: Option<Duration>,
+    returned: &Arc<AtomicBool>,
+) -> RtLoop<SharedBus, MonotonicClock, Hanging> {
+    let controller = Hanging {
+        hang_at: 200,
+        hang,
+        returned: Arc::clone(returned),
+    };
+    let mut config = robot_config(1000.0, 1, 4);
+    config.loop_config.stall_bound_ms = bound.map(|b| b.as_millis() as u64);
+    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    RtLoop::new(robot, MonotonicClock, vec![bus.clone()], controller)
+        .unwrap()
+        .supervise(vec![bus.port()])
+        .unwrap()
+}
+
+fn wait_until(what: &str, within: Duration, mut f: impl FnMut() -> bool) {
+    let give_up = Instant::now() + within;
+    while !f() {
+        assert!(Instant::now() < give_up, "never: {what}");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+#[test]
+fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
+    let bus = SharedBus::new(41);
+    let returned = Arc::new(AtomicBool::new(false));
+    let handle = supervised(&bus, Duration::from_secs(2), None, &returned)
+        .spawn(RunLimit::Forever)
+        .unwrap();
+    // The motors are driven at 1 A, then the controller hangs; the supervisor turns every motor
+    // off while it still hangs.
+    wait_until("torque", Duration::from_secs(10), || {
+        bus.modes()
+            .iter()
+            .all(|m| matches!(m, ControlMode::Torque { .. }))
+    });
+    wait_until("every motor off", Duration::from_secs(10), || bus.all_off());
+    assert!(
+        !returned.load(Ordering::SeqCst),
+        "the motors went off only after the hang"
+    );
+    let out = handle.join().unwrap();
+    assert!(returned.load(Ordering::SeqCst));
+    let r = &out.report;
+    assert!(
+        matches!(
+            r.stop_reason,
+            StopReason::Fault(Fault::TickStalled { tick: 200, .. })
+        ),
+        "{}",
+        r.stop_reason
+    );
+    assert!(!r.normal_stop);
+    assert_eq!(r.safe_stop.by, SafeStopBy::Supervisor);
+    assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
+    // When the controller came back, the loop sent nothing more: the motors stayed off.
+    assert!(bus.all_off(), "{:?}", bus.modes());
+}
+
+#[test]
+fn an_emergency_stop_acts_at_once_while_the_controller_hangs() {
+    let bus = SharedBus::new(42);
+    let returned = Arc::new(AtomicBool::new(false));
+    // A stall bound longer than the hang: only the emergency stop can end it early.
+    let rt = supervised(
+        &bus,
+        Duration::from_secs(3),
+        Some(Duration::from_secs(60)),
+        &returned,
+    );
+    let handle = rt.spawn(RunLimit::Forever).unwrap();
+    let stopper = handle.stopper();
+    wait_until("torque", Duration::from_secs(10), || {
+        bus.modes()
+            .iter()
+            .all(|m| matches!(m, ControlMode::Torque { .. }))
+    });
+    std::thread::sleep(Duration::from_millis(250)); // well inside the hang (starts at tick 200)
+    stopper.emergency_stop();
+    wait_until("every motor off", Duration::from_secs(2), || bus.all_off());
+    assert!(
+        !returned.load(Ordering::SeqCst),
+        "the motors went off while the controller hung"
+    );
+    assert!(stopper.motors_off_sent());
+    let out = handle.join().unwrap();
+    assert_eq!(out.report.stop_reason, StopReason::EmergencyStop);
+    assert_eq!(out.report.safe_stop.by, SafeStopBy::Supervisor);
+    assert!(bus.all_off());
+}
+
+#[test]
+fn a_healthy_supervised_run_ends_with_the_loops_own_safe_stop() {
+    let bus = SharedBus::new(43);
+    let rt = RtLoop::new(
+        robot(1000.0, 1, 4),
+        MonotonicClock,
+        vec![bus.clone()],
+        PdTo::hold(4),
+    )
+    .unwrap()
+    .supervise(vec![bus.port()])
+    .unwrap();
+    let out = rt.run(RunLimit::Ticks(500));
+    assert_eq!(out.report.stop_reason, StopReason::TickLimit);
+    assert_eq!(out.report.safe_stop.by, SafeStopBy::Loop);
+    assert!(out.report.safe_stop.all_off_confirmed());
+    assert!(bus.all_off());
+}
