@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use common::*;
-use rmd_bus::{BusError, CanBus, Clock, MonotonicClock, Received, Timestamp};
+use rmd_bus::{BusError, CanBus, MonotonicClock, Received, Timestamp};
 use rmd_loop::report::SafeStopBy;
 use rmd_loop::supervisor::SafetyPort;
 use rmd_loop::{
