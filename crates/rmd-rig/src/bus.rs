@@ -1,16 +1,47 @@
-//! One bus of a run: simulated motors or a SocketCAN interface.
+//! One bus of a run: simulated motors or a SocketCAN interface; and the supervisor's own way onto
+//! it (a second socket on the interface, or a second handle to the simulated bus).
+
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 
 use rmd_bus::{BusError, CanBus, Received, Timestamp};
+use rmd_loop::supervisor::SafetyPort;
 use rmd_protocol::CanFrame;
 use rmd_sim::SimBus;
 
 use crate::clock::AnyClock;
 
+/// A simulated bus shared by the loop thread and the supervisor (the simulated motors are one
+/// world: both see the same wire). The loop thread takes its lock only inside a bus call.
+#[derive(Clone, Debug)]
+pub struct SharedSim(Arc<Mutex<SimBus<AnyClock>>>);
+
+impl SharedSim {
+    /// Shares `bus`.
+    pub fn new(bus: SimBus<AnyClock>) -> Self {
+        Self(Arc::new(Mutex::new(bus)))
+    }
+
+    /// The simulated bus (to look at the simulated motors).
+    pub fn lock(&self) -> MutexGuard<'_, SimBus<AnyClock>> {
+        self.0.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+}
+
+impl CanBus for SharedSim {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        self.lock().send(frame)
+    }
+
+    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
+        self.lock().recv_until(deadline)
+    }
+}
+
 /// One bus of a run.
 #[derive(Debug)]
 pub enum AnyBus {
     /// Simulated motors.
-    Sim(Box<SimBus<AnyClock>>),
+    Sim(SharedSim),
     /// A real (or virtual) CAN interface.
     #[cfg(target_os = "linux")]
     SocketCan(Box<rmd_bus::socketcan::SocketCanBus>),
@@ -18,11 +49,30 @@ pub enum AnyBus {
 
 impl AnyBus {
     /// The simulated bus, if this is one (to look at the simulated motors).
-    pub fn as_sim_mut(&mut self) -> Option<&mut SimBus<AnyClock>> {
+    pub fn sim(&self) -> Option<&SharedSim> {
         match self {
             AnyBus::Sim(bus) => Some(bus),
             #[cfg(target_os = "linux")]
             AnyBus::SocketCan(_) => None,
+        }
+    }
+
+    /// A second way onto this bus for the supervisor: a second handle to the simulated bus, or
+    /// a second socket on the interface.
+    pub fn safety_port(&self) -> Result<SafetyPort, crate::RigError> {
+        match self {
+            AnyBus::Sim(bus) => Ok(Box::new(bus.clone())),
+            #[cfg(target_os = "linux")]
+            AnyBus::SocketCan(bus) => {
+                use rmd_bus::socketcan::{SocketCanBus, SocketCanOptions};
+                let iface = bus.iface().to_string();
+                SocketCanBus::open(&iface, &SocketCanOptions::new())
+                    .map(|port| Box::new(port) as SafetyPort)
+                    .map_err(|source| crate::RigError::Open {
+                        bus: format!("{iface} (the supervisor's socket)"),
+                        source,
+                    })
+            }
         }
     }
 }

@@ -9,7 +9,7 @@
 //! A complete program, on simulated motors in virtual time:
 //!
 //! ```
-//! use rmd_loop::{Commands, Controller, Feedback, Flow, Robot, RtLoop, RunLimit, TickContext};
+//! use rmd_loop::{Commands, Controller, Feedback, Flow, Robot, RunLimit, TickContext};
 //! use rmd_rig::{Placement, Rig, SimTime, sim};
 //!
 //! struct Idle;
@@ -22,7 +22,7 @@
 //! let robot = Robot::from_toml("[[bus]]\ninterface = \"can0\"\n[[bus.motor]]\nid = 1\ngear_ratio = 9.0")?;
 //! let placement = Placement::simulated(&robot, SimTime::Virtual);
 //! let rig = Rig::open(&robot, &placement, sim::sim_configs(&robot, 7))?;
-//! let rt = RtLoop::new(robot, rig.clock, rig.buses, Idle)?;
+//! let rt = rig.into_loop(robot, Idle)?; // RtLoop::new + a supervisor on its own bus handles
 //! let outcome = rt.run(RunLimit::Ticks(100));
 //! assert_eq!(outcome.report.stats.ticks, 100);
 //! assert!(outcome.report.safe_stop.all_off_confirmed());
@@ -45,7 +45,7 @@ pub mod runner;
 pub mod signals;
 pub mod sim;
 
-pub use bus::AnyBus;
+pub use bus::{AnyBus, SharedSim};
 pub use clock::AnyClock;
 pub use error::RigError;
 pub use open::Rig;

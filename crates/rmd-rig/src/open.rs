@@ -2,10 +2,10 @@
 //! motors matching the description, on one clock.
 
 use rmd_bus::Clock;
-use rmd_loop::Robot;
+use rmd_loop::{Controller, Robot, RtLoop};
 use rmd_sim::{SimBus, SimConfig};
 
-use crate::bus::AnyBus;
+use crate::bus::{AnyBus, SharedSim};
 use crate::clock::AnyClock;
 use crate::error::RigError;
 use crate::placement::{BusTarget, Placement};
@@ -41,7 +41,7 @@ impl Rig {
         let mut buses = Vec::with_capacity(sims.len());
         for ((spec, target), sim) in robot.buses().iter().zip(placement.buses()).zip(sims) {
             buses.push(match target {
-                BusTarget::Simulator => AnyBus::Sim(Box::new(
+                BusTarget::Simulator => AnyBus::Sim(SharedSim::new(
                     SimBus::new(clock.clone(), sim).map_err(|source| RigError::Sim {
                         bus: spec.name.clone(),
                         source,
@@ -55,6 +55,21 @@ impl Rig {
             buses,
             placement: placement.clone(),
         })
+    }
+
+    /// The loop of `robot` on these buses with `controller`, supervised: the supervisor gets its
+    /// own way onto every bus (a second socket, or a second handle to the simulated bus).
+    pub fn into_loop<K: Controller>(
+        self,
+        robot: Robot,
+        controller: K,
+    ) -> Result<RtLoop<AnyBus, AnyClock, K>, RigError> {
+        let ports = self
+            .buses
+            .iter()
+            .map(AnyBus::safety_port)
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(RtLoop::new(robot, self.clock, self.buses, controller)?.supervise(ports)?)
     }
 }
 

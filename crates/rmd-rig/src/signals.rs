@@ -3,8 +3,10 @@
 //!
 //! - the first asks the watched loop to stop (zero torque, then motor off, then the report);
 //!   commands without a loop see it with [`Signals::interrupted`] and stop their motors;
-//! - the second is an emergency stop of the watched loop;
-//! - the third exits the process at once with status [`EXIT_INTERRUPTED`].
+//! - the second is an emergency stop of the watched loop: its supervisor makes every motor safe
+//!   at once, whatever the loop thread is doing;
+//! - the third exits the process with status [`EXIT_INTERRUPTED`], as soon as motor-off has gone
+//!   out on every bus (at most [`EXIT_WAIT`] later).
 //!
 //! A program that was stopped by a signal exits with [`EXIT_INTERRUPTED`] (130, as shells
 //! report SIGINT) after its motors are safe.
@@ -22,6 +24,9 @@ use crate::error::RigError;
 
 /// Exit status of a program stopped by a signal (128 + SIGINT).
 pub const EXIT_INTERRUPTED: u8 = 130;
+
+/// How long the third signal waits for motor-off to go out before the process exits anyway.
+pub const EXIT_WAIT: core::time::Duration = core::time::Duration::from_secs(2);
 
 /// Signals received since the handler was installed.
 static COUNT: AtomicU32 = AtomicU32::new(0);
@@ -60,11 +65,21 @@ fn on_signal() {
             stopper.stop();
         }
         (2, Some(stopper)) => {
-            eprintln!("\ninterrupted again: EMERGENCY STOP; once more exits at once");
+            eprintln!("\ninterrupted again: EMERGENCY STOP; once more exits (after motor-off)");
             stopper.emergency_stop();
         }
         (1 | 2, None) => {}
-        _ => std::process::exit(i32::from(EXIT_INTERRUPTED)),
+        (_, Some(stopper)) => {
+            // Exit only once motor-off went out (the supervisor sends it at once after the
+            // second signal), or after a bounded wait.
+            stopper.emergency_stop();
+            let give_up = std::time::Instant::now() + EXIT_WAIT;
+            while !stopper.motors_off_sent() && std::time::Instant::now() < give_up {
+                std::thread::sleep(core::time::Duration::from_millis(1));
+            }
+            std::process::exit(i32::from(EXIT_INTERRUPTED))
+        }
+        (_, None) => std::process::exit(i32::from(EXIT_INTERRUPTED)),
     }
 }
 

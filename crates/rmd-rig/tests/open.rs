@@ -107,16 +107,24 @@ fn open_builds_working_simulated_buses_on_the_chosen_clock() {
         let placement = Placement::simulated(&robot, time);
         let mut rig = Rig::open(&robot, &placement, sim::sim_configs(&robot, 1)).unwrap();
         assert_eq!(rig.buses.len(), 1);
-        assert!(rig.buses[0].as_sim_mut().is_some());
+        assert!(rig.buses[0].sim().is_some());
         assert_eq!(rig.clock.is_virtual(), time == SimTime::Virtual);
         let hold = Hold {
             first: None,
             robot: robot.clone(),
         };
-        let rt = RtLoop::new(robot.clone(), rig.clock, rig.buses, hold).unwrap();
+        let sim = rig.buses[0].sim().unwrap().clone();
+        let rt = rig.into_loop(robot.clone(), hold).unwrap();
         let out = rt.run(RunLimit::Ticks(50));
         assert_eq!(out.report.stats.ticks, 50);
         assert!(out.report.safe_stop.all_off_confirmed());
+        // The simulated motors themselves are off.
+        for joint in robot.joints() {
+            assert_eq!(
+                sim.lock().snapshot(joint.motor).unwrap().mode,
+                ControlMode::Off
+            );
+        }
     }
 }
 

@@ -176,7 +176,7 @@ impl<'a> Runner<'a> {
     ) -> Result<Finished<K>, RigError>
     where
         B: CanBus + Send + 'static,
-        C: Clock + 'static,
+        C: Clock + Clone + 'static,
         K: Controller + 'static,
     {
         let signals = signals::install()?;
