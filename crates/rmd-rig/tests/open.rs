@@ -105,7 +105,7 @@ fn open_builds_working_simulated_buses_on_the_chosen_clock() {
     let robot = leg([Direction::Normal; 2]);
     for time in [SimTime::Virtual, SimTime::Real] {
         let placement = Placement::simulated(&robot, time);
-        let mut rig = Rig::open(&robot, &placement, sim::sim_configs(&robot, 1)).unwrap();
+        let rig = Rig::open(&robot, &placement, sim::sim_configs(&robot, 1)).unwrap();
         assert_eq!(rig.buses.len(), 1);
         assert!(rig.buses[0].sim().is_some());
         assert_eq!(rig.clock.is_virtual(), time == SimTime::Virtual);
