@@ -46,8 +46,9 @@ impl fmt::Display for MotorRef {
 /// A condition that stops the loop and makes every motor safe.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub enum Fault {
-    /// A motor gave no fresh feedback for `ticks` consecutive ticks.
-    MotorSilent {
+    /// A motor gave no fresh feedback for `ticks` consecutive ticks: its replies were missing,
+    /// or late (answering older frames).
+    NoFreshFeedback {
         /// The motor.
         at: MotorRef,
         /// Consecutive ticks without fresh feedback.
@@ -108,8 +109,9 @@ impl Fault {
     /// The fault in words, naming joints by their names in `robot`.
     pub fn describe(&self, robot: &Robot) -> String {
         match self {
-            Fault::MotorSilent { at, ticks } => format!(
-                "{} gave no feedback for {ticks} consecutive ticks (check its power, wiring and id)",
+            Fault::NoFreshFeedback { at, ticks } => format!(
+                "{} gave no fresh feedback for {ticks} consecutive ticks: its replies were missing \
+                 or late (check its power, wiring and id, and the bus load)",
                 at.describe(robot)
             ),
             Fault::StartupTimeout { at, missing } => format!(
@@ -135,9 +137,10 @@ impl Fault {
 impl fmt::Display for Fault {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Fault::MotorSilent { at, ticks } => write!(
+            Fault::NoFreshFeedback { at, ticks } => write!(
                 f,
-                "{at} gave no feedback for {ticks} consecutive ticks (check its power, wiring and id)"
+                "{at} gave no fresh feedback for {ticks} consecutive ticks: its replies were \
+                 missing or late (check its power, wiring and id, and the bus load)"
             ),
             Fault::StartupTimeout { at, missing } => write!(
                 f,

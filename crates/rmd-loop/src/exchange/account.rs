@@ -15,6 +15,7 @@ impl<B> Exchange<B> {
     ) -> Result<bool, Fault> {
         let mut all_fresh = true;
         for (m, (motor, feedback)) in self.motors.iter_mut().zip(&self.feedback).enumerate() {
+            motor.end_tick(feedback);
             let at = motor.at;
             if feedback.is_fresh() {
                 motor.consecutive_missing = 0;
@@ -27,7 +28,7 @@ impl<B> Exchange<B> {
                     .max_consecutive_missing
                     .max(u64::from(motor.consecutive_missing));
                 if motor.consecutive_missing >= fault_after {
-                    return Err(Fault::MotorSilent {
+                    return Err(Fault::NoFreshFeedback {
                         at,
                         ticks: motor.consecutive_missing,
                     });

@@ -5,7 +5,7 @@ use core::time::Duration;
 use rmd_bus::Timestamp;
 use rmd_protocol::{EncoderWidth, MotorId, Status2};
 
-use super::pending::PendingRequests;
+use super::pending::{PendingRequests, RESYNC_AFTER};
 use crate::feedback::{Freshness, JointFeedback, JointState, MotorState, RawStatus};
 use crate::joint::JointId;
 use crate::mapping::{EncoderUnwrapper, JointMap};
@@ -41,6 +41,10 @@ pub(crate) struct MotorLink {
     last_reply_at: Option<Timestamp>,
     ticks_since_reply: u32,
     pub(crate) consecutive_missing: u32,
+    /// When this tick's newest late reply came, if it was timed like a newer request's reply.
+    late_fits_next: Option<Timestamp>,
+    /// Consecutive ticks ending with such a reply (see [`RESYNC_AFTER`]).
+    late_streak: u32,
     /// Estimated round trip (request sent to reply received); `None` until the first reply.
     pub(crate) round_trip: Option<Duration>,
 }
@@ -64,8 +68,27 @@ impl MotorLink {
             last_reply_at: None,
             ticks_since_reply: 0,
             consecutive_missing: 0,
+            late_fits_next: None,
+            late_streak: 0,
             round_trip: None,
         }
+    }
+
+    /// Marks the end of a tick's collection: after [`RESYNC_AFTER`] ticks in a row whose newest
+    /// reply was late but timed like a newer request's, the requests before that one are
+    /// declared lost (replies went missing and every later one was taken too old).
+    pub(crate) fn end_tick(&mut self, feedback: &JointFeedback) {
+        match (feedback.freshness, self.late_fits_next) {
+            (Freshness::Late { .. }, Some(at)) => {
+                self.late_streak += 1;
+                if self.late_streak >= RESYNC_AFTER {
+                    self.pending.drop_through(at, self.round_trip);
+                    self.late_streak = 0;
+                }
+            }
+            _ => self.late_streak = 0,
+        }
+        self.late_fits_next = None;
     }
 
     /// Marks the start of a tick: until a reply comes, the feedback is missing.
@@ -107,13 +130,21 @@ impl MotorLink {
             counters.unexpected_replies += 1;
             return ReplyClass::Unexpected;
         };
-        self.track_round_trip(at - sent_at);
         let age = tick.saturating_sub(sent_tick);
         let age_ticks = u32::try_from(age).unwrap_or(u32::MAX);
         let class = if age <= max_age {
+            // Only fresh replies measure the round trip: a late one's includes its delay.
+            self.track_round_trip(at - sent_at);
+            self.late_fits_next = None;
             ReplyClass::Fresh
         } else {
             counters.late_replies += 1;
+            // Timed like a newer request's reply? (Replies held up behind a late one come
+            // later than that; a reply whose predecessors were lost comes just then.)
+            self.late_fits_next = self
+                .round_trip
+                .and_then(|rtt| self.pending.on_time(at, rtt))
+                .map(|_| at);
             ReplyClass::Late
         };
         // Values of late replies still update the state (they are newer than what we have, and
@@ -192,37 +223,70 @@ mod tests {
     }
 
     #[test]
-    fn a_reply_answers_the_newest_request_whose_expected_arrival_has_passed() {
+    fn a_reply_answers_the_oldest_request_it_could_answer() {
         let mut p = PendingRequests::new();
         p.push(1, t(1000));
         p.push(2, t(2000));
         p.push(3, t(3000));
-        // Nothing was sent before the reply arrived: it answers none of them.
+        // Sent after the reply arrived: it answers none of them.
         assert_eq!(p.answer(t(500), None), None);
-        // Round trip 1.3 ms: a reply at 3.3 ms is too early for request 3 (due 4.3 ms), so it
-        // answers request 2 (due 3.3 ms)...
-        let rtt = Some(Duration::from_micros(1300));
-        assert_eq!(p.answer(t(3300), rtt).map(|e| e.0), Some(2));
-        // ...and request 1, older, is given up as lost.
-        assert_eq!(p.len(), 1);
-        // Without a round-trip estimate the newest possible request wins.
-        p.push(4, t(4000));
-        assert_eq!(p.answer(t(4100), None).map(|e| e.0), Some(4));
-        assert_eq!(p.len(), 0);
-        // Earlier than expected for every request: the oldest sent before it.
-        p.push(5, t(5000));
-        p.push(6, t(6000));
-        assert_eq!(p.answer(t(6100), rtt).map(|e| e.0), Some(5));
+        // Round trip 0.3 ms: a reply at 3.3 ms answers the oldest, request 1 (first in, first
+        // out), whatever its timing says about request 3.
+        let rtt = Some(Duration::from_micros(300));
+        assert_eq!(p.answer(t(3300), rtt).map(|e| e.0), Some(1));
+        assert_eq!(p.len(), 2);
+        // Too early for the oldest outstanding request (a duplicate right after the original):
+        // unexpected, and nothing is taken.
+        let mut q = PendingRequests::new();
+        q.push(7, t(7000));
+        assert_eq!(q.answer(t(7050), rtt), None);
+        assert_eq!(q.len(), 1);
         // A full ring gives up its oldest entries.
         for k in 0..20 {
             p.push(k, t(k * 1000));
         }
         assert_eq!(p.len(), PENDING_CAPACITY);
+        assert_eq!(p.answer(t(100_000), rtt).map(|e| e.0), Some(12));
+        p.drop_oldest();
+        assert_eq!(p.oldest().map(|e| e.0), Some(14));
+    }
+
+    #[test]
+    fn replies_held_up_behind_a_late_one_count_late_with_their_true_age() {
+        // Round trip 300 us at 1 kHz. The reply to tick 3 is 2.5 ms late; the firmware answers in
+        // order, so the replies to ticks 4 and 5 come right behind it, in tick 5.
+        let (mut m, mut fb, mut c) = motor();
+        m.pending.push(0, t(0));
+        m.on_reply(&status(0), t(300), 0, 0, &mut fb, &mut c);
+        for k in 1..=3 {
+            m.begin_tick(&mut fb);
+            m.pending.push(k, t(k * 1000));
+            if k < 3 {
+                m.on_reply(&status(0), t(k * 1000 + 300), k, 0, &mut fb, &mut c);
+            }
+            m.end_tick(&fb);
+        }
+        m.begin_tick(&mut fb);
+        m.pending.push(4, t(4000));
+        m.end_tick(&fb);
+        m.begin_tick(&mut fb);
+        m.pending.push(5, t(5000));
+        let ages: Vec<_> = [5800, 5930, 6060]
+            .into_iter()
+            .map(|us| {
+                m.on_reply(&status(0), t(us), 5, 0, &mut fb, &mut c);
+                fb.freshness
+            })
+            .collect();
         assert_eq!(
-            p.answer(t(100_000), Some(Duration::from_secs(1)))
-                .map(|e| e.0),
-            Some(12)
+            ages,
+            [
+                Freshness::Late { age_ticks: 2 },
+                Freshness::Late { age_ticks: 1 },
+                Freshness::Fresh { age_ticks: 0 }
+            ]
         );
+        assert_eq!((c.late_replies, c.unexpected_replies), (2, 0));
     }
 
     #[test]
@@ -261,26 +325,39 @@ mod tests {
     }
 
     #[test]
-    fn a_lost_reply_does_not_make_later_replies_late() {
+    fn after_a_lost_reply_the_link_resynchronises_within_a_few_ticks() {
         let (mut m, mut fb, mut c) = motor();
         // Tick 0 measures a 300 us round trip; tick 1's reply is lost.
         m.pending.push(0, t(0));
         m.on_reply(&status(0), t(300), 0, 0, &mut fb, &mut c);
         m.pending.push(1, t(1000));
+        m.end_tick(&fb);
+        let mut classes = Vec::new();
         for k in 2..50u64 {
             m.begin_tick(&mut fb);
             assert!(!fresh(&fb));
             m.pending.push(k, t(k * 1000));
-            let class = m.on_reply(&status(0), t(k * 1000 + 300), k, 0, &mut fb, &mut c);
-            assert_eq!(class, ReplyClass::Fresh, "tick {k}");
-            assert_eq!(fb.freshness, Freshness::Fresh { age_ticks: 0 });
+            classes.push(m.on_reply(&status(0), t(k * 1000 + 300), k, 0, &mut fb, &mut c));
+            m.end_tick(&fb);
         }
-        assert_eq!(c.late_replies, 0);
+        // When in doubt, not fresh: two ticks seem one tick old; then the lost request is
+        // given up and every reply is this tick's again.
+        let late = RESYNC_AFTER as usize;
+        assert!(
+            classes[..late].iter().all(|c| *c == ReplyClass::Late),
+            "{classes:?}"
+        );
+        assert!(
+            classes[late..].iter().all(|c| *c == ReplyClass::Fresh),
+            "{classes:?}"
+        );
+        assert_eq!(c.late_replies, u64::from(RESYNC_AFTER));
+        assert_eq!(c.unexpected_replies, 0);
         assert_eq!(m.pending.len(), 0);
     }
 
     #[test]
-    fn a_motor_slower_than_the_period_is_late_or_pipelined() {
+    fn a_motor_slower_than_the_period_is_late_or_pipelined_and_never_resynchronised_away() {
         // Round trip 1.3 ms at 1 kHz: the reply to tick k-1 arrives 0.3 ms into tick k.
         for (max_age, expect) in [(0, ReplyClass::Late), (1, ReplyClass::Fresh)] {
             let (mut m, mut fb, mut c) = motor();
@@ -295,6 +372,7 @@ mod tests {
                 m.pending.push(k, send(k));
                 let at = Timestamp::from_nanos(send(k).as_nanos() + 300_000);
                 let class = m.on_reply(&status(0), at, k, max_age, &mut fb, &mut c);
+                m.end_tick(&fb);
                 assert_eq!(class, expect, "tick {k}");
                 let expected = if max_age == 0 {
                     Freshness::Late { age_ticks: 1 }

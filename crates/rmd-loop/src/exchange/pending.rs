@@ -1,20 +1,21 @@
 //! Matching replies to requests, per motor: the requests a motor has not answered yet.
 //!
-//! Every 0x280 frame asks each motor on its bus for one 0xA1 reply, and all replies look alike,
-//! so the loop keeps, per motor, the frames not answered yet and the motor's round-trip time
-//! (measured in the start-up probe exchange, when only one request is outstanding, then tracked
-//! with a moving average). A reply can be late but not (much) early: it can only answer a request
-//! whose expected arrival (`sent + round trip - tolerance`) it has reached. Among those it answers
-//! the newest; the firmware answers in order, so older outstanding requests are then known lost.
-//! The reply's age (this tick minus that request's tick) says whether it is this tick's reply or
-//! one that missed an earlier deadline (late). A reply with nothing outstanding is a duplicate or
-//! an answer to somebody else's request (unexpected).
+//! Every 0x280 frame asks each motor on its bus for one 0xA1 reply, and all replies look alike.
+//! The firmware answers a motor's requests in the order they came (first in, first out), so a
+//! reply answers the motor's **oldest** outstanding request, as long as it could be that
+//! request's reply: it arrived at least about a round trip after the request was sent (the round
+//! trip is measured in the start-up probe, when one request is outstanding, then tracked from
+//! fresh replies). The reply's age (this tick minus that request's tick) is its true age: a
+//! reply held up behind a late one is counted late, never taken for this tick's. A reply that
+//! could answer no outstanding request (too early for the oldest: a duplicate, or an answer to
+//! somebody else's request) is unexpected.
 //!
-//! Why not first-in-first-out: after one lost reply, FIFO would take every later reply as the
-//! answer to the previous tick (all late, for ever). Why the round trip: a motor slower than the
-//! period answers the previous tick's frame shortly after this tick's frame was sent, and a late
-//! reply arrives before the next request's reply is due; only the round trip tells them apart
-//! from fresh replies.
+//! A reply lost on the way leaves one request outstanding that no reply will answer, so every
+//! later reply would seem one tick old. The motor's link notices: when the newest reply of
+//! [`RESYNC_AFTER`] consecutive ticks was late yet arrived just when (within the tolerance) a
+//! newer request's reply was due, the requests before that newer one are declared lost and the reply taken as its answer
+//! ([`PendingRequests::drop_through`]). Until then those replies count as late: when in doubt,
+//! feedback is not called fresh.
 
 use core::time::Duration;
 
@@ -22,6 +23,10 @@ use rmd_bus::Timestamp;
 
 /// Outstanding requests kept per motor.
 pub(crate) const PENDING_CAPACITY: usize = 8;
+
+/// Consecutive ticks whose newest reply was late but timed like the next request's reply, after
+/// which the oldest outstanding request is declared lost.
+pub(crate) const RESYNC_AFTER: u32 = 2;
 
 /// How much earlier than its tracked round trip a reply may arrive: a quarter of the round trip
 /// plus 20 us (turnaround jitter, arbitration behind other motors).
@@ -60,37 +65,70 @@ impl PendingRequests {
         self.len += 1;
     }
 
-    /// Takes the request that a reply received at `received` answers: the newest request whose
-    /// expected arrival, `sent + round_trip - tolerance`, has passed (any request sent before
-    /// the reply when the round trip is not known yet). If the reply came earlier than expected
-    /// for every request, it answers the oldest one sent before it. Older outstanding requests
-    /// are dropped as lost.
+    /// Whether a reply received at `received` could answer a request sent at `sent`: it came
+    /// at least the round trip (less a tolerance) later (or just later, before the round trip is
+    /// known).
+    pub(crate) fn could_answer(
+        sent: Timestamp,
+        received: Timestamp,
+        round_trip: Option<Duration>,
+    ) -> bool {
+        match round_trip {
+            None => received >= sent,
+            Some(rtt) => received >= (sent + rtt).saturating_sub(early_tolerance(rtt)),
+        }
+    }
+
+    /// Takes the request that a reply received at `received` answers: the oldest outstanding,
+    /// if the reply could be its reply; `None` (an unexpected reply) otherwise.
     pub(crate) fn answer(
         &mut self,
         received: Timestamp,
         round_trip: Option<Duration>,
     ) -> Option<(u64, Timestamp)> {
-        let mut oldest_causal = None;
-        let mut newest_plausible = None;
-        for i in 0..self.len {
-            let (_, sent) = self.get(i);
-            if sent > received {
-                break; // sent after the reply arrived: cannot be what it answers
-            }
-            oldest_causal.get_or_insert(i);
-            let plausible = match round_trip {
-                None => true,
-                Some(rtt) => received >= (sent + rtt).saturating_sub(early_tolerance(rtt)),
-            };
-            if plausible {
-                newest_plausible = Some(i);
-            }
+        let (tick, sent) = self.oldest()?;
+        if !Self::could_answer(sent, received, round_trip) {
+            return None;
         }
-        let i = newest_plausible.or(oldest_causal)?;
-        let answered = self.get(i);
-        self.head = (self.head + i + 1) % PENDING_CAPACITY;
-        self.len -= i + 1;
-        Some(answered)
+        self.drop_oldest();
+        Some((tick, sent))
+    }
+
+    /// The oldest outstanding request.
+    pub(crate) fn oldest(&self) -> Option<(u64, Timestamp)> {
+        (self.len > 0).then(|| self.get(0))
+    }
+
+    /// Whether a reply received at `received` came when the reply to a request sent at `sent` was
+    /// due: within the tolerance around `sent + round trip`.
+    pub(crate) fn on_time_for(sent: Timestamp, received: Timestamp, round_trip: Duration) -> bool {
+        let due = sent + round_trip;
+        let tolerance = early_tolerance(round_trip);
+        received >= due.saturating_sub(tolerance) && received <= due + tolerance
+    }
+
+    /// The oldest outstanding request that a reply received at `received` came on time for.
+    pub(crate) fn on_time(&self, received: Timestamp, round_trip: Duration) -> Option<usize> {
+        (0..self.len).find(|&i| Self::on_time_for(self.get(i).1, received, round_trip))
+    }
+
+    /// Gives up every outstanding request up to and including the one a reply received at
+    /// `received` came on time for (the reply answered that one; the older ones' replies were
+    /// lost).
+    pub(crate) fn drop_through(&mut self, received: Timestamp, round_trip: Option<Duration>) {
+        let answerable = round_trip.and_then(|rtt| self.on_time(received, rtt));
+        if let Some(i) = answerable {
+            self.head = (self.head + i + 1) % PENDING_CAPACITY;
+            self.len -= i + 1;
+        }
+    }
+
+    /// Gives up the oldest outstanding request (its reply was lost).
+    pub(crate) fn drop_oldest(&mut self) {
+        if self.len > 0 {
+            self.head = (self.head + 1) % PENDING_CAPACITY;
+            self.len -= 1;
+        }
     }
 
     /// Forgets everything outstanding.
