@@ -71,7 +71,7 @@ impl CurrentScale {
     /// `raw_current_max_ = 2048` for the MG types).
     pub const LK_MG_IQ_CONTROL: Self = Self::new(Field::IqControl, 33_000, 2048, -2048, 2048);
     /// LK-TECH MG series `iq` in replies: 33 A per 2048 LSB (same sources; 66/4096 A/LSB in
-    /// pyLKMotor).
+    /// pyLKMotor). The same numbers as [`V161_IQ`](Self::V161_IQ), so the two compare equal.
     pub const LK_MG_IQ: Self = Self::new(Field::Iq, 33_000, 2048, -2048, 2048);
     /// MyActuator V3 `iqControl`: 0.01 A per LSB, the whole i16 range (MyActuator "Servo Motor
     /// Control Protocol" V4.3, applicable driver V3, §2.19: "iqControl is int16_t, unit 0.01
