@@ -27,6 +27,11 @@
 //!   commands are answered but not obeyed. 0x9B clears only the flags whose cause is gone: the
 //!   supply back above threshold + hysteresis, the winding back below threshold - hysteresis.
 //! - **Replies** carry the state sampled at the last control-loop step before the request.
+//! - **Other firmware.** A motor whose [`FirmwareParams::family`] is LK-TECH V2.3x runs this
+//!   firmware with LK's layouts, scales and off state; a MyActuator V3 motor answers a subset of
+//!   V3's commands on `0x240 + id` (see `docs/simulator.md`, "Other firmware and firmware traps",
+//!   for the exact lists and their sources). [`FirmwareParams::traps`] adds the firmware-state
+//!   traps reported from real motors, each off by default.
 
 use core::f64::consts::PI;
 
