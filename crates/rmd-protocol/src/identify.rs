@@ -69,10 +69,9 @@
 
 use core::fmt;
 
-use crate::command::Command;
 use crate::family::ProtocolFamily;
 use crate::frame::CanFrame;
-use crate::ids::{MotorId, SINGLE_MOTOR_BASE_ID};
+use crate::ids::MotorId;
 use crate::request::Request;
 use crate::v3::{self, V3Command, V3Request};
 use crate::wire::u16_at;
@@ -387,11 +386,9 @@ fn decide(
             });
         return (ProtocolFamily::MyActuatorV3, Finding::V3ReplyId);
     }
-    debug_assert_eq!(first.id(), SINGLE_MOTOR_BASE_ID + u16::from(motor.get()));
     let Some(d) = answers.status1.and_then(|f| f.data8().copied()) else {
         return (unknown, Finding::NoStatus1);
     };
-    debug_assert_eq!(d[0], Command::ReadStatus1.code());
     let readings = Status1Readings::of(&d);
     evidence.status1 = Some(readings);
     match (readings.v161_plausible(), readings.lk_plausible()) {

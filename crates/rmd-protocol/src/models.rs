@@ -313,6 +313,32 @@ mod tests {
     }
 
     #[test]
+    fn lk_models_carry_16_bit_encoders() {
+        for name in ["mg4005e-i10", "mf4005", "mf9025-v2"] {
+            let m = find_model(name).unwrap();
+            assert_eq!(m.encoder_bits.unwrap().value.bits(), 16, "{name}");
+            assert_eq!(m.family, ProtocolFamily::LkV23x, "{name}");
+        }
+        assert_eq!(
+            find_model("mf4005")
+                .unwrap()
+                .iq_control_scale
+                .value
+                .max_amps(),
+            16.5
+        );
+        assert_eq!(
+            find_model("mg4005e-i10").unwrap().iq_scale.value.max_amps(),
+            33.0
+        );
+        assert_eq!(
+            find_model("rmd-x8-v2").unwrap().gear_ratio.unwrap().value,
+            9.0
+        );
+        assert_eq!(find_model("RMD-X8-V2"), Err(NameError::Model));
+    }
+
+    #[test]
     fn scales_agree_with_the_dialect() {
         for m in MODELS {
             match m.dialect {
