@@ -7,7 +7,7 @@
 //!
 //! | command | v1.61 | LK-TECH V2.3x | source of the LK column |
 //! |---|---|---|---|
-//! | 0xA1 request, 0x280 | `iqControl` ±2000, 32/2000 A | ±2048, MF 16.5/2048 A, MG 33/2048 A | LK CAN protocol V2.35, torque closed-loop command and multi-motor torque command |
+//! | 0xA1 request, 0x280 | `iqControl` ±2000, 32/2000 A | ±2048, MF 16.5/2048 A, MG 33/2048 A | LK CAN protocol V2.35, torque closed-loop command; 0x280: see [`ScaledMultiTorque`] |
 //! | 0x9C, 0xA1..=0xA6 replies | `iq` 33/2048 A | MF 16.5/2048 A, MG 33/2048 A | same, reply of the torque command ("iq ... MF ... -16.5A~16.5A, MG ... -33A~33A") |
 //! | 0x9A, 0x9B replies | [`Status1`] | [`LkStatus1`] | see [`lk`](crate::lk) |
 //! | 0x94 reply | u16 in DATA\[6..=7\] | u32 in DATA\[4..=7\] | see [`LkCircleAngle`] |
@@ -351,10 +351,13 @@ pub fn decode_reply_to_with(
 /// The 0x280 multi-motor torque frame with a dialect's `iqControl` scale: one value per motor
 /// 1..=4 in DATA\[0..=7\] (little-endian i16 each, no command byte).
 ///
-/// The layout is v1.61's [`MultiTorque`]; LK-TECH V2.35 keeps it with its own scale (±2048; MF
-/// ±16.5 A, MG ±33 A: the multi-motor torque command of the LK document; e.g.
-/// github.com/Jason0-0/logging_car_pro_plus `Core/Bsp/RMD_L_Motor/RMD_protocol.h`: 0x280, replies
-/// 0xA1 on 0x141..=0x144, "-2048~2048 -> -33A~33A"). Each motor 1..=4 answers with a 0xA1 reply.
+/// The layout is v1.61's [`MultiTorque`]; LK-TECH firmware keeps it with the scale of its 0xA1
+/// (±2048; MF ±16.5 A, MG ±33 A). The LK V2.35 document's multi-motor section was not available
+/// as text; this follows drivers of LK motors: github.com/Jason0-0/logging_car_pro_plus
+/// `Core/Bsp/RMD_L_Motor/RMD_protocol.h` (0x280, replies 0xA1 on 0x141..=0x144,
+/// "-2048~2048 -> -33A~33A") and MG4005 / MG6012 drivers in the public code index that fill
+/// DATA\[2k..=2k+1\] with motor k+1's `iqControl`, low byte first. Each motor 1..=4 answers with
+/// a 0xA1 reply.
 ///
 /// ```
 /// use rmd_protocol::{CurrentScale, ScaledCurrent, ScaledMultiTorque};

@@ -7,7 +7,7 @@
 //! | family | requests | replies | 0x280 frame | source |
 //! |---|---|---|---|---|
 //! | [`V161`](ProtocolFamily::V161) (GYEMS / MyActuator RMD v1.61, v1.62) | `0x140 + id` | `0x140 + id` | four `iqControl` values: per-motor torque for ids 1..=4 | gyems-can-v1.61, "multi motor torque closed loop control" |
-//! | [`LkV23x`](ProtocolFamily::LkV23x) (LK-TECH MF/MG/MS, protocol V2.3x) | `0x140 + id` | `0x140 + id` | four `iqControl` values (LK scale): per-motor torque for ids 1..=4 | LK-TECH CAN protocol V2.35, multi-motor torque command; replies with the 0xA1 layout, e.g. github.com/Jason0-0/logging_car_pro_plus `Core/Bsp/RMD_L_Motor/RMD_protocol.h` (0x280, replies 0xA1 on 0x141..0x144, "-2048~2048 -> -33A~33A") |
+//! | [`LkV23x`](ProtocolFamily::LkV23x) (LK-TECH MF/MG/MS, protocol V2.3x) | `0x140 + id` | `0x140 + id` | four `iqControl` values (LK scale): per-motor torque for ids 1..=4 | drivers of LK-built motors, e.g. github.com/Jason0-0/logging_car_pro_plus `Core/Bsp/RMD_L_Motor/RMD_protocol.h` (0x280, replies 0xA1 on 0x141..0x144, "-2048~2048 -> -33A~33A"); the LK V2.35 document's multi-motor section was not available as text |
 //! | [`MyActuatorV3`](ProtocolFamily::MyActuatorV3) (RMD-X V3, protocol V3.x / V4.x) | `0x140 + id` | **`0x240 + id`** | **a command byte in DATA\[0\], executed by every motor on the bus** (`280#80..` = all motors off) | MyActuator "Servo Motor Control Protocol" V4.3 (applicable driver V3), §1.1.2 and §3; github.com/2b-t/myactuator_rmd `include/myactuator_rmd/driver/can_address_offset.hpp` (request 0x140, response 0x240) |
 //!
 //! rmd-rt's control loop drives motors with 0x280 frames, so it must know a motor's family before
@@ -71,8 +71,8 @@ impl ProtocolFamily {
 
     /// Whether a 0x280 frame means "one torque current per motor, motors 1..=4" to this family.
     ///
-    /// `true` for v1.61 (gyems-can-v1.61, multi-motor torque command) and LK-TECH V2.3x (LK-TECH
-    /// CAN protocol V2.35, multi-motor torque command). `false` for MyActuator V3, where DATA\[0\]
+    /// `true` for v1.61 (gyems-can-v1.61, multi-motor torque command) and LK-TECH V2.3x (as LK
+    /// drivers use it; see the module table). `false` for MyActuator V3, where DATA\[0\]
     /// of a 0x280 frame is a command byte executed by every motor on the bus (MyActuator Servo
     /// Motor Control Protocol V4.3, §3: "Sending to ID 0x280 addresses all motors on the bus
     /// simultaneously with the same command"; its example `280#80..` shuts every motor down), and

@@ -149,7 +149,8 @@ impl FirmwareParams {
 /// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct MotorConfig {
-    /// The motor's id (it answers on 0x140 + id; ids 1..=4 also answer 0x280).
+    /// The motor's id (it answers on 0x140 + id, MyActuator V3 firmware on 0x240 + id; ids
+    /// 1..=4 also answer 0x280, every V3 motor answers a 0x280 command).
     pub id: MotorId,
     /// Physical parameters.
     pub motor: MotorParams,
