@@ -34,7 +34,7 @@ impl DecodedRequest {
 
 /// The 8 data bytes, or [`ProtocolError::WrongDlc`].
 #[inline]
-fn data8(frame: &CanFrame) -> Result<&[u8; 8], ProtocolError> {
+pub(crate) fn data8(frame: &CanFrame) -> Result<&[u8; 8], ProtocolError> {
     frame.data8().ok_or(ProtocolError::WrongDlc {
         can_id: frame.id(),
         dlc: frame.dlc(),
@@ -43,7 +43,7 @@ fn data8(frame: &CanFrame) -> Result<&[u8; 8], ProtocolError> {
 
 /// The command in DATA\[0\], or [`ProtocolError::UnknownCommand`].
 #[inline]
-fn command_of(frame: &CanFrame, d: &[u8; 8]) -> Result<Command, ProtocolError> {
+pub(crate) fn command_of(frame: &CanFrame, d: &[u8; 8]) -> Result<Command, ProtocolError> {
     Command::from_code(d[0]).ok_or(ProtocolError::UnknownCommand {
         can_id: frame.id(),
         code: d[0],
@@ -123,16 +123,27 @@ pub fn decode_reply_to(
     let motor = MotorId::from_can_id(frame.id())?;
     let d = data8(frame)?;
     let got = command_of(frame, d)?;
-    let command = if got == pending {
-        got
+    let command = answered_command(frame, got, pending)?;
+    Ok((motor, Reply::from_data(command, d)?))
+}
+
+/// The command a reply carrying `got` answers when `pending` is waiting: `got` itself, or 0x9B
+/// for a 0x9A reply to a pending 0x9B; else [`ProtocolError::ReplyMismatch`].
+#[inline]
+pub(crate) fn answered_command(
+    frame: &CanFrame,
+    got: Command,
+    pending: Command,
+) -> Result<Command, ProtocolError> {
+    if got == pending {
+        Ok(got)
     } else if pending == Command::ClearError && got == Command::ReadStatus1 {
-        Command::ClearError
+        Ok(Command::ClearError)
     } else {
-        return Err(ProtocolError::ReplyMismatch {
+        Err(ProtocolError::ReplyMismatch {
             can_id: frame.id(),
             expected: pending,
             got,
-        });
-    };
-    Ok((motor, Reply::from_data(command, d)?))
+        })
+    }
 }

@@ -3,6 +3,7 @@
 use core::fmt;
 
 use crate::command::Command;
+use crate::scale::CurrentScale;
 
 /// Everything that can be wrong with a frame or a value of the RMD protocol.
 ///
@@ -90,6 +91,19 @@ pub enum ProtocolError {
         /// The id as given.
         id: u8,
     },
+    /// A current value built for another scale than the one the dialect uses for this field
+    /// (e.g. a v1.61 `iqControl` sent to an LK-TECH MF motor).
+    #[error(
+        "{field} uses the scale {got}, but this dialect expects {expected}: convert the current in amperes with the dialect's scale"
+    )]
+    ScaleMismatch {
+        /// The field.
+        field: Field,
+        /// The scale the dialect uses.
+        expected: CurrentScale,
+        /// The scale of the value given.
+        got: CurrentScale,
+    },
 }
 
 /// Which CAN identifiers were acceptable, in [`ProtocolError::UnexpectedCanId`].
@@ -100,6 +114,8 @@ pub enum ExpectedIds {
     Motor,
     /// A single-motor identifier or the multi-motor torque identifier 0x280 (requests).
     MotorOrMultiTorque,
+    /// A MyActuator V3 reply identifier, 0x241..=0x260 (`0x240 + id`).
+    MyActuatorV3Reply,
 }
 
 impl fmt::Display for ExpectedIds {
@@ -107,6 +123,7 @@ impl fmt::Display for ExpectedIds {
         f.write_str(match self {
             ExpectedIds::Motor => "motor ID (0x141..=0x160)",
             ExpectedIds::MotorOrMultiTorque => "ID (0x141..=0x160 or 0x280)",
+            ExpectedIds::MyActuatorV3Reply => "MyActuator V3 reply ID (0x241..=0x260)",
         })
     }
 }
@@ -147,6 +164,8 @@ pub enum Field {
     MotorAngle,
     /// `circleAngle` of the 0x94 reply.
     CircleAngle,
+    /// `current`, the bus current of LK-TECH's 0x9A reply.
+    BusCurrent,
 }
 
 impl Field {
@@ -168,6 +187,7 @@ impl Field {
             Field::PhaseCurrent => "phase current",
             Field::MotorAngle => "motor_angle",
             Field::CircleAngle => "circle_angle",
+            Field::BusCurrent => "bus_current",
         }
     }
 }
@@ -176,4 +196,38 @@ impl fmt::Display for Field {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
     }
+}
+
+/// A name that is not one of the stable names rmd-rt accepts (protocol families, dialects, LK
+/// motor series, motor models). `Copy` and allocation-free: the text lists the accepted names.
+///
+/// ```
+/// use rmd_protocol::{NameError, ProtocolFamily};
+/// let err = "v2".parse::<ProtocolFamily>().unwrap_err();
+/// assert_eq!(err, NameError::Family);
+/// assert_eq!(
+///     err.to_string(),
+///     "unknown protocol family: expected one of v1.61, lk-v2.3x, myactuator-v3, unknown"
+/// );
+/// ```
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, thiserror::Error)]
+#[non_exhaustive]
+pub enum NameError {
+    /// Not a protocol family name.
+    #[error("unknown protocol family: expected one of v1.61, lk-v2.3x, myactuator-v3, unknown")]
+    Family,
+    /// Not a dialect rmd-rt can speak.
+    #[error("unknown protocol: expected v1.61 or lk-v2.3x")]
+    Dialect,
+    /// Not an LK-TECH motor series with a known current scale.
+    #[error("unknown LK-TECH motor series: expected mf or mg")]
+    LkSeries,
+    /// `lk-v2.3x` without the motor series its current scale depends on.
+    #[error(
+        "protocol lk-v2.3x needs the LK-TECH motor series (mf or mg): its current scale depends on it"
+    )]
+    MissingLkSeries,
+    /// Not a motor model of the table.
+    #[error("unknown motor model: see rmd_protocol::models::MODELS for the known names")]
+    Model,
 }

@@ -76,6 +76,17 @@
 //! - Encoder values are not checked on decoding (the motor's encoder width is a per-motor setting
 //!   a frame does not carry); see the [`encoder`] module and `check_encoder_width`.
 //!
+//! # Other firmware: families, dialects, models
+//!
+//! Not every "RMD" motor speaks v1.61. [`ProtocolFamily`] names the families rmd-rt knows
+//! (v1.61, LK-TECH V2.3x, MyActuator V3) and says whether a family's 0x280 frame is a per-motor
+//! torque frame; [`identify`](mod@identify) tells the family from a motor's answers to two read
+//! requests. [`Dialect`] is what rmd-rt can drive (v1.61, the default, and LK-TECH V2.3x with its
+//! motor series), with [`decode_reply_with`], [`decode_request_with`] and [`DialectRequest`]
+//! for the layouts and current scales ([`CurrentScale`], [`ScaledCurrent`]) that differ.
+//! [`models`] is a table of known motors with sourced values; [`v3`] the few MyActuator V3 frames
+//! needed to recognise (and simulate) that firmware. The v1.61 functions above are unchanged.
+//!
 //! # Slips in the spec document
 //!
 //! The spec (v1.61, converted from a PDF) has copy-paste slips; the reading notes give the
@@ -88,30 +99,48 @@
 
 pub mod command;
 pub mod decode;
+pub mod dialect;
+pub mod dialect_frames;
 pub mod encoder;
 pub mod error;
+pub mod family;
 pub mod frame;
+pub mod identify;
 pub mod ids;
+pub mod lk;
+pub mod models;
 pub mod multi;
 pub mod reply;
 pub mod request;
 mod round;
+pub mod scale;
 pub mod status;
+pub mod v3;
 pub mod values;
 mod wire;
 
 pub use command::Command;
 pub use decode::{DecodedRequest, decode_reply, decode_reply_to, decode_request};
+pub use dialect::{Dialect, LkSeries};
+pub use dialect_frames::{
+    DialectReply, DialectRequest, DialectStatus1, ScaledMultiTorque, ScaledStatus2,
+    decode_reply_to_with, decode_reply_with, decode_request_with, encode_request_with,
+};
 pub use encoder::{EncoderValue, EncoderWidth};
-pub use error::{ExpectedIds, Field, ProtocolError};
+pub use error::{ExpectedIds, Field, NameError, ProtocolError};
+pub use family::ProtocolFamily;
 pub use frame::CanFrame;
+pub use identify::{Identification, ProbeAnswers, identify};
 pub use ids::{
     FIRST_MOTOR_CAN_ID, LAST_MOTOR_CAN_ID, MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS, MotorId,
     SINGLE_MOTOR_BASE_ID,
 };
+pub use lk::{LkBusCurrent, LkCircleAngle, LkMotorState, LkStatus1, LkVoltage};
+pub use models::{MotorModel, Sourced, find_model};
 pub use multi::MultiTorque;
 pub use reply::Reply;
 pub use request::Request;
+pub use scale::{CurrentScale, ScaledCurrent};
 pub use status::{ErrorState, PidParams, SpinDirection, Status1, Status2, Status3};
 pub use values::{
     Accel, AngleControl, CircleAngle, Iq, IqControl, MaxSpeed, MotorAngle, PhaseCurrent,

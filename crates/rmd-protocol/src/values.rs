@@ -77,7 +77,7 @@ macro_rules! wire_value {
                 if !value.is_finite() {
                     return Err(ProtocolError::NotFinite { field: $field });
                 }
-                Self::new(round_half_away(value * ($den as f64) / ($num as f64)))
+                Self::new($crate::round::round_half_away(value * ($den as f64) / ($num as f64)))
             }
 
             #[doc = concat!(
@@ -86,11 +86,13 @@ macro_rules! wire_value {
             )]
             pub fn $from_unit_sat(value: f64) -> Self {
                 // round_half_away maps NaN to 0 and saturates infinities.
-                Self::saturating(round_half_away(value * ($den as f64) / ($num as f64)))
+                Self::saturating($crate::round::round_half_away(value * ($den as f64) / ($num as f64)))
             }
         }
     };
 }
+
+pub(crate) use wire_value;
 
 wire_value! {
     /// `iqControl` of the torque commands 0xA1 and 0x280: i16 in -2000..=2000, mapping to

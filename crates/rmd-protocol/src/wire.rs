@@ -13,6 +13,18 @@ pub(crate) const fn i32_at<const AT: usize>(d: &[u8; 8]) -> i32 {
     i32::from_le_bytes([d[AT], d[AT + 1], d[AT + 2], d[AT + 3]])
 }
 
+pub(crate) const fn u32_at<const AT: usize>(d: &[u8; 8]) -> u32 {
+    u32::from_le_bytes([d[AT], d[AT + 1], d[AT + 2], d[AT + 3]])
+}
+
+pub(crate) const fn put_u32<const AT: usize>(d: &mut [u8; 8], v: u32) {
+    let b = v.to_le_bytes();
+    d[AT] = b[0];
+    d[AT + 1] = b[1];
+    d[AT + 2] = b[2];
+    d[AT + 3] = b[3];
+}
+
 pub(crate) const fn put_u16<const AT: usize>(d: &mut [u8; 8], v: u16) {
     let b = v.to_le_bytes();
     d[AT] = b[0];

@@ -5,6 +5,7 @@ use core::time::Duration;
 use rmd_protocol::{Accel, EncoderValue, EncoderWidth, MotorId, PidParams};
 
 use crate::error::ConfigError;
+use crate::family::{FirmwareFamily, FirmwareTraps};
 use crate::fault::FaultRule;
 use crate::params::{LoadParams, MotorParams, non_negative};
 use crate::wire::WireTiming;
@@ -64,6 +65,10 @@ pub struct FirmwareParams {
     pub over_temperature_hysteresis_c: f64,
     /// Command byte of the reply to 0x9B.
     pub clear_error_reply: ClearErrorReply,
+    /// The protocol family the firmware speaks. Default v1.61.
+    pub family: FirmwareFamily,
+    /// Firmware-state traps reported from real motors. Default: none.
+    pub traps: FirmwareTraps,
 }
 
 impl Default for FirmwareParams {
@@ -88,6 +93,8 @@ impl Default for FirmwareParams {
             over_temperature_threshold_c: 80.0,
             over_temperature_hysteresis_c: 5.0,
             clear_error_reply: ClearErrorReply::Echo,
+            family: FirmwareFamily::V161,
+            traps: FirmwareTraps::default(),
         }
     }
 }
@@ -142,7 +149,8 @@ impl FirmwareParams {
 /// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct MotorConfig {
-    /// The motor's id (it answers on 0x140 + id; ids 1..=4 also answer 0x280).
+    /// The motor's id (it answers on 0x140 + id, MyActuator V3 firmware on 0x240 + id; ids
+    /// 1..=4 also answer 0x280, every V3 motor answers a 0x280 command).
     pub id: MotorId,
     /// Physical parameters.
     pub motor: MotorParams,
@@ -290,6 +298,21 @@ impl SimConfig {
     /// Sets the seed.
     pub fn seed(mut self, seed: u64) -> Self {
         self.seed = seed;
+        self
+    }
+
+    /// Sets the firmware family of every motor (e.g. to test identification on a bus of
+    /// MyActuator V3 motors).
+    ///
+    /// ```
+    /// use rmd_sim::{FirmwareFamily, SimConfig};
+    /// let config = SimConfig::with_motors(2).firmware_family(FirmwareFamily::MyActuatorV3);
+    /// assert!(config.motors.iter().all(|m| m.firmware.family == FirmwareFamily::MyActuatorV3));
+    /// ```
+    pub fn firmware_family(mut self, family: FirmwareFamily) -> Self {
+        for m in &mut self.motors {
+            m.firmware.family = family;
+        }
         self
     }
 

@@ -27,6 +27,11 @@
 //!   commands are answered but not obeyed. 0x9B clears only the flags whose cause is gone: the
 //!   supply back above threshold + hysteresis, the winding back below threshold - hysteresis.
 //! - **Replies** carry the state sampled at the last control-loop step before the request.
+//! - **Other firmware.** A motor whose [`FirmwareParams::family`] is LK-TECH V2.3x runs this
+//!   firmware with LK's layouts, scales and off state; a MyActuator V3 motor answers a subset of
+//!   V3's commands on `0x240 + id` (see `docs/simulator.md`, "Other firmware and firmware traps",
+//!   for the exact lists and their sources). [`FirmwareParams::traps`] adds the firmware-state
+//!   traps reported from real motors, each off by default.
 
 use core::f64::consts::PI;
 
@@ -41,7 +46,13 @@ use crate::control::{
     ramp, speed_loop,
 };
 use crate::encoder::Encoder;
+use crate::family::{FirmwareFamily, FirmwareTraps};
 use crate::physics::{Drive, Plant, SUBSTEP_S};
+
+mod lk;
+mod v3;
+
+pub use v3::SIM_V3_MODEL;
 
 const DEG: f64 = PI / 180.0;
 
@@ -94,6 +105,11 @@ pub(crate) struct Firmware {
     /// The rotor's inertia over the torque constant, A per rad/s²: the firmware knows its own
     /// motor (not the load) and feeds accelerations forward with it in position mode.
     rotor_inertia_per_kt: f64,
+    /// LK-TECH: switched off by 0x80 until 0x88 (control commands answered, not obeyed).
+    lk_off: bool,
+    /// Control commands of the request being handled are answered but not obeyed (the
+    /// "motion ignored after 0x88" trap; set by the motor for one request).
+    ignore_motion: bool,
 }
 
 impl Firmware {
@@ -121,6 +137,8 @@ impl Firmware {
             nominal_current_time_constant_s: plant.params().current_time_constant_s,
             rotor_inertia_per_kt: plant.params().rotor_inertia_kg_m2
                 / plant.params().torque_constant_nm_per_a,
+            lk_off: false,
+            ignore_motion: false,
         };
         fw.power_up(plant);
         fw
@@ -136,9 +154,32 @@ impl Firmware {
         self.stopped = false;
         self.loops = LoopState::default();
         self.errors = ErrorState::NONE;
+        self.lk_off = false;
+        self.restart_turn_count(plant);
+        self.supervise(plant);
+    }
+
+    /// Restarts the multi-turn count: the multi-turn angle is back within one turn of the
+    /// encoder zero (at power-up; after 0x80 with the `motor_off_clears_turns` trap).
+    fn restart_turn_count(&mut self, plant: &Plant) {
         let abs = self.encoder.absolute_count(plant.state().motor_angle_rad);
         self.power_on_turns = (abs - self.ram.offset).div_euclid(self.encoder.counts());
-        self.supervise(plant);
+    }
+
+    /// The firmware family.
+    pub(crate) fn family(&self) -> FirmwareFamily {
+        self.params.family
+    }
+
+    /// The traps set.
+    pub(crate) fn traps(&self) -> FirmwareTraps {
+        self.params.traps
+    }
+
+    /// Makes the control commands of the next requests answered but not obeyed (`true`) or
+    /// obeyed again (`false`).
+    pub(crate) fn set_ignore_motion(&mut self, ignore: bool) {
+        self.ignore_motion = ignore;
     }
 
     pub(crate) fn mode(&self) -> ControlMode {
@@ -298,6 +339,9 @@ impl Firmware {
             Request::MotorOff => {
                 self.mode = ControlMode::Off;
                 self.stopped = false;
+                if self.params.traps.motor_off_clears_turns {
+                    self.restart_turn_count(plant);
+                }
                 Reply::MotorOff
             }
             Request::MotorStop => {
@@ -394,9 +438,10 @@ impl Firmware {
         (self.motor_angle_centideg(plant) + delta) as f64 / 100.0
     }
 
-    /// Takes a new control command (ignored while a protection flag is set).
+    /// Takes a new control command (ignored while a protection flag is set, while an LK motor
+    /// is off, and for a request whose motion is to be ignored).
     fn command(&mut self, mode: ControlMode, plant: &Plant) {
-        if !self.errors.is_clear() {
+        if !self.errors.is_clear() || self.lk_off || self.ignore_motion {
             return;
         }
         let same_kind = core::mem::discriminant(&mode) == core::mem::discriminant(&self.mode);

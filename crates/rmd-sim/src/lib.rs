@@ -5,7 +5,8 @@
 //! The crate is split by concern:
 //!
 //! - [`firmware`]: one motor's firmware: every command of protocol v1.61, RAM/ROM, modes,
-//!   protection flags ([`control`]: its closed loops);
+//!   protection flags ([`control`]: its closed loops); optionally LK-TECH V2.3x or MyActuator
+//!   V3 firmware and firmware-state traps ([`family`]);
 //! - [`physics`]: rotor + gearbox + load, friction, torque constant, current response, gravity
 //!   link, temperature, supply sag ([`params`]: the parameters and their sources);
 //! - [`wire`]: the event-driven CAN wire (exact frame lengths, arbitration, queues);
@@ -42,20 +43,23 @@ pub mod config;
 pub mod control;
 mod encoder;
 pub mod error;
+pub mod family;
 pub mod fault;
 pub mod firmware;
 pub mod motor;
 pub mod motors;
 pub mod params;
 pub mod physics;
+mod request;
 pub mod wire;
 
 pub use bus::{BusStats, SimBus};
 pub use config::{BusConfig, ClearErrorReply, FirmwareParams, MotorConfig, SimConfig};
 pub use error::ConfigError;
+pub use family::{CommandSet, FirmwareFamily, FirmwareTraps};
 pub use fault::{FaultKind, FaultRule, FrameFilter, MotorSet, Window};
 pub use firmware::ControlMode;
-pub use motor::{MotorSnapshot, MotorStats, SimMotor};
+pub use motor::{MotorSnapshot, MotorStats, SimMotor, TrapStats};
 pub use motors::{Replies, ScheduledFrame, SimMotors};
 pub use params::{GravityLink, LoadParams, MotorParams, STANDARD_GRAVITY};
 pub use physics::SUBSTEP;

@@ -5,13 +5,15 @@ use core::time::Duration;
 use rand_pcg::Pcg64Mcg;
 use rand_pcg::rand_core::Rng;
 use rmd_bus::Timestamp;
-use rmd_protocol::{ErrorState, MotorId, PidParams, Reply, Request};
+use rmd_protocol::{CanFrame, Dialect, ErrorState, IqControl, MotorId, PidParams, Request};
 
 use crate::config::MotorConfig;
 use crate::error::ConfigError;
+use crate::family::FirmwareFamily;
 use crate::fault::{FaultEngine, stream};
 use crate::firmware::{ControlMode, Firmware};
 use crate::physics::{Plant, PlantState, SUBSTEP_NS};
+use crate::request::MotorRequest;
 
 /// A snapshot of one motor, in physical units (for tests, tools and visualisation; a bus client
 /// only sees frames).
@@ -60,6 +62,16 @@ pub struct MotorStats {
     pub dropped_replies: u64,
 }
 
+/// Counters of the firmware-state traps of one motor (see
+/// [`FirmwareTraps`](crate::FirmwareTraps)).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct TrapStats {
+    /// Requests executed but not answered (`unanswered`).
+    pub unanswered: u64,
+    /// Motion commands answered but not obeyed after 0x88 (`motion_ignored_after_run`).
+    pub ignored_motion: u64,
+}
+
 /// One simulated motor.
 #[derive(Clone, Debug)]
 pub struct SimMotor {
@@ -70,6 +82,9 @@ pub struct SimMotor {
     time: Timestamp,
     jitter: Pcg64Mcg,
     stats: MotorStats,
+    trap_stats: TrapStats,
+    /// When the last 0x88 was handled.
+    run_at: Option<Timestamp>,
 }
 
 impl SimMotor {
@@ -93,7 +108,19 @@ impl SimMotor {
             plant,
             jitter,
             stats: MotorStats::default(),
+            trap_stats: TrapStats::default(),
+            run_at: None,
         })
+    }
+
+    /// Its firmware family.
+    pub fn family(&self) -> FirmwareFamily {
+        self.firmware.family()
+    }
+
+    /// Its trap counters.
+    pub fn trap_stats(&self) -> TrapStats {
+        self.trap_stats
     }
 
     /// The motor's id.
@@ -176,21 +203,58 @@ impl SimMotor {
         }
     }
 
-    /// Handles a request received at `at`; `None` if the firmware ignores it.
-    pub(crate) fn handle(
+    /// Handles a request received at `at` and returns the reply frame; `None` if the firmware
+    /// ignores it or does not answer it.
+    pub(crate) fn answer(
         &mut self,
-        request: &Request,
+        request: &MotorRequest,
         at: Timestamp,
         faults: &FaultEngine,
-    ) -> Option<Reply> {
+    ) -> Option<CanFrame> {
         self.advance_to(at, faults);
-        let reply = self.firmware.handle(request, &self.plant);
-        if reply.is_some() {
-            self.stats.requests += 1;
-        } else {
+        let traps = self.firmware.traps();
+        let window = traps.motion_ignored_after_run;
+        let ignore = request.is_motion()
+            && !window.is_zero()
+            && self.run_at.is_some_and(|run| at < run + window);
+        self.firmware.set_ignore_motion(ignore);
+        let id = self.config.id;
+        let plant = &self.plant;
+        let frame = match (*request, self.firmware.family()) {
+            (MotorRequest::V161(r), _) => self.firmware.handle(&r, plant).map(|r| r.encode(id)),
+            (MotorRequest::Lk(r), FirmwareFamily::LkV23x(series)) => self
+                .firmware
+                .handle_lk(&r, series, plant)
+                .map(|r| r.encode(id)),
+            (MotorRequest::V3(r), _) => self.firmware.handle_v3(&r, plant).map(|r| r.encode(id)),
+            (MotorRequest::SlotTorque(iq), FirmwareFamily::V161) => IqControl::try_from(iq)
+                .ok()
+                .and_then(|iq_control| self.firmware.handle(&Request::Torque { iq_control }, plant))
+                .map(|r| r.encode(id)),
+            (MotorRequest::SlotTorque(iq), FirmwareFamily::LkV23x(series)) => Some(
+                self.firmware
+                    .lk_torque(iq, Dialect::LkV23x(series), plant)
+                    .encode(id),
+            ),
+            (MotorRequest::Lk(_) | MotorRequest::SlotTorque(_), _) => None,
+        };
+        self.firmware.set_ignore_motion(false);
+        let Some(frame) = frame else {
             self.stats.invalid_requests += 1;
+            return None;
+        };
+        self.stats.requests += 1;
+        if ignore {
+            self.trap_stats.ignored_motion += 1;
         }
-        reply
+        if request.is_run() {
+            self.run_at = Some(at);
+        }
+        if traps.unanswered.contains(request.command_byte()) {
+            self.trap_stats.unanswered += 1;
+            return None;
+        }
+        Some(frame)
     }
 
     /// A power cycle at `at` (RAM lost, ROM kept; the physical state is unchanged).

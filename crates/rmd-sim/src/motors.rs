@@ -3,14 +3,18 @@
 //! CAN interface.
 
 use rmd_bus::Timestamp;
+use rmd_protocol::v3::V3Request;
 use rmd_protocol::{
-    CanFrame, DecodedRequest, MULTI_TORQUE_MOTORS, MotorId, Request, decode_request,
+    CanFrame, DecodedRequest, Dialect, DialectRequest, LkSeries, MULTI_TORQUE_CAN_ID, MotorId,
+    ScaledMultiTorque, decode_request, decode_request_with,
 };
 
 use crate::config::{MotorConfig, SimConfig, validate_motors};
 use crate::error::ConfigError;
+use crate::family::FirmwareFamily;
 use crate::fault::{FaultEngine, FaultRule, FrameKind, MotorSet, ReplyFaults};
 use crate::motor::{MotorSnapshot, SimMotor};
+use crate::request::MotorRequest;
 
 /// A reply frame a motor will transmit, and when it is ready to go.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -24,8 +28,9 @@ pub struct ScheduledFrame {
     pub frame: CanFrame,
 }
 
-/// The most replies one frame can produce: a 0x280 to four motors, each duplicated.
-const MAX_REPLIES: usize = 2 * MULTI_TORQUE_MOTORS;
+/// The most replies one frame can produce: a 0x280 command to 32 MyActuator V3 motors, each
+/// duplicated.
+const MAX_REPLIES: usize = 2 * MotorId::MAX as usize;
 
 /// The replies to one frame, in the order they become ready (ties in id order). Allocation-free.
 #[derive(Copy, Clone, Debug)]
@@ -137,55 +142,84 @@ impl SimMotors {
 
     /// Handles one frame the host sent, received at `at`, and returns the replies.
     ///
+    /// Each motor reads the frame as its firmware family does
+    /// ([`FirmwareParams::family`](crate::FirmwareParams::family)): a v1.61 or LK-TECH motor
+    /// takes a 0x280 frame as four torque currents (its own scale; ids 1..=4 answer in ascending
+    /// id order), a MyActuator V3 motor as a command byte in DATA\[0\] that every V3 motor on
+    /// the bus executes and answers on `0x240 + id`.
+    ///
     /// Frames that are not valid requests (wrong DLC, unknown command byte, values out of
     /// range, an ID no motor here uses) are ignored, as the firmware would: no reply (counted
     /// in [`ignored_frames`](Self::ignored_frames)). Frames must come in time order; a frame
     /// older than a motor's state is handled at that state.
     pub fn handle(&mut self, frame: &CanFrame, at: Timestamp) -> Replies {
         let mut out = Replies::new();
-        match decode_request(frame) {
-            Ok(DecodedRequest::Single { motor, request }) => {
-                let Some(index) = self.index(motor) else {
-                    self.ignored_frames += 1;
-                    return out;
-                };
-                let kind = FrameKind::Single(request.command());
-                let faults = self.faults.on_motor_frame(motor, kind, at);
-                let sim = &mut self.motors[index];
-                if faults.silent {
-                    sim.stats_mut().silenced += 1;
-                    return out;
-                }
-                if let Some(reply) = sim.handle(&request, at, &self.faults) {
-                    let ready = at + sim.turnaround();
-                    emit(&mut out, sim, ready, reply.encode(motor), &faults);
-                }
-            }
-            Ok(DecodedRequest::Multi(multi)) => {
-                let mut previous = at;
-                for index in 0..self.motors.len() {
-                    let motor = self.motors[index].id();
-                    let Some(iq_control) = multi.iq_control_for(motor) else {
-                        continue;
-                    };
-                    let faults = self.faults.on_motor_frame(motor, FrameKind::Multi, at);
-                    let sim = &mut self.motors[index];
-                    if faults.silent {
-                        sim.stats_mut().silenced += 1;
-                        continue;
-                    }
-                    let request = Request::Torque { iq_control };
-                    if let Some(reply) = sim.handle(&request, at, &self.faults) {
-                        // The spec: motors 1..4 answer in ascending id order.
-                        let ready = (at + sim.turnaround()).max(previous);
-                        previous = ready;
-                        emit(&mut out, sim, ready, reply.encode(motor), &faults);
-                    }
-                }
-            }
-            Err(_) => self.ignored_frames += 1,
+        if frame.id() == MULTI_TORQUE_CAN_ID {
+            self.handle_broadcast(frame, at, &mut out);
+            return out;
+        }
+        let index = MotorId::from_can_id(frame.id())
+            .ok()
+            .and_then(|motor| self.index(motor));
+        let Some((index, request)) = index
+            .and_then(|i| MotorRequest::single(self.motors[i].family(), frame).map(|r| (i, r)))
+        else {
+            self.ignored_frames += 1;
+            return out;
+        };
+        let motor = self.motors[index].id();
+        let faults = self.faults.on_motor_frame(motor, request.kind(), at);
+        let sim = &mut self.motors[index];
+        if faults.silent {
+            sim.stats_mut().silenced += 1;
+            return out;
+        }
+        if let Some(reply) = sim.answer(&request, at, &self.faults) {
+            let ready = at + sim.turnaround();
+            emit(&mut out, sim, ready, reply, &faults);
         }
         out
+    }
+
+    /// A 0x280 frame: every motor reads it as its family does.
+    fn handle_broadcast(&mut self, frame: &CanFrame, at: Timestamp, out: &mut Replies) {
+        let readings = BroadcastReadings::of(frame);
+        let readable = if self.motors.is_empty() {
+            readings.v161.is_some()
+        } else {
+            self.motors
+                .iter()
+                .any(|m| readings.can_be_read_by(m.family()))
+        };
+        if !readable {
+            self.ignored_frames += 1;
+            return;
+        }
+        let mut previous = at;
+        for index in 0..self.motors.len() {
+            let motor = self.motors[index].id();
+            let family = self.motors[index].family();
+            let Some(request) = readings.request_for(family, motor) else {
+                continue;
+            };
+            let kind = match request {
+                MotorRequest::V3(_) => request.kind(),
+                _ => FrameKind::Multi,
+            };
+            let faults = self.faults.on_motor_frame(motor, kind, at);
+            let sim = &mut self.motors[index];
+            if faults.silent {
+                sim.stats_mut().silenced += 1;
+                continue;
+            }
+            if let Some(reply) = sim.answer(&request, at, &self.faults) {
+                // v1.61: motors 1..4 answer in ascending id order; V3: in the order bus
+                // arbitration gives, which for simultaneous replies is ascending id too.
+                let ready = (at + sim.turnaround()).max(previous);
+                previous = ready;
+                emit(out, sim, ready, reply, &faults);
+            }
+        }
     }
 
     /// Frames ignored because they were no valid request for a motor here.
@@ -246,6 +280,58 @@ impl SimMotors {
     }
 }
 
+/// A 0x280 frame as each family reads it.
+struct BroadcastReadings {
+    v161: Option<ScaledMultiTorque>,
+    lk_mf: Option<ScaledMultiTorque>,
+    lk_mg: Option<ScaledMultiTorque>,
+    v3: Option<V3Request>,
+}
+
+impl BroadcastReadings {
+    fn of(frame: &CanFrame) -> Self {
+        let lk = |series| match decode_request_with(Dialect::LkV23x(series), frame) {
+            Ok(DialectRequest::MultiTorque(m)) => Some(m),
+            _ => None,
+        };
+        Self {
+            v161: match decode_request(frame) {
+                Ok(DecodedRequest::Multi(m)) => Some(m.into()),
+                _ => None,
+            },
+            lk_mf: lk(LkSeries::Mf),
+            lk_mg: lk(LkSeries::Mg),
+            v3: frame.data8().and_then(V3Request::from_data),
+        }
+    }
+
+    fn torque(&self, family: FirmwareFamily) -> Option<ScaledMultiTorque> {
+        match family {
+            FirmwareFamily::V161 => self.v161,
+            FirmwareFamily::LkV23x(LkSeries::Mf) => self.lk_mf,
+            FirmwareFamily::LkV23x(LkSeries::Mg) => self.lk_mg,
+            FirmwareFamily::MyActuatorV3 => None,
+        }
+    }
+
+    fn can_be_read_by(&self, family: FirmwareFamily) -> bool {
+        match family {
+            FirmwareFamily::MyActuatorV3 => self.v3.is_some(),
+            other => self.torque(other).is_some(),
+        }
+    }
+
+    fn request_for(&self, family: FirmwareFamily, motor: MotorId) -> Option<MotorRequest> {
+        match family {
+            FirmwareFamily::MyActuatorV3 => self.v3.map(MotorRequest::V3),
+            other => self
+                .torque(other)?
+                .iq_control_for(motor)
+                .map(MotorRequest::SlotTorque),
+        }
+    }
+}
+
 /// Applies the reply faults and queues the reply (and its duplicate).
 fn emit(
     out: &mut Replies,
@@ -279,6 +365,8 @@ fn emit(
 }
 
 /// The kind of a host frame and the motors it addresses, for bus-fault rules.
+///
+/// Bus-fault rules classify host frames as v1.61 reads them, whatever the motors' families.
 pub(crate) fn classify(frame: &CanFrame) -> (FrameKind, Option<MotorSet>) {
     match decode_request(frame) {
         Ok(DecodedRequest::Single { motor, request }) => (
