@@ -69,6 +69,10 @@ pub struct FirmwareParams {
     pub family: FirmwareFamily,
     /// Firmware-state traps reported from real motors. Default: none.
     pub traps: FirmwareTraps,
+    /// Replies leave in the order the requests came: a reply held back (a late-reply fault)
+    /// holds the motor's later replies back too, as firmware handling one request at a time
+    /// does. Default: true.
+    pub in_order_replies: bool,
 }
 
 impl Default for FirmwareParams {
@@ -95,6 +99,7 @@ impl Default for FirmwareParams {
             clear_error_reply: ClearErrorReply::Echo,
             family: FirmwareFamily::V161,
             traps: FirmwareTraps::default(),
+            in_order_replies: true,
         }
     }
 }

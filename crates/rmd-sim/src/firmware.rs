@@ -211,6 +211,12 @@ impl Firmware {
         !self.stopped && self.errors.is_clear() && self.mode != ControlMode::Off
     }
 
+    /// Whether the firmware applies, or is commanded to apply, torque: its output is enabled
+    /// in a mode other than zero torque.
+    pub(crate) fn energising(&self) -> bool {
+        self.output_enabled() && self.mode != ControlMode::Torque { current_a: 0.0 }
+    }
+
     // ---- Measurements, as the firmware sees them -------------------------------------------
 
     fn absolute_count(&self, plant: &Plant) -> i64 {

@@ -47,6 +47,11 @@ pub struct MotorSnapshot {
     pub pid_ram: PidParams,
     /// PID gains in ROM.
     pub pid_rom: PidParams,
+    /// Whether the firmware applies, or is commanded to apply, torque (output enabled, in a mode
+    /// other than zero torque).
+    pub energising: bool,
+    /// Since when it has not (see [`SimMotor::safe_since`]).
+    pub safe_since: Option<Timestamp>,
 }
 
 /// Counters of one motor.
@@ -85,6 +90,11 @@ pub struct SimMotor {
     trap_stats: TrapStats,
     /// When the last 0x88 was handled.
     run_at: Option<Timestamp>,
+    /// Since when the firmware has applied no torque and been commanded none (`None` while it
+    /// does): the ground truth of "safe".
+    safe_since: Option<Timestamp>,
+    /// When this motor's newest reply is scheduled (replies leave in order).
+    last_reply_at: Timestamp,
 }
 
 impl SimMotor {
@@ -110,6 +120,8 @@ impl SimMotor {
             stats: MotorStats::default(),
             trap_stats: TrapStats::default(),
             run_at: None,
+            safe_since: Some(start),
+            last_reply_at: Timestamp::ZERO,
         })
     }
 
@@ -152,6 +164,34 @@ impl SimMotor {
         self.time
     }
 
+    /// Since when the firmware has applied no torque and been commanded none: off, stopped,
+    /// tripped by a protection, or commanded zero torque. `None` while it applies or is commanded
+    /// torque (any other mode). The instant a motor became safe, as the firmware knows it.
+    pub fn safe_since(&self) -> Option<Timestamp> {
+        self.safe_since
+    }
+
+    /// Notes whether the firmware is safe at `at` (after a command or a control step).
+    fn note_safety(&mut self, at: Timestamp) {
+        match (self.firmware.energising(), self.safe_since) {
+            (true, Some(_)) => self.safe_since = None,
+            (false, None) => self.safe_since = Some(at),
+            _ => {}
+        }
+    }
+
+    /// When a reply ready at `ready` leaves: with in-order replies, not before this motor's
+    /// previous one (a reply held back holds the later ones back too).
+    pub(crate) fn schedule_reply(&mut self, ready: Timestamp) -> Timestamp {
+        let at = if self.config.firmware.in_order_replies {
+            ready.max(self.last_reply_at)
+        } else {
+            ready
+        };
+        self.last_reply_at = at;
+        at
+    }
+
     /// The state in physical units.
     pub fn snapshot(&self) -> MotorSnapshot {
         let s = self.plant.state();
@@ -171,6 +211,8 @@ impl SimMotor {
             stopped: self.firmware.stopped(),
             pid_ram: self.firmware.pid_ram(),
             pid_rom: self.firmware.pid_rom(),
+            energising: self.firmware.energising(),
+            safe_since: self.safe_since,
         }
     }
 
@@ -194,12 +236,14 @@ impl SimMotor {
                 self.plant.rest(steps, &env);
                 self.time = Timestamp::from_nanos(self.time.as_nanos() + steps * SUBSTEP_NS);
                 self.firmware.supervise(&self.plant);
+                self.note_safety(self.time);
                 continue;
             }
             let drive = self.firmware.control(&self.plant, max_current);
             self.plant.step(drive, &env);
             self.time = Timestamp::from_nanos(self.time.as_nanos() + SUBSTEP_NS);
             self.firmware.supervise(&self.plant);
+            self.note_safety(self.time);
         }
     }
 
@@ -239,6 +283,7 @@ impl SimMotor {
             (MotorRequest::Lk(_) | MotorRequest::SlotTorque(_), _) => None,
         };
         self.firmware.set_ignore_motion(false);
+        self.note_safety(at);
         let Some(frame) = frame else {
             self.stats.invalid_requests += 1;
             return None;
@@ -261,6 +306,7 @@ impl SimMotor {
     pub(crate) fn power_cycle(&mut self, at: Timestamp, faults: &FaultEngine) {
         self.advance_to(at, faults);
         self.firmware.power_up(&self.plant);
+        self.note_safety(at);
     }
 
     /// The time from receiving a request to its reply being ready: the turnaround plus a

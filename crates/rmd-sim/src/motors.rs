@@ -354,7 +354,7 @@ fn emit(
         return;
     };
     let item = ScheduledFrame {
-        at: ready + faults.late,
+        at: sim.schedule_reply(ready + faults.late),
         motor: sim.id(),
         frame,
     };

@@ -62,10 +62,34 @@ fn dropped_reply() {
 }
 
 #[test]
-fn late_reply() {
-    // Motor 3's first 0x280 reply is 2.5 ms late: past the 1 ms tick, it arrives during tick
-    // 2, after that tick's own replies, stamped when it really came.
+fn late_reply_holds_back_the_motors_later_replies() {
+    // Motor 3's first 0x280 reply is 2.5 ms late. The firmware answers in order, so its replies
+    // to ticks 1 and 2 wait behind it and leave right after it, oldest first.
     let config = no_jitter(SimConfig::with_motors(4)).fault(
+        FaultRule::new(FaultKind::LateReply { delay: us(2_500) })
+            .motor(id(3))
+            .multi_torque()
+            .frames_window(0, 1),
+    );
+    let (_clock, mut bus) = sim_bus(config);
+    let ticks = run_ticks(&mut bus, 4);
+    assert_eq!(ids(&ticks[0]), [0x141, 0x142, 0x144]);
+    assert_eq!(ids(&ticks[1]), [0x141, 0x142, 0x144]);
+    // The late reply (to tick 0) ends tick 2; its two successors lead tick 3, before tick 3's
+    // own replies: four replies of motor 3, in request order, none overtaking another.
+    assert_eq!(ids(&ticks[2]), [0x141, 0x142, 0x144, 0x143]);
+    assert_eq!(ids(&ticks[3]), [0x143, 0x143, 0x141, 0x142, 0x143, 0x144]);
+}
+
+#[test]
+fn late_reply_out_of_order() {
+    // With in-order replies off, motor 3's first 0x280 reply (2.5 ms late) arrives during tick
+    // 2, after that tick's own replies, stamped when it really came.
+    let mut config = no_jitter(SimConfig::with_motors(4));
+    for m in &mut config.motors {
+        m.firmware.in_order_replies = false;
+    }
+    let config = config.fault(
         FaultRule::new(FaultKind::LateReply { delay: us(2_500) })
             .motor(id(3))
             .multi_torque()
