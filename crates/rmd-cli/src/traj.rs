@@ -38,7 +38,7 @@ fn check(file: &std::path::Path) -> ExitCode {
         Ok(json) => json,
         Err(e) => return report::usage_error(format!("cannot read {}: {e}", file.display())),
     };
-    match rmd_traj::vectors::check_vectors(&json) {
+    match rmd_traj_vectors::check_vectors(&json) {
         Ok(outcome) => {
             println!("{outcome}");
             if outcome.all_passed() {

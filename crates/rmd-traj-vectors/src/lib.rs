@@ -1,7 +1,19 @@
-//! Checking a file of reference test vectors (schema version 1 of
-//! `shared/testdata/trajectory/SCHEMA.md`) against this crate. Feature `vectors`.
+//! # rmd-traj-vectors
 //!
-//! Every case is solved with [`calculate`](crate::calculate) and judged by the rules of the
+//! Checks [`rmd_traj`] against a file of reference test vectors (schema version 1 of
+//! `shared/testdata/trajectory/SCHEMA.md`, the reference implementation's answers). The checker
+//! lives outside `rmd-traj` so that the trajectory library stays `no_std` with no dependency but
+//! `libm`; `rmd traj check FILE` and the example `check_vectors` wrap [`check_vectors`].
+//!
+//! ```no_run
+//! let json = std::fs::read_to_string("ruckig-vectors.json")?;
+//! let report = rmd_traj_vectors::check_vectors(&json)?;
+//! println!("{report}"); // per-category counts; the last line is `N passed, M failed`
+//! assert!(report.all_passed());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! Every case is solved with [`calculate`] and judged by the rules of the
 //! schema's "How to compare" section, made precise as follows.
 //!
 //! **Scales.** Per axis, the schema's `S_p = max(1, |p0|, |pf|, vMax·T)`,
@@ -77,6 +89,9 @@
 //! absolute, plus `R_x`): it did not solve the problem as given (typically an `oracle_rescaled`
 //! answer that was "already there" only in the rescaled units). Counted as passed if ours is
 //! valid, listed with what the reference missed.
+// `!(x <= limit)` is used on purpose throughout, as in rmd-traj: it rejects NaN, which
+// `x > limit` would let through.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -85,9 +100,14 @@ use std::vec::Vec;
 
 use serde::Deserialize;
 
-use crate::input::{ControlInterface, DurationDiscretization, Input, Synchronization};
-use crate::profile::AxisProfile;
-use crate::trajectory::Trajectory;
+use rmd_traj::{
+    AxisProfile, ControlInterface, DurationDiscretization, Input, MAX_SYNCHRONIZED_DURATION,
+    Synchronization, Trajectory, calculate,
+};
+
+use crate::integration::{Axis, Integrator, integrate};
+
+mod integration;
 
 /// Errors reading a vectors file.
 #[derive(Debug, thiserror::Error)]
@@ -324,7 +344,7 @@ struct Samples {
 ///
 /// ```no_run
 /// let json = std::fs::read_to_string("ruckig-vectors.json").unwrap();
-/// let report = rmd_traj::vectors::check_vectors(&json).unwrap();
+/// let report = rmd_traj_vectors::check_vectors(&json).unwrap();
 /// println!("{report}");
 /// assert!(report.all_passed());
 /// ```
@@ -426,7 +446,7 @@ fn run<const N: usize>(case: &Case, rounding: f64) -> Result<CaseStatus, String>
     let input = build_input::<N>(case)?;
     let exp = &case.expected;
     let no_oracle = case.tags.iter().any(|t| t == "ruckig_failed");
-    let result = crate::trajectory::calculate(&input);
+    let result = calculate(&input);
     let traj = match (&result, exp.result) {
         (Err(e), code) if e.code() == code => return Ok(CaseStatus::Passed),
         (Err(_), _) if no_oracle => return Ok(CaseStatus::Passed),
@@ -441,12 +461,12 @@ fn run<const N: usize>(case: &Case, rounding: f64) -> Result<CaseStatus, String>
             validate_trajectory(&input, t)?;
             return Ok(CaseStatus::Passed);
         }
-        (Ok(t), -101) if t.duration() <= crate::MAX_SYNCHRONIZED_DURATION => {
+        (Ok(t), -101) if t.duration() <= MAX_SYNCHRONIZED_DURATION => {
             // The reference's duration exceeds the cap; ours does not: shorter, if valid.
             validate_trajectory(&input, t)?;
             return Ok(CaseStatus::BetterThanReference(format!(
                 "reference failed with -101 (duration above {}); ours {} (valid)",
-                crate::MAX_SYNCHRONIZED_DURATION,
+                MAX_SYNCHRONIZED_DURATION,
                 t.duration()
             )));
         }
@@ -591,12 +611,12 @@ fn axis_minimum<const N: usize>(
         return AxisMinimum::Unexplained;
     }
     let single = single_axis(input, i);
-    let Ok(own) = crate::trajectory::calculate(&single) else {
+    let Ok(own) = calculate(&single) else {
         return AxisMinimum::Unexplained;
     };
     match reference_tolerance_below_rounding(
         &own.profiles()[0],
-        &single.axis(0),
+        &Axis::of(&single, 0),
         input.control_interface,
     ) {
         Some(reason) => AxisMinimum::ShorterExplained(format!(
@@ -638,13 +658,13 @@ fn single_axis<const N: usize>(input: &Input<N>, i: usize) -> Input<1> {
 /// then depends on the units (the same problem scaled by 2^−4 or 2^−8 gives ours).
 fn reference_tolerance_below_rounding(
     prof: &AxisProfile,
-    ax: &crate::input::AxisInput,
+    ax: &Axis,
     interface: ControlInterface,
 ) -> Option<String> {
     let position = interface == ControlInterface::Position;
-    let a_snap = crate::math::snap_scale(ax.a0, ax.af, ax.a_max, ax.a_min);
+    let a_snap = ax.snap_scale();
     let s0 = prof.start_state();
-    let mut it = crate::math::Integrator::new(s0.position, s0.velocity, s0.acceleration, a_snap);
+    let mut it = Integrator::new(s0.position, s0.velocity, s0.acceleration, a_snap);
     for ph in prof.brake() {
         it.step(ph.duration, ph.jerk);
     }
@@ -819,8 +839,8 @@ fn compare_samples<const N: usize>(
             );
             let vmax = input.max_velocity[i].abs();
             let amax = input.max_acceleration[i].abs();
-            let ax = input.axis(i);
-            let a_snap = crate::math::snap_scale(ax.a0, ax.af, ax.a_max, ax.a_min);
+            let ax = Axis::of(input, i);
+            let a_snap = ax.snap_scale();
             let peak = magnitudes(&traj.profiles()[i], a_snap);
             let s_p = 1f64
                 .max(input.current_position[i].abs())
@@ -925,7 +945,7 @@ struct Magnitudes {
 
 fn magnitudes(prof: &AxisProfile, a_snap: f64) -> Magnitudes {
     let s0 = prof.start_state();
-    let mut it = crate::math::Integrator::new(s0.position, s0.velocity, s0.acceleration, a_snap);
+    let mut it = Integrator::new(s0.position, s0.velocity, s0.acceleration, a_snap);
     let mut m = Magnitudes {
         p: s0.position.abs(),
         v: s0.velocity.abs(),
@@ -964,8 +984,8 @@ pub(crate) fn validate_trajectory<const N: usize>(
     let position = input.control_interface == ControlInterface::Position;
     for i in 0..N {
         let prof = &traj.profiles()[i];
-        let ax = input.axis(i);
-        let a_snap = crate::math::snap_scale(ax.a0, ax.af, ax.a_max, ax.a_min);
+        let ax = Axis::of(input, i);
+        let a_snap = ax.snap_scale();
         let peak = magnitudes(prof, a_snap);
         let s_p = 1f64
             .max(ax.p0.abs())
@@ -990,7 +1010,7 @@ pub(crate) fn validate_trajectory<const N: usize>(
             ));
         }
         let (mut p, mut v, mut a) = (ax.p0, ax.v0, ax.a0);
-        let mut snap = crate::math::Integrator::new(p, v, a, a_snap);
+        let mut snap = Integrator::new(p, v, a, a_snap);
         let mut time = 0.0;
         let n_brake = prof.brake().count();
         let mut grid_checks: Vec<(f64, f64, f64, f64, f64)> = Vec::new();
@@ -1049,7 +1069,7 @@ pub(crate) fn validate_trajectory<const N: usize>(
             // Grid of the sampler inside this phase.
             for s in 1..4 {
                 let dt = ph.duration * s as f64 / 4.0;
-                let (pg, vg, ag) = crate::math::integrate(dt, p, v, a, ph.jerk);
+                let (pg, vg, ag) = integrate(dt, p, v, a, ph.jerk);
                 grid_checks.push((time + dt, pg, vg, ag, ph.jerk));
             }
             (p, v, a) = (p1, v1, a1);

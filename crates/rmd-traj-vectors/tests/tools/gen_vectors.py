@@ -322,7 +322,7 @@ def main():
         counts[category] = counts.get(category, 0) + 1
         results[code] = results.get(code, 0) + 1
     out = {"schema_version": 1,
-           "generator": {"script": "crates/rmd-traj/tests/tools/gen_vectors.py", "set": "extra",
+           "generator": {"script": "crates/rmd-traj-vectors/tests/tools/gen_vectors.py", "set": "extra",
                          "seed": args.seed, "ruckig_version": "0.19.4"},
            "units": "abstract (unitless)", "sample_fractions": FRACTIONS,
            "sample_significant_digits": args.digits, "ranges": RANGES, "counts": counts,

@@ -1,6 +1,6 @@
-//! Checks a vectors file (schema of `shared/testdata/trajectory/SCHEMA.md`) against this crate,
-//! the same as `rmd traj check FILE`: `cargo run -p rmd-traj --features vectors --example
-//! check_vectors -- FILE`. Exit status 1 if any case failed, 2 if the file cannot be read.
+//! Checks a vectors file (schema of `shared/testdata/trajectory/SCHEMA.md`) against rmd-traj,
+//! the same as `rmd traj check FILE`: `cargo run -p rmd-traj-vectors --example check_vectors --
+//! FILE`. Exit status 1 if any case failed, 2 if the file cannot be read.
 
 use std::process::ExitCode;
 
@@ -16,7 +16,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match rmd_traj::vectors::check_vectors(&json) {
+    match rmd_traj_vectors::check_vectors(&json) {
         Ok(report) => {
             println!("{report}");
             if report.all_passed() {
