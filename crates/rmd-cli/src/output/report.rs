@@ -2,10 +2,14 @@
 
 use std::process::ExitCode;
 
+use rmd_protocol::{MotorId, Reply};
+
 /// Exit code for a usage error (bad or missing argument), as clap uses.
 pub(crate) const USAGE: u8 = 2;
 /// Exit code when the command ran but something failed (a bad input line, an I/O error).
 pub(crate) const FAILURE: u8 = 1;
+/// Exit code after Ctrl-C or SIGTERM (128 + SIGINT, as shells report it).
+pub(crate) const INTERRUPTED: u8 = 130;
 
 /// How a command failed.
 #[derive(Debug)]
@@ -18,15 +22,13 @@ pub(crate) enum CliError {
     Interrupted(String),
 }
 
-impl From<crate::exchange::ExchangeError> for CliError {
-    fn from(error: crate::exchange::ExchangeError) -> Self {
-        CliError::Failed(error.to_string())
-    }
-}
-
-impl From<crate::confirm::NotConfirmed> for CliError {
-    fn from(error: crate::confirm::NotConfirmed) -> Self {
-        CliError::Failed(error.to_string())
+impl CliError {
+    /// `motor` answered a request with a reply to another command.
+    pub(crate) fn unexpected_reply(motor: MotorId, reply: &Reply) -> Self {
+        CliError::Failed(format!(
+            "motor {motor} answered with an unexpected {} reply; try again",
+            reply.command()
+        ))
     }
 }
 
@@ -44,7 +46,7 @@ pub(crate) fn exit(result: Result<(), CliError>) -> ExitCode {
         Err(CliError::Failed(message)) => failure(message),
         Err(CliError::Interrupted(message)) => {
             eprintln!("interrupted: {message}");
-            ExitCode::from(crate::interrupt::EXIT_CODE)
+            ExitCode::from(INTERRUPTED)
         }
     }
 }
@@ -97,7 +99,23 @@ fn one_line(message: &str) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::one_line;
+    use super::*;
+
+    #[test]
+    fn an_unexpected_reply_names_the_motor_and_the_command() {
+        let motor = MotorId::new(3).unwrap();
+        let CliError::Failed(message) = CliError::unexpected_reply(motor, &Reply::MotorOff) else {
+            panic!("an unexpected reply is a failure, not a usage error");
+        };
+        assert!(
+            message.starts_with("motor 3 answered with an unexpected"),
+            "{message}"
+        );
+        assert!(
+            message.contains(&Reply::MotorOff.command().to_string()),
+            "{message}"
+        );
+    }
 
     #[test]
     fn condenses_clap_messages() {

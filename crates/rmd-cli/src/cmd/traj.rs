@@ -9,7 +9,7 @@ use std::process::ExitCode;
 
 use clap::{Args, Subcommand};
 
-use crate::report;
+use crate::output::report;
 
 /// `rmd traj ...`.
 #[derive(Args, Debug)]

@@ -30,7 +30,7 @@ use super::flags::{self, RtFlags};
 use super::pd::MovingTargetPd;
 use super::robot;
 use super::wire_limit::{self, WireLimit, us};
-use crate::report;
+use crate::output::report;
 
 /// Bit rate of the simulated buses.
 const BITRATE: u32 = 1_000_000;

@@ -5,10 +5,11 @@ use std::process::ExitCode;
 use clap::{ArgGroup, Args, Subcommand};
 use rmd_protocol::{EncoderValue, MotorId, Reply, Request};
 
-use crate::connect::{BusArgs, Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
-use crate::parse;
-use crate::readings;
-use crate::report::{self, CliError};
+use crate::args::bus::BusArgs;
+use crate::args::parse;
+use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::output::readings;
+use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd encoder`.
 #[derive(Args, Debug)]
@@ -59,13 +60,6 @@ pub(crate) fn run(args: EncoderArgs) -> ExitCode {
     })
 }
 
-fn unexpected(id: MotorId, reply: &Reply) -> CliError {
-    CliError::Failed(format!(
-        "motor {id} answered with an unexpected {} reply; try again",
-        reply.command()
-    ))
-}
-
 fn get(id: MotorId, json: bool, args: &BusArgs) -> Result<(), CliError> {
     let mut bus = Connection::open(args, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     let reply = bus.request(id, &Request::ReadEncoder)?;
@@ -75,7 +69,7 @@ fn get(id: MotorId, json: bool, args: &BusArgs) -> Result<(), CliError> {
         encoder_offset,
     } = reply
     else {
-        return Err(unexpected(id, &reply));
+        return Err(CliError::unexpected_reply(id, &reply));
     };
     let width = bus.width();
     bus.finish()?;
@@ -112,7 +106,7 @@ fn set_offset(args: &OffsetArgs) -> Result<(), CliError> {
         Some(offset) => offset,
         None => match bus.request(id, &Request::ReadEncoder)? {
             Reply::ReadEncoder { encoder_raw, .. } => encoder_raw,
-            other => return Err(unexpected(id, &other)),
+            other => return Err(CliError::unexpected_reply(id, &other)),
         },
     };
     let reply = bus.request(
@@ -132,6 +126,6 @@ fn set_offset(args: &OffsetArgs) -> Result<(), CliError> {
             encoder_offset.raw(),
             offset.raw()
         ))),
-        other => Err(unexpected(id, &other)),
+        other => Err(CliError::unexpected_reply(id, &other)),
     }
 }

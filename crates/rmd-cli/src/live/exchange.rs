@@ -14,7 +14,8 @@ use std::time::Duration;
 use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock, Timestamp};
 use rmd_protocol::{Command, MotorId, ProtocolError, Reply, Request, decode_reply_to};
 
-use crate::ids::IdList;
+use crate::args::ids::IdList;
+use crate::output::report::CliError;
 
 /// Timeout and retries of each exchange, and what the bus is (for the advice in errors).
 #[derive(Clone, Debug)]
@@ -196,6 +197,12 @@ impl ExchangeError {
 /// Pause between two sends refused because the transmit queue is full.
 const TX_FULL_PAUSE: Duration = Duration::from_micros(200);
 
+impl From<ExchangeError> for CliError {
+    fn from(error: ExchangeError) -> Self {
+        CliError::Failed(error.to_string())
+    }
+}
+
 /// Sends `request` to `motor` and returns its reply (see the module docs).
 pub(crate) fn request(
     bus: &mut dyn CanBus,
@@ -309,7 +316,7 @@ mod tests {
         Policy {
             timeout: Duration::from_millis(10),
             retries,
-            setup: Setup::Simulator(crate::ids::parse("1-4").unwrap()),
+            setup: Setup::Simulator(crate::args::ids::parse("1-4").unwrap()),
         }
     }
 

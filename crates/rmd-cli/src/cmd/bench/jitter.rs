@@ -12,7 +12,7 @@ use serde_json::{Value, json};
 
 use super::flags::{self, RtFlags};
 use super::histogram;
-use crate::report;
+use crate::output::report;
 
 /// Arguments of `rmd bench jitter`.
 #[derive(Args, Debug)]

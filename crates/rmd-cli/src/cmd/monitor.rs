@@ -10,12 +10,13 @@ use rmd_bus::Clock;
 use rmd_protocol::{MotorId, Reply, Request};
 use serde_json::{Value, json};
 
-use crate::connect::{BusArgs, Connection, DEFAULT_TIMEOUT};
-use crate::ids::{self, IdList};
-use crate::interrupt;
-use crate::parse;
-use crate::readings;
-use crate::report::{self, CliError};
+use crate::args::bus::BusArgs;
+use crate::args::ids::{self, IdList};
+use crate::args::parse;
+use crate::live::connect::{Connection, DEFAULT_TIMEOUT};
+use crate::live::interrupt;
+use crate::output::readings;
+use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd monitor`.
 #[derive(Args, Debug)]

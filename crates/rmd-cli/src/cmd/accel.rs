@@ -5,10 +5,11 @@ use std::process::ExitCode;
 use clap::{Args, Subcommand};
 use rmd_protocol::{Accel, MotorId, Reply, Request};
 
-use crate::connect::{BusArgs, Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
-use crate::parse;
-use crate::readings;
-use crate::report::{self, CliError};
+use crate::args::bus::BusArgs;
+use crate::args::parse;
+use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::output::readings;
+use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd accel`.
 #[derive(Args, Debug)]
@@ -51,18 +52,11 @@ pub(crate) fn run(args: AccelArgs) -> ExitCode {
     })
 }
 
-fn unexpected(id: MotorId, reply: &Reply) -> CliError {
-    CliError::Failed(format!(
-        "motor {id} answered with an unexpected {} reply; try again",
-        reply.command()
-    ))
-}
-
 fn get(id: MotorId, json: bool, args: &BusArgs) -> Result<(), CliError> {
     let mut bus = Connection::open(args, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     let reply = bus.request(id, &Request::ReadAccel)?;
     let Reply::ReadAccel { accel } = reply else {
-        return Err(unexpected(id, &reply));
+        return Err(CliError::unexpected_reply(id, &reply));
     };
     if json {
         println!("{}", readings::object(id, &[reply], bus.width()));
@@ -90,6 +84,6 @@ fn set(id: MotorId, accel: Accel, args: &BusArgs) -> Result<(), CliError> {
             echoed.dps_per_s(),
             accel.dps_per_s()
         ))),
-        other => Err(unexpected(id, &other)),
+        other => Err(CliError::unexpected_reply(id, &other)),
     }
 }

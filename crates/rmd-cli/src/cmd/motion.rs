@@ -12,11 +12,12 @@ use rmd_protocol::{
     AngleControl, MaxSpeed, MotorId, Reply, Request, SingleTurnAngle, SpinDirection,
 };
 
-use crate::connect::{BusArgs, Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
-use crate::interrupt;
-use crate::parse;
-use crate::report::{self, CliError};
-use crate::safe_stop;
+use crate::args::bus::BusArgs;
+use crate::args::parse;
+use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::live::interrupt;
+use crate::live::safe_stop;
+use crate::output::report::{self, CliError};
 
 /// Direction of the single-turn modes 3 and 4.
 #[derive(Copy, Clone, Debug, ValueEnum)]

@@ -5,11 +5,12 @@ use std::process::ExitCode;
 use clap::{Args, Subcommand};
 use rmd_protocol::{MotorId, PidParams, Reply, Request};
 
-use crate::confirm;
-use crate::connect::{BusArgs, Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
-use crate::parse;
-use crate::readings;
-use crate::report::{self, CliError};
+use crate::args::bus::BusArgs;
+use crate::args::parse;
+use crate::live::confirm;
+use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::output::readings;
+use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd pid`.
 #[derive(Args, Debug)]
@@ -114,15 +115,8 @@ pub(crate) fn gains_text(p: &PidParams) -> String {
 fn read(bus: &mut Connection, id: MotorId) -> Result<PidParams, CliError> {
     match bus.request(id, &Request::ReadPid)? {
         Reply::ReadPid(p) => Ok(p),
-        other => Err(unexpected(id, &other)),
+        other => Err(CliError::unexpected_reply(id, &other)),
     }
-}
-
-fn unexpected(id: MotorId, reply: &Reply) -> CliError {
-    CliError::Failed(format!(
-        "motor {id} answered with an unexpected {} reply; try again",
-        reply.command()
-    ))
 }
 
 fn get(id: MotorId, json: bool, args: &BusArgs) -> Result<(), CliError> {
@@ -174,7 +168,7 @@ fn set(args: &SetArgs) -> Result<(), CliError> {
     };
     let echoed = match bus.request(id, &request)? {
         Reply::WritePidRam(p) | Reply::WritePidRom(p) => p,
-        other => return Err(unexpected(id, &other)),
+        other => return Err(CliError::unexpected_reply(id, &other)),
     };
     bus.finish()?;
     if echoed != gains {

@@ -2,8 +2,10 @@
 //!
 //! Reads FILE (or stdin, also with `-`) line by line in any of candump's text formats (see
 //! [`rmd_bus::candump`]). Each valid frame prints one JSON object on stdout, in input order (see
-//! [`crate::json`]); each bad line prints `line N: <what is wrong>` on stderr and the run goes
+//! [`crate::output::json`]); each bad line prints `line N: <what is wrong>` on stderr and the run goes
 //! on; the exit status is 1 if any line failed. Blank lines are skipped.
+
+pub(crate) mod pairing;
 
 use std::fs::File;
 use std::io::{self, BufRead, BufReader, BufWriter, Write};
@@ -15,9 +17,10 @@ use rmd_bus::candump::{self, CandumpLine};
 use rmd_protocol::{DecodedRequest, EncoderWidth, decode_reply, decode_reply_to, decode_request};
 use serde_json::Value;
 
-use crate::json::FrameJson;
-use crate::pairing::{Pairing, Role};
-use crate::{parse, report};
+use crate::args::parse;
+use crate::output::json::FrameJson;
+use crate::output::report;
+use pairing::{Pairing, Role};
 
 /// How to read each frame.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]

@@ -19,7 +19,7 @@ use serde_json::{Value, json};
 use super::flags::{self, RtFlags};
 use super::pd::{self, MovingTargetPd};
 use super::robot;
-use crate::report;
+use crate::output::report;
 
 /// Arguments of `rmd bench loop`.
 #[derive(Args, Debug)]

@@ -20,11 +20,11 @@ use rmd_sim::{
     FaultKind, FaultRule, GravityLink, MotorConfig, MotorSet, ScheduledFrame, SimConfig, SimMotors,
 };
 
-use crate::connect::{Filter, open_interface, report_recording};
-use crate::ids::{self, IdList};
-use crate::interrupt;
-use crate::parse;
-use crate::report::{self, CliError};
+use crate::args::ids::{self, IdList};
+use crate::args::parse;
+use crate::live::connect::{Filter, open_interface, report_recording};
+use crate::live::interrupt;
+use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd sim`.
 #[derive(Args, Debug)]

@@ -5,9 +5,10 @@ use std::process::ExitCode;
 use clap::Args;
 use rmd_protocol::{Reply, Request};
 
-use crate::connect::{BusArgs, Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
-use crate::ids::{self, IdList};
-use crate::report::{self, CliError};
+use crate::args::bus::BusArgs;
+use crate::args::ids::{self, IdList};
+use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd off`, `rmd stop` and `rmd run`.
 #[derive(Args, Debug)]

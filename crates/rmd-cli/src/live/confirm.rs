@@ -5,6 +5,8 @@
 
 use std::io::{self, BufRead, IsTerminal, Write};
 
+use crate::output::report::CliError;
+
 /// Why the write was not confirmed.
 #[derive(Debug, thiserror::Error)]
 pub(crate) enum NotConfirmed {
@@ -51,6 +53,12 @@ pub(crate) fn confirm(what: &str, warning: &str, yes: bool) -> Result<(), NotCon
         Err(NotConfirmed::Declined {
             what: what.to_owned(),
         })
+    }
+}
+
+impl From<NotConfirmed> for CliError {
+    fn from(error: NotConfirmed) -> Self {
+        CliError::Failed(error.to_string())
     }
 }
 

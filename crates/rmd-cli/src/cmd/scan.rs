@@ -7,10 +7,11 @@ use clap::Args;
 use rmd_protocol::{Reply, Request};
 use serde_json::Value;
 
-use crate::connect::{BusArgs, Connection};
-use crate::ids::{self, IdList};
-use crate::readings;
-use crate::report::{self, CliError};
+use crate::args::bus::BusArgs;
+use crate::args::ids::{self, IdList};
+use crate::live::connect::Connection;
+use crate::output::readings;
+use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd scan`.
 #[derive(Args, Debug)]

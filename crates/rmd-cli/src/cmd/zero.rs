@@ -6,10 +6,11 @@ use std::process::ExitCode;
 use clap::Args;
 use rmd_protocol::{MotorId, Reply, Request};
 
-use crate::confirm;
-use crate::connect::{BusArgs, Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
-use crate::parse;
-use crate::report::{self, CliError};
+use crate::args::bus::BusArgs;
+use crate::args::parse;
+use crate::live::confirm;
+use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd zero`.
 #[derive(Args, Debug)]

@@ -10,11 +10,12 @@ use clap::{ArgGroup, Args};
 use rmd_bus::Clock;
 use rmd_protocol::{IqControl, MotorId, Request, SpeedControl, Status2};
 
-use crate::connect::{BusArgs, Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
-use crate::interrupt;
-use crate::parse;
-use crate::report::{self, CliError};
-use crate::safe_stop;
+use crate::args::bus::BusArgs;
+use crate::args::parse;
+use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::live::interrupt;
+use crate::live::safe_stop;
+use crate::output::report::{self, CliError};
 
 /// How long and how often (shared by torque and speed).
 #[derive(Args, Debug)]

@@ -5,54 +5,20 @@ use std::fs::File;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use clap::Args;
 use rmd_bus::record::{LogWriter, RecordOptions, record};
 use rmd_bus::{CanBus, MonotonicClock};
 use rmd_protocol::{EncoderWidth, MotorId, Reply, Request};
 use rmd_sim::{MotorConfig, SimBus, SimConfig};
 
-use crate::exchange::{self, ExchangeError, Policy, Setup};
-use crate::ids::{self, IdList};
-use crate::parse;
-use crate::report::CliError;
-
-/// Where the motors are, and how to talk to them (flattened into every live command).
-#[derive(Args, Debug, Clone)]
-pub(crate) struct BusArgs {
-    /// SocketCAN interface of the motors (e.g. can0; vcan0 with `rmd sim`).
-    #[arg(long, value_name = "IFACE", conflicts_with = "sim")]
-    pub(crate) iface: Option<String>,
-    /// Talk to simulated motors in this process (real time) instead of an interface.
-    #[arg(long)]
-    pub(crate) sim: bool,
-    /// Motor ids the in-process simulator runs (with --sim).
-    #[arg(long, value_name = "IDS", value_parser = ids::parse, default_value = "1-4")]
-    pub(crate) sim_ids: IdList,
-    /// Width of the motors' encoders in bits (12..=18), for encoder angles.
-    #[arg(long, value_name = "BITS", value_parser = parse::encoder_width, default_value = "14")]
-    pub(crate) encoder_bits: EncoderWidth,
-    /// How long to wait for each reply, milliseconds [default: 50; scan: 20].
-    #[arg(long, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=60_000))]
-    pub(crate) timeout_ms: Option<u64>,
-    /// How many times to send a request again after a timeout [default: 2; scan: 0].
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=100))]
-    pub(crate) retries: Option<u32>,
-    /// Also record every frame sent and received to this candump -L file.
-    #[arg(long = "log", value_name = "FILE")]
-    pub(crate) log: Option<PathBuf>,
-}
+use crate::args::bus::BusArgs;
+use crate::args::ids::IdList;
+use crate::live::exchange::{self, ExchangeError, Policy, Setup};
+use crate::output::report::CliError;
 
 /// Default reply timeout of a request.
 pub(crate) const DEFAULT_TIMEOUT: Duration = Duration::from_millis(50);
 /// Default retries of a request.
 pub(crate) const DEFAULT_RETRIES: u32 = 2;
-
-impl BusArgs {
-    /// Whether a bus was named (`--iface` or `--sim`).
-    pub(crate) fn has_target(&self) -> bool {
-        self.sim || self.iface.is_some()
-    }
-}
 
 /// An open bus: the bus (recorded if asked), its clock, and the exchange policy.
 pub(crate) struct Connection {

@@ -13,8 +13,8 @@ use rmd_protocol::{
     MultiTorque, PidParams, Request, SingleTurnAngle, SpeedControl, SpinDirection,
 };
 
-use crate::parse;
-use crate::report;
+use crate::args::parse;
+use crate::output::report;
 
 /// Arguments of `rmd encode`.
 #[derive(Args, Debug)]

@@ -2,7 +2,7 @@
 //!
 //! [`install`] replaces the default "terminate at once" behaviour with a flag: the command
 //! keeps control, sees [`requested`] in its loop, stops its motors and exits with
-//! [`EXIT_CODE`]. Install it only once nothing blocks for long any more (after a confirmation
+//! [`INTERRUPTED`](crate::output::report::INTERRUPTED). Install it only once nothing blocks for long any more (after a confirmation
 //! prompt), since a blocked read no longer ends on Ctrl-C.
 
 use std::sync::OnceLock;
@@ -10,9 +10,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use rmd_bus::{Clock, Timestamp};
-
-/// Exit status after an interruption (128 + SIGINT, as shells report it).
-pub(crate) const EXIT_CODE: u8 = 130;
 
 static REQUESTED: AtomicBool = AtomicBool::new(false);
 static INSTALLED: OnceLock<Result<(), String>> = OnceLock::new();

@@ -19,14 +19,15 @@ use rmd_bus::replay::{LogRecord, Pace, ReplaySchedule, read_log};
 use rmd_bus::{BusMessage, Clock, Timestamp};
 use rmd_protocol::{DecodedRequest, MotorId, Request, decode_request};
 
-use crate::confirm;
-use crate::connect::{BusArgs, Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
-use crate::exchange::{self, Setup};
-use crate::interrupt;
-use crate::pairing::{Pairing, Role};
-use crate::parse;
-use crate::report::{self, CliError};
-use crate::safe_stop;
+use crate::args::bus::BusArgs;
+use crate::args::parse;
+use crate::cmd::decode::pairing::{Pairing, Role};
+use crate::live::confirm;
+use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::live::exchange::{self, Setup};
+use crate::live::interrupt;
+use crate::live::safe_stop;
+use crate::output::report::{self, CliError};
 
 /// Which frames of the log to play.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]

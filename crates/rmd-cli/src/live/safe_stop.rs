@@ -3,8 +3,8 @@
 
 use rmd_protocol::{MotorId, Reply, Request};
 
-use crate::connect::Connection;
-use crate::report::CliError;
+use crate::live::connect::Connection;
+use crate::output::report::CliError;
 
 /// Turns `motors` off. The error lists every motor that did not confirm, and what to do.
 pub(crate) fn turn_off(bus: &mut Connection, motors: &[MotorId]) -> Result<(), String> {

@@ -11,10 +11,10 @@ use clap::Args;
 use rmd_bus::record::{RecordOptions, record};
 use rmd_bus::{BusError, BusMessage, CanBus, Clock, MonotonicClock};
 
-use crate::connect::{Filter, open_interface, report_recording};
-use crate::interrupt;
-use crate::parse;
-use crate::report::{self, CliError};
+use crate::args::parse;
+use crate::live::connect::{Filter, open_interface, report_recording};
+use crate::live::interrupt;
+use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd log`.
 #[derive(Args, Debug)]

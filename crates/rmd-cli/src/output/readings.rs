@@ -4,7 +4,7 @@
 use rmd_protocol::{EncoderWidth, ErrorState, MotorId, Reply};
 use serde_json::{Map, Value, json};
 
-use crate::json::reply_fields;
+use crate::output::json::reply_fields;
 
 /// `{"id": N, <fields of every reply>}`; a field present in several replies (temperature) keeps
 /// the last value.

@@ -6,10 +6,11 @@ use std::process::ExitCode;
 use clap::Args;
 use rmd_protocol::{EncoderWidth, MotorId, Reply, Request};
 
-use crate::connect::{BusArgs, Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
-use crate::ids::{self, IdList};
-use crate::readings;
-use crate::report::{self, CliError};
+use crate::args::bus::BusArgs;
+use crate::args::ids::{self, IdList};
+use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::output::readings;
+use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd status`.
 #[derive(Args, Debug)]
@@ -79,7 +80,7 @@ fn status(args: &StatusArgs) -> Result<(), CliError> {
 fn read_all(
     bus: &mut Connection,
     motor: MotorId,
-) -> Result<Vec<Reply>, crate::exchange::ExchangeError> {
+) -> Result<Vec<Reply>, crate::live::exchange::ExchangeError> {
     READS
         .iter()
         .map(|request| bus.request(motor, request))

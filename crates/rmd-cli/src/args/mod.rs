@@ -1,0 +1,6 @@
+//! Argument types and value parsers shared by the commands: motor id lists ([`ids`]), the
+//! protocol's typed values ([`parse`]) and the bus options of the live commands ([`bus`]).
+
+pub(crate) mod bus;
+pub(crate) mod ids;
+pub(crate) mod parse;
