@@ -96,30 +96,6 @@ pub(crate) fn iq_amps4(text: &str) -> Result<[IqControl; 4], String> {
     four(text, iq_amps)
 }
 
-/// A duration: a number of seconds, or a number with a unit `ms`, `s` or `min` (`500ms`,
-/// `2s`, `1.5`, `1min`).
-pub(crate) fn duration(text: &str) -> Result<std::time::Duration, String> {
-    let t = text.trim();
-    let (number, scale) = if let Some(n) = t.strip_suffix("ms") {
-        (n, 1e-3)
-    } else if let Some(n) = t.strip_suffix("min") {
-        (n, 60.0)
-    } else if let Some(n) = t.strip_suffix('s') {
-        (n, 1.0)
-    } else {
-        (t, 1.0)
-    };
-    let value: f64 = number
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{text}` is not a duration (e.g. 2s, 500ms, 1.5, 1min)"))?;
-    let seconds = value * scale;
-    if !(seconds.is_finite() && (0.0..=1e9).contains(&seconds)) {
-        return Err(format!("duration `{text}` must be between 0 and 1e9 s"));
-    }
-    Ok(std::time::Duration::from_secs_f64(seconds))
-}
-
 /// A probability, 0..=1.
 pub(crate) fn probability(text: &str) -> Result<f64, String> {
     let p = float(text)?;
@@ -186,17 +162,6 @@ pub(crate) fn late_fault(text: &str) -> Result<(f64, std::time::Duration), Strin
 mod tests {
     use super::*;
     use std::time::Duration;
-
-    #[test]
-    fn durations_with_and_without_units() {
-        assert_eq!(duration("2s"), Ok(Duration::from_secs(2)));
-        assert_eq!(duration("250ms"), Ok(Duration::from_millis(250)));
-        assert_eq!(duration("1.5"), Ok(Duration::from_millis(1500)));
-        assert_eq!(duration("1min"), Ok(Duration::from_secs(60)));
-        assert!(duration("-1s").is_err());
-        assert!(duration("soon").is_err());
-        assert!(duration("nan").is_err());
-    }
 
     #[test]
     fn fault_and_load_options() {

@@ -11,6 +11,7 @@ use rmd_bus::Clock;
 use rmd_protocol::{IqControl, MotorId, Request, SpeedControl, Status2};
 
 use crate::args::bus::BusArgs;
+use crate::args::duration;
 use crate::args::parse;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
@@ -20,11 +21,12 @@ use crate::output::report::{self, CliError};
 /// How long and how often (shared by torque and speed).
 #[derive(Args, Debug)]
 struct Timing {
-    /// How long to drive the motor before turning it off (e.g. 2s, 500ms).
-    #[arg(long, value_parser = parse::duration, default_value = "1s")]
+    /// How long to drive the motor before turning it off (e.g. 2s, 500ms; a bare number is
+    /// seconds).
+    #[arg(long, visible_alias = "seconds", value_name = "DURATION", value_parser = duration::any, default_value = "1s", allow_hyphen_values = true)]
     duration: Duration,
     /// How often the command is sent again (and the motor's reply shown), Hz.
-    #[arg(long, value_parser = parse::positive, default_value = "50")]
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = parse::positive, default_value = "50")]
     rate: f64,
 }
 

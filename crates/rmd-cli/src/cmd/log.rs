@@ -11,7 +11,7 @@ use clap::Args;
 use rmd_bus::record::{RecordOptions, record};
 use rmd_bus::{BusError, BusMessage, CanBus, Clock, MonotonicClock};
 
-use crate::args::parse;
+use crate::args::duration;
 use crate::live::connect::{Filter, open_interface, report_recording};
 use crate::live::interrupt;
 use crate::output::report::{self, CliError};
@@ -26,8 +26,8 @@ pub(crate) struct LogArgs {
     /// The candump -L file to write (`-`: stdout, e.g. `| rmd decode`).
     #[arg(value_name = "FILE")]
     file: PathBuf,
-    /// Stop after this long (e.g. 10s).
-    #[arg(long, value_parser = parse::duration)]
+    /// Stop after this long (e.g. 10s, 2m; a bare number is seconds).
+    #[arg(long, visible_alias = "seconds", value_name = "DURATION", value_parser = duration::any, allow_hyphen_values = true)]
     duration: Option<Duration>,
     /// Stop after this many frames.
     #[arg(long, value_name = "N")]

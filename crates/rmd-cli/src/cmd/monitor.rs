@@ -25,7 +25,7 @@ pub(crate) struct MonitorArgs {
     #[arg(long, value_name = "IDS", value_parser = ids::parse)]
     ids: Option<IdList>,
     /// Readings per second.
-    #[arg(long, value_name = "HZ", value_parser = parse::positive, default_value = "10")]
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = parse::positive, default_value = "10")]
     rate: f64,
     /// Stop after this many readings [default: until Ctrl-C].
     #[arg(long, value_name = "N")]

@@ -13,6 +13,7 @@ use rmd_protocol::{
 };
 
 use crate::args::bus::BusArgs;
+use crate::args::duration;
 use crate::args::parse;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
@@ -58,8 +59,9 @@ pub(crate) struct MoveArgs {
     /// How close counts as there, degrees.
     #[arg(long, value_name = "DEG", value_parser = parse::positive, default_value = "1")]
     tolerance: f64,
-    /// Give up (and turn the motor off) if it is not there after this long.
-    #[arg(long = "wait-timeout", value_name = "DURATION", value_parser = parse::duration, default_value = "10s")]
+    /// Give up (and turn the motor off) if it is not there after this long (e.g. 10s, 1m; a
+    /// bare number is seconds).
+    #[arg(long = "wait-timeout", value_name = "DURATION", value_parser = duration::any, default_value = "10s", allow_hyphen_values = true)]
     wait_timeout: Duration,
     /// Return once the motor accepted the command, without waiting for it to arrive.
     #[arg(long)]

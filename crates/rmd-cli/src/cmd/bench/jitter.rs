@@ -10,8 +10,8 @@ use rmd_loop::jitter::{self, JitterConfig, JitterReport};
 use rmd_loop::schedule::Period;
 use serde_json::{Value, json};
 
-use super::flags::{self, RtFlags};
 use super::histogram;
+use crate::args::run::{self, RtFlags};
 use crate::output::report;
 
 /// Arguments of `rmd bench jitter`.
@@ -26,9 +26,9 @@ pub(crate) struct JitterArgs {
     /// Tick period in microseconds (10..=10000000).
     #[arg(long, value_name = "P", default_value = "1000", value_parser = period_us)]
     period_us: Period,
-    /// How long to measure, in seconds.
-    #[arg(long, value_name = "S", default_value = "10", value_parser = flags::seconds, allow_hyphen_values = true)]
-    seconds: Duration,
+    /// How long to measure (e.g. 10s, 2m; a bare number is seconds).
+    #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "10s", value_parser = run::run_length, allow_hyphen_values = true)]
+    duration: Duration,
     #[command(flatten)]
     rt: RtFlags,
     /// Print one JSON object.
@@ -56,7 +56,7 @@ pub(crate) fn run(args: JitterArgs) -> ExitCode {
     }
     let config = JitterConfig {
         period: args.period_us,
-        duration: args.seconds,
+        duration: args.duration,
         spin_margin: args.rt.spin(),
         rt: args.rt.request(),
     };

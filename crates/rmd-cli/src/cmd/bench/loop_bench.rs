@@ -16,9 +16,10 @@ use rmd_bus::{Clock, MonotonicClock, VirtualClock};
 use rmd_loop::{LoopOutcome, RtLoop, RunLimit};
 use serde_json::{Value, json};
 
-use super::flags::{self, RtFlags};
+use super::flags;
 use super::pd::{self, MovingTargetPd};
 use super::robot;
+use crate::args::run::{self, RtFlags};
 use crate::output::report;
 
 /// Arguments of `rmd bench loop`.
@@ -39,11 +40,11 @@ pub(crate) struct LoopArgs {
     #[arg(long, default_value = "1", value_parser = flags::buses)]
     buses: usize,
     /// Loop rate in Hz.
-    #[arg(long, value_name = "HZ", default_value = "1000", value_parser = flags::rate, allow_hyphen_values = true)]
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", default_value = "1000", value_parser = run::rate, allow_hyphen_values = true)]
     rate: f64,
-    /// How long to run, in (real or virtual) seconds.
-    #[arg(long, value_name = "S", default_value = "5", value_parser = flags::seconds, allow_hyphen_values = true)]
-    seconds: Duration,
+    /// How long to run, in real or virtual time (e.g. 5s, 500ms; a bare number is seconds).
+    #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "5s", value_parser = run::run_length, allow_hyphen_values = true)]
+    duration: Duration,
     /// Run on a virtual clock: deterministic, as fast as the CPU allows (latencies are then 0).
     #[arg(long)]
     virtual_time: bool,
@@ -139,7 +140,7 @@ fn run_on<C: Clock + Clone + 'static>(
         .map_err(|e| Failure::Usage(e.to_string()))?;
     let telemetry = rt.telemetry();
     let handle = rt
-        .spawn(RunLimit::Duration(args.seconds))
+        .spawn(RunLimit::Duration(args.duration))
         .map_err(|e| Failure::Run(e.to_string()))?;
     // Drain the telemetry as an application would, so that none is dropped.
     while handle.is_running() {

@@ -1,7 +1,7 @@
 //! `rmd bench rate`: the highest loop rate the simulated 1 Mbit/s bus sustains with zero deadline
 //! misses, found by bisection, against the wire limit of the frames actually sent.
 //!
-//! A trial runs the loop (PD controller on moving targets, as `rmd bench loop`) for `--seconds`
+//! A trial runs the loop (PD controller on moving targets, as `rmd bench loop`) for `--duration`
 //! at one rate, with the reply deadline at the end of the period (the loop waits for replies as
 //! long as the period allows) and the wire-budget check off (`allow_over_budget`: the search
 //! looks for the real limit, beyond the worst-case budget). It passes when every tick ran on time
@@ -26,10 +26,11 @@ use rmd_loop::stats::Percentiles;
 use rmd_loop::{RtLoop, RunLimit};
 use serde_json::{Value, json};
 
-use super::flags::{self, RtFlags};
+use super::flags;
 use super::pd::MovingTargetPd;
 use super::robot;
 use super::wire_limit::{self, WireLimit, us};
+use crate::args::run::{self, RtFlags};
 use crate::output::report;
 
 /// Bit rate of the simulated buses.
@@ -58,9 +59,9 @@ pub(crate) struct RateArgs {
     /// Motors per bus, 1..=4.
     #[arg(long, default_value = "4", value_parser = flags::motors)]
     motors: u8,
-    /// Length of each trial, seconds.
-    #[arg(long, value_name = "S", default_value = "10", value_parser = flags::seconds, allow_hyphen_values = true)]
-    seconds: Duration,
+    /// Length of each trial (e.g. 10s, 500ms; a bare number is seconds).
+    #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "10s", value_parser = run::run_length, allow_hyphen_values = true)]
+    duration: Duration,
     #[command(flatten)]
     rt: RtFlags,
     /// Let the simulated bus busy-wait the last US microseconds before each frame it delivers
@@ -74,7 +75,7 @@ pub(crate) struct RateArgs {
     #[arg(long, value_name = "N", default_value_t = 1)]
     confirm: u32,
     /// Run one trial at this rate instead of searching.
-    #[arg(long, value_name = "HZ", value_parser = flags::rate, allow_hyphen_values = true)]
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = run::rate, allow_hyphen_values = true)]
     rate: Option<f64>,
     /// Run on a virtual clock (the loop then costs no time: the search finds the wire limit).
     #[arg(long)]
@@ -219,7 +220,7 @@ fn run_trial<L: Clock, S: Clock + Clone>(
     l.allow_over_budget = true;
     // Wait for replies as long as the period allows: the loop adds no gap of its own.
     l.reply_deadline_us = Some((period.as_nanos() / 1000) as u64);
-    let expected_ticks = (args.seconds.as_nanos() / period.as_nanos()) as u64;
+    let expected_ticks = (args.duration.as_nanos() / period.as_nanos()) as u64;
     let mut sims = robot::sim_buses(&sim_clock, args.buses, args.motors)
         .map_err(|e| format!("simulator: {e}"))?;
     let frames_per_exchange = usize::from(args.motors) + 1;
@@ -234,7 +235,7 @@ fn run_trial<L: Clock, S: Clock + Clone>(
         MovingTargetPd::new(!args.virtual_time),
     )
     .map_err(|e| e.to_string())?;
-    let outcome = rt.run(RunLimit::Duration(args.seconds));
+    let outcome = rt.run(RunLimit::Duration(args.duration));
     // The ticks' exchanges only: not the start-up probes nor the safe stop (zero-torque frames,
     // the longest there are).
     let (first, last) = outcome
@@ -406,7 +407,7 @@ pub(crate) fn run(args: RateArgs) -> ExitCode {
             args.motors,
             args.buses,
             BITRATE,
-            args.seconds.as_secs_f64(),
+            args.duration.as_secs_f64(),
             args.rt.spin_us,
             args.rt.cpu.map_or("-".to_string(), |c| c.to_string()),
             args.rt.fifo.map_or("-".to_string(), |p| p.to_string()),
@@ -445,7 +446,7 @@ fn summary_json(args: &RateArgs, s: &Search, best: Option<&Trial>) -> Value {
         "buses": args.buses,
         "motors_per_bus": args.motors,
         "bitrate": BITRATE,
-        "seconds_per_trial": args.seconds.as_secs_f64(),
+        "seconds_per_trial": args.duration.as_secs_f64(),
         "spin_us": args.rt.spin_us,
         "cpu": args.rt.cpu,
         "fifo_priority": args.rt.fifo,
