@@ -8,6 +8,7 @@ use rmd_protocol::{Accel, MotorId, Reply, Request};
 use crate::args::bus::BusArgs;
 use crate::args::parse;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::output::outln;
 use crate::output::readings;
 use crate::output::report::{self, CliError};
 
@@ -59,9 +60,9 @@ fn get(id: MotorId, json: bool, args: &BusArgs) -> Result<(), CliError> {
         return Err(CliError::unexpected_reply(id, &reply));
     };
     if json {
-        println!("{}", readings::object(id, &[reply], bus.width()));
+        outln!("{}", readings::object(id, &[reply], bus.width()))?;
     } else {
-        println!("motor {id}: acceleration {} dps/s", accel.dps_per_s());
+        outln!("motor {id}: acceleration {} dps/s", accel.dps_per_s())?;
     }
     bus.finish()?;
     Ok(())
@@ -73,10 +74,10 @@ fn set(id: MotorId, accel: Accel, args: &BusArgs) -> Result<(), CliError> {
     bus.finish()?;
     match reply {
         Reply::WriteAccelRam { accel: echoed } if echoed == accel => {
-            println!(
+            outln!(
                 "motor {id}: acceleration {} dps/s written to RAM (lost at power off)",
                 accel.dps_per_s()
-            );
+            )?;
             Ok(())
         }
         Reply::WriteAccelRam { accel: echoed } => Err(CliError::Failed(format!(

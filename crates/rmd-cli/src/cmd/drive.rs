@@ -2,7 +2,7 @@
 //! then turn it off. The command is sent again at `--rate` (each reply is shown live), and
 //! Ctrl-C turns the motor off at once.
 
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::process::ExitCode;
 use std::time::Duration;
 
@@ -17,6 +17,7 @@ use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
 use crate::live::safe_stop;
 use crate::output::report::{self, CliError};
+use crate::output::{console, errln, outln};
 
 /// How long and how often (shared by torque and speed).
 #[derive(Args, Debug)]
@@ -120,7 +121,7 @@ fn drive(
     let end = start + timing.duration;
     let mut sent: u32 = 0;
     let mut last: Option<Status2> = None;
-    eprintln!(
+    errln!(
         "motor {id}: {what} for {:.2} s (Ctrl-C stops it)",
         timing.duration.as_secs_f64()
     );
@@ -136,12 +137,11 @@ fn drive(
         let elapsed = bus.clock().now() - start;
         if let Some(status) = last {
             if live {
-                eprint!(
+                console::err_text(format_args!(
                     "\r  t {:6.2} s  {}   ",
                     elapsed.as_secs_f64(),
                     reading(&status)
-                );
-                let _ = std::io::stderr().flush();
+                ));
             }
             if let Some(limit) = max_speed
                 && status.speed.dps().abs() > limit
@@ -161,17 +161,17 @@ fn drive(
         }
     };
     if live {
-        eprintln!();
+        errln!();
     }
     let elapsed = bus.clock().now() - start;
     let result = safe_stop::finish(&mut bus, &[id], outcome);
     bus.finish()?;
     result?;
-    println!(
+    outln!(
         "motor {id}: {what} for {:.2} s ({sent} commands), then turned off{}",
         elapsed.as_secs_f64(),
         last.map_or(String::new(), |s| format!("; last reply: {}", reading(&s)))
-    );
+    )?;
     Ok(())
 }
 

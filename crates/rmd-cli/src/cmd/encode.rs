@@ -14,6 +14,7 @@ use rmd_protocol::{
 };
 
 use crate::args::parse;
+use crate::output::outln;
 use crate::output::report;
 
 /// Arguments of `rmd encode`.
@@ -386,10 +387,7 @@ fn frame(command: EncodeCommand) -> Result<CanFrame, String> {
 /// Runs `rmd encode`: prints the frame, or one error line.
 pub(crate) fn run(args: EncodeArgs) -> ExitCode {
     match frame(args.command) {
-        Ok(frame) => {
-            println!("{frame}");
-            ExitCode::SUCCESS
-        }
+        Ok(frame) => report::exit(outln!("{frame}").map_err(Into::into)),
         Err(message) => report::usage_error(message),
     }
 }

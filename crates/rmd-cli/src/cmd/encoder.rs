@@ -8,6 +8,7 @@ use rmd_protocol::{EncoderValue, MotorId, Reply, Request};
 use crate::args::bus::BusArgs;
 use crate::args::parse;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::output::outln;
 use crate::output::readings;
 use crate::output::report::{self, CliError};
 
@@ -74,16 +75,16 @@ fn get(id: MotorId, json: bool, args: &BusArgs) -> Result<(), CliError> {
     let width = bus.width();
     bus.finish()?;
     if json {
-        println!("{}", readings::object(id, &[reply], width));
+        outln!("{}", readings::object(id, &[reply], width))?;
     } else {
-        println!(
+        outln!(
             "motor {id}: encoder {} ({:.2}°), raw {}, offset {} ({}-bit)",
             encoder.raw(),
             encoder.degrees(width),
             encoder_raw.raw(),
             encoder_offset.raw(),
             width.bits()
-        );
+        )?;
     }
     Ok(())
 }
@@ -118,7 +119,7 @@ fn set_offset(args: &OffsetArgs) -> Result<(), CliError> {
     bus.finish()?;
     match reply {
         Reply::WriteEncoderOffset { encoder_offset } if encoder_offset == offset => {
-            println!("motor {id}: encoder offset {} written", offset.raw());
+            outln!("motor {id}: encoder offset {} written", offset.raw())?;
             Ok(())
         }
         Reply::WriteEncoderOffset { encoder_offset } => Err(CliError::Failed(format!(

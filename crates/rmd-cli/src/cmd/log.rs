@@ -5,6 +5,7 @@ use std::fs::File;
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use clap::Args;
@@ -14,6 +15,8 @@ use rmd_bus::{BusError, BusMessage, CanBus, Clock, MonotonicClock};
 use crate::args::duration;
 use crate::live::connect::{Filter, open_interface, report_recording};
 use crate::live::interrupt;
+use crate::output::console::WatchedSink;
+use crate::output::errln;
 use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd log`.
@@ -44,8 +47,12 @@ pub(crate) fn run(args: LogArgs) -> ExitCode {
 
 fn log(args: &LogArgs) -> Result<(), CliError> {
     let to_stdout = args.file.as_os_str() == "-";
+    // Set when the reader of stdout goes away (`rmd log --iface can0 - | head`): the log ends.
+    let mut reader_gone = None;
     let sink: Box<dyn Write + Send> = if to_stdout {
-        Box::new(std::io::stdout())
+        let (sink, closed) = WatchedSink::new(std::io::stdout());
+        reader_gone = Some(closed);
+        Box::new(sink)
     } else {
         Box::new(
             File::create(&args.file)
@@ -57,7 +64,7 @@ fn log(args: &LogArgs) -> Result<(), CliError> {
     let (mut bus, writer) =
         record(bus, clock, sink, RecordOptions::new(&args.iface)).map_err(|e| e.to_string())?;
     interrupt::install()?;
-    eprintln!(
+    errln!(
         "recording {} to {} (Ctrl-C stops)",
         args.iface,
         if to_stdout {
@@ -69,6 +76,12 @@ fn log(args: &LogArgs) -> Result<(), CliError> {
     let end = args.duration.map(|d| clock.now() + d);
     let mut frames = 0u64;
     let outcome = loop {
+        if reader_gone
+            .as_ref()
+            .is_some_and(|gone| gone.load(Ordering::Relaxed))
+        {
+            break Err(CliError::OutputClosed);
+        }
         if interrupt::requested()
             || args.count.is_some_and(|n| frames >= n)
             || end.is_some_and(|end| clock.now() >= end)
@@ -81,7 +94,7 @@ fn log(args: &LogArgs) -> Result<(), CliError> {
                 if let BusMessage::Frame(_) = received.message {
                     frames += 1;
                 } else if let BusMessage::Event(event) = received.message {
-                    eprintln!("bus event on {}: {event}", args.iface);
+                    errln!("bus event on {}: {event}", args.iface);
                 }
             }
             Ok(None) => {}
@@ -106,6 +119,11 @@ fn log(args: &LogArgs) -> Result<(), CliError> {
     } else {
         args.file.clone()
     };
+    if matches!(outcome, Err(CliError::OutputClosed)) {
+        // The frames nobody could read are the reason, not news: end quietly.
+        drop(writer);
+        return outcome;
+    }
     report_recording(&path, writer)?;
     outcome
 }

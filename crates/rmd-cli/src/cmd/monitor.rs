@@ -1,7 +1,7 @@
 //! `rmd monitor`: a live table of every motor's temperature, voltage, current, speed and angle
 //! (status 1, status 2 and the multi-turn angle, read at `--rate`), until Ctrl-C or `--count`.
 
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::process::ExitCode;
 use std::time::Duration;
 
@@ -17,6 +17,7 @@ use crate::live::connect::{Connection, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
 use crate::output::readings;
 use crate::output::report::{self, CliError};
+use crate::output::{out, outln};
 
 /// Arguments of `rmd monitor`.
 #[derive(Args, Debug)]
@@ -82,8 +83,7 @@ fn monitor(args: &MonitorArgs) -> Result<(), CliError> {
         for &motor in &motors {
             rows.push((motor, read(&mut bus, motor)?));
         }
-        let mut out = std::io::stdout().lock();
-        if args.json {
+        let shown = if args.json {
             let list: Vec<Value> = rows
                 .iter()
                 .map(|(motor, row)| match row {
@@ -91,20 +91,26 @@ fn monitor(args: &MonitorArgs) -> Result<(), CliError> {
                     Err(error) => readings::error_object(*motor, error),
                 })
                 .collect();
-            let _ = writeln!(out, "{}", json!({"time_s": time_s, "motors": list}));
+            outln!("{}", json!({"time_s": time_s, "motors": list}))
         } else {
+            let mut text = String::new();
             if redraw && drawn_lines > 0 {
                 // Back to the top of the previous table.
-                let _ = write!(out, "\x1b[{drawn_lines}A");
+                text += &format!("\x1b[{drawn_lines}A");
             }
             let table = table(time_s, &rows, if redraw { "\x1b[K" } else { "" });
             drawn_lines = table.lines().count();
-            let _ = write!(out, "{table}");
+            text += &table;
             if !redraw {
-                let _ = writeln!(out);
+                text.push('\n');
             }
+            out!("{text}")
+        };
+        if let Err(error) = shown {
+            // Nobody reads any more (or the output failed): stop, keeping the recording.
+            bus.finish()?;
+            return Err(error.into());
         }
-        let _ = out.flush();
         readings_done += 1;
     }
     bus.finish()?;

@@ -2,7 +2,7 @@
 //! angle limits checked before anything is sent; waits until the motor is there (Ctrl-C or a
 //! timeout turns it off), then leaves it holding the position.
 
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::process::ExitCode;
 use std::time::Duration;
 
@@ -19,6 +19,7 @@ use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
 use crate::live::safe_stop;
 use crate::output::report::{self, CliError};
+use crate::output::{console, errln, outln};
 
 /// Direction of the single-turn modes 3 and 4.
 #[derive(Copy, Clone, Debug, ValueEnum)]
@@ -167,7 +168,7 @@ fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
     }
     if args.no_wait {
         bus.finish()?;
-        println!("motor {id}: moving to {}° (mode {})", args.deg, args.mode);
+        outln!("motor {id}: moving to {}° (mode {})", args.deg, args.mode)?;
         return Ok(());
     }
     let single_turn = args.mode >= 3;
@@ -185,12 +186,11 @@ fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
         let elapsed = bus.clock().now() - start;
         let error = distance(angle.unwrap_or(f64::NAN), args.deg, single_turn);
         if live {
-            eprint!(
+            console::err_text(format_args!(
                 "\r  t {:6.2} s  angle {:9.2}°   ",
                 elapsed.as_secs_f64(),
                 angle.unwrap_or(0.0)
-            );
-            let _ = std::io::stderr().flush();
+            ));
         }
         if error <= args.tolerance {
             break Ok(elapsed);
@@ -209,18 +209,18 @@ fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
         }
     };
     if live {
-        eprintln!();
+        errln!();
     }
     match outcome {
         Ok(elapsed) => {
             bus.finish()?;
-            println!(
+            outln!(
                 "motor {id}: at {:.2}° (target {}°) after {:.2} s; holding the position \
                  (`rmd off {id}` releases it)",
                 angle.unwrap_or(f64::NAN),
                 args.deg,
                 elapsed.as_secs_f64()
-            );
+            )?;
             Ok(())
         }
         Err(error) => {

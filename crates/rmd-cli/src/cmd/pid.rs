@@ -9,6 +9,7 @@ use crate::args::bus::BusArgs;
 use crate::args::parse;
 use crate::live::confirm;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::output::outln;
 use crate::output::readings;
 use crate::output::report::{self, CliError};
 
@@ -123,12 +124,12 @@ fn get(id: MotorId, json: bool, args: &BusArgs) -> Result<(), CliError> {
     let mut bus = Connection::open(args, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     let gains = read(&mut bus, id)?;
     if json {
-        println!(
+        outln!(
             "{}",
             readings::object(id, &[Reply::ReadPid(gains)], bus.width())
-        );
+        )?;
     } else {
-        println!("motor {id}: {}", gains_text(&gains));
+        outln!("motor {id}: {}", gains_text(&gains))?;
     }
     bus.finish()?;
     Ok(())
@@ -179,9 +180,9 @@ fn set(args: &SetArgs) -> Result<(), CliError> {
             gains_text(&gains)
         )));
     }
-    println!(
+    outln!(
         "motor {id}: PID gains written to {memory}: {}",
         gains_text(&gains)
-    );
+    )?;
     Ok(())
 }

@@ -9,6 +9,7 @@ use crate::args::bus::BusArgs;
 use crate::args::ids::{self, IdList};
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::output::report::{self, CliError};
+use crate::output::{errln, outln};
 
 /// Arguments of `rmd off`, `rmd stop` and `rmd run`.
 #[derive(Args, Debug)]
@@ -60,9 +61,9 @@ fn apply(action: Action, args: &PowerArgs) -> Result<(), CliError> {
     let mut failed = Vec::new();
     for &motor in args.ids.ids() {
         match bus.request(motor, &request) {
-            Ok(reply) if reply == expected(action) => println!("motor {motor}: {}", action.done()),
+            Ok(reply) if reply == expected(action) => outln!("motor {motor}: {}", action.done())?,
             Ok(reply) => {
-                eprintln!(
+                errln!(
                     "error: motor {motor} answered {} with {}: try again",
                     request.command(),
                     reply.command()
@@ -71,7 +72,7 @@ fn apply(action: Action, args: &PowerArgs) -> Result<(), CliError> {
             }
             Err(error) if error.is_bus_failure() => return Err(error.into()),
             Err(error) => {
-                eprintln!("error: {error}");
+                errln!("error: {error}");
                 failed.push(motor.to_string());
             }
         }

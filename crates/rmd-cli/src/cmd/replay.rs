@@ -7,7 +7,7 @@
 //! that received motion commands are turned off at the end and on Ctrl-C.
 
 use std::fs::File;
-use std::io::{BufReader, Write};
+use std::io::BufReader;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -27,7 +27,9 @@ use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::exchange::{self, Setup};
 use crate::live::interrupt;
 use crate::live::safe_stop;
+use crate::output::console::WriteError;
 use crate::output::report::{self, CliError};
+use crate::output::{errln, outln};
 
 /// Which frames of the log to play.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -73,7 +75,7 @@ fn replay(args: &ReplayArgs) -> Result<(), CliError> {
     let parsed = read_log(BufReader::new(file))
         .map_err(|e| format!("cannot read {}: {e}", args.file.display()))?;
     for bad in &parsed.bad_lines {
-        eprintln!("warning: {}: {bad} (skipped)", args.file.display());
+        errln!("warning: {}: {bad} (skipped)", args.file.display());
     }
     let target = args.bus.has_target();
     let selection = args
@@ -158,7 +160,6 @@ fn print_in_time(records: &[LogRecord], pace: Pace) -> Result<(), CliError> {
     let clock = rmd_bus::MonotonicClock;
     interrupt::install()?;
     let schedule = ReplaySchedule::new(records[0].timestamp, clock.now(), pace);
-    let mut out = std::io::stdout().lock();
     for record in records {
         if !interrupt::sleep_until(&clock, schedule.due(record.timestamp)) {
             return Err(CliError::Interrupted("replay".into()));
@@ -167,10 +168,8 @@ fn print_in_time(records: &[LogRecord], pace: Pace) -> Result<(), CliError> {
         if let Some(direction) = record.direction {
             line = line.with_direction(direction);
         }
-        if writeln!(out, "{line}").and_then(|()| out.flush()).is_err() {
-            // stdout closed (e.g. `| head`): stop quietly.
-            return Ok(());
-        }
+        // A closed stdout (e.g. `| head`) ends the replay quietly.
+        outln!("{line}")?;
     }
     Ok(())
 }
@@ -223,7 +222,7 @@ fn play_onto_bus(args: &ReplayArgs, records: &[LogRecord], pace: Pace) -> Result
                     bus.setup().name()
                 ))
             })?;
-            printer.print(bus.clock().now(), Direction::Tx, record.frame);
+            printer.print(bus.clock().now(), Direction::Tx, record.frame)?;
             sent += 1;
         }
         // What the last frames bring back.
@@ -238,7 +237,7 @@ fn play_onto_bus(args: &ReplayArgs, records: &[LogRecord], pace: Pace) -> Result
     };
     let target = bus.setup().name();
     bus.finish()?;
-    eprintln!(
+    errln!(
         "replayed {sent} frame(s) onto {target} in {:.3} s; {} frame(s) received",
         elapsed.as_secs_f64(),
         printer.received
@@ -254,12 +253,15 @@ struct Printer {
 }
 
 impl Printer {
-    fn print(&mut self, at: Timestamp, direction: Direction, frame: rmd_bus::CanFrame) {
+    fn print(
+        &mut self,
+        at: Timestamp,
+        direction: Direction,
+        frame: rmd_bus::CanFrame,
+    ) -> Result<(), WriteError> {
         let timestamp = Duration::from_nanos(at.as_nanos()) + self.offset;
         let line = LogLine::new(timestamp, &self.interface, frame).with_direction(direction);
-        let mut out = std::io::stdout().lock();
-        let _ = writeln!(out, "{line}");
-        let _ = out.flush();
+        outln!("{line}")
     }
 }
 
@@ -283,7 +285,7 @@ fn listen_until(
             Ok(Some(received)) => {
                 if let BusMessage::Frame(frame) = received.message {
                     printer.received += 1;
-                    printer.print(received.at, Direction::Rx, frame);
+                    printer.print(received.at, Direction::Rx, frame)?;
                 }
             }
             Ok(None) => {}

@@ -12,6 +12,7 @@ use crate::args::ids::{self, IdList};
 use crate::live::connect::Connection;
 use crate::output::readings;
 use crate::output::report::{self, CliError};
+use crate::output::{errln, outln};
 
 /// Arguments of `rmd scan`.
 #[derive(Args, Debug)]
@@ -51,7 +52,7 @@ fn scan(args: &ScanArgs) -> Result<(), CliError> {
     let setup = bus.setup().clone();
     bus.finish()?;
     for problem in &problems {
-        eprintln!("warning: {problem}");
+        errln!("warning: {problem}");
     }
     if args.json {
         let list: Vec<Value> = found
@@ -64,20 +65,22 @@ fn scan(args: &ScanArgs) -> Result<(), CliError> {
                 )
             })
             .collect();
-        println!("{}", Value::Array(list));
+        outln!("{}", Value::Array(list))?;
     } else if !found.is_empty() {
-        println!(
+        outln!(
             "{:>3}  {:>11}  {:>8}  errors",
-            "id", "temperature", "voltage"
-        );
+            "id",
+            "temperature",
+            "voltage"
+        )?;
         for (motor, status) in &found {
-            println!(
+            outln!(
                 "{:>3}  {:>8} °C  {:>6.1} V  {}",
                 motor.get(),
                 status.temperature.celsius(),
                 status.voltage.volts(),
                 readings::errors_text(status.error_state)
-            );
+            )?;
         }
     }
     let ids: Vec<String> = found.iter().map(|(m, _)| m.to_string()).collect();
@@ -90,7 +93,7 @@ fn scan(args: &ScanArgs) -> Result<(), CliError> {
             args.ids
         )));
     }
-    eprintln!(
+    errln!(
         "{} motor{} answered on {}{}",
         found.len(),
         if found.len() == 1 { "" } else { "s" },

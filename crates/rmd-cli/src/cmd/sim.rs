@@ -24,6 +24,7 @@ use crate::args::ids::{self, IdList};
 use crate::args::parse;
 use crate::live::connect::{Filter, open_interface, report_recording};
 use crate::live::interrupt;
+use crate::output::errln;
 use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd sim`.
@@ -182,9 +183,10 @@ fn serve(args: &SimArgs) -> Result<(), CliError> {
         }
     };
     interrupt::install()?;
-    eprintln!(
+    errln!(
         "rmd sim: motors {} answering on {} (Ctrl-C stops)",
-        args.ids, args.iface
+        args.ids,
+        args.iface
     );
     let mut pending: Vec<ScheduledFrame> = Vec::new();
     let mut counts = Counts::default();
@@ -192,10 +194,12 @@ fn serve(args: &SimArgs) -> Result<(), CliError> {
     drop(bus);
     let ignored = motors.ignored_frames();
     let dropped: u64 = motors.iter().map(|m| m.stats().dropped_replies).sum();
-    eprintln!(
+    errln!(
         "rmd sim: stopped; {} frames received ({ignored} not for these motors), {} replies \
          sent, {dropped} dropped by fault injection, {} could not be sent",
-        counts.frames, counts.replies, counts.send_failures
+        counts.frames,
+        counts.replies,
+        counts.send_failures
     );
     if let (Some(path), Some(writer)) = (&args.log, writer) {
         report_recording(path, writer)?;

@@ -9,8 +9,10 @@ use rmd_protocol::{EncoderWidth, MotorId, Reply, Request};
 use crate::args::bus::BusArgs;
 use crate::args::ids::{self, IdList};
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::output::console::WriteError;
 use crate::output::readings;
 use crate::output::report::{self, CliError};
+use crate::output::{errln, outln};
 
 /// Arguments of `rmd status`.
 #[derive(Args, Debug)]
@@ -47,9 +49,9 @@ fn status(args: &StatusArgs) -> Result<(), CliError> {
         match read_all(&mut bus, motor) {
             Ok(replies) => {
                 if args.json {
-                    println!("{}", readings::object(motor, &replies, bus.width()));
+                    outln!("{}", readings::object(motor, &replies, bus.width()))?;
                 } else {
-                    print_human(motor, &replies, bus.width());
+                    print_human(motor, &replies, bus.width())?;
                 }
             }
             Err(error) => {
@@ -57,9 +59,9 @@ fn status(args: &StatusArgs) -> Result<(), CliError> {
                     return Err(error.into());
                 }
                 if args.json {
-                    println!("{}", readings::error_object(motor, &error.to_string()));
+                    outln!("{}", readings::error_object(motor, &error.to_string()))?;
                 }
-                eprintln!("error: {error}");
+                errln!("error: {error}");
                 failed.push(motor);
             }
         }
@@ -87,47 +89,60 @@ fn read_all(
         .collect()
 }
 
-fn print_human(motor: MotorId, replies: &[Reply], width: EncoderWidth) {
-    println!("motor {motor}");
+fn print_human(motor: MotorId, replies: &[Reply], width: EncoderWidth) -> Result<(), WriteError> {
+    outln!("motor {motor}")?;
+    for (label, value) in rows(replies, width) {
+        outln!("  {label:<16} {value}")?;
+    }
+    Ok(())
+}
+
+/// The readings in words: `(label, value)` per line, in the order of [`READS`].
+fn rows(replies: &[Reply], width: EncoderWidth) -> Vec<(&'static str, String)> {
+    let mut rows = Vec::new();
     for reply in replies {
         match reply {
             Reply::ReadStatus1(s) => {
-                println!("  temperature      {} °C", s.temperature.celsius());
-                println!("  voltage          {:.1} V", s.voltage.volts());
-                println!(
-                    "  errors           {}",
-                    readings::errors_text(s.error_state)
-                );
+                rows.push(("temperature", format!("{} °C", s.temperature.celsius())));
+                rows.push(("voltage", format!("{:.1} V", s.voltage.volts())));
+                rows.push(("errors", readings::errors_text(s.error_state)));
             }
             Reply::ReadStatus2(s) => {
-                println!("  torque current   {:.2} A", s.iq.amps());
-                println!("  speed            {} dps", s.speed.dps());
+                rows.push(("torque current", format!("{:.2} A", s.iq.amps())));
+                rows.push(("speed", format!("{} dps", s.speed.dps())));
             }
-            Reply::ReadStatus3(s) => println!(
-                "  phase currents   A {:.2}  B {:.2}  C {:.2} A",
-                s.i_a.amps(),
-                s.i_b.amps(),
-                s.i_c.amps()
-            ),
+            Reply::ReadStatus3(s) => rows.push((
+                "phase currents",
+                format!(
+                    "A {:.2}  B {:.2}  C {:.2} A",
+                    s.i_a.amps(),
+                    s.i_b.amps(),
+                    s.i_c.amps()
+                ),
+            )),
             Reply::ReadEncoder {
                 encoder,
                 encoder_raw,
                 encoder_offset,
-            } => println!(
-                "  encoder          {} ({:.2}°)   raw {}   offset {}   ({}-bit)",
-                encoder.raw(),
-                encoder.degrees(width),
-                encoder_raw.raw(),
-                encoder_offset.raw(),
-                width.bits()
-            ),
+            } => rows.push((
+                "encoder",
+                format!(
+                    "{} ({:.2}°)   raw {}   offset {}   ({}-bit)",
+                    encoder.raw(),
+                    encoder.degrees(width),
+                    encoder_raw.raw(),
+                    encoder_offset.raw(),
+                    width.bits()
+                ),
+            )),
             Reply::ReadMultiTurnAngle { motor_angle } => {
-                println!("  multi-turn angle {:.2}°", motor_angle.degrees())
+                rows.push(("multi-turn angle", format!("{:.2}°", motor_angle.degrees())))
             }
             Reply::ReadSingleTurnAngle { circle_angle } => {
-                println!("  single-turn      {:.2}°", circle_angle.degrees())
+                rows.push(("single-turn", format!("{:.2}°", circle_angle.degrees())))
             }
             _ => {}
         }
     }
+    rows
 }

@@ -9,6 +9,7 @@ use std::process::ExitCode;
 
 use clap::{Args, Subcommand};
 
+use crate::output::outln;
 use crate::output::report;
 
 /// `rmd traj ...`.
@@ -40,7 +41,9 @@ fn check(file: &std::path::Path) -> ExitCode {
     };
     match rmd_traj_vectors::check_vectors(&json) {
         Ok(outcome) => {
-            println!("{outcome}");
+            if let Err(error) = outln!("{outcome}") {
+                return report::exit(Err(error.into()));
+            }
             if outcome.all_passed() {
                 ExitCode::SUCCESS
             } else {

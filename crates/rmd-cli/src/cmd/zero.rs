@@ -10,6 +10,7 @@ use crate::args::bus::BusArgs;
 use crate::args::parse;
 use crate::live::confirm;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::output::outln;
 use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd zero`.
@@ -46,11 +47,11 @@ fn zero(args: &ZeroArgs) -> Result<(), CliError> {
     bus.finish()?;
     match reply {
         Reply::WriteZeroRom { encoder_offset } => {
-            println!(
+            outln!(
                 "motor {id}: zero offset {} written to ROM; power-cycle the motor for it to take \
                  effect",
                 encoder_offset.raw()
-            );
+            )?;
             Ok(())
         }
         other => Err(CliError::Failed(format!(

@@ -13,6 +13,7 @@ use rmd_sim::{MotorConfig, SimBus, SimConfig};
 use crate::args::bus::BusArgs;
 use crate::args::ids::IdList;
 use crate::live::exchange::{self, ExchangeError, Policy, Setup};
+use crate::output::errln;
 use crate::output::report::CliError;
 
 /// Default reply timeout of a request.
@@ -149,7 +150,7 @@ pub(crate) fn report_recording<W>(
 ) -> Result<(), String> {
     match writer.finish() {
         Ok(stats) => {
-            eprintln!(
+            errln!(
                 "recorded {} frames to {}{}",
                 stats.written,
                 path.display(),

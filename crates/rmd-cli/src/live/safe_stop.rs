@@ -50,6 +50,9 @@ pub(crate) fn finish(
         (Err(CliError::Interrupted(what)), Err(problem)) => Err(CliError::Failed(format!(
             "interrupted {what}, and {problem}"
         ))),
+        // Nobody reads the output any more: quiet if the motors are off, loud if not.
+        (Err(CliError::OutputClosed), Ok(())) => Err(CliError::OutputClosed),
+        (Err(CliError::OutputClosed), Err(problem)) => Err(CliError::Failed(problem)),
         (Err(CliError::Failed(error) | CliError::Usage(error)), Ok(())) => {
             Err(CliError::Failed(format!("{error} ({off})")))
         }

@@ -4,6 +4,8 @@ use std::process::ExitCode;
 
 use rmd_protocol::{MotorId, Reply};
 
+use crate::output::errln;
+
 /// Exit code for a usage error (bad or missing argument), as clap uses.
 pub(crate) const USAGE: u8 = 2;
 /// Exit code when the command ran but something failed (a bad input line, an I/O error).
@@ -20,6 +22,9 @@ pub(crate) enum CliError {
     Failed(String),
     /// Ctrl-C or SIGTERM ended the command; the message says what was done about it (exit 130).
     Interrupted(String),
+    /// The reader of stdout went away (`| head`): the command stopped writing and ends quietly
+    /// (exit 0).
+    OutputClosed,
 }
 
 impl CliError {
@@ -45,21 +50,22 @@ pub(crate) fn exit(result: Result<(), CliError>) -> ExitCode {
         Err(CliError::Usage(message)) => usage_error(message),
         Err(CliError::Failed(message)) => failure(message),
         Err(CliError::Interrupted(message)) => {
-            eprintln!("interrupted: {message}");
+            errln!("interrupted: {message}");
             ExitCode::from(INTERRUPTED)
         }
+        Err(CliError::OutputClosed) => ExitCode::SUCCESS,
     }
 }
 
 /// Prints `error: <message>` on stderr and returns the usage-error exit code.
 pub(crate) fn usage_error(message: impl std::fmt::Display) -> ExitCode {
-    eprintln!("error: {message}");
+    errln!("error: {message}");
     ExitCode::from(USAGE)
 }
 
 /// Prints `error: <message>` on stderr and returns the failure exit code.
 pub(crate) fn failure(message: impl std::fmt::Display) -> ExitCode {
-    eprintln!("error: {message}");
+    errln!("error: {message}");
     ExitCode::from(FAILURE)
 }
 
@@ -77,7 +83,7 @@ pub(crate) fn clap_error(err: clap::Error) -> ExitCode {
             ExitCode::from(USAGE)
         }
         _ => {
-            eprintln!("{}", one_line(&err.render().to_string()));
+            errln!("{}", one_line(&err.render().to_string()));
             ExitCode::from(USAGE)
         }
     }

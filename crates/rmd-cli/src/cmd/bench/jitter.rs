@@ -12,6 +12,7 @@ use serde_json::{Value, json};
 
 use super::histogram;
 use crate::args::run::{self, RtFlags};
+use crate::output::errln;
 use crate::output::report;
 
 /// Arguments of `rmd bench jitter`.
@@ -65,12 +66,16 @@ pub(crate) fn run(args: JitterArgs) -> ExitCode {
         Err(e) => return report::failure(e),
     };
     for warning in result.rt.warnings() {
-        eprintln!("warning: {warning}");
+        errln!("warning: {warning}");
     }
     if args.json {
-        super::emit(&format!("{}\n", to_json(&result, &args.rt)));
+        if let Err(code) = super::emit(&format!("{}\n", to_json(&result, &args.rt))) {
+            return code;
+        }
     } else {
-        super::emit(&human(&result, &args.rt));
+        if let Err(code) = super::emit(&human(&result, &args.rt)) {
+            return code;
+        }
     }
     ExitCode::SUCCESS
 }

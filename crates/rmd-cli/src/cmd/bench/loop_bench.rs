@@ -77,9 +77,11 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
         if let Value::Object(map) = &mut value {
             map.insert("bench".into(), bench_json(&args, controller));
         }
-        super::emit(&format!("{value}\n"));
+        if let Err(code) = super::emit(&format!("{value}\n")) {
+            return code;
+        }
     } else {
-        super::emit(&format!(
+        if let Err(code) = super::emit(&format!(
             "{report}bench: {} motor(s) per bus x {} bus(es), {} time; PD tracking of {AMPLITUDE} deg / \
              {FREQ} Hz sines: rms error {}, max {}\n",
             args.motors,
@@ -89,7 +91,9 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
             show_deg(controller.max_error_deg()),
             AMPLITUDE = pd::AMPLITUDE_DEG,
             FREQ = pd::FREQUENCY_HZ,
-        ));
+        )) {
+            return code;
+        }
     }
     if report.normal_stop {
         ExitCode::SUCCESS

@@ -16,10 +16,12 @@ mod rate;
 mod robot;
 mod wire_limit;
 
-use std::io::Write;
 use std::process::ExitCode;
 
 use clap::{Args, Subcommand};
+
+use crate::output::console::{self, WriteError};
+use crate::output::report;
 
 /// Arguments of `rmd bench`.
 #[derive(Args, Debug)]
@@ -49,9 +51,11 @@ pub(crate) fn run(args: BenchArgs) -> ExitCode {
     }
 }
 
-/// Writes a result to stdout. A closed pipe (`rmd bench ... | head`) is not an error worth a
-/// panic: the result is simply not read.
-fn emit(text: &str) {
-    let mut out = std::io::stdout().lock();
-    let _ = out.write_all(text.as_bytes()).and_then(|()| out.flush());
+/// Writes a result to stdout. A closed pipe (`rmd bench ... | head`) is no failure: the result
+/// is simply not read. Any other write error is (`Err` holds the exit code).
+fn emit(text: &str) -> Result<(), ExitCode> {
+    match console::write_all(text.as_bytes()) {
+        Ok(()) | Err(WriteError::Closed) => Ok(()),
+        Err(error) => Err(report::failure(error)),
+    }
 }

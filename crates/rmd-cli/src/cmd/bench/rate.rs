@@ -31,6 +31,7 @@ use super::pd::MovingTargetPd;
 use super::robot;
 use super::wire_limit::{self, WireLimit, us};
 use crate::args::run::{self, RtFlags};
+use crate::output::errln;
 use crate::output::report;
 
 /// Bit rate of the simulated buses.
@@ -290,9 +291,9 @@ impl Search {
     fn run(&mut self, args: &RateArgs, rate_hz: f64) -> Result<&Trial, String> {
         let t = trial(args, rate_hz)?;
         if !args.json {
-            eprintln!("{}", t.line(self.trials.len() + 1));
+            errln!("{}", t.line(self.trials.len() + 1));
             for w in &t.warnings {
-                eprintln!("  warning: {w}");
+                errln!("  warning: {w}");
             }
         }
         self.trials.push(t);
@@ -401,7 +402,7 @@ pub(crate) fn run(args: RateArgs) -> ExitCode {
         ));
     }
     if !args.json {
-        eprintln!(
+        errln!(
             "rmd bench rate: {} motor(s) x {} bus(es) at {} bit/s, {:.1} s per trial, spin {} us, \
              cpu {}, SCHED_FIFO {}, {}{}",
             args.motors,
@@ -429,9 +430,13 @@ pub(crate) fn run(args: RateArgs) -> ExitCode {
     };
     let best = s.best.map(|i| &s.trials[i]);
     if args.json {
-        super::emit(&format!("{}\n", summary_json(&args, &s, best)));
+        if let Err(code) = super::emit(&format!("{}\n", summary_json(&args, &s, best))) {
+            return code;
+        }
     } else {
-        super::emit(&summary_text(&args, &s, best));
+        if let Err(code) = super::emit(&summary_text(&args, &s, best)) {
+            return code;
+        }
     }
     if best.is_some() || args.rate.is_some() {
         ExitCode::SUCCESS

@@ -18,6 +18,8 @@ use rmd_protocol::{DecodedRequest, EncoderWidth, decode_reply, decode_reply_to, 
 use serde_json::Value;
 
 use crate::args::parse;
+use crate::output::console::WriteError;
+use crate::output::errln;
 use crate::output::json::FrameJson;
 use crate::output::report;
 use pairing::{Pairing, Role};
@@ -134,7 +136,7 @@ pub(crate) fn run(args: DecodeArgs) -> ExitCode {
         let Ok(text) = std::str::from_utf8(&bytes) else {
             failed = true;
             let _ = out.flush();
-            eprintln!("line {number}: not valid UTF-8 text");
+            errln!("line {number}: not valid UTF-8 text");
             continue;
         };
         if text.trim().is_empty() {
@@ -145,29 +147,34 @@ pub(crate) fn run(args: DecodeArgs) -> ExitCode {
             .and_then(|parsed| decode_line(&parsed, args.mode, &mut pairing, args.encoder_bits));
         match result {
             Ok(value) => {
-                if writeln!(out, "{value}").is_err() {
-                    // stdout closed (e.g. piped into `head`): stop quietly.
-                    return if failed {
-                        ExitCode::from(report::FAILURE)
-                    } else {
-                        ExitCode::SUCCESS
-                    };
+                if let Err(error) = writeln!(out, "{value}") {
+                    return written_until(WriteError::from_io(error), failed);
                 }
             }
             Err(message) => {
                 failed = true;
                 // Keep stdout and stderr in input order when both go to a terminal.
                 let _ = out.flush();
-                eprintln!("line {number}: {message}");
+                errln!("line {number}: {message}");
             }
         }
     }
-    if out.flush().is_err() {
-        return ExitCode::from(report::FAILURE);
+    if let Err(error) = out.flush() {
+        return written_until(WriteError::from_io(error), failed);
     }
     if failed {
         ExitCode::from(report::FAILURE)
     } else {
         ExitCode::SUCCESS
+    }
+}
+
+/// The exit code when writing stopped on `error`: a closed stdout (e.g. piped into `head`) ends
+/// quietly, with the status of the lines decoded so far; any other write error is a failure.
+fn written_until(error: WriteError, failed: bool) -> ExitCode {
+    match error {
+        WriteError::Closed if failed => ExitCode::from(report::FAILURE),
+        WriteError::Closed => ExitCode::SUCCESS,
+        WriteError::Failed(_) => report::failure(error),
     }
 }
