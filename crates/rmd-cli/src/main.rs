@@ -22,7 +22,7 @@ use clap::Parser;
 /// they end and on Ctrl-C.
 #[derive(Parser, Debug)]
 #[command(name = "rmd", version, propagate_version = true)]
-struct Cli {
+pub(crate) struct Cli {
     #[command(subcommand)]
     command: cmd::Command,
 }

@@ -167,11 +167,14 @@ fn reading_commands_end_quietly() {
         &["encoder", "get", "3", "--sim"],
         &["traj", "--help"],
         &["--help"],
+        &["completions", "bash"],
+        &["completions", "zsh"],
     ];
     for args in commands {
         quiet_end(args, Close::StdoutAtOnce, 0);
     }
     quiet_end(&["scan", "--sim"], Close::StdoutAfterFirstLine, 0);
+    quiet_end(&["completions", "fish"], Close::StdoutAfterFirstLine, 0);
 }
 
 #[test]

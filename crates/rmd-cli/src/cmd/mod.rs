@@ -4,6 +4,7 @@
 
 mod accel;
 mod bench;
+mod completions;
 pub(crate) mod decode;
 mod drive;
 mod encode;
@@ -67,6 +68,8 @@ pub(crate) enum Command {
     Bench(bench::BenchArgs),
     /// Trajectory generator tools: `rmd traj check FILE` runs a test-vector file.
     Traj(traj::TrajArgs),
+    /// Print the shell completion script (bash, zsh, fish, elvish, powershell).
+    Completions(completions::CompletionsArgs),
 }
 
 impl Command {
@@ -93,6 +96,7 @@ impl Command {
             Command::Replay(args) => replay::run(args),
             Command::Bench(args) => bench::run(args),
             Command::Traj(args) => traj::run(args),
+            Command::Completions(args) => completions::run(args),
         }
     }
 }
