@@ -17,6 +17,7 @@ use crate::live::connect::{Connection, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
 use crate::output::readings;
 use crate::output::report::{self, CliError};
+use crate::output::table::{Align, TextTable};
 use crate::output::{out, outln};
 
 /// Arguments of `rmd monitor`.
@@ -153,43 +154,105 @@ fn read(bus: &mut Connection, motor: MotorId) -> Result<Result<Vec<Reply>, Strin
 /// The table of one reading; every line ends with `clear` (on a terminal: "clear to end of
 /// line", so a redraw over a longer previous line leaves nothing behind).
 fn table(time_s: f64, rows: &[(MotorId, Result<Vec<Reply>, String>)], clear: &str) -> String {
-    let mut text = format!(
-        "t {time_s:8.2} s{clear}\n{:>3} {:>7} {:>7} {:>8} {:>9} {:>11}  errors{clear}\n",
-        "id", "temp °C", "volts", "iq A", "speed dps", "angle °"
-    );
+    let mut table = TextTable::new(&[
+        ("id", Align::Right),
+        ("temp °C", Align::Right),
+        ("volts", Align::Right),
+        ("iq A", Align::Right),
+        ("speed dps", Align::Right),
+        ("angle °", Align::Right),
+        ("errors", Align::Left),
+    ])
+    // The widths of typical values: the table keeps its layout as they change.
+    .min_widths(&[3, 7, 5, 6, 9, 10]);
     for (motor, row) in rows {
-        let line = match row {
-            Err(_) => format!("{:>3}  no reply", motor.get()),
-            Ok(replies) => {
-                let mut cells = (None, None, None);
-                for reply in replies {
-                    match reply {
-                        Reply::ReadStatus1(s) => cells.0 = Some(*s),
-                        Reply::ReadStatus2(s) => cells.1 = Some(*s),
-                        Reply::ReadMultiTurnAngle { motor_angle } => {
-                            cells.2 = Some(motor_angle.degrees())
-                        }
-                        _ => {}
-                    }
-                }
-                match cells {
-                    (Some(s1), Some(s2), Some(angle)) => format!(
-                        "{:>3} {:>7} {:>7.1} {:>8.2} {:>9} {:>11.2}  {}",
-                        motor.get(),
-                        s2.temperature.celsius(),
-                        s1.voltage.volts(),
-                        s2.iq.amps(),
-                        s2.speed.dps(),
-                        angle,
-                        readings::errors_text(s1.error_state)
-                    ),
-                    _ => format!("{:>3}  incomplete reply", motor.get()),
-                }
-            }
-        };
-        text.push_str(&line);
+        table.row(cells(*motor, row));
+    }
+    let mut text = format!("t {time_s:8.2} s{clear}\n");
+    for line in table.render().lines() {
+        text.push_str(line);
         text.push_str(clear);
         text.push('\n');
     }
     text
+}
+
+/// The cells of one motor's row; a motor that did not answer says so in the last column.
+fn cells(motor: MotorId, row: &Result<Vec<Reply>, String>) -> Vec<String> {
+    let id = motor.get().to_string();
+    let missing = |why: &str| {
+        let mut cells = vec![id.clone()];
+        cells.extend(std::iter::repeat_n("-".to_owned(), 5));
+        cells.push(why.to_owned());
+        cells
+    };
+    let Ok(replies) = row else {
+        return missing("no reply");
+    };
+    let (mut status1, mut status2, mut angle) = (None, None, None);
+    for reply in replies {
+        match reply {
+            Reply::ReadStatus1(s) => status1 = Some(*s),
+            Reply::ReadStatus2(s) => status2 = Some(*s),
+            Reply::ReadMultiTurnAngle { motor_angle } => angle = Some(motor_angle.degrees()),
+            _ => {}
+        }
+    }
+    let (Some(s1), Some(s2), Some(angle)) = (status1, status2, angle) else {
+        return missing("incomplete reply");
+    };
+    vec![
+        id,
+        s2.temperature.celsius().to_string(),
+        format!("{:.1}", s1.voltage.volts()),
+        format!("{:.2}", s2.iq.amps()),
+        s2.speed.dps().to_string(),
+        format!("{angle:.2}"),
+        readings::errors_text(s1.error_state),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rmd_protocol::{MotorAngle, Status1, Status2};
+
+    #[test]
+    fn rows_line_up_under_the_header_whatever_their_state() {
+        let id = |n| MotorId::new(n).unwrap();
+        let answered = vec![
+            Reply::ReadStatus1(Status1::default()),
+            Reply::ReadStatus2(Status2::default()),
+            Reply::ReadMultiTurnAngle {
+                motor_angle: MotorAngle::new(-1_234_567).unwrap(),
+            },
+        ];
+        let rows = [
+            (id(2), Ok(answered)),
+            (id(9), Err("motor 9 did not answer".to_owned())),
+            (id(12), Ok(vec![Reply::ReadStatus1(Status1::default())])),
+        ];
+        let text = table(1.5, &rows, "");
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], "t     1.50 s");
+        let header = lines[1];
+        let errors_at = header.find("errors").unwrap();
+        let angle_end = header.find("angle °").unwrap() + "angle °".len();
+        let state = |line: &str| {
+            line.chars()
+                .skip(header[..errors_at].chars().count())
+                .collect::<String>()
+        };
+        assert_eq!(state(lines[2]), "none");
+        assert_eq!(state(lines[3]), "no reply");
+        assert_eq!(state(lines[4]), "incomplete reply");
+        // Numbers end where their titles end (counted in characters: `°` is one).
+        let angle_col = header[..angle_end].chars().count();
+        let prefix = |line: &str| line.chars().take(angle_col).collect::<String>();
+        assert!(prefix(lines[2]).ends_with("-12345.67"), "{text}");
+        assert!(prefix(lines[3]).ends_with(" -"), "{text}");
+        assert!(
+            lines[2].trim_start().starts_with("2 ") && lines[4].trim_start().starts_with("12 ")
+        );
+    }
 }

@@ -12,7 +12,8 @@ use crate::args::ids::{self, IdList};
 use crate::live::connect::Connection;
 use crate::output::readings;
 use crate::output::report::{self, CliError};
-use crate::output::{errln, outln};
+use crate::output::table::{Align, TextTable};
+use crate::output::{errln, out, outln};
 
 /// Arguments of `rmd scan`.
 #[derive(Args, Debug)]
@@ -67,21 +68,21 @@ fn scan(args: &ScanArgs) -> Result<(), CliError> {
             .collect();
         outln!("{}", Value::Array(list))?;
     } else if !found.is_empty() {
-        outln!(
-            "{:>3}  {:>11}  {:>8}  errors",
-            "id",
-            "temperature",
-            "voltage"
-        )?;
+        let mut table = TextTable::new(&[
+            ("id", Align::Right),
+            ("temperature", Align::Right),
+            ("voltage", Align::Right),
+            ("errors", Align::Left),
+        ]);
         for (motor, status) in &found {
-            outln!(
-                "{:>3}  {:>8} °C  {:>6.1} V  {}",
-                motor.get(),
-                status.temperature.celsius(),
-                status.voltage.volts(),
-                readings::errors_text(status.error_state)
-            )?;
+            table.row([
+                motor.get().to_string(),
+                format!("{} °C", status.temperature.celsius()),
+                format!("{:.1} V", status.voltage.volts()),
+                readings::errors_text(status.error_state),
+            ]);
         }
+        out!("{}", table.render())?;
     }
     let ids: Vec<String> = found.iter().map(|(m, _)| m.to_string()).collect();
     if found.is_empty() && problems.is_empty() {

@@ -12,7 +12,8 @@ use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::output::console::WriteError;
 use crate::output::readings;
 use crate::output::report::{self, CliError};
-use crate::output::{errln, outln};
+use crate::output::table::{Align, TextTable};
+use crate::output::{errln, out, outln};
 
 /// Arguments of `rmd status`.
 #[derive(Args, Debug)]
@@ -90,11 +91,13 @@ fn read_all(
 }
 
 fn print_human(motor: MotorId, replies: &[Reply], width: EncoderWidth) -> Result<(), WriteError> {
-    outln!("motor {motor}")?;
+    let mut table = TextTable::without_header(&[Align::Left, Align::Left])
+        .indent(2)
+        .gap(1);
     for (label, value) in rows(replies, width) {
-        outln!("  {label:<16} {value}")?;
+        table.row([label.to_owned(), value]);
     }
-    Ok(())
+    out!("motor {motor}\n{}", table.render())
 }
 
 /// The readings in words: `(label, value)` per line, in the order of [`READS`].

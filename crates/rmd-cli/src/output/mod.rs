@@ -1,11 +1,13 @@
 //! What the commands print: stdout and stderr without panics ([`console`], with the
 //! [`outln!`] and [`errln!`] macros), errors and exit codes ([`report`]), frames and replies as
-//! JSON ([`json`]), readings of motors as JSON objects or words ([`readings`]).
+//! JSON ([`json`]), readings of motors as JSON objects or words ([`readings`]), tables
+//! ([`table`]).
 
 pub(crate) mod console;
 pub(crate) mod json;
 pub(crate) mod readings;
 pub(crate) mod report;
+pub(crate) mod table;
 
 /// `println!` that returns `Err(WriteError::Closed)` instead of panicking when stdout's reader
 /// is gone (see [`console`]); use `?` in a command, which then ends quietly.

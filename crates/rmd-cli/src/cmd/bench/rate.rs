@@ -33,6 +33,7 @@ use super::wire_limit::{self, WireLimit, us};
 use crate::args::run::{self, RtFlags};
 use crate::output::errln;
 use crate::output::report;
+use crate::output::table::{Align, TextTable};
 
 /// Bit rate of the simulated buses.
 const BITRATE: u32 = 1_000_000;
@@ -468,20 +469,65 @@ fn summary_json(args: &RateArgs, s: &Search, best: Option<&Trial>) -> Value {
     })
 }
 
+/// Every trial, one row each (times in microseconds; maxima unless named).
+fn trials_table(s: &Search) -> String {
+    let mut table = TextTable::new(&[
+        ("trial", Align::Right),
+        ("rate Hz", Align::Right),
+        ("period", Align::Right),
+        ("result", Align::Left),
+        ("misses", Align::Right),
+        ("skipped", Align::Right),
+        ("missing", Align::Right),
+        ("late", Align::Right),
+        ("wake p99", Align::Right),
+        ("wake", Align::Right),
+        ("last reply", Align::Right),
+        ("reply->ctrl", Align::Right),
+        ("work", Align::Right),
+        ("wire limit Hz", Align::Right),
+    ]);
+    for (n, t) in s.trials.iter().enumerate() {
+        table.row([
+            (n + 1).to_string(),
+            format!("{:.1}", t.rate_hz),
+            format!("{:.1}", us(t.period)),
+            if t.passed { "PASS" } else { "FAIL" }.to_string(),
+            t.deadline_misses.to_string(),
+            t.skipped_ticks.to_string(),
+            t.missing_replies.to_string(),
+            t.late_replies.to_string(),
+            format!("{:.1}", t.wake.p99),
+            format!("{:.1}", t.wake.max),
+            format!("{:.1}", t.last_reply.max),
+            format!("{:.1}", t.handoff.max),
+            format!("{:.1}", t.work.max),
+            t.wire
+                .map_or("n/a".to_string(), |w| format!("{:.1}", w.rate_hz())),
+        ]);
+    }
+    format!(
+        "trials (times in us; maxima unless named p99):\n{}",
+        table.render()
+    )
+}
+
 fn summary_text(args: &RateArgs, s: &Search, best: Option<&Trial>) -> String {
+    let mut out = trials_table(s);
     let Some(b) = best else {
-        return if args.rate.is_some() {
+        out += &if args.rate.is_some() {
             format!(
-                "the rate did not pass ({}); see the trial line above\n",
+                "the rate did not pass ({})\n",
                 s.trials
                     .first()
                     .map_or("no trial", |t| t.stop_reason.as_str())
             )
         } else {
-            "no rate passed: see the trials above\n".to_string()
+            "no rate passed\n".to_string()
         };
+        return out;
     };
-    let mut out = format!(
+    out += &format!(
         "highest rate with zero misses: {:.1} Hz (period {:.1} us, {} ticks), passed {} time(s), \
          never failed\n",
         b.rate_hz,
