@@ -2,7 +2,6 @@
 //! then turn it off. The command is sent again at `--rate` (each reply is shown live), and
 //! Ctrl-C turns the motor off at once.
 
-use std::io::IsTerminal;
 use std::process::ExitCode;
 use std::time::Duration;
 
@@ -16,8 +15,9 @@ use crate::args::parse;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
 use crate::live::safe_stop;
+use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
-use crate::output::{console, errln, outln};
+use crate::output::{errln, outln};
 
 /// How long and how often (shared by torque and speed).
 #[derive(Args, Debug)]
@@ -115,7 +115,6 @@ fn drive(
 ) -> Result<(), CliError> {
     let mut bus = Connection::open(bus_args, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     interrupt::install()?;
-    let live = std::io::stderr().is_terminal();
     let period = Duration::from_secs_f64(1.0 / timing.rate);
     let start = bus.clock().now();
     let end = start + timing.duration;
@@ -125,6 +124,8 @@ fn drive(
         "motor {id}: {what} for {:.2} s (Ctrl-C stops it)",
         timing.duration.as_secs_f64()
     );
+    let progress = Progress::timer(timing.duration, progress::shown(false));
+    progress.set_prefix(format!("motor {id} "));
     let outcome = loop {
         if interrupt::requested() {
             break Err(CliError::Interrupted(format!("{what} on motor {id}")));
@@ -136,13 +137,8 @@ fn drive(
         sent += 1;
         let elapsed = bus.clock().now() - start;
         if let Some(status) = last {
-            if live {
-                console::err_text(format_args!(
-                    "\r  t {:6.2} s  {}   ",
-                    elapsed.as_secs_f64(),
-                    reading(&status)
-                ));
-            }
+            progress.set_elapsed(elapsed);
+            progress.set_message(reading(&status));
             if let Some(limit) = max_speed
                 && status.speed.dps().abs() > limit
             {
@@ -160,9 +156,7 @@ fn drive(
             break Ok(());
         }
     };
-    if live {
-        errln!();
-    }
+    drop(progress);
     let elapsed = bus.clock().now() - start;
     let result = safe_stop::finish(&mut bus, &[id], outcome);
     bus.finish()?;

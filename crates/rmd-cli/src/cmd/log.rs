@@ -17,6 +17,7 @@ use crate::live::connect::{Filter, open_interface, report_recording};
 use crate::live::interrupt;
 use crate::output::console::WatchedSink;
 use crate::output::errln;
+use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd log`.
@@ -75,7 +76,15 @@ fn log(args: &LogArgs) -> Result<(), CliError> {
     );
     let end = args.duration.map(|d| clock.now() + d);
     let mut frames = 0u64;
+    let progress = match args.duration {
+        Some(duration) => Progress::timer(duration, progress::shown(false)),
+        None => Progress::spinner(progress::shown(false)),
+    };
+    progress.set_prefix(format!("{} ", args.iface));
+    let start = clock.now();
     let outcome = loop {
+        progress.set_elapsed(clock.now() - start);
+        progress.set_message(format!("{frames} frames"));
         if reader_gone
             .as_ref()
             .is_some_and(|gone| gone.load(Ordering::Relaxed))
@@ -94,7 +103,7 @@ fn log(args: &LogArgs) -> Result<(), CliError> {
                 if let BusMessage::Frame(_) = received.message {
                     frames += 1;
                 } else if let BusMessage::Event(event) = received.message {
-                    errln!("bus event on {}: {event}", args.iface);
+                    progress.println(format!("bus event on {}: {event}", args.iface));
                 }
             }
             Ok(None) => {}
@@ -113,6 +122,7 @@ fn log(args: &LogArgs) -> Result<(), CliError> {
             }
         }
     };
+    drop(progress);
     drop(bus);
     let path = if to_stdout {
         PathBuf::from("stdout")

@@ -15,6 +15,7 @@ use crate::args::ids::{self, IdList};
 use crate::args::parse;
 use crate::live::connect::{Connection, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
+use crate::output::progress::{self, Progress};
 use crate::output::readings;
 use crate::output::report::{self, CliError};
 use crate::output::table::{Align, TextTable};
@@ -64,7 +65,7 @@ fn monitor(args: &MonitorArgs) -> Result<(), CliError> {
             if args.bus.timeout_ms.is_none() {
                 bus.set_timeout(SCAN_TIMEOUT);
             }
-            let found = scan(&mut bus)?;
+            let found = scan(&mut bus, progress::shown(args.json))?;
             bus.set_timeout(timeout);
             found
         }
@@ -119,9 +120,13 @@ fn monitor(args: &MonitorArgs) -> Result<(), CliError> {
 }
 
 /// The motors that answer a status-1 read, ids 1..=32.
-fn scan(bus: &mut Connection) -> Result<Vec<MotorId>, CliError> {
+fn scan(bus: &mut Connection, show: bool) -> Result<Vec<MotorId>, CliError> {
     let mut found = Vec::new();
-    for &motor in IdList::all().ids() {
+    let all = IdList::all();
+    let progress = Progress::counter(all.ids().len() as u64, "ids", show);
+    progress.set_prefix("looking for motors ");
+    for (done, &motor) in all.ids().iter().enumerate() {
+        progress.set_position(done as u64);
         match bus.request(motor, &Request::ReadStatus1) {
             Ok(_) => found.push(motor),
             Err(error) if error.is_bus_failure() => return Err(error.into()),

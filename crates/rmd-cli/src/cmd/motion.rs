@@ -2,7 +2,6 @@
 //! angle limits checked before anything is sent; waits until the motor is there (Ctrl-C or a
 //! timeout turns it off), then leaves it holding the position.
 
-use std::io::IsTerminal;
 use std::process::ExitCode;
 use std::time::Duration;
 
@@ -18,8 +17,9 @@ use crate::args::parse;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
 use crate::live::safe_stop;
+use crate::output::outln;
+use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
-use crate::output::{console, errln, outln};
 
 /// Direction of the single-turn modes 3 and 4.
 #[derive(Copy, Clone, Debug, ValueEnum)]
@@ -172,7 +172,8 @@ fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
         return Ok(());
     }
     let single_turn = args.mode >= 3;
-    let live = std::io::stderr().is_terminal();
+    let progress = Progress::spinner(progress::shown(false));
+    progress.set_prefix(format!("motor {id} "));
     let start = bus.clock().now();
     let mut angle = None;
     let outcome = loop {
@@ -185,13 +186,11 @@ fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
         }
         let elapsed = bus.clock().now() - start;
         let error = distance(angle.unwrap_or(f64::NAN), args.deg, single_turn);
-        if live {
-            console::err_text(format_args!(
-                "\r  t {:6.2} s  angle {:9.2}°   ",
-                elapsed.as_secs_f64(),
-                angle.unwrap_or(0.0)
-            ));
-        }
+        progress.set_message(format!(
+            "at {:.2}°, moving to {}°",
+            angle.unwrap_or(f64::NAN),
+            args.deg
+        ));
         if error <= args.tolerance {
             break Ok(elapsed);
         }
@@ -208,9 +207,7 @@ fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
             break Err(CliError::Interrupted(format!("moving motor {id}")));
         }
     };
-    if live {
-        errln!();
-    }
+    drop(progress);
     match outcome {
         Ok(elapsed) => {
             bus.finish()?;

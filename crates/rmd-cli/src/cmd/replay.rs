@@ -28,6 +28,7 @@ use crate::live::exchange::{self, Setup};
 use crate::live::interrupt;
 use crate::live::safe_stop;
 use crate::output::console::WriteError;
+use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
 use crate::output::{errln, outln};
 
@@ -160,7 +161,10 @@ fn print_in_time(records: &[LogRecord], pace: Pace) -> Result<(), CliError> {
     let clock = rmd_bus::MonotonicClock;
     interrupt::install()?;
     let schedule = ReplaySchedule::new(records[0].timestamp, clock.now(), pace);
-    for record in records {
+    let progress = Progress::counter(records.len() as u64, "frames", progress::shown(false));
+    progress.set_prefix("replay ");
+    for (done, record) in records.iter().enumerate() {
+        progress.set_position(done as u64);
         if !interrupt::sleep_until(&clock, schedule.due(record.timestamp)) {
             return Err(CliError::Interrupted("replay".into()));
         }
@@ -169,7 +173,7 @@ fn print_in_time(records: &[LogRecord], pace: Pace) -> Result<(), CliError> {
             line = line.with_direction(direction);
         }
         // A closed stdout (e.g. `| head`) ends the replay quietly.
-        outln!("{line}")?;
+        progress.suspend(|| outln!("{line}"))?;
     }
     Ok(())
 }
@@ -199,10 +203,13 @@ fn play_onto_bus(args: &ReplayArgs, records: &[LogRecord], pace: Pace) -> Result
         Setup::Interface(iface) => iface.clone(),
         Setup::Simulator(_) => "sim".to_owned(),
     };
+    let progress = Progress::counter(records.len() as u64, "frames sent", progress::shown(false));
+    progress.set_prefix(format!("replay onto {name} "));
     let mut printer = Printer {
         offset: wall_clock_offset(),
         interface: name,
         received: 0,
+        progress,
     };
     let start = bus.clock().now();
     let schedule = ReplaySchedule::new(records[0].timestamp, start, pace);
@@ -224,12 +231,17 @@ fn play_onto_bus(args: &ReplayArgs, records: &[LogRecord], pace: Pace) -> Result
             })?;
             printer.print(bus.clock().now(), Direction::Tx, record.frame)?;
             sent += 1;
+            printer.progress.set_position(sent);
         }
         // What the last frames bring back.
         let tail = bus.clock().now() + bus.policy().timeout;
         listen_until(&mut bus, tail, &mut printer)
     })();
     let elapsed = bus.clock().now() - start;
+    let Printer {
+        received, progress, ..
+    } = printer;
+    drop(progress);
     let result = if moved.is_empty() {
         outcome
     } else {
@@ -240,7 +252,7 @@ fn play_onto_bus(args: &ReplayArgs, records: &[LogRecord], pace: Pace) -> Result
     errln!(
         "replayed {sent} frame(s) onto {target} in {:.3} s; {} frame(s) received",
         elapsed.as_secs_f64(),
-        printer.received
+        received
     );
     result
 }
@@ -250,6 +262,7 @@ struct Printer {
     offset: Duration,
     interface: String,
     received: u64,
+    progress: Progress,
 }
 
 impl Printer {
@@ -261,7 +274,7 @@ impl Printer {
     ) -> Result<(), WriteError> {
         let timestamp = Duration::from_nanos(at.as_nanos()) + self.offset;
         let line = LogLine::new(timestamp, &self.interface, frame).with_direction(direction);
-        outln!("{line}")
+        self.progress.suspend(|| outln!("{line}"))
     }
 }
 

@@ -10,6 +10,7 @@ use serde_json::Value;
 use crate::args::bus::BusArgs;
 use crate::args::ids::{self, IdList};
 use crate::live::connect::Connection;
+use crate::output::progress::{self, Progress};
 use crate::output::readings;
 use crate::output::report::{self, CliError};
 use crate::output::table::{Align, TextTable};
@@ -40,7 +41,15 @@ fn scan(args: &ScanArgs) -> Result<(), CliError> {
     let mut bus = Connection::open(&args.bus, SCAN_TIMEOUT, 0)?;
     let mut found = Vec::new();
     let mut problems = Vec::new();
-    for &motor in args.ids.ids() {
+    let progress = Progress::counter(
+        args.ids.ids().len() as u64,
+        "ids",
+        progress::shown(args.json),
+    );
+    progress.set_prefix("scan ");
+    for (done, &motor) in args.ids.ids().iter().enumerate() {
+        progress.set_position(done as u64);
+        progress.set_message(format!("found {}", found.len()));
         match bus.request(motor, &Request::ReadStatus1) {
             Ok(Reply::ReadStatus1(status)) => found.push((motor, status)),
             Ok(other) => problems.push(format!("motor {motor}: unexpected {}", other.command())),
@@ -50,6 +59,7 @@ fn scan(args: &ScanArgs) -> Result<(), CliError> {
             Err(error) => problems.push(error.to_string()),
         }
     }
+    drop(progress);
     let setup = bus.setup().clone();
     bus.finish()?;
     for problem in &problems {

@@ -25,6 +25,7 @@ use crate::args::parse;
 use crate::live::connect::{Filter, open_interface, report_recording};
 use crate::live::interrupt;
 use crate::output::errln;
+use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
 
 /// Arguments of `rmd sim`.
@@ -164,6 +165,8 @@ const TX_GIVE_UP: Duration = Duration::from_millis(20);
 /// motors are kept within this of the present, so a request finds them (nearly) up to date
 /// and its reply is computed without a long catch-up.
 const SLICE: Duration = Duration::from_millis(2);
+/// How often the progress line's counts are updated.
+const PROGRESS_EVERY: Duration = Duration::from_millis(250);
 
 fn serve(args: &SimArgs) -> Result<(), CliError> {
     let config = config(args).map_err(CliError::Usage)?;
@@ -190,7 +193,17 @@ fn serve(args: &SimArgs) -> Result<(), CliError> {
     );
     let mut pending: Vec<ScheduledFrame> = Vec::new();
     let mut counts = Counts::default();
-    let outcome = run_loop(bus.as_mut(), &clock, &mut motors, &mut pending, &mut counts);
+    let progress = Progress::spinner(progress::shown(false));
+    progress.set_prefix("rmd sim ");
+    let outcome = run_loop(
+        bus.as_mut(),
+        &clock,
+        &mut motors,
+        &mut pending,
+        &mut counts,
+        &progress,
+    );
+    drop(progress);
     drop(bus);
     let ignored = motors.ignored_frames();
     let dropped: u64 = motors.iter().map(|m| m.stats().dropped_replies).sum();
@@ -213,10 +226,20 @@ fn run_loop(
     motors: &mut SimMotors,
     pending: &mut Vec<ScheduledFrame>,
     counts: &mut Counts,
+    progress: &Progress,
 ) -> Result<(), CliError> {
+    let mut next_report = clock.now();
     while !interrupt::requested() {
         send_due(bus, clock, pending, counts)?;
         let now = clock.now();
+        if now >= next_report {
+            // Not every frame: the motors' answers come first.
+            progress.set_message(format!(
+                "{} frames received, {} replies sent",
+                counts.frames, counts.replies
+            ));
+            next_report = now + PROGRESS_EVERY;
+        }
         let deadline = pending
             .first()
             .map_or(now + SLICE, |f| f.at.min(now + SLICE));

@@ -10,6 +10,7 @@ use std::process::ExitCode;
 use clap::{Args, Subcommand};
 
 use crate::output::outln;
+use crate::output::progress::{self, Progress};
 use crate::output::report;
 
 /// `rmd traj ...`.
@@ -39,7 +40,11 @@ fn check(file: &std::path::Path) -> ExitCode {
         Ok(json) => json,
         Err(e) => return report::usage_error(format!("cannot read {}: {e}", file.display())),
     };
-    match rmd_traj_vectors::check_vectors(&json) {
+    let progress = Progress::spinner(progress::shown(false));
+    progress.set_message(format!("checking {}", file.display()));
+    let checked = rmd_traj_vectors::check_vectors(&json);
+    drop(progress);
+    match checked {
         Ok(outcome) => {
             if let Err(error) = outln!("{outcome}") {
                 return report::exit(Err(error.into()));

@@ -89,12 +89,6 @@ pub(crate) fn err_line(args: fmt::Arguments<'_>) {
     let _ = err.write_fmt(args).and_then(|()| err.write_all(b"\n"));
 }
 
-/// Writes `args` to stderr as it is (no newline), if it can, and flushes.
-pub(crate) fn err_text(args: fmt::Arguments<'_>) {
-    let mut err = io::stderr().lock();
-    let _ = err.write_fmt(args).and_then(|()| err.flush());
-}
-
 /// A sink that notes when its reader goes away, for writers on other threads (the recorder of
 /// `rmd log -`): [`closed`](Self::closed) tells the command to stop.
 #[derive(Debug)]

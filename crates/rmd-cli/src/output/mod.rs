@@ -1,10 +1,11 @@
 //! What the commands print: stdout and stderr without panics ([`console`], with the
 //! [`outln!`] and [`errln!`] macros), errors and exit codes ([`report`]), frames and replies as
 //! JSON ([`json`]), readings of motors as JSON objects or words ([`readings`]), tables
-//! ([`table`]).
+//! ([`table`]), progress on a terminal ([`progress`]).
 
 pub(crate) mod console;
 pub(crate) mod json;
+pub(crate) mod progress;
 pub(crate) mod readings;
 pub(crate) mod report;
 pub(crate) mod table;

@@ -4,6 +4,7 @@
 
 use core::time::Duration;
 use std::process::ExitCode;
+use std::time::Instant;
 
 use clap::Args;
 use rmd_loop::jitter::{self, JitterConfig, JitterReport};
@@ -13,6 +14,7 @@ use serde_json::{Value, json};
 use super::histogram;
 use crate::args::run::{self, RtFlags};
 use crate::output::errln;
+use crate::output::progress::{self, Progress};
 use crate::output::report;
 
 /// Arguments of `rmd bench jitter`.
@@ -61,7 +63,7 @@ pub(crate) fn run(args: JitterArgs) -> ExitCode {
         spin_margin: args.rt.spin(),
         rt: args.rt.request(),
     };
-    let result = match jitter::measure_real_time(config) {
+    let result = match measure(config, progress::shown(args.json)) {
         Ok(r) => r,
         Err(e) => return report::failure(e),
     };
@@ -78,6 +80,29 @@ pub(crate) fn run(args: JitterArgs) -> ExitCode {
         }
     }
     ExitCode::SUCCESS
+}
+
+/// Measures on the loop's own measuring thread; meanwhile this thread shows the progress (only
+/// if shown: otherwise it just waits, so that nothing else wakes up during the measurement).
+fn measure(config: JitterConfig, show: bool) -> Result<JitterReport, String> {
+    let duration = config.duration;
+    let start = Instant::now();
+    let measuring = std::thread::Builder::new()
+        .name("rmd-bench-jitter".to_string())
+        .spawn(move || jitter::measure_real_time(config))
+        .map_err(|e| format!("cannot start the measurement: {e}"))?;
+    if show {
+        let progress = Progress::timer(duration, true);
+        progress.set_prefix("bench jitter ");
+        while !measuring.is_finished() {
+            progress.set_elapsed(start.elapsed());
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+    measuring
+        .join()
+        .map_err(|_| "the measuring thread panicked".to_string())?
+        .map_err(|e| e.to_string())
 }
 
 fn to_json(r: &JitterReport, rt: &RtFlags) -> Value {

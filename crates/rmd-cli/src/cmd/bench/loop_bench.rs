@@ -20,6 +20,7 @@ use super::flags;
 use super::pd::{self, MovingTargetPd};
 use super::robot;
 use crate::args::run::{self, RtFlags};
+use crate::output::progress::{self, Progress};
 use crate::output::report;
 
 /// Arguments of `rmd bench loop`.
@@ -138,6 +139,9 @@ fn run_on<C: Clock + Clone + 'static>(
 ) -> Result<LoopOutcome<MovingTargetPd>, Failure> {
     let mut robot = robot::robot(args.rate, args.buses, args.motors);
     args.rt.configure(&mut robot.loop_config);
+    let ticks = robot.period().map_or(0, |period| {
+        u64::try_from(args.duration.as_nanos() / period.get().as_nanos()).unwrap_or(u64::MAX)
+    });
     let buses = robot::sim_buses(&clock, args.buses, args.motors)
         .map_err(|e| Failure::Run(format!("simulator: {e}")))?;
     let rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
@@ -146,10 +150,15 @@ fn run_on<C: Clock + Clone + 'static>(
     let handle = rt
         .spawn(RunLimit::Duration(args.duration))
         .map_err(|e| Failure::Run(e.to_string()))?;
+    let progress = Progress::counter(ticks, "ticks", progress::shown(args.json));
+    progress.set_prefix("bench loop ");
     // Drain the telemetry as an application would, so that none is dropped.
     while handle.is_running() {
-        while telemetry.try_recv().is_some() {}
+        while let Some(sample) = telemetry.try_recv() {
+            progress.set_position(sample.tick + 1);
+        }
         std::thread::sleep(Duration::from_millis(2));
     }
+    drop(progress);
     handle.join().map_err(|e| Failure::Run(e.to_string()))
 }

@@ -32,6 +32,7 @@ use super::robot;
 use super::wire_limit::{self, WireLimit, us};
 use crate::args::run::{self, RtFlags};
 use crate::output::errln;
+use crate::output::progress::{self, Progress};
 use crate::output::report;
 use crate::output::table::{Align, TextTable};
 
@@ -183,7 +184,7 @@ impl Clock for ReceiveClock {
 }
 
 /// Runs one trial at `rate_hz` on a thread of its own (the loop pins and prioritises it).
-fn trial(args: &RateArgs, rate_hz: f64) -> Result<Trial, String> {
+fn trial(args: &RateArgs, rate_hz: f64, progress: &Progress) -> Result<Trial, String> {
     let args = args.clone();
     let thread = std::thread::Builder::new()
         .name("rmd-bench-rate".to_string())
@@ -204,6 +205,12 @@ fn trial(args: &RateArgs, rate_hz: f64) -> Result<Trial, String> {
             }
         })
         .map_err(|e| format!("cannot start the trial thread: {e}"))?;
+    // The progress of the trial, while it runs (in real time; a virtual-time trial is quick).
+    let start = std::time::Instant::now();
+    while progress.is_shown() && !thread.is_finished() {
+        progress.set_elapsed(start.elapsed());
+        std::thread::sleep(Duration::from_millis(50));
+    }
     thread
         .join()
         .map_err(|_| "the trial thread panicked".to_string())?
@@ -286,15 +293,22 @@ struct Search {
     best: Option<usize>,
     /// Passing runs at the best rate beyond the first.
     confirmations: u32,
+    /// The running trial, on a terminal.
+    progress: Progress,
 }
 
 impl Search {
     fn run(&mut self, args: &RateArgs, rate_hz: f64) -> Result<&Trial, String> {
-        let t = trial(args, rate_hz)?;
+        self.progress.restart_timer(args.duration);
+        self.progress.set_prefix(format!(
+            "trial {} at {rate_hz:.1} Hz ",
+            self.trials.len() + 1
+        ));
+        let t = trial(args, rate_hz, &self.progress)?;
         if !args.json {
-            errln!("{}", t.line(self.trials.len() + 1));
+            self.progress.println(t.line(self.trials.len() + 1));
             for w in &t.warnings {
-                errln!("  warning: {w}");
+                self.progress.println(format!("  warning: {w}"));
             }
         }
         self.trials.push(t);
@@ -346,6 +360,7 @@ fn search(args: &RateArgs) -> Result<Search, String> {
         trials: Vec::new(),
         best: None,
         confirmations: 0,
+        progress: Progress::timer(args.duration, progress::shown(args.json)),
     };
     if let Some(rate) = args.rate {
         s.run(args, rate)?;
@@ -429,6 +444,7 @@ pub(crate) fn run(args: RateArgs) -> ExitCode {
         Ok(s) => s,
         Err(e) => return report::usage_error(e),
     };
+    s.progress.clear();
     let best = s.best.map(|i| &s.trials[i]);
     if args.json {
         if let Err(code) = super::emit(&format!("{}\n", summary_json(&args, &s, best))) {
