@@ -141,8 +141,8 @@ fn loop_rejects_bad_values() {
     usage_error("bench loop --rate 0", "--rate");
     usage_error("bench loop --rate abc", "--rate");
     usage_error("bench loop --rate 1e9", "shorter than the minimum");
-    usage_error("bench loop --seconds 0", "--seconds");
-    usage_error("bench loop --seconds nan", "--seconds");
+    usage_error("bench loop --seconds 0", "--duration");
+    usage_error("bench loop --seconds nan", "--duration");
     usage_error("bench loop --fifo 0", "1..=99");
     usage_error("bench loop --fifo 100", "1..=99");
     usage_error("bench loop --cpu 100000", "not available");
@@ -203,7 +203,7 @@ fn jitter_rejects_bad_values() {
         "bench jitter --period-us 1000 --spin-us 1000",
         "shorter than the period",
     );
-    usage_error("bench jitter --seconds -1", "--seconds");
+    usage_error("bench jitter --seconds -1", "--duration");
     usage_error("bench jitter --fifo 120", "1..=99");
     usage_error("bench jitter --cpu 100000", "not available");
 }
@@ -277,4 +277,44 @@ fn rate_rejects_bad_values() {
     usage_error("bench rate --confirm 100", "at most");
     usage_error("bench rate --motors 7", "1..=4");
     usage_error("bench rate --rate -3", "--rate");
+}
+
+#[test]
+fn run_flags_speak_the_examples_vocabulary_and_take_units() {
+    // `--duration` with units, `--seconds` (a bare number of seconds) and `--rate-hz` name the
+    // same settings as `--duration` and `--rate`: the same virtual-time run, tick for tick.
+    let canonical = json("bench loop --virtual-time --duration 300ms --rate 500 --json");
+    for args in [
+        "bench loop --virtual-time --seconds 0.3 --rate-hz 500 --json",
+        "bench loop --virtual-time --duration 0.3 --rate 500 --json",
+    ] {
+        let v = json(args);
+        assert_eq!(v["ticks"], canonical["ticks"], "{args}");
+        assert_eq!(v["ticks"], 150, "{args}");
+    }
+    assert_eq!(
+        json("bench loop --virtual-time --duration 1m --rate 50 --json")["ticks"],
+        3000
+    );
+    let trial = json("bench rate --virtual-time --rate-hz 1000 --duration 100ms --json");
+    assert_eq!(trial["seconds_per_trial"], 0.1);
+    assert_eq!(trial["trials"][0]["rate_hz"], 1000.0);
+    // `--fifo-priority` is `--fifo`: the same checks.
+    usage_error("bench jitter --fifo-priority 0", "1..=99");
+    // Durations that are not one say so, and nothing panics.
+    for (args, needle) in [
+        ("bench loop --duration inf", "not a finite duration"),
+        ("bench loop --duration NaN", "not a finite duration"),
+        ("bench loop --duration -2s", "cannot be negative"),
+        ("bench loop --duration 2days", "at most 1day"),
+        ("bench loop --duration 1e300", "too long"),
+        (
+            "bench loop --duration 99999999999999999999999s",
+            "not a duration",
+        ),
+        ("bench jitter --duration soon", "not a duration"),
+        ("bench rate --duration 0ms", "above 0"),
+    ] {
+        usage_error(args, needle);
+    }
 }

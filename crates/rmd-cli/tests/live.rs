@@ -426,6 +426,43 @@ fn torque_and_speed_run_for_their_duration_then_turn_the_motor_off() {
     );
 }
 
+#[test]
+fn drive_flags_take_the_examples_names_and_durations_with_units() {
+    let log = log_path("drive-vocabulary");
+    let log_arg = log.to_str().unwrap();
+    // `--seconds` (bare seconds) and `--rate-hz` are `--duration` and `--rate`.
+    let out = ok(&[
+        "torque",
+        "2",
+        "--amps",
+        "0.2",
+        "--seconds",
+        "0.2",
+        "--rate-hz",
+        "50",
+        "--sim",
+        "--log",
+        log_arg,
+    ]);
+    assert!(out.contains(" for 0.20 s ("), "{out}");
+    let commands = host_commands(&read_log(&log));
+    assert_eq!(commands.last(), Some(&(2, Cmd::MotorOff)));
+    // Durations that are not one are usage errors before anything is sent.
+    for bad in ["inf", "nan", "-1", "2 fortnights"] {
+        let err = fails(
+            2,
+            &["torque", "2", "--amps", "0.2", "--duration", bad, "--sim"],
+        );
+        assert!(err.contains("--duration"), "{bad}: {err}");
+        assert!(!err.contains("panicked"), "{bad}: {err}");
+        let err = fails(
+            2,
+            &["move", "2", "--deg", "10", "--wait-timeout", bad, "--sim"],
+        );
+        assert!(err.contains("--wait-timeout"), "{bad}: {err}");
+    }
+}
+
 /// Waits for a child to exit, at most `limit` (a hang is a failure, not a timing goal).
 fn wait_exit(child: &mut Child, limit: Duration) -> i32 {
     let start = Instant::now();
@@ -569,7 +606,11 @@ fn monitor_prints_readings_as_json_lines() {
         "--timeout-ms",
         "5",
     ]);
-    assert!(out.contains("  9  no reply"), "{out}");
+    assert!(
+        out.lines()
+            .any(|l| l.trim_start().starts_with("9 ") && l.ends_with("no reply")),
+        "{out}"
+    );
     assert!(
         out.lines().any(|l| l.trim_start().starts_with("2 ")),
         "{out}"

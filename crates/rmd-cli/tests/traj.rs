@@ -3,11 +3,11 @@
 use assert_cmd::Command;
 use serde_json::Value;
 
-/// The reference vectors shipped with the trajectory crate.
+/// The reference vectors shipped with the vector checker.
 fn vectors() -> Value {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../rmd-traj/tests/data/ruckig-vectors.json"
+        "/../rmd-traj-vectors/tests/data/ruckig-vectors.json"
     );
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }

@@ -693,6 +693,34 @@ fn rmd_log_records_the_bus_and_the_log_decodes_and_replays() {
 }
 
 #[test]
+fn rmd_log_to_stdout_ends_quietly_when_its_reader_goes() {
+    let _serial = serial();
+    let vcan = Vcan::up();
+    let iface = vcan.name.as_str();
+    let sim = SimProcess::start(iface, &["--ids", "1"]);
+    // `rmd log --iface IFACE - | head -0`: the reader is gone before the first frame.
+    let mut logger = Command::new(RMD)
+        .args(["log", "--iface", iface, "-"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn rmd log");
+    drop(logger.stdout.take());
+    let mut logger_err = BufReader::new(logger.stderr.take().unwrap());
+    let mut line = String::new();
+    logger_err.read_line(&mut line).unwrap();
+    assert!(line.contains("recording"), "{line}");
+    // Traffic for it to record; writing it finds the pipe closed, and the logger ends by itself
+    // (without Ctrl-C: `wait` fails if it hangs).
+    ok_on(iface, &["status", "1"]);
+    let (code, stderr) = wait(logger, logger_err);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    drop(sim);
+}
+
+#[test]
 fn a_down_or_missing_interface_is_reported_with_the_fix() {
     let _serial = serial();
     let vcan = Vcan::up();

@@ -122,10 +122,9 @@ impl fmt::Display for InvalidOption {
 ///
 /// [`code`](Self::code) maps each variant to the result code of the reference implementation
 /// (ruckig's `Result`), which the test vectors use.
-#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TrajectoryError {
     /// The input of one axis makes no sense (code −100).
-    #[error("invalid input on axis {axis}: {reason}")]
     InvalidInput {
         /// The axis (degree of freedom), from 0.
         axis: usize,
@@ -133,31 +132,26 @@ pub enum TrajectoryError {
         reason: InvalidReason,
     },
     /// A trajectory-wide option makes no sense (code −100).
-    #[error("invalid option: {0}")]
     InvalidOption(InvalidOption),
     /// The synchronized duration exceeds [`MAX_SYNCHRONIZED_DURATION`](crate::MAX_SYNCHRONIZED_DURATION)
     /// (code −101).
-    #[error("trajectory duration {duration} exceeds the maximum of 7600")]
     DurationTooLong {
         /// The duration that was found.
         duration: f64,
     },
     /// A zero acceleration or jerk limit makes the target of this axis unreachable (code −104).
-    #[error("zero limits make the target of axis {axis} unreachable")]
     ZeroLimits {
         /// The axis (degree of freedom), from 0.
         axis: usize,
     },
     /// No time-optimal profile exists for this axis, e.g. `max_velocity = 0` with a distance to go
     /// (code −110).
-    #[error("no time-optimal profile found for axis {axis}")]
     NoProfile {
         /// The axis (degree of freedom), from 0.
         axis: usize,
     },
     /// No common duration could be realized by every axis, or this axis could not be stretched to
     /// it (code −111).
-    #[error("no synchronized profile of duration {duration} found (axis {axis:?})")]
     Synchronization {
         /// The axis that failed, if known.
         axis: Option<usize>,
@@ -165,6 +159,35 @@ pub enum TrajectoryError {
         duration: f64,
     },
 }
+
+impl fmt::Display for TrajectoryError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TrajectoryError::InvalidInput { axis, reason } => {
+                write!(f, "invalid input on axis {axis}: {reason}")
+            }
+            TrajectoryError::InvalidOption(option) => write!(f, "invalid option: {option}"),
+            TrajectoryError::DurationTooLong { duration } => {
+                write!(
+                    f,
+                    "trajectory duration {duration} exceeds the maximum of 7600"
+                )
+            }
+            TrajectoryError::ZeroLimits { axis } => {
+                write!(f, "zero limits make the target of axis {axis} unreachable")
+            }
+            TrajectoryError::NoProfile { axis } => {
+                write!(f, "no time-optimal profile found for axis {axis}")
+            }
+            TrajectoryError::Synchronization { axis, duration } => write!(
+                f,
+                "no synchronized profile of duration {duration} found (axis {axis:?})"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for TrajectoryError {}
 
 impl TrajectoryError {
     /// The reference implementation's result code for this error (−100, −101, −104, −110, −111).
@@ -175,6 +198,52 @@ impl TrajectoryError {
             TrajectoryError::ZeroLimits { .. } => -104,
             TrajectoryError::NoProfile { .. } => -110,
             TrajectoryError::Synchronization { .. } => -111,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_error_says_what_is_wrong_and_is_an_error() {
+        let cases = [
+            (
+                TrajectoryError::InvalidInput {
+                    axis: 2,
+                    reason: InvalidReason::NotFinite(Field::MaxJerk),
+                },
+                "invalid input on axis 2: max_jerk is not a finite number",
+            ),
+            (
+                TrajectoryError::InvalidOption(InvalidOption::Period),
+                "invalid option: the period must be a finite number > 0",
+            ),
+            (
+                TrajectoryError::DurationTooLong { duration: 8000.5 },
+                "trajectory duration 8000.5 exceeds the maximum of 7600",
+            ),
+            (
+                TrajectoryError::ZeroLimits { axis: 1 },
+                "zero limits make the target of axis 1 unreachable",
+            ),
+            (
+                TrajectoryError::NoProfile { axis: 0 },
+                "no time-optimal profile found for axis 0",
+            ),
+            (
+                TrajectoryError::Synchronization {
+                    axis: Some(4),
+                    duration: 1.5,
+                },
+                "no synchronized profile of duration 1.5 found (axis Some(4))",
+            ),
+        ];
+        for (error, text) in cases {
+            assert_eq!(format!("{error}"), text);
+            let as_error: &dyn core::error::Error = &error;
+            assert!(as_error.source().is_none());
         }
     }
 }

@@ -36,8 +36,6 @@ mod position2;
 mod profile;
 mod roots;
 mod trajectory;
-#[cfg(feature = "vectors")]
-pub mod vectors;
 mod velocity;
 
 pub use calculator::MAX_SYNCHRONIZED_DURATION;

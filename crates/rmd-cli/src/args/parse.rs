@@ -1,0 +1,182 @@
+//! clap value parsers for the protocol's typed values: a raw integer (or a physical value) in,
+//! a validated value or the protocol's one-line error out.
+
+use rmd_protocol::{
+    AngleControl, EncoderWidth, IqControl, MotorId, ProtocolError, SingleTurnAngle, SpeedControl,
+};
+
+fn int(text: &str) -> Result<i64, String> {
+    text.trim()
+        .parse::<i64>()
+        .map_err(|_| format!("`{text}` is not an integer"))
+}
+
+fn float(text: &str) -> Result<f64, String> {
+    text.trim()
+        .parse::<f64>()
+        .map_err(|_| format!("`{text}` is not a number"))
+}
+
+fn msg(err: ProtocolError) -> String {
+    err.to_string()
+}
+
+/// `--id`: a motor id 1..=32.
+pub(crate) fn motor_id(text: &str) -> Result<MotorId, String> {
+    let id = int(text)?;
+    let id = u8::try_from(id).map_err(|_| format!("invalid motor id {id}: must be 1..=32"))?;
+    MotorId::new(id).map_err(msg)
+}
+
+/// `--encoder-bits`: 12..=18.
+pub(crate) fn encoder_width(text: &str) -> Result<EncoderWidth, String> {
+    let bits = int(text)?;
+    let bits =
+        u8::try_from(bits).map_err(|_| format!("encoder width {bits} bits: must be 12..=18"))?;
+    EncoderWidth::new(bits).map_err(msg)
+}
+
+/// A raw integer checked by `new`.
+macro_rules! raw_parser {
+    ($fn_name:ident, $ty:ty) => {
+        #[doc = concat!("A raw `", stringify!($ty), "`.")]
+        pub(crate) fn $fn_name(text: &str) -> Result<$ty, String> {
+            <$ty>::new(int(text)?).map_err(msg)
+        }
+    };
+}
+
+/// A physical value converted by `from_<unit>`.
+macro_rules! physical_parser {
+    ($fn_name:ident, $ty:ty, $from:ident) => {
+        #[doc = concat!("A physical value for `", stringify!($ty), "`.")]
+        pub(crate) fn $fn_name(text: &str) -> Result<$ty, String> {
+            <$ty>::$from(float(text)?).map_err(msg)
+        }
+    };
+}
+
+raw_parser!(iq_control, IqControl);
+raw_parser!(speed_control, SpeedControl);
+raw_parser!(angle_control, AngleControl);
+raw_parser!(single_turn_angle, SingleTurnAngle);
+raw_parser!(max_speed, rmd_protocol::MaxSpeed);
+raw_parser!(accel, rmd_protocol::Accel);
+physical_parser!(iq_amps, IqControl, from_amps);
+physical_parser!(speed_dps, SpeedControl, from_dps);
+physical_parser!(angle_deg, AngleControl, from_degrees);
+physical_parser!(single_turn_deg, SingleTurnAngle, from_degrees);
+
+/// `A,B,C,D` of values parsed by `one`.
+fn four<T: Copy + Default>(
+    text: &str,
+    one: fn(&str) -> Result<T, String>,
+) -> Result<[T; 4], String> {
+    let parts: Vec<&str> = text.split(',').collect();
+    if parts.len() != 4 {
+        return Err(format!(
+            "expected 4 comma-separated values (motors 1..=4), got {}",
+            parts.len()
+        ));
+    }
+    let mut out = [T::default(); 4];
+    for (slot, part) in out.iter_mut().zip(parts) {
+        *slot = one(part)?;
+    }
+    Ok(out)
+}
+
+/// `--iq-control A,B,C,D` of multi-torque.
+pub(crate) fn iq_control4(text: &str) -> Result<[IqControl; 4], String> {
+    four(text, iq_control)
+}
+
+/// `--amps A,B,C,D` of multi-torque.
+pub(crate) fn iq_amps4(text: &str) -> Result<[IqControl; 4], String> {
+    four(text, iq_amps)
+}
+
+/// A probability, 0..=1.
+pub(crate) fn probability(text: &str) -> Result<f64, String> {
+    let p = float(text)?;
+    if (0.0..=1.0).contains(&p) {
+        Ok(p)
+    } else {
+        Err(format!("probability {p} must be within 0..=1"))
+    }
+}
+
+/// A finite number above zero.
+pub(crate) fn positive(text: &str) -> Result<f64, String> {
+    let v = float(text)?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v} must be a finite number above 0"))
+    }
+}
+
+/// A finite number.
+pub(crate) fn finite(text: &str) -> Result<f64, String> {
+    let v = float(text)?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{text} must be a finite number"))
+    }
+}
+
+/// `MASS_KG,LENGTH_M[,OFFSET_DEG]`: a link under gravity on a motor's output.
+pub(crate) fn gravity_link(text: &str) -> Result<rmd_sim::GravityLink, String> {
+    let parts: Vec<&str> = text.split(',').collect();
+    if !(2..=3).contains(&parts.len()) {
+        return Err(format!(
+            "`{text}`: expected MASS_KG,LENGTH_M[,OFFSET_DEG], e.g. 1.5,0.25 or 1.5,0.25,90"
+        ));
+    }
+    let link = rmd_sim::GravityLink {
+        mass_kg: float(parts[0])?,
+        length_m: float(parts[1])?,
+        angle_offset_deg: parts.get(2).map_or(Ok(0.0), |p| float(p))?,
+    };
+    link.validate().map_err(|e| e.to_string())?;
+    Ok(link)
+}
+
+/// `PROBABILITY,MILLISECONDS`: replies sent late.
+pub(crate) fn late_fault(text: &str) -> Result<(f64, std::time::Duration), String> {
+    let Some((p, ms)) = text.split_once(',') else {
+        return Err(format!(
+            "`{text}`: expected PROBABILITY,MILLISECONDS, e.g. 0.1,5"
+        ));
+    };
+    let p = probability(p)?;
+    let ms = float(ms)?;
+    if !(ms.is_finite() && (0.0..=60_000.0).contains(&ms)) {
+        return Err(format!("late reply delay {ms} ms must be within 0..=60000"));
+    }
+    Ok((p, std::time::Duration::from_secs_f64(ms / 1e3)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    #[test]
+    fn fault_and_load_options() {
+        assert_eq!(probability("0.25"), Ok(0.25));
+        assert!(probability("1.5").is_err());
+        assert_eq!(late_fault("0.5,3"), Ok((0.5, Duration::from_millis(3))));
+        assert!(late_fault("0.5").is_err());
+        let link = gravity_link("1.5,0.25,90").unwrap();
+        assert_eq!(
+            (link.mass_kg, link.length_m, link.angle_offset_deg),
+            (1.5, 0.25, 90.0)
+        );
+        assert_eq!(gravity_link("2,0.1").unwrap().angle_offset_deg, 0.0);
+        assert!(gravity_link("-1,0.1").is_err());
+        assert!(gravity_link("1").is_err());
+        assert!(positive("0").is_err() && positive("inf").is_err());
+    }
+}

@@ -1,0 +1,61 @@
+//! `rmd bench`: the benchmarks users choose a real-time framework by.
+//!
+//! - `rmd bench loop`: the real-time loop with a PD controller on simulated motors, and its report;
+//! - `rmd bench jitter`: the loop's timer alone, measured as cyclictest measures the kernel's;
+//! - `rmd bench rate`: the highest rate the simulated bus sustains with zero deadline misses,
+//!   against the wire limit of the frames sent.
+//!
+//! See docs/benchmarks.md for the figures and how they were produced.
+
+mod flags;
+mod histogram;
+mod jitter;
+mod loop_bench;
+mod pd;
+mod rate;
+mod robot;
+mod wire_limit;
+
+use std::process::ExitCode;
+
+use clap::{Args, Subcommand};
+
+use crate::output::console::{self, WriteError};
+use crate::output::report;
+
+/// Arguments of `rmd bench`.
+#[derive(Args, Debug)]
+pub(crate) struct BenchArgs {
+    #[command(subcommand)]
+    command: BenchCommand,
+}
+
+#[derive(Subcommand, Debug)]
+enum BenchCommand {
+    /// Run the real-time loop with a PD position controller on simulated motors and print its
+    /// report (latency percentiles, deadline misses, missing replies).
+    Loop(loop_bench::LoopArgs),
+    /// Measure the loop timer's wake latency alone (no bus, no controller), like cyclictest.
+    Jitter(jitter::JitterArgs),
+    /// Find the highest rate the simulated 1 Mbit/s bus sustains with zero deadline misses and
+    /// compare it with the wire limit of the frames sent.
+    Rate(rate::RateArgs),
+}
+
+/// Runs `rmd bench`.
+pub(crate) fn run(args: BenchArgs) -> ExitCode {
+    match args.command {
+        BenchCommand::Loop(a) => loop_bench::run(a),
+        BenchCommand::Jitter(a) => jitter::run(a),
+        BenchCommand::Rate(a) => rate::run(a),
+    }
+}
+
+/// Writes a result to stdout. A closed pipe (`rmd bench ... | head`) is no failure: the result
+/// is simply not read. Any other write error is (`Err` holds the exit code).
+fn emit(text: &str) -> Result<(), ExitCode> {
+    match console::write_all(text.as_bytes()) {
+        Ok(()) | Err(WriteError::Closed) => Ok(()),
+        Err(error) => Err(report::failure(error)),
+    }
+}

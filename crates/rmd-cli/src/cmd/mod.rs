@@ -1,0 +1,102 @@
+//! The subcommands of `rmd`, one module (or folder) each, with its clap `Args` and a `run`
+//! function returning the exit code. To add a subcommand: a module here, a variant in
+//! [`Command`], a line in [`Command::run`].
+
+mod accel;
+mod bench;
+mod completions;
+pub(crate) mod decode;
+mod drive;
+mod encode;
+mod encoder;
+mod log;
+mod monitor;
+mod motion;
+mod pid;
+mod power;
+mod replay;
+mod scan;
+mod sim;
+mod status;
+mod traj;
+mod zero;
+
+use std::process::ExitCode;
+
+use clap::Subcommand;
+
+/// The subcommands.
+#[derive(Subcommand, Debug)]
+pub(crate) enum Command {
+    /// Encode one command as a CAN frame, printed as candump's compact `ID#DATA`.
+    Encode(encode::EncodeArgs),
+    /// Decode frames (candump compact, -L log or default text) into JSON lines.
+    Decode(decode::DecodeArgs),
+    /// Run simulated motors on a CAN interface (e.g. vcan0), answering as firmware would.
+    Sim(sim::SimArgs),
+    /// List the motor ids that answer (1..=32), with their status 1.
+    Scan(scan::ScanArgs),
+    /// Read everything a motor reports: status 1/2/3, encoder, angles.
+    Status(status::StatusArgs),
+    /// Read or change the PID gains (RAM; --rom asks first).
+    Pid(pid::PidArgs),
+    /// Read or change the acceleration limit (RAM).
+    Accel(accel::AccelArgs),
+    /// Read the encoder, or write its offset.
+    Encoder(encoder::EncoderArgs),
+    /// Write the present position to ROM as the zero (asks first; needs a power cycle).
+    Zero(zero::ZeroArgs),
+    /// Motor off (0x80): output off, mode forgotten.
+    Off(power::PowerArgs),
+    /// Motor stop (0x81): output off, mode kept for `rmd run`.
+    Stop(power::PowerArgs),
+    /// Motor run (0x88): resume after `rmd stop`.
+    Run(power::PowerArgs),
+    /// Move to an angle (position modes 1..=4), within limits; waits until there.
+    Move(motion::MoveArgs),
+    /// Drive a torque current for a duration, then turn the motor off.
+    Torque(drive::TorqueArgs),
+    /// Drive a speed for a duration, then turn the motor off.
+    Speed(drive::SpeedArgs),
+    /// Live table of every motor's temperature, voltage, current, speed and angle.
+    Monitor(monitor::MonitorArgs),
+    /// Record a CAN interface to a candump -L file.
+    Log(log::LogArgs),
+    /// Play a candump -L log back in time: printed, or onto an interface or the simulator.
+    Replay(replay::ReplayArgs),
+    /// Benchmarks: the loop on simulated motors, timer jitter, the bus-limited rate.
+    Bench(bench::BenchArgs),
+    /// Trajectory generator tools: `rmd traj check FILE` runs a test-vector file.
+    Traj(traj::TrajArgs),
+    /// Print the shell completion script (bash, zsh, fish, elvish, powershell).
+    Completions(completions::CompletionsArgs),
+}
+
+impl Command {
+    /// Runs the subcommand.
+    pub(crate) fn run(self) -> ExitCode {
+        match self {
+            Command::Encode(args) => encode::run(args),
+            Command::Decode(args) => decode::run(args),
+            Command::Sim(args) => sim::run(args),
+            Command::Scan(args) => scan::run(args),
+            Command::Status(args) => status::run(args),
+            Command::Pid(args) => pid::run(args),
+            Command::Accel(args) => accel::run(args),
+            Command::Encoder(args) => encoder::run(args),
+            Command::Zero(args) => zero::run(args),
+            Command::Off(args) => power::run(power::Action::Off, args),
+            Command::Stop(args) => power::run(power::Action::Stop, args),
+            Command::Run(args) => power::run(power::Action::Run, args),
+            Command::Move(args) => motion::run(args),
+            Command::Torque(args) => drive::run_torque(args),
+            Command::Speed(args) => drive::run_speed(args),
+            Command::Monitor(args) => monitor::run(args),
+            Command::Log(args) => log::run(args),
+            Command::Replay(args) => replay::run(args),
+            Command::Bench(args) => bench::run(args),
+            Command::Traj(args) => traj::run(args),
+            Command::Completions(args) => completions::run(args),
+        }
+    }
+}

@@ -1,0 +1,263 @@
+//! `rmd monitor`: a live table of every motor's temperature, voltage, current, speed and angle
+//! (status 1, status 2 and the multi-turn angle, read at `--rate`), until Ctrl-C or `--count`.
+
+use std::io::IsTerminal;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::Args;
+use rmd_bus::Clock;
+use rmd_protocol::{MotorId, Reply, Request};
+use serde_json::{Value, json};
+
+use crate::args::bus::BusArgs;
+use crate::args::ids::{self, IdList};
+use crate::args::parse;
+use crate::live::connect::{Connection, DEFAULT_TIMEOUT};
+use crate::live::interrupt;
+use crate::output::progress::{self, Progress};
+use crate::output::readings;
+use crate::output::report::{self, CliError};
+use crate::output::table::{Align, TextTable};
+use crate::output::{out, outln};
+
+/// Arguments of `rmd monitor`.
+#[derive(Args, Debug)]
+pub(crate) struct MonitorArgs {
+    /// Motors to watch [default: the ones that answer a scan of 1..=32].
+    #[arg(long, value_name = "IDS", value_parser = ids::parse)]
+    ids: Option<IdList>,
+    /// Readings per second.
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = parse::positive, default_value = "10")]
+    rate: f64,
+    /// Stop after this many readings [default: until Ctrl-C].
+    #[arg(long, value_name = "N")]
+    count: Option<u64>,
+    /// Print one JSON object per reading (`{"time_s":..,"motors":[..]}`), one per line.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    bus: BusArgs,
+}
+
+/// Reply timeout while looking for motors (absent ids cost the whole timeout).
+const SCAN_TIMEOUT: Duration = Duration::from_millis(20);
+
+/// What one reading of one motor asks.
+const READS: [Request; 3] = [
+    Request::ReadStatus1,
+    Request::ReadStatus2,
+    Request::ReadMultiTurnAngle,
+];
+
+/// Runs `rmd monitor`.
+pub(crate) fn run(args: MonitorArgs) -> ExitCode {
+    report::exit(monitor(&args))
+}
+
+fn monitor(args: &MonitorArgs) -> Result<(), CliError> {
+    let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, 0)?;
+    interrupt::install()?;
+    let motors = match &args.ids {
+        Some(ids) => ids.ids().to_vec(),
+        None => {
+            let timeout = bus.policy().timeout;
+            if args.bus.timeout_ms.is_none() {
+                bus.set_timeout(SCAN_TIMEOUT);
+            }
+            let found = scan(&mut bus, progress::shown(args.json))?;
+            bus.set_timeout(timeout);
+            found
+        }
+    };
+    let period = Duration::from_secs_f64(1.0 / args.rate);
+    let redraw = !args.json && std::io::stdout().is_terminal();
+    let start = bus.clock().now();
+    let mut drawn_lines = 0;
+    let mut readings_done = 0u64;
+    while args.count.is_none_or(|n| readings_done < n) && !interrupt::requested() {
+        let at = start + period * u32::try_from(readings_done).unwrap_or(u32::MAX);
+        if !interrupt::sleep_until(bus.clock(), at) {
+            break;
+        }
+        let time_s = (bus.clock().now() - start).as_secs_f64();
+        let mut rows = Vec::with_capacity(motors.len());
+        for &motor in &motors {
+            rows.push((motor, read(&mut bus, motor)?));
+        }
+        let shown = if args.json {
+            let list: Vec<Value> = rows
+                .iter()
+                .map(|(motor, row)| match row {
+                    Ok(replies) => readings::object(*motor, replies, bus.width()),
+                    Err(error) => readings::error_object(*motor, error),
+                })
+                .collect();
+            outln!("{}", json!({"time_s": time_s, "motors": list}))
+        } else {
+            let mut text = String::new();
+            if redraw && drawn_lines > 0 {
+                // Back to the top of the previous table.
+                text += &format!("\x1b[{drawn_lines}A");
+            }
+            let table = table(time_s, &rows, if redraw { "\x1b[K" } else { "" });
+            drawn_lines = table.lines().count();
+            text += &table;
+            if !redraw {
+                text.push('\n');
+            }
+            out!("{text}")
+        };
+        if let Err(error) = shown {
+            // Nobody reads any more (or the output failed): stop, keeping the recording.
+            bus.finish()?;
+            return Err(error.into());
+        }
+        readings_done += 1;
+    }
+    bus.finish()?;
+    Ok(())
+}
+
+/// The motors that answer a status-1 read, ids 1..=32.
+fn scan(bus: &mut Connection, show: bool) -> Result<Vec<MotorId>, CliError> {
+    let mut found = Vec::new();
+    let all = IdList::all();
+    let progress = Progress::counter(all.ids().len() as u64, "ids", show);
+    progress.set_prefix("looking for motors ");
+    for (done, &motor) in all.ids().iter().enumerate() {
+        progress.set_position(done as u64);
+        match bus.request(motor, &Request::ReadStatus1) {
+            Ok(_) => found.push(motor),
+            Err(error) if error.is_bus_failure() => return Err(error.into()),
+            Err(_) => {}
+        }
+    }
+    if found.is_empty() {
+        return Err(CliError::Failed(format!(
+            "no motor answered on {}: check power, wiring and bit rate, or name the motors \
+             with --ids",
+            bus.setup().name()
+        )));
+    }
+    Ok(found)
+}
+
+/// One reading of one motor, or why it failed (the monitor goes on).
+fn read(bus: &mut Connection, motor: MotorId) -> Result<Result<Vec<Reply>, String>, CliError> {
+    let mut replies = Vec::with_capacity(READS.len());
+    for request in &READS {
+        match bus.request(motor, request) {
+            Ok(reply) => replies.push(reply),
+            Err(error) if error.is_bus_failure() => return Err(error.into()),
+            Err(error) => return Ok(Err(error.to_string())),
+        }
+    }
+    Ok(Ok(replies))
+}
+
+/// The table of one reading; every line ends with `clear` (on a terminal: "clear to end of
+/// line", so a redraw over a longer previous line leaves nothing behind).
+fn table(time_s: f64, rows: &[(MotorId, Result<Vec<Reply>, String>)], clear: &str) -> String {
+    let mut table = TextTable::new(&[
+        ("id", Align::Right),
+        ("temp °C", Align::Right),
+        ("volts", Align::Right),
+        ("iq A", Align::Right),
+        ("speed dps", Align::Right),
+        ("angle °", Align::Right),
+        ("errors", Align::Left),
+    ])
+    // The widths of typical values: the table keeps its layout as they change.
+    .min_widths(&[3, 7, 5, 6, 9, 10]);
+    for (motor, row) in rows {
+        table.row(cells(*motor, row));
+    }
+    let mut text = format!("t {time_s:8.2} s{clear}\n");
+    for line in table.render().lines() {
+        text.push_str(line);
+        text.push_str(clear);
+        text.push('\n');
+    }
+    text
+}
+
+/// The cells of one motor's row; a motor that did not answer says so in the last column.
+fn cells(motor: MotorId, row: &Result<Vec<Reply>, String>) -> Vec<String> {
+    let id = motor.get().to_string();
+    let missing = |why: &str| {
+        let mut cells = vec![id.clone()];
+        cells.extend(std::iter::repeat_n("-".to_owned(), 5));
+        cells.push(why.to_owned());
+        cells
+    };
+    let Ok(replies) = row else {
+        return missing("no reply");
+    };
+    let (mut status1, mut status2, mut angle) = (None, None, None);
+    for reply in replies {
+        match reply {
+            Reply::ReadStatus1(s) => status1 = Some(*s),
+            Reply::ReadStatus2(s) => status2 = Some(*s),
+            Reply::ReadMultiTurnAngle { motor_angle } => angle = Some(motor_angle.degrees()),
+            _ => {}
+        }
+    }
+    let (Some(s1), Some(s2), Some(angle)) = (status1, status2, angle) else {
+        return missing("incomplete reply");
+    };
+    vec![
+        id,
+        s2.temperature.celsius().to_string(),
+        format!("{:.1}", s1.voltage.volts()),
+        format!("{:.2}", s2.iq.amps()),
+        s2.speed.dps().to_string(),
+        format!("{angle:.2}"),
+        readings::errors_text(s1.error_state),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rmd_protocol::{MotorAngle, Status1, Status2};
+
+    #[test]
+    fn rows_line_up_under_the_header_whatever_their_state() {
+        let id = |n| MotorId::new(n).unwrap();
+        let answered = vec![
+            Reply::ReadStatus1(Status1::default()),
+            Reply::ReadStatus2(Status2::default()),
+            Reply::ReadMultiTurnAngle {
+                motor_angle: MotorAngle::new(-1_234_567).unwrap(),
+            },
+        ];
+        let rows = [
+            (id(2), Ok(answered)),
+            (id(9), Err("motor 9 did not answer".to_owned())),
+            (id(12), Ok(vec![Reply::ReadStatus1(Status1::default())])),
+        ];
+        let text = table(1.5, &rows, "");
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], "t     1.50 s");
+        let header = lines[1];
+        let errors_at = header.find("errors").unwrap();
+        let angle_end = header.find("angle °").unwrap() + "angle °".len();
+        let state = |line: &str| {
+            line.chars()
+                .skip(header[..errors_at].chars().count())
+                .collect::<String>()
+        };
+        assert_eq!(state(lines[2]), "none");
+        assert_eq!(state(lines[3]), "no reply");
+        assert_eq!(state(lines[4]), "incomplete reply");
+        // Numbers end where their titles end (counted in characters: `°` is one).
+        let angle_col = header[..angle_end].chars().count();
+        let prefix = |line: &str| line.chars().take(angle_col).collect::<String>();
+        assert!(prefix(lines[2]).ends_with("-12345.67"), "{text}");
+        assert!(prefix(lines[3]).ends_with(" -"), "{text}");
+        assert!(
+            lines[2].trim_start().starts_with("2 ") && lines[4].trim_start().starts_with("12 ")
+        );
+    }
+}

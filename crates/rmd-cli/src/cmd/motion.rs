@@ -1,0 +1,264 @@
+//! `rmd move ID --deg X`: a position command (modes 1..=4 of the protocol, 0xA3..=0xA6) with
+//! angle limits checked before anything is sent; waits until the motor is there (Ctrl-C or a
+//! timeout turns it off), then leaves it holding the position.
+
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::{Args, ValueEnum};
+use rmd_bus::Clock;
+use rmd_protocol::{
+    AngleControl, MaxSpeed, MotorId, Reply, Request, SingleTurnAngle, SpinDirection,
+};
+
+use crate::args::bus::BusArgs;
+use crate::args::duration;
+use crate::args::parse;
+use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::live::interrupt;
+use crate::live::safe_stop;
+use crate::output::outln;
+use crate::output::progress::{self, Progress};
+use crate::output::report::{self, CliError};
+
+/// Direction of the single-turn modes 3 and 4.
+#[derive(Copy, Clone, Debug, ValueEnum)]
+enum Direction {
+    /// Clockwise (spinDirection 0x00; angles grow).
+    Cw,
+    /// Counterclockwise (spinDirection 0x01).
+    Ccw,
+}
+
+/// Arguments of `rmd move`.
+#[derive(Args, Debug)]
+pub(crate) struct MoveArgs {
+    /// Motor id, 1..=32.
+    #[arg(value_parser = parse::motor_id)]
+    id: MotorId,
+    /// Target angle, degrees (motor side): multi-turn for modes 1 and 2, 0..<360 for modes 3
+    /// and 4.
+    #[arg(long, value_parser = parse::finite, allow_hyphen_values = true)]
+    deg: f64,
+    /// Position mode: 1 (0xA3, multi-turn), 2 (0xA4, multi-turn with --max-speed), 3 (0xA5,
+    /// single-turn with --direction), 4 (0xA6, single-turn with --direction and --max-speed).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=4))]
+    mode: u8,
+    /// Speed limit of modes 2 and 4, dps (motor side) [default: 360]. Modes 1 and 3 use the
+    /// motor's own max-speed setting.
+    #[arg(long, value_name = "DPS", value_parser = parse::positive)]
+    max_speed: Option<f64>,
+    /// Turning direction of modes 3 and 4 [default: cw].
+    #[arg(long, value_enum)]
+    direction: Option<Direction>,
+    /// Refuse targets below this angle, degrees.
+    #[arg(long, value_name = "DEG", value_parser = parse::finite, allow_hyphen_values = true)]
+    min_deg: Option<f64>,
+    /// Refuse targets above this angle, degrees.
+    #[arg(long, value_name = "DEG", value_parser = parse::finite, allow_hyphen_values = true)]
+    max_deg: Option<f64>,
+    /// How close counts as there, degrees.
+    #[arg(long, value_name = "DEG", value_parser = parse::positive, default_value = "1")]
+    tolerance: f64,
+    /// Give up (and turn the motor off) if it is not there after this long (e.g. 10s, 1m; a
+    /// bare number is seconds).
+    #[arg(long = "wait-timeout", value_name = "DURATION", value_parser = duration::any, default_value = "10s", allow_hyphen_values = true)]
+    wait_timeout: Duration,
+    /// Return once the motor accepted the command, without waiting for it to arrive.
+    #[arg(long)]
+    no_wait: bool,
+    #[command(flatten)]
+    bus: BusArgs,
+}
+
+/// Default speed limit of modes 2 and 4.
+const DEFAULT_MAX_SPEED_DPS: f64 = 360.0;
+/// How often the angle is read while waiting.
+const POLL: Duration = Duration::from_millis(50);
+
+/// Runs `rmd move`.
+pub(crate) fn run(args: MoveArgs) -> ExitCode {
+    report::exit(match position_request(&args) {
+        Ok(request) => move_to(&args, request),
+        Err(message) => Err(CliError::Usage(message)),
+    })
+}
+
+/// The position request the arguments describe, with every limit checked.
+fn position_request(args: &MoveArgs) -> Result<Request, String> {
+    let id = args.id;
+    let (min, max) = (
+        args.min_deg.unwrap_or(f64::NEG_INFINITY),
+        args.max_deg.unwrap_or(f64::INFINITY),
+    );
+    if min > max {
+        return Err(format!("--min-deg {min} is above --max-deg {max}"));
+    }
+    if !(min..=max).contains(&args.deg) {
+        return Err(format!(
+            "target {}° for motor {id} is outside the limits {}..={} (--min-deg/--max-deg): \
+             nothing was sent",
+            args.deg,
+            args.min_deg.map_or("-inf".into(), |v| v.to_string()),
+            args.max_deg.map_or("+inf".into(), |v| v.to_string())
+        ));
+    }
+    let single_turn = args.mode >= 3;
+    let with_speed = args.mode == 2 || args.mode == 4;
+    if args.max_speed.is_some() && !with_speed {
+        return Err(format!(
+            "mode {} uses the motor's own max-speed setting: --max-speed needs mode 2 or 4",
+            args.mode
+        ));
+    }
+    if args.direction.is_some() && !single_turn {
+        return Err(format!(
+            "--direction is for the single-turn modes 3 and 4 (mode {} is multi-turn)",
+            args.mode
+        ));
+    }
+    let max_speed = MaxSpeed::from_dps(args.max_speed.unwrap_or(DEFAULT_MAX_SPEED_DPS))
+        .map_err(|e| format!("--max-speed: {e}"))?;
+    let spin_direction = match args.direction.unwrap_or(Direction::Cw) {
+        Direction::Cw => SpinDirection::Clockwise,
+        Direction::Ccw => SpinDirection::CounterClockwise,
+    };
+    let multi =
+        || AngleControl::from_degrees(args.deg).map_err(|e| format!("--deg for motor {id}: {e}"));
+    let single = || {
+        SingleTurnAngle::from_degrees(args.deg).map_err(|e| {
+            format!("--deg for motor {id}: {e} (modes 3 and 4 take a single-turn angle, 0..<360°)")
+        })
+    };
+    Ok(match args.mode {
+        1 => Request::Position1 {
+            angle_control: multi()?,
+        },
+        2 => Request::Position2 {
+            max_speed,
+            angle_control: multi()?,
+        },
+        3 => Request::Position3 {
+            spin_direction,
+            angle_control: single()?,
+        },
+        _ => Request::Position4 {
+            spin_direction,
+            max_speed,
+            angle_control: single()?,
+        },
+    })
+}
+
+fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
+    let id = args.id;
+    let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
+    if !args.no_wait {
+        // Before the motor moves: from here Ctrl-C turns it off instead of killing us.
+        interrupt::install()?;
+    }
+    let reply = bus.request(id, &request)?;
+    if reply.status2().is_none() {
+        return Err(CliError::Failed(format!(
+            "motor {id} answered {} with {}: the command may not have been taken; check with \
+             `rmd status {id}`",
+            request.command(),
+            reply.command()
+        )));
+    }
+    if args.no_wait {
+        bus.finish()?;
+        outln!("motor {id}: moving to {}° (mode {})", args.deg, args.mode)?;
+        return Ok(());
+    }
+    let single_turn = args.mode >= 3;
+    let progress = Progress::spinner(progress::shown(false));
+    progress.set_prefix(format!("motor {id} "));
+    let start = bus.clock().now();
+    let mut angle = None;
+    let outcome = loop {
+        if interrupt::requested() {
+            break Err(CliError::Interrupted(format!("moving motor {id}")));
+        }
+        match read_angle(&mut bus, id, single_turn) {
+            Ok(a) => angle = Some(a),
+            Err(error) => break Err(error),
+        }
+        let elapsed = bus.clock().now() - start;
+        let error = distance(angle.unwrap_or(f64::NAN), args.deg, single_turn);
+        progress.set_message(format!(
+            "at {:.2}°, moving to {}°",
+            angle.unwrap_or(f64::NAN),
+            args.deg
+        ));
+        if error <= args.tolerance {
+            break Ok(elapsed);
+        }
+        if elapsed >= args.wait_timeout {
+            break Err(CliError::Failed(format!(
+                "motor {id} did not reach {}° within {:.1} s (it is at {:.2}°): check the \
+                 load, --max-speed, and the motor's max-angle setting",
+                args.deg,
+                args.wait_timeout.as_secs_f64(),
+                angle.unwrap_or(f64::NAN)
+            )));
+        }
+        if !interrupt::sleep_until(bus.clock(), bus.clock().now() + POLL) {
+            break Err(CliError::Interrupted(format!("moving motor {id}")));
+        }
+    };
+    drop(progress);
+    match outcome {
+        Ok(elapsed) => {
+            bus.finish()?;
+            outln!(
+                "motor {id}: at {:.2}° (target {}°) after {:.2} s; holding the position \
+                 (`rmd off {id}` releases it)",
+                angle.unwrap_or(f64::NAN),
+                args.deg,
+                elapsed.as_secs_f64()
+            )?;
+            Ok(())
+        }
+        Err(error) => {
+            let result = safe_stop::finish(&mut bus, &[id], Err(error));
+            bus.finish()?;
+            result
+        }
+    }
+}
+
+/// The motor's angle: multi-turn (0x92) or single-turn (0x94), degrees.
+fn read_angle(bus: &mut Connection, id: MotorId, single_turn: bool) -> Result<f64, CliError> {
+    let request = if single_turn {
+        Request::ReadSingleTurnAngle
+    } else {
+        Request::ReadMultiTurnAngle
+    };
+    match bus.request(id, &request)? {
+        Reply::ReadMultiTurnAngle { motor_angle } => Ok(motor_angle.degrees()),
+        Reply::ReadSingleTurnAngle { circle_angle } => Ok(circle_angle.degrees()),
+        other => Err(CliError::Failed(format!(
+            "motor {id} answered with an unexpected {} reply",
+            other.command()
+        ))),
+    }
+}
+
+/// How far `angle` is from `target`, degrees (around the circle for single-turn angles).
+fn distance(angle: f64, target: f64, single_turn: bool) -> f64 {
+    let d = (angle - target).abs();
+    if single_turn { d.min(360.0 - d) } else { d }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::distance;
+
+    #[test]
+    fn single_turn_distance_goes_around() {
+        assert_eq!(distance(359.0, 1.0, true), 2.0);
+        assert_eq!(distance(359.0, 1.0, false), 358.0);
+        assert!(distance(f64::NAN, 1.0, false).is_nan());
+    }
+}

@@ -1,0 +1,236 @@
+//! Opening the bus every live command talks to: `--iface IFACE` (SocketCAN) or `--sim`
+//! (simulated motors in this process, in real time), optionally recorded with `--log FILE`.
+
+use std::fs::File;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use rmd_bus::record::{LogWriter, RecordOptions, record};
+use rmd_bus::{CanBus, MonotonicClock};
+use rmd_protocol::{EncoderWidth, MotorId, Reply, Request};
+use rmd_sim::{MotorConfig, SimBus, SimConfig};
+
+use crate::args::bus::BusArgs;
+use crate::args::ids::IdList;
+use crate::live::exchange::{self, ExchangeError, Policy, Setup};
+use crate::output::errln;
+use crate::output::report::CliError;
+
+/// Default reply timeout of a request.
+pub(crate) const DEFAULT_TIMEOUT: Duration = Duration::from_millis(50);
+/// Default retries of a request.
+pub(crate) const DEFAULT_RETRIES: u32 = 2;
+
+/// An open bus: the bus (recorded if asked), its clock, and the exchange policy.
+pub(crate) struct Connection {
+    bus: Box<dyn CanBus>,
+    clock: MonotonicClock,
+    policy: Policy,
+    width: EncoderWidth,
+    recording: Option<Recording>,
+}
+
+struct Recording {
+    path: PathBuf,
+    writer: LogWriter<File>,
+}
+
+impl Connection {
+    /// Opens what `args` names, with the given default timeout and retries (the command line
+    /// overrides them).
+    pub(crate) fn open(
+        args: &BusArgs,
+        default_timeout: Duration,
+        default_retries: u32,
+    ) -> Result<Self, CliError> {
+        let (bus, setup): (Box<dyn CanBus>, Setup) = if args.sim {
+            (
+                Box::new(simulated_bus(&args.sim_ids, args.encoder_bits)?),
+                Setup::Simulator(args.sim_ids.clone()),
+            )
+        } else if let Some(iface) = &args.iface {
+            (
+                open_interface(iface, Filter::Motors)?,
+                Setup::Interface(iface.clone()),
+            )
+        } else {
+            return Err(CliError::Usage(
+                "no bus given: use --iface IFACE for a CAN interface (e.g. --iface can0), or \
+                 --sim for simulated motors"
+                    .to_owned(),
+            ));
+        };
+        let (bus, recording) = match &args.log {
+            None => (bus, None),
+            Some(path) => {
+                let name = match &setup {
+                    Setup::Interface(iface) => iface.as_str(),
+                    Setup::Simulator(_) => "sim",
+                };
+                let (bus, writer) = record_to(bus, path, name)?;
+                (
+                    bus,
+                    Some(Recording {
+                        path: path.clone(),
+                        writer,
+                    }),
+                )
+            }
+        };
+        Ok(Self {
+            bus,
+            clock: MonotonicClock,
+            policy: Policy {
+                timeout: args
+                    .timeout_ms
+                    .map_or(default_timeout, Duration::from_millis),
+                retries: args.retries.unwrap_or(default_retries),
+                setup,
+            },
+            width: args.encoder_bits,
+            recording,
+        })
+    }
+
+    /// Sends `request` to `motor` and returns its reply.
+    pub(crate) fn request(
+        &mut self,
+        motor: MotorId,
+        request: &Request,
+    ) -> Result<Reply, ExchangeError> {
+        exchange::request(self.bus.as_mut(), &self.clock, &self.policy, motor, request)
+    }
+
+    /// The bus, for commands that do their own sending and receiving.
+    pub(crate) fn bus(&mut self) -> &mut dyn CanBus {
+        self.bus.as_mut()
+    }
+
+    /// The clock of the bus.
+    pub(crate) fn clock(&self) -> &MonotonicClock {
+        &self.clock
+    }
+
+    /// The exchange policy.
+    pub(crate) fn policy(&self) -> &Policy {
+        &self.policy
+    }
+
+    /// Changes the reply timeout of the next requests.
+    pub(crate) fn set_timeout(&mut self, timeout: Duration) {
+        self.policy.timeout = timeout;
+    }
+
+    /// What the bus is.
+    pub(crate) fn setup(&self) -> &Setup {
+        &self.policy.setup
+    }
+
+    /// The motors' encoder width.
+    pub(crate) fn width(&self) -> EncoderWidth {
+        self.width
+    }
+
+    /// Ends the connection: flushes the recording, if any, and says where it went. Dropping a
+    /// connection also flushes it, without the summary.
+    pub(crate) fn finish(self) -> Result<(), String> {
+        let Self { bus, recording, .. } = self;
+        drop(bus);
+        match recording {
+            None => Ok(()),
+            Some(Recording { path, writer }) => report_recording(&path, writer),
+        }
+    }
+}
+
+/// Prints what a recording wrote (and dropped) on stderr.
+pub(crate) fn report_recording<W>(
+    path: &std::path::Path,
+    writer: LogWriter<W>,
+) -> Result<(), String> {
+    match writer.finish() {
+        Ok(stats) => {
+            errln!(
+                "recorded {} frames to {}{}",
+                stats.written,
+                path.display(),
+                if stats.dropped > 0 {
+                    format!(
+                        " ({} dropped: the disk could not keep up; record to a faster disk or \
+                         tmpfs)",
+                        stats.dropped
+                    )
+                } else {
+                    String::new()
+                }
+            );
+            Ok(())
+        }
+        Err(error) => Err(format!("{}: {error}", path.display())),
+    }
+}
+
+/// Wraps `bus` in a recorder writing to `path` (created or truncated).
+fn record_to(
+    bus: Box<dyn CanBus>,
+    path: &std::path::Path,
+    interface: &str,
+) -> Result<(Box<dyn CanBus>, LogWriter<File>), String> {
+    let file = File::create(path).map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+    let (bus, writer) = record(bus, MonotonicClock, file, RecordOptions::new(interface))
+        .map_err(|e| e.to_string())?;
+    Ok((Box::new(bus), writer))
+}
+
+/// Simulated motors `ids` on a simulated 1 Mbit/s bus, in real time.
+pub(crate) fn simulated_bus(
+    ids: &IdList,
+    width: EncoderWidth,
+) -> Result<SimBus<MonotonicClock>, String> {
+    let mut config = SimConfig::with_motors(0);
+    config.motors = ids
+        .ids()
+        .iter()
+        .map(|&id| {
+            let mut motor = MotorConfig::new(id);
+            motor.firmware.encoder_width = width;
+            motor
+        })
+        .collect();
+    SimBus::new(MonotonicClock, config).map_err(|e| format!("simulator: {e}"))
+}
+
+/// Which frames an interface delivers.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub(crate) enum Filter {
+    /// The motors' ids, 0x141..=0x160 (a host talking to motors).
+    Motors,
+    /// Those and the 0x280 multi-motor frame (simulated motors answering a host).
+    MotorsAndMulti,
+    /// Every standard data frame (a logger).
+    Everything,
+}
+
+/// Opens a SocketCAN interface.
+#[cfg(target_os = "linux")]
+pub(crate) fn open_interface(iface: &str, filter: Filter) -> Result<Box<dyn CanBus>, String> {
+    use rmd_bus::socketcan::{SocketCanBus, SocketCanOptions};
+    let options = match filter {
+        Filter::Motors => SocketCanOptions::new(),
+        Filter::MotorsAndMulti => {
+            SocketCanOptions::new().accept_id(rmd_protocol::MULTI_TORQUE_CAN_ID)
+        }
+        Filter::Everything => SocketCanOptions::new().accept_masked(0, 0),
+    };
+    SocketCanBus::open(iface, &options)
+        .map(|bus| Box::new(bus) as Box<dyn CanBus>)
+        .map_err(|e| e.to_string())
+}
+
+/// Opens a SocketCAN interface: not on this system.
+#[cfg(not(target_os = "linux"))]
+pub(crate) fn open_interface(iface: &str, _filter: Filter) -> Result<Box<dyn CanBus>, String> {
+    Err(format!(
+        "cannot open {iface}: SocketCAN interfaces exist on Linux only (use --sim here)"
+    ))
+}

@@ -1,0 +1,513 @@
+//! One request to one motor, one reply: the timeout, the retries and the typed errors every
+//! live command shares.
+//!
+//! [`request`] drops whatever is already queued (stale replies), sends the request, and waits
+//! up to the timeout for a reply from that motor to that command; it sends again up to
+//! `retries` times. Frames from other motors are ignored; a reply to another command, or a
+//! malformed one, is remembered and reported if no good reply comes. Bus events seen meanwhile
+//! (no acknowledgement, error-passive) sharpen the advice of a timeout; bus-off ends the
+//! exchange at once.
+
+use std::fmt;
+use std::time::Duration;
+
+use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock, Timestamp};
+use rmd_protocol::{Command, MotorId, ProtocolError, Reply, Request, decode_reply_to};
+
+use crate::args::ids::IdList;
+use crate::output::report::CliError;
+
+/// Timeout and retries of each exchange, and what the bus is (for the advice in errors).
+#[derive(Clone, Debug)]
+pub(crate) struct Policy {
+    /// How long to wait for the reply after each send.
+    pub(crate) timeout: Duration,
+    /// How many times to send again after a timeout.
+    pub(crate) retries: u32,
+    /// What the motors are on.
+    pub(crate) setup: Setup,
+}
+
+/// What the motors are on, for advice in error messages.
+#[derive(Clone, Debug)]
+pub(crate) enum Setup {
+    /// A SocketCAN interface.
+    Interface(String),
+    /// The in-process simulator with these motors.
+    Simulator(IdList),
+}
+
+impl Setup {
+    /// The command-line option that reaches the same bus (`--iface can0`, `--sim`).
+    pub(crate) fn option(&self) -> String {
+        match self {
+            Setup::Interface(iface) => format!("--iface {iface}"),
+            Setup::Simulator(ids) => format!("--sim --sim-ids {ids}"),
+        }
+    }
+
+    /// A short name for messages (`can0`, `the simulator`).
+    pub(crate) fn name(&self) -> String {
+        match self {
+            Setup::Interface(iface) => iface.clone(),
+            Setup::Simulator(_) => "the simulated bus".to_owned(),
+        }
+    }
+
+    /// What to check when `motor` does not answer.
+    fn no_reply_advice(&self, motor: MotorId) -> String {
+        match self {
+            Setup::Interface(iface) => format!(
+                "check that motor {motor} is powered and wired to {iface}, that its CAN id is \
+                 {motor}, and that {iface} runs at the motor's bit rate (1 Mbit/s by default; \
+                 `ip -details link show {iface}`); `rmd scan --iface {iface}` lists the motors \
+                 that answer"
+            ),
+            Setup::Simulator(ids) => {
+                format!("the simulated motors are {ids} (choose them with --sim-ids)")
+            }
+        }
+    }
+}
+
+/// Signs of trouble the bus reported during an exchange.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub(crate) struct BusSigns {
+    /// Nobody acknowledged a frame (or a transmission timed out).
+    pub(crate) no_ack: bool,
+    /// The controller went error-passive or reached the warning level.
+    pub(crate) errors: bool,
+}
+
+impl BusSigns {
+    fn note(&mut self, event: BusEvent) {
+        match event {
+            BusEvent::NoAck | BusEvent::TxTimeout => self.no_ack = true,
+            BusEvent::ErrorPassive | BusEvent::ErrorWarning | BusEvent::ProtocolViolation => {
+                self.errors = true
+            }
+            _ => {}
+        }
+    }
+}
+
+impl fmt::Display for BusSigns {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.no_ack {
+            f.write_str(
+                ". The CAN controller reported that no node acknowledges the frames: check that \
+                 the motors are powered, the wiring and 120 ohm termination, and the bit rate",
+            )?;
+        } else if self.errors {
+            f.write_str(
+                ". The CAN controller reported bus errors (error-passive or warning level): \
+                 check wiring, termination and bit rate",
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Why an exchange failed. Every message names the motor and says what to do.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum ExchangeError {
+    /// No reply within the timeout, after every attempt.
+    #[error(
+        "motor {motor} did not answer {command} within {} ms ({attempts} attempt{}): {}{signs}",
+        timeout.as_millis(), if *attempts == 1 { "" } else { "s" }, setup.no_reply_advice(*motor)
+    )]
+    NoReply {
+        /// The motor asked.
+        motor: MotorId,
+        /// The request's command.
+        command: Command,
+        /// The timeout of each attempt.
+        timeout: Duration,
+        /// How many times the request was sent.
+        attempts: u32,
+        /// What the bus is.
+        setup: Setup,
+        /// What the bus reported meanwhile.
+        signs: BusSigns,
+    },
+    /// The motor's id answered, but to another command.
+    #[error(
+        "motor {motor} answered {command} with a {got} reply: another program is probably \
+         talking to motor {motor} on the same bus; stop it and try again"
+    )]
+    Mismatch {
+        /// The motor asked.
+        motor: MotorId,
+        /// The request's command.
+        command: Command,
+        /// The command byte of the reply.
+        got: Command,
+    },
+    /// A reply that cannot be decoded.
+    #[error(
+        "motor {motor} sent an invalid reply to {command}: {error}; try again, and if it \
+         persists check the wiring (corrupted frames) and the motor's firmware version \
+         (protocol v1.61 expected)"
+    )]
+    BadReply {
+        /// The motor asked.
+        motor: MotorId,
+        /// The request's command.
+        command: Command,
+        /// What is wrong with the reply.
+        error: ProtocolError,
+    },
+    /// The request could not be sent.
+    #[error("cannot send {command} to motor {motor}: {error}")]
+    Send {
+        /// The motor.
+        motor: MotorId,
+        /// The request's command.
+        command: Command,
+        /// The bus's error (its message says how to fix it).
+        error: BusError,
+    },
+    /// Receiving failed.
+    #[error("waiting for the reply of motor {motor} to {command} failed: {error}")]
+    Receive {
+        /// The motor.
+        motor: MotorId,
+        /// The request's command.
+        command: Command,
+        /// The bus's error (its message says how to fix it).
+        error: BusError,
+    },
+}
+
+impl ExchangeError {
+    /// Whether the motor simply did not answer (as opposed to a bus failure or a bad reply).
+    pub(crate) fn is_no_reply(&self) -> bool {
+        matches!(self, ExchangeError::NoReply { .. })
+    }
+
+    /// Whether the bus itself failed (nothing else will work on it either).
+    pub(crate) fn is_bus_failure(&self) -> bool {
+        matches!(
+            self,
+            ExchangeError::Send { .. } | ExchangeError::Receive { .. }
+        )
+    }
+}
+
+/// Pause between two sends refused because the transmit queue is full.
+const TX_FULL_PAUSE: Duration = Duration::from_micros(200);
+
+impl From<ExchangeError> for CliError {
+    fn from(error: ExchangeError) -> Self {
+        CliError::Failed(error.to_string())
+    }
+}
+
+/// Sends `request` to `motor` and returns its reply (see the module docs).
+pub(crate) fn request(
+    bus: &mut dyn CanBus,
+    clock: &dyn Clock,
+    policy: &Policy,
+    motor: MotorId,
+    request: &Request,
+) -> Result<Reply, ExchangeError> {
+    let command = request.command();
+    let frame = request.encode(motor);
+    let attempts = policy.retries.saturating_add(1);
+    let mut signs = BusSigns::default();
+    let mut mismatch = None;
+    let mut bad = None;
+    let receive_error = |error| ExchangeError::Receive {
+        motor,
+        command,
+        error,
+    };
+    for _ in 0..attempts {
+        drain(bus, &mut signs).map_err(receive_error)?;
+        send(bus, clock, &frame, policy.timeout).map_err(|error| ExchangeError::Send {
+            motor,
+            command,
+            error,
+        })?;
+        let deadline = clock.now() + policy.timeout;
+        while let Some(received) = bus.recv_until(deadline).map_err(receive_error)? {
+            match received.message {
+                BusMessage::Event(BusEvent::BusOff) => {
+                    return Err(receive_error(BusError::BusOff));
+                }
+                BusMessage::Event(event) => signs.note(event),
+                BusMessage::Frame(reply) if reply.id() == motor.can_id() => {
+                    match decode_reply_to(&reply, command) {
+                        Ok((_, reply)) => return Ok(reply),
+                        Err(ProtocolError::ReplyMismatch { got, .. }) => mismatch = Some(got),
+                        Err(error) => bad = Some(error),
+                    }
+                }
+                // Another motor's frame: not ours.
+                BusMessage::Frame(_) => {}
+            }
+        }
+    }
+    Err(if let Some(error) = bad {
+        ExchangeError::BadReply {
+            motor,
+            command,
+            error,
+        }
+    } else if let Some(got) = mismatch {
+        ExchangeError::Mismatch {
+            motor,
+            command,
+            got,
+        }
+    } else {
+        ExchangeError::NoReply {
+            motor,
+            command,
+            timeout: policy.timeout,
+            attempts,
+            setup: policy.setup.clone(),
+            signs,
+        }
+    })
+}
+
+/// Discards what is already received (stale replies), keeping note of bus events.
+fn drain(bus: &mut dyn CanBus, signs: &mut BusSigns) -> Result<(), BusError> {
+    while let Some(received) = bus.recv_until(Timestamp::ZERO)? {
+        match received.message {
+            BusMessage::Event(BusEvent::BusOff) => return Err(BusError::BusOff),
+            BusMessage::Event(event) => signs.note(event),
+            BusMessage::Frame(_) => {}
+        }
+    }
+    Ok(())
+}
+
+/// Sends `frame`, trying again while the transmit queue is full, for at most `patience`.
+pub(crate) fn send(
+    bus: &mut dyn CanBus,
+    clock: &dyn Clock,
+    frame: &CanFrame,
+    patience: Duration,
+) -> Result<(), BusError> {
+    let give_up = clock.now() + patience;
+    loop {
+        match bus.send(frame) {
+            Err(BusError::TxQueueFull) if clock.now() < give_up => {
+                clock.sleep_until(clock.now() + TX_FULL_PAUSE);
+            }
+            other => return other,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rmd_bus::{Received, VirtualClock};
+    use rmd_sim::{FaultKind, FaultRule, SimBus, SimConfig};
+
+    fn id(n: u8) -> MotorId {
+        MotorId::new(n).unwrap()
+    }
+
+    fn policy(retries: u32) -> Policy {
+        Policy {
+            timeout: Duration::from_millis(10),
+            retries,
+            setup: Setup::Simulator(crate::args::ids::parse("1-4").unwrap()),
+        }
+    }
+
+    fn sim(faults: &[FaultRule]) -> (VirtualClock, SimBus<VirtualClock>) {
+        let clock = VirtualClock::new();
+        let mut config = SimConfig::with_motors(4).seed(3);
+        config.faults.extend_from_slice(faults);
+        (clock.clone(), SimBus::new(clock, config).unwrap())
+    }
+
+    #[test]
+    fn a_reply_comes_back_typed() {
+        let (clock, mut bus) = sim(&[]);
+        let reply = request(&mut bus, &clock, &policy(0), id(2), &Request::ReadStatus1).unwrap();
+        let status = reply.status1().unwrap();
+        assert_eq!(status.temperature.celsius(), 25.0);
+        // One exchange on a 1 Mbit/s bus: well under the timeout.
+        assert!(clock.now() < Timestamp::ZERO + Duration::from_millis(2));
+    }
+
+    #[test]
+    fn lost_replies_are_retried() {
+        let drop_two = FaultRule::new(FaultKind::DropReply)
+            .motor(id(1))
+            .frames_window(0, 2);
+        let (clock, mut bus) = sim(&[drop_two]);
+        let reply = request(&mut bus, &clock, &policy(2), id(1), &Request::ReadPid).unwrap();
+        assert_eq!(reply.command(), Command::ReadPid);
+        // Two timeouts were waited out first.
+        assert!(clock.now() >= Timestamp::ZERO + Duration::from_millis(20));
+
+        let (clock, mut bus) = sim(&[drop_two]);
+        let error = request(&mut bus, &clock, &policy(1), id(1), &Request::ReadPid).unwrap_err();
+        assert!(error.is_no_reply(), "{error}");
+        assert_eq!(
+            error.to_string(),
+            "motor 1 did not answer read-pid within 10 ms (2 attempts): the simulated motors \
+             are 1-4 (choose them with --sim-ids)"
+        );
+    }
+
+    #[test]
+    fn a_missing_motor_on_an_interface_gets_wiring_advice() {
+        let (clock, mut bus) = sim(&[]);
+        let policy = Policy {
+            setup: Setup::Interface("can0".into()),
+            ..policy(0)
+        };
+        let error = request(&mut bus, &clock, &policy, id(9), &Request::ReadStatus1).unwrap_err();
+        let text = error.to_string();
+        assert!(text.starts_with("motor 9 did not answer read-status-1 within 10 ms (1 attempt)"));
+        assert!(text.contains("that its CAN id is 9"), "{text}");
+        assert!(text.contains("rmd scan --iface can0"), "{text}");
+    }
+
+    #[test]
+    fn a_malformed_reply_is_reported_when_no_good_one_comes() {
+        let short = FaultRule::new(FaultKind::WrongDlc { dlc: 4 }).motor(id(3));
+        let (clock, mut bus) = sim(&[short]);
+        let error = request(&mut bus, &clock, &policy(1), id(3), &Request::ReadAccel).unwrap_err();
+        assert!(
+            matches!(
+                error,
+                ExchangeError::BadReply {
+                    error: ProtocolError::WrongDlc { dlc: 4, .. },
+                    ..
+                }
+            ),
+            "{error}"
+        );
+        assert!(
+            error
+                .to_string()
+                .starts_with("motor 3 sent an invalid reply to read-accel")
+        );
+    }
+
+    /// A bus whose only traffic is scripted: every send gets the scripted answers.
+    struct Scripted {
+        clock: VirtualClock,
+        answers: Vec<BusMessage>,
+        queue: Vec<Received>,
+        send_error: Option<BusError>,
+        sent: usize,
+    }
+
+    impl CanBus for Scripted {
+        fn send(&mut self, _: &CanFrame) -> Result<(), BusError> {
+            if let Some(error) = self.send_error {
+                return Err(error);
+            }
+            self.sent += 1;
+            let at = self.clock.now() + Duration::from_micros(300);
+            self.queue
+                .extend(self.answers.iter().map(|&message| Received { at, message }));
+            Ok(())
+        }
+        fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
+            match self.queue.first() {
+                Some(r) if r.at <= deadline => {
+                    self.clock.sleep_until(r.at);
+                    Ok(Some(self.queue.remove(0)))
+                }
+                _ => {
+                    self.clock.sleep_until(deadline);
+                    Ok(None)
+                }
+            }
+        }
+    }
+
+    fn scripted(answers: Vec<BusMessage>, send_error: Option<BusError>) -> Scripted {
+        Scripted {
+            clock: VirtualClock::new(),
+            answers,
+            queue: Vec::new(),
+            send_error,
+            sent: 0,
+        }
+    }
+
+    #[test]
+    fn a_reply_to_another_command_is_a_mismatch_and_other_motors_are_ignored() {
+        let other_motor = Reply::MotorOff.encode(id(2));
+        let wrong_command = Reply::MotorStop.encode(id(1));
+        let mut bus = scripted(
+            vec![
+                BusMessage::Frame(other_motor),
+                BusMessage::Frame(wrong_command),
+            ],
+            None,
+        );
+        let clock = bus.clock.clone();
+        let error = request(&mut bus, &clock, &policy(2), id(1), &Request::MotorOff).unwrap_err();
+        assert_eq!(bus.sent, 3);
+        assert!(
+            matches!(
+                error,
+                ExchangeError::Mismatch {
+                    got: Command::MotorStop,
+                    ..
+                }
+            ),
+            "{error}"
+        );
+        assert!(
+            error
+                .to_string()
+                .contains("another program is probably talking to motor 1")
+        );
+    }
+
+    #[test]
+    fn bus_trouble_is_named_in_the_advice_and_bus_off_ends_at_once() {
+        let mut bus = scripted(vec![BusMessage::Event(BusEvent::NoAck)], None);
+        let clock = bus.clock.clone();
+        let error =
+            request(&mut bus, &clock, &policy(0), id(1), &Request::ReadStatus2).unwrap_err();
+        assert!(
+            error.to_string().contains("no node acknowledges"),
+            "{error}"
+        );
+
+        let mut bus = scripted(vec![BusMessage::Event(BusEvent::BusOff)], None);
+        let clock = bus.clock.clone();
+        let error =
+            request(&mut bus, &clock, &policy(5), id(1), &Request::ReadStatus2).unwrap_err();
+        assert_eq!(bus.sent, 1);
+        assert!(error.is_bus_failure());
+        assert!(error.to_string().contains("bus-off"), "{error}");
+    }
+
+    #[test]
+    fn a_full_transmit_queue_is_retried_then_reported() {
+        let mut bus = scripted(vec![], Some(BusError::TxQueueFull));
+        let clock = bus.clock.clone();
+        let error =
+            request(&mut bus, &clock, &policy(0), id(4), &Request::ReadStatus1).unwrap_err();
+        assert!(matches!(
+            error,
+            ExchangeError::Send {
+                error: BusError::TxQueueFull,
+                ..
+            }
+        ));
+        // It kept trying for the timeout before giving up.
+        assert!(clock.now() >= Timestamp::ZERO + Duration::from_millis(10));
+        assert!(
+            error
+                .to_string()
+                .starts_with("cannot send read-status-1 to motor 4")
+        );
+    }
+}

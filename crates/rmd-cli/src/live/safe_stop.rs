@@ -1,0 +1,63 @@
+//! Leaving motors safe when a command that moves them ends, fails or is interrupted: each is
+//! turned off (0x80, the loop's safe state: no torque, no command), confirmed by its echo.
+
+use rmd_protocol::{MotorId, Reply, Request};
+
+use crate::live::connect::Connection;
+use crate::output::report::CliError;
+
+/// Turns `motors` off. The error lists every motor that did not confirm, and what to do.
+pub(crate) fn turn_off(bus: &mut Connection, motors: &[MotorId]) -> Result<(), String> {
+    let mut problems = Vec::new();
+    for &motor in motors {
+        match bus.request(motor, &Request::MotorOff) {
+            Ok(Reply::MotorOff) => {}
+            Ok(other) => problems.push(format!(
+                "motor {motor} answered motor-off with {}",
+                other.command()
+            )),
+            Err(error) => problems.push(error.to_string()),
+        }
+    }
+    if problems.is_empty() {
+        return Ok(());
+    }
+    let ids: Vec<String> = motors.iter().map(ToString::to_string).collect();
+    Err(format!(
+        "{}. THE MOTOR MAY STILL BE MOVING: turn it off with `rmd off {} {}`, or cut its power",
+        problems.join("; "),
+        ids.join(","),
+        bus.setup().option()
+    ))
+}
+
+/// Ends a motion command: turns `motors` off, whatever `outcome` was, and merges what
+/// happened into one result. `done` describes a normal end (e.g. "after 2.00 s").
+pub(crate) fn finish(
+    bus: &mut Connection,
+    motors: &[MotorId],
+    outcome: Result<(), CliError>,
+) -> Result<(), CliError> {
+    let stopped = turn_off(bus, motors);
+    let ids: Vec<String> = motors.iter().map(ToString::to_string).collect();
+    let off = format!("motor {} turned off", ids.join(", "));
+    match (outcome, stopped) {
+        (Ok(()), Ok(())) => Ok(()),
+        (Ok(()), Err(problem)) => Err(CliError::Failed(problem)),
+        (Err(CliError::Interrupted(what)), Ok(())) => {
+            Err(CliError::Interrupted(format!("{what}; {off}")))
+        }
+        (Err(CliError::Interrupted(what)), Err(problem)) => Err(CliError::Failed(format!(
+            "interrupted {what}, and {problem}"
+        ))),
+        // Nobody reads the output any more: quiet if the motors are off, loud if not.
+        (Err(CliError::OutputClosed), Ok(())) => Err(CliError::OutputClosed),
+        (Err(CliError::OutputClosed), Err(problem)) => Err(CliError::Failed(problem)),
+        (Err(CliError::Failed(error) | CliError::Usage(error)), Ok(())) => {
+            Err(CliError::Failed(format!("{error} ({off})")))
+        }
+        (Err(CliError::Failed(error) | CliError::Usage(error)), Err(problem)) => {
+            Err(CliError::Failed(format!("{error}; then {problem}")))
+        }
+    }
+}

@@ -1,0 +1,75 @@
+//! What the read commands print: one JSON object per motor (the reply fields under the names
+//! `rmd decode` uses), or short human-readable text.
+
+use rmd_protocol::{EncoderWidth, ErrorState, MotorId, Reply};
+use serde_json::{Map, Value, json};
+
+use crate::output::json::reply_fields;
+
+/// `{"id": N, <fields of every reply>}`; a field present in several replies (temperature) keeps
+/// the last value.
+pub(crate) fn object(motor: MotorId, replies: &[Reply], width: EncoderWidth) -> Value {
+    let mut map = Map::new();
+    map.insert("id".into(), json!(motor.get()));
+    for reply in replies {
+        map.extend(reply_fields(reply, width));
+    }
+    Value::Object(map)
+}
+
+/// `{"id": N, "error": "..."}` for a motor that could not be read.
+pub(crate) fn error_object(motor: MotorId, error: &str) -> Value {
+    json!({"id": motor.get(), "error": error})
+}
+
+/// The protection flags in words: `none`, `low voltage`, `over temperature`, and unknown bits.
+pub(crate) fn errors_text(state: ErrorState) -> String {
+    let mut parts = Vec::new();
+    if state.low_voltage() {
+        parts.push("low voltage".to_owned());
+    }
+    if state.over_temperature() {
+        parts.push("over temperature".to_owned());
+    }
+    if state.unknown_bits() != 0 {
+        parts.push(format!("unknown bits 0x{:02X}", state.unknown_bits()));
+    }
+    if parts.is_empty() {
+        "none".to_owned()
+    } else {
+        parts.join(", ")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rmd_protocol::{Status1, Temperature, Voltage};
+
+    #[test]
+    fn objects_merge_reply_fields_under_decode_names() {
+        let status = Status1 {
+            temperature: Temperature::new(30).unwrap(),
+            voltage: Voltage::new(480).unwrap(),
+            error_state: ErrorState::LOW_VOLTAGE,
+        };
+        let value = object(
+            MotorId::new(2).unwrap(),
+            &[Reply::ReadStatus1(status)],
+            EncoderWidth::DEFAULT,
+        );
+        assert_eq!(value["id"], 2);
+        assert_eq!(value["voltage_volts"], 48.0);
+        assert_eq!(value["low_voltage"], true);
+        assert!(value.get("command").is_none() && value.get("can_id").is_none());
+    }
+
+    #[test]
+    fn flags_in_words() {
+        assert_eq!(errors_text(ErrorState::NONE), "none");
+        assert_eq!(
+            errors_text(ErrorState::from_raw(0b1000_1001)),
+            "low voltage, over temperature, unknown bits 0x80"
+        );
+    }
+}
