@@ -110,8 +110,8 @@ fn motors_count_per_bus() {
         run.stdout
     );
     assert!(run.stdout.contains("ticks 300 "), "{}", run.stdout);
-    assert!(run.stdout.contains("bus 2 motor 2:"), "{}", run.stdout);
-    assert!(!run.stdout.contains("motor 3:"), "{}", run.stdout);
+    assert!(run.stdout.contains("(bus 2 motor 2):"), "{}", run.stdout);
+    assert!(!run.stdout.contains("motor 3):"), "{}", run.stdout);
     assert!(run.stdout.contains("rms error"), "{}", run.stdout);
 }
 

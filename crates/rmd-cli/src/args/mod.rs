@@ -1,9 +1,7 @@
 //! Argument types and value parsers shared by the commands: motor id lists ([`ids`]), the
-//! protocol's typed values ([`parse`]), durations ([`duration`]), the run flags of the loop and
-//! benchmarks ([`run`]) and the bus options of the live commands ([`bus`]).
+//! protocol's typed values ([`parse`]) and the bus options of the live commands ([`bus`]). The
+//! run flags and durations are the library's (`rmd_rig::args`), shared with the examples.
 
 pub(crate) mod bus;
-pub(crate) mod duration;
 pub(crate) mod ids;
 pub(crate) mod parse;
-pub(crate) mod run;

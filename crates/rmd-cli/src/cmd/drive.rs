@@ -10,7 +10,7 @@ use rmd_bus::Clock;
 use rmd_protocol::{IqControl, MotorId, Request, SpeedControl, Status2};
 
 use crate::args::bus::BusArgs;
-use crate::args::duration;
+use rmd_rig::args::duration;
 use crate::args::parse;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;

@@ -12,7 +12,7 @@ use clap::Args;
 use rmd_bus::record::{RecordOptions, record};
 use rmd_bus::{BusError, BusMessage, CanBus, Clock, MonotonicClock};
 
-use crate::args::duration;
+use rmd_rig::args::duration;
 use crate::live::connect::{Filter, open_interface, report_recording};
 use crate::live::interrupt;
 use crate::output::console::WatchedSink;

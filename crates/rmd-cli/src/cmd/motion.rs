@@ -12,7 +12,7 @@ use rmd_protocol::{
 };
 
 use crate::args::bus::BusArgs;
-use crate::args::duration;
+use rmd_rig::args::duration;
 use crate::args::parse;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;

@@ -1,7 +1,7 @@
 //! Value parsers of the flags only the benchmarks have (`--motors`, `--buses`). The run flags
-//! they share with other commands are in [`crate::args::run`].
+//! they share with other commands are in `rmd_rig::args`.
 
-use rmd_loop::config::{MAX_BUSES, MAX_MOTORS_PER_BUS};
+use rmd_loop::robot::{MAX_BUSES, MAX_MOTORS_PER_BUS};
 
 /// `--motors`: motors per bus, 1..=4.
 pub(crate) fn motors(text: &str) -> Result<u8, String> {

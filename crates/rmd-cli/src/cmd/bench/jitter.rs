@@ -12,7 +12,11 @@ use rmd_loop::schedule::Period;
 use serde_json::{Value, json};
 
 use super::histogram;
-use crate::args::run::{self, RtFlags};
+use rmd_rig::args::duration::run_length;
+use rmd_rig::args::RealtimeArgs;
+
+/// Stack pre-faulted by the measuring thread (as the loop does).
+const PREFAULT_STACK_BYTES: usize = 512 * 1024;
 use crate::output::errln;
 use crate::output::progress::{self, Progress};
 use crate::output::report;
@@ -30,10 +34,10 @@ pub(crate) struct JitterArgs {
     #[arg(long, value_name = "P", default_value = "1000", value_parser = period_us)]
     period_us: Period,
     /// How long to measure (e.g. 10s, 2m; a bare number is seconds).
-    #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "10s", value_parser = run::run_length, allow_hyphen_values = true)]
+    #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "10s", value_parser = run_length, allow_hyphen_values = true)]
     duration: Duration,
     #[command(flatten)]
-    rt: RtFlags,
+    rt: RealtimeArgs,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
@@ -53,7 +57,7 @@ pub(crate) fn run(args: JitterArgs) -> ExitCode {
     if args.rt.spin() >= period {
         return report::usage_error(format!(
             "--spin-us {} must be shorter than the period ({} us)",
-            args.rt.spin_us,
+            args.rt.spin().as_micros(),
             period.as_micros()
         ));
     }
@@ -61,7 +65,7 @@ pub(crate) fn run(args: JitterArgs) -> ExitCode {
         period: args.period_us,
         duration: args.duration,
         spin_margin: args.rt.spin(),
-        rt: args.rt.request(),
+        rt: args.rt.request(PREFAULT_STACK_BYTES),
     };
     let result = match measure(config, progress::shown(args.json)) {
         Ok(r) => r,
@@ -105,7 +109,7 @@ fn measure(config: JitterConfig, show: bool) -> Result<JitterReport, String> {
         .map_err(|e| e.to_string())
 }
 
-fn to_json(r: &JitterReport, rt: &RtFlags) -> Value {
+fn to_json(r: &JitterReport, rt: &RealtimeArgs) -> Value {
     json!({
         "ticks": r.ticks,
         "deadline_misses": r.deadline_misses,
@@ -120,7 +124,7 @@ fn to_json(r: &JitterReport, rt: &RtFlags) -> Value {
     })
 }
 
-fn human(r: &JitterReport, rt: &RtFlags) -> String {
+fn human(r: &JitterReport, rt: &RealtimeArgs) -> String {
     let p = &r.wake_latency_us;
     // cyclictest prints whole microseconds, truncated.
     let whole = |us: f64| us.max(0.0).trunc() as u64;

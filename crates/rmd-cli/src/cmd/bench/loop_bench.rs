@@ -13,13 +13,14 @@ use std::process::ExitCode;
 
 use clap::Args;
 use rmd_bus::{Clock, MonotonicClock, VirtualClock};
-use rmd_loop::{LoopOutcome, RtLoop, RunLimit};
+use rmd_loop::{LoopOutcome, Robot, RtLoop, RunLimit};
 use serde_json::{Value, json};
 
 use super::flags;
 use super::pd::{self, MovingTargetPd};
 use super::robot;
-use crate::args::run::{self, RtFlags};
+use rmd_rig::args::duration::run_length;
+use rmd_rig::args::{RealtimeArgs, values};
 use crate::output::progress::{self, Progress};
 use crate::output::report;
 
@@ -41,16 +42,16 @@ pub(crate) struct LoopArgs {
     #[arg(long, default_value = "1", value_parser = flags::buses)]
     buses: usize,
     /// Loop rate in Hz.
-    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", default_value = "1000", value_parser = run::rate, allow_hyphen_values = true)]
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", default_value = "1000", value_parser = values::rate, allow_hyphen_values = true)]
     rate: f64,
     /// How long to run, in real or virtual time (e.g. 5s, 500ms; a bare number is seconds).
-    #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "5s", value_parser = run::run_length, allow_hyphen_values = true)]
+    #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "5s", value_parser = run_length, allow_hyphen_values = true)]
     duration: Duration,
     /// Run on a virtual clock: deterministic, as fast as the CPU allows (latencies are then 0).
     #[arg(long)]
     virtual_time: bool,
     #[command(flatten)]
-    rt: RtFlags,
+    rt: RealtimeArgs,
     /// Print the report as one JSON object.
     #[arg(long)]
     json: bool,
@@ -115,7 +116,7 @@ fn bench_json(args: &LoopArgs, controller: &MovingTargetPd) -> Value {
         "motors_per_bus": args.motors,
         "buses": args.buses,
         "virtual_time": args.virtual_time,
-        "spin_us": args.rt.spin_us,
+        "spin_us": args.rt.spin().as_micros() as u64,
         "cpu": args.rt.cpu,
         "fifo_priority": args.rt.fifo,
         "controller": "pd-moving-target",
@@ -137,14 +138,15 @@ fn run_on<C: Clock + Clone + 'static>(
     clock: C,
     args: &LoopArgs,
 ) -> Result<LoopOutcome<MovingTargetPd>, Failure> {
-    let mut robot = robot::robot(args.rate, args.buses, args.motors);
-    args.rt.configure(&mut robot.loop_config);
-    let ticks = robot.period().map_or(0, |period| {
-        u64::try_from(args.duration.as_nanos() / period.get().as_nanos()).unwrap_or(u64::MAX)
-    });
+    let mut config = robot::robot(args.rate, args.buses, args.motors);
+    args.rt.apply(&mut config);
+    let robot = Robot::try_from(config).map_err(|e| Failure::Usage(e.to_string()))?;
+    let period = robot.settings().period.get();
+    let ticks =
+        u64::try_from(args.duration.as_nanos() / period.as_nanos()).unwrap_or(u64::MAX);
     let buses = robot::sim_buses(&clock, args.buses, args.motors)
         .map_err(|e| Failure::Run(format!("simulator: {e}")))?;
-    let rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
+    let mut rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
         .map_err(|e| Failure::Usage(e.to_string()))?;
     let telemetry = rt.telemetry();
     let handle = rt

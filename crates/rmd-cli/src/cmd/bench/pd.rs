@@ -82,15 +82,15 @@ impl Controller for MovingTargetPd {
             Some((first, _)) => (first, ctx.scheduled),
         });
         let mut latest: Option<Timestamp> = None;
-        for (i, joint) in fb.iter().enumerate() {
-            if joint.fresh {
-                latest = Some(latest.map_or(joint.received_at, |l| l.max(joint.received_at)));
+        for (joint, f) in fb.iter() {
+            if f.is_fresh() {
+                latest = Some(latest.map_or(f.received_at, |l| l.max(f.received_at)));
             }
-            let (angle, velocity) = Self::target(i, t);
-            let error = angle - joint.joint_angle_deg;
-            let amps = KP * error + KD * (velocity - joint.joint_velocity_dps);
-            // Finite by construction; the loop clamps to the current limit.
-            let _ = cmd.set_current(i, amps);
+            let (angle, velocity) = Self::target(joint.index(), t);
+            let error = angle - f.joint.angle_deg;
+            let amps = KP * error + KD * (velocity - f.joint.velocity_dps);
+            // The loop clamps to the current limit.
+            cmd.set_current(joint, amps);
             if t >= SETTLE_S {
                 self.squared_error_sum += error * error;
                 self.error_samples += 1;

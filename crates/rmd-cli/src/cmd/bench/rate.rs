@@ -30,7 +30,8 @@ use super::flags;
 use super::pd::MovingTargetPd;
 use super::robot;
 use super::wire_limit::{self, WireLimit, us};
-use crate::args::run::{self, RtFlags};
+use rmd_rig::args::duration::run_length;
+use rmd_rig::args::{RealtimeArgs, values};
 use crate::output::errln;
 use crate::output::progress::{self, Progress};
 use crate::output::report;
@@ -63,10 +64,10 @@ pub(crate) struct RateArgs {
     #[arg(long, default_value = "4", value_parser = flags::motors)]
     motors: u8,
     /// Length of each trial (e.g. 10s, 500ms; a bare number is seconds).
-    #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "10s", value_parser = run::run_length, allow_hyphen_values = true)]
+    #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "10s", value_parser = run_length, allow_hyphen_values = true)]
     duration: Duration,
     #[command(flatten)]
-    rt: RtFlags,
+    rt: RealtimeArgs,
     /// Let the simulated bus busy-wait the last US microseconds before each frame it delivers
     /// (a polling receive) instead of sleeping all the way (a blocking receive, the default).
     #[arg(long, value_name = "US", default_value_t = 0)]
@@ -78,7 +79,7 @@ pub(crate) struct RateArgs {
     #[arg(long, value_name = "N", default_value_t = 1)]
     confirm: u32,
     /// Run one trial at this rate instead of searching.
-    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = run::rate, allow_hyphen_values = true)]
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = values::rate, allow_hyphen_values = true)]
     rate: Option<f64>,
     /// Run on a virtual clock (the loop then costs no time: the search finds the wire limit).
     #[arg(long)]
@@ -216,19 +217,22 @@ fn trial(args: &RateArgs, rate_hz: f64, progress: &Progress) -> Result<Trial, St
         .map_err(|_| "the trial thread panicked".to_string())?
 }
 
-fn run_trial<L: Clock, S: Clock + Clone>(
+fn run_trial<L: Clock + Clone + 'static, S: Clock + Clone>(
     args: &RateArgs,
     rate_hz: f64,
     loop_clock: L,
     sim_clock: S,
 ) -> Result<Trial, String> {
-    let mut robot = robot::robot(rate_hz, args.buses, args.motors);
-    let period = robot.period().map_err(|e| e.to_string())?.get();
-    args.rt.configure(&mut robot.loop_config);
-    let l = &mut robot.loop_config;
+    let mut config = robot::robot(rate_hz, args.buses, args.motors);
+    args.rt.apply(&mut config);
+    let period = rmd_loop::schedule::Period::from_hz(rate_hz)
+        .map_err(|e| e.to_string())?
+        .get();
+    let l = &mut config.loop_config;
     l.allow_over_budget = true;
     // Wait for replies as long as the period allows: the loop adds no gap of its own.
     l.reply_deadline_us = Some((period.as_nanos() / 1000) as u64);
+    let robot = rmd_loop::Robot::try_from(config).map_err(|e| e.to_string())?;
     let expected_ticks = (args.duration.as_nanos() / period.as_nanos()) as u64;
     let mut sims = robot::sim_buses(&sim_clock, args.buses, args.motors)
         .map_err(|e| format!("simulator: {e}"))?;
@@ -425,7 +429,7 @@ pub(crate) fn run(args: RateArgs) -> ExitCode {
             args.buses,
             BITRATE,
             args.duration.as_secs_f64(),
-            args.rt.spin_us,
+            args.rt.spin().as_micros(),
             args.rt.cpu.map_or("-".to_string(), |c| c.to_string()),
             args.rt.fifo.map_or("-".to_string(), |p| p.to_string()),
             if args.virtual_time {

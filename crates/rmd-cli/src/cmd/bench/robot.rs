@@ -3,8 +3,7 @@
 //! robot description.
 
 use rmd_bus::Clock;
-use rmd_loop::RobotConfig;
-use rmd_loop::config::{BusConfig, MotorConfig};
+use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
 use rmd_sim::{SimBus, SimConfig};
 
 /// Gear ratio of the simulator's default motor.
@@ -16,11 +15,12 @@ const CURRENT_LIMIT_A: f64 = 10.0;
 /// Seed of bus 0; bus `b` uses `SEED + b` (runs are reproducible in virtual time).
 const SEED: u64 = 0x5EED;
 
-/// The robot description: `buses` buses named `sim0`, `sim1`, ... with motors 1..=`motors`.
+/// The robot description (file form, to adjust before building the `Robot`): `buses` simulated
+/// buses named `sim0`, `sim1`, ... with motors 1..=`motors`.
 pub(crate) fn robot(rate_hz: f64, buses: usize, motors: u8) -> RobotConfig {
     let mut robot = RobotConfig::new(rate_hz);
     for b in 0..buses {
-        let mut bus = BusConfig::new(&format!("sim{b}"));
+        let mut bus = BusConfig::new("sim").name(&format!("sim{b}"));
         for id in 1..=motors {
             bus = bus.with_motor(
                 MotorConfig::new(id)

@@ -9,31 +9,50 @@ use std::time::Duration;
 
 /// The range a flag accepts.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub(crate) struct Bounds {
+pub struct Bounds {
     /// Whether 0 is accepted.
-    pub(crate) zero: bool,
+    pub zero: bool,
     /// The longest accepted duration.
-    pub(crate) max: Duration,
+    pub max: Duration,
+}
+
+/// Longest run accepted (one day).
+pub const MAX_RUN: Duration = Duration::from_secs(86_400);
+
+/// `--duration` (alias `--seconds`) of a run: above 0 and at most a day, with units (`500ms`,
+/// `2m`) or a bare number of seconds.
+///
+/// ```
+/// use core::time::Duration;
+/// use rmd_rig::args::duration::run_length;
+/// assert_eq!(run_length("2.5"), Ok(Duration::from_millis(2500)));
+/// assert_eq!(run_length("20ms"), Ok(Duration::from_millis(20)));
+/// assert!(run_length("inf").is_err());
+/// assert!(run_length("-1").is_err());
+/// assert!(run_length("1e300").is_err());
+/// ```
+pub fn run_length(text: &str) -> Result<Duration, String> {
+    parse(text, Bounds::positive_up_to(MAX_RUN))
 }
 
 impl Bounds {
     /// 0 up to `max`.
-    pub(crate) const fn up_to(max: Duration) -> Self {
+    pub const fn up_to(max: Duration) -> Self {
         Bounds { zero: true, max }
     }
 
     /// Above 0, up to `max`.
-    pub(crate) const fn positive_up_to(max: Duration) -> Self {
+    pub const fn positive_up_to(max: Duration) -> Self {
         Bounds { zero: false, max }
     }
 }
 
 /// The longest duration a flag without a range of its own accepts (about 31 years).
-pub(crate) const LONGEST: Duration = Duration::from_secs(1_000_000_000);
+pub const LONGEST: Duration = Duration::from_secs(1_000_000_000);
 
 /// A duration flag without a range of its own (`--wait-timeout`, `rmd torque --duration`,
 /// `rmd log --duration`): 0 up to [`LONGEST`].
-pub(crate) fn any(text: &str) -> Result<Duration, String> {
+pub fn any(text: &str) -> Result<Duration, String> {
     parse(text, Bounds::up_to(LONGEST))
 }
 
@@ -41,7 +60,7 @@ pub(crate) fn any(text: &str) -> Result<Duration, String> {
 const EXAMPLES: &str = "e.g. 2s, 500ms, 1.5s, 2m; a bare number is seconds";
 
 /// Parses `text` as a duration within `bounds`.
-pub(crate) fn parse(text: &str, bounds: Bounds) -> Result<Duration, String> {
+pub fn parse(text: &str, bounds: Bounds) -> Result<Duration, String> {
     let t = text.trim();
     if t.starts_with('-') {
         return Err(format!("`{text}`: a duration cannot be negative"));

@@ -17,70 +17,27 @@
 //! let args = Args::parse_from(["leg", "--iface", "can0", "--duration", "1500ms", "--fifo", "80"]);
 //! assert_eq!(args.robot.iface, ["can0"]);
 //! assert_eq!(args.run.duration, Some(std::time::Duration::from_millis(1500)));
-//! assert_eq!(args.run.fifo, Some(80));
+//! assert_eq!(args.run.realtime.fifo, Some(80));
 //! // Seconds without a unit, and the examples' older spelling, work too.
 //! let args = Args::parse_from(["leg", "--seconds", "2.5", "--fifo-priority", "70", "--rate-hz", "500"]);
 //! assert_eq!(args.run.duration, Some(std::time::Duration::from_millis(2500)));
 //! assert_eq!(args.run.rate, Some(500.0));
 //! ```
 
+pub mod duration;
+pub mod values;
+
 use core::time::Duration;
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::PathBuf;
 
+use rmd_loop::os::RtRequest;
 use rmd_loop::robot::{RobotConfig, read_config};
 use rmd_loop::{Robot, RunLimit};
 
 use crate::error::RigError;
 use crate::placement::{Overrides, Placement, PlacementDefault};
 use crate::runner::Display;
-
-/// Longest duration accepted on the command line (about 31 years): longer is a typo.
-pub const MAX_DURATION: Duration = Duration::from_secs(1_000_000_000);
-
-/// Parses a duration: seconds without a unit (`2.5`), or a number with units (`1500ms`, `2m`,
-/// `1h 30m`). NaN, infinities, negative and absurdly long values are errors that say so.
-///
-/// ```
-/// use core::time::Duration;
-/// use rmd_rig::args::parse_duration;
-/// assert_eq!(parse_duration("2.5"), Ok(Duration::from_millis(2500)));
-/// assert_eq!(parse_duration("20ms"), Ok(Duration::from_millis(20)));
-/// assert!(parse_duration("inf").is_err());
-/// assert!(parse_duration("-1").is_err());
-/// assert!(parse_duration("1e300").is_err());
-/// ```
-pub fn parse_duration(text: &str) -> Result<Duration, String> {
-    let text = text.trim();
-    let duration = if let Ok(seconds) = text.parse::<f64>() {
-        if !seconds.is_finite() {
-            return Err(format!(
-                "`{text}` is not a duration: give seconds (2.5) or a number with units (1500ms, 2m)"
-            ));
-        }
-        if seconds < 0.0 {
-            return Err(format!("`{text}`: a duration cannot be negative"));
-        }
-        if seconds > MAX_DURATION.as_secs_f64() {
-            return Err(format!(
-                "`{text}` s is longer than the longest accepted duration ({} s)",
-                MAX_DURATION.as_secs()
-            ));
-        }
-        Duration::from_secs_f64(seconds)
-    } else {
-        humantime::parse_duration(text).map_err(|e| {
-            format!("`{text}` is not a duration ({e}): give seconds (2.5) or a number with units (1500ms, 2m)")
-        })?
-    };
-    if duration > MAX_DURATION {
-        return Err(format!(
-            "`{text}` is longer than the longest accepted duration ({} s)",
-            MAX_DURATION.as_secs()
-        ));
-    }
-    Ok(duration)
-}
 
 /// Where the robot is: its description and its buses.
 #[derive(clap::Args, Debug, Clone, Default, PartialEq, Eq)]
@@ -162,46 +119,78 @@ impl RobotArgs {
     }
 }
 
-/// How the loop runs: rate, length, real-time settings.
-#[derive(clap::Args, Debug, Clone, Default, PartialEq)]
-pub struct LoopArgs {
-    /// Loop rate, Hz (default: the description's).
-    #[arg(long, visible_alias = "rate-hz", value_name = "HZ")]
-    pub rate: Option<f64>,
-    /// How long to run: seconds (`10`) or with units (`1500ms`, `2m`).
-    #[arg(long, visible_alias = "seconds", value_name = "DURATION", value_parser = parse_duration)]
-    pub duration: Option<Duration>,
+/// The real-time setup of the thread that runs: `--cpu`, `--fifo`, `--lock-memory`,
+/// `--spin-us`.
+#[derive(clap::Args, Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RealtimeArgs {
     /// Pin the loop thread to this CPU (ideally an isolated one: see docs/realtime.md).
-    #[arg(long, value_name = "CPU")]
+    #[arg(long, value_name = "CPU", value_parser = values::cpu)]
     pub cpu: Option<usize>,
-    /// Run the loop thread under SCHED_FIFO at this priority (1..=99; needs the privilege).
-    #[arg(long, visible_alias = "fifo-priority", value_name = "PRIO")]
+    /// Run the loop thread under SCHED_FIFO at this priority (1..=99; needs the privilege), with
+    /// the process's memory locked (mlockall, as `cyclictest -m`).
+    #[arg(long, visible_alias = "fifo-priority", value_name = "PRIO", value_parser = values::fifo)]
     pub fifo: Option<u8>,
-    /// Lock the process's memory (mlockall) when the loop starts.
+    /// Lock the process's memory (mlockall) when the loop starts (implied by --fifo).
     #[arg(long)]
     pub lock_memory: bool,
-    /// Busy-wait this long before each tick for a precise wake (0: sleep only).
+    /// Sleep until this many microseconds before each deadline, then busy-wait (0: sleep only).
     #[arg(long, value_name = "US")]
     pub spin_us: Option<u64>,
 }
 
-impl LoopArgs {
+impl RealtimeArgs {
+    /// What to ask of the operating system for a thread that runs on its own (no loop).
+    pub fn request(&self, prefault_stack_bytes: usize) -> RtRequest {
+        RtRequest {
+            cpu: self.cpu,
+            fifo_priority: self.fifo,
+            lock_memory: self.lock_memory || self.fifo.is_some(),
+            prefault_stack_bytes,
+        }
+    }
+
+    /// The spin margin (zero when not given).
+    pub fn spin(&self) -> Duration {
+        Duration::from_micros(self.spin_us.unwrap_or(0))
+    }
+
     /// Writes the flags that were given into a description's `[loop]` settings.
     pub fn apply(&self, config: &mut RobotConfig) {
         let l = &mut config.loop_config;
-        if let Some(rate) = self.rate {
-            l.rate_hz = rate;
-        }
         if self.cpu.is_some() {
             l.cpu = self.cpu;
         }
         if self.fifo.is_some() {
             l.fifo_priority = self.fifo;
         }
-        l.lock_memory |= self.lock_memory;
+        l.lock_memory |= self.lock_memory || self.fifo.is_some();
         if let Some(us) = self.spin_us {
             l.spin_margin_us = us;
         }
+    }
+}
+
+/// How the loop runs: rate, length, real-time settings.
+#[derive(clap::Args, Debug, Clone, Default, PartialEq)]
+pub struct LoopArgs {
+    /// Loop rate, Hz (default: the description's).
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = values::rate)]
+    pub rate: Option<f64>,
+    /// How long to run: seconds (`10`) or with units (`1500ms`, `2m`).
+    #[arg(long, visible_alias = "seconds", value_name = "DURATION", value_parser = duration::run_length)]
+    pub duration: Option<Duration>,
+    /// The real-time setup.
+    #[command(flatten)]
+    pub realtime: RealtimeArgs,
+}
+
+impl LoopArgs {
+    /// Writes the flags that were given into a description's `[loop]` settings.
+    pub fn apply(&self, config: &mut RobotConfig) {
+        if let Some(rate) = self.rate {
+            config.loop_config.rate_hz = rate;
+        }
+        self.realtime.apply(config);
     }
 
     /// How long to run: `--duration`, else `default` (`None`: until stopped).
@@ -246,47 +235,22 @@ mod tests {
     use super::*;
 
     #[test]
-    fn durations_with_and_without_units() {
-        assert_eq!(parse_duration("10"), Ok(Duration::from_secs(10)));
-        assert_eq!(parse_duration(" 0.001 "), Ok(Duration::from_millis(1)));
-        assert_eq!(parse_duration("2m"), Ok(Duration::from_secs(120)));
-        assert_eq!(parse_duration("1h 30m"), Ok(Duration::from_secs(5400)));
-        for bad in [
-            "inf",
-            "NaN",
-            "-3",
-            "-1s",
-            "1e12",
-            "ten",
-            "",
-            "100000000000s",
-        ] {
-            let err = parse_duration(bad).unwrap_err();
-            assert!(err.contains(bad.trim()) || bad.is_empty(), "{bad}: {err}");
-        }
-    }
-
-    #[test]
     fn loop_flags_write_into_the_description() {
         let mut config = RobotConfig::new(1000.0);
         LoopArgs {
             rate: Some(500.0),
-            cpu: Some(1),
-            fifo: Some(80),
-            lock_memory: true,
-            spin_us: Some(50),
             duration: None,
+            realtime: RealtimeArgs {
+                cpu: Some(1),
+                fifo: Some(80),
+                lock_memory: false,
+                spin_us: Some(50),
+            },
         }
         .apply(&mut config);
         let l = &config.loop_config;
         assert_eq!(
-            (
-                l.rate_hz,
-                l.cpu,
-                l.fifo_priority,
-                l.lock_memory,
-                l.spin_margin_us
-            ),
+            (l.rate_hz, l.cpu, l.fifo_priority, l.lock_memory, l.spin_margin_us),
             (500.0, Some(1), Some(80), true, 50)
         );
         // Flags not given leave the description alone.
