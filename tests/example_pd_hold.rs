@@ -5,6 +5,7 @@
 mod support;
 
 use core::time::Duration;
+use std::io::{BufRead, BufReader};
 
 use rmd_demos::pd_hold::{self, PdHold};
 use rmd_rt::bus::VirtualClock;
@@ -12,7 +13,7 @@ use rmd_rt::protocol::MotorId;
 use rmd_rt::rig::open::sim_buses;
 use rmd_rt::sim::ControlMode;
 use rmd_rt::{Robot, RtLoop, RunLimit, StopReason};
-use support::{Csv, run, temp_file};
+use support::{Csv, Ran, example, run, temp_file};
 
 /// The example's robot description.
 const ROBOT: &str = include_str!("../examples/robots/pd_hold.toml");
@@ -129,4 +130,60 @@ fn the_example_runs_end_to_end() {
     let ran = run("pd_hold", &["--virtual-time", "--move-deg", "NaN"]);
     assert_eq!(ran.code, Some(2));
     assert!(ran.stderr.contains("not a finite number"), "{}", ran.stderr);
+}
+
+/// Starts the example `name` with `args` (standard input closed, output captured) and lets it
+/// run: the caller signals or waits for it.
+fn spawn(name: &str, args: &[&str]) -> std::process::Child {
+    std::process::Command::new(example(name))
+        .args(args)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("starting example {name}: {e}"))
+}
+
+/// Ctrl-C (SIGINT) stops the example the project's way: zero torque, motor off, the report,
+/// exit status 130.
+#[test]
+fn ctrl_c_stops_the_example_safely_with_status_130() {
+    // Real time, so that it is still running when the signal comes.
+    let mut child = spawn("pd_hold", &["--duration", "20"]);
+    // Its first status line (on standard error, once a second) says the loop is running.
+    let stderr = BufReader::new(child.stderr.take().unwrap());
+    let (lines_tx, lines) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        for line in stderr.lines().map_while(Result::ok) {
+            let _ = lines_tx.send(line);
+        }
+    });
+    let mut seen = Vec::new();
+    while !seen.iter().any(|l: &String| l.contains("misses")) {
+        match lines.recv_timeout(Duration::from_secs(30)) {
+            Ok(line) => seen.push(line),
+            Err(e) => panic!("no status line ({e}): {seen:?}"),
+        }
+    }
+    let kill = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let mut ran = Ran::from(child.wait_with_output().unwrap());
+    reader.join().unwrap();
+    seen.extend(lines.try_iter());
+    ran.stderr = seen.join("\n");
+    assert_eq!(ran.code, Some(130), "{}\n{}", ran.stdout, ran.stderr);
+    assert!(
+        ran.stdout.contains("stopped: stop requested"),
+        "{}",
+        ran.stdout
+    );
+    assert!(
+        ran.stdout.contains("1/1 motors confirmed off"),
+        "{}",
+        ran.stdout
+    );
+    assert!(ran.stderr.contains("interrupted"), "{}", ran.stderr);
 }
