@@ -1,57 +1,60 @@
 //! The `leg4` example on its simulated leg, in virtual time: the foot tracks the step cycle,
 //! gravity compensation removes the sag, joint and current limits hold, the loop keeps time, and
-//! the motors end off.
+//! the motors end off. The example's binary runs end to end: its report, its results, its CSV
+//! file with the joints' and the controller's columns, its exit statuses.
 
-// The tests use part of the example (not its `main`).
-#[allow(dead_code)]
-#[path = "../examples/leg4.rs"]
-mod leg4;
+mod support;
 
 use core::time::Duration;
 
-use clap::Parser;
-use leg4::shared::impedance::Gains;
-use leg4::shared::leg::{self, JOINTS, LegModel};
-use leg4::shared::runner;
-use leg4::shared::step_cycle::{StepCycle, StepParams};
 use nalgebra::Vector4;
+use rmd_demos::impedance::Gains;
+use rmd_demos::leg::{self, JOINTS, LegModel};
+use rmd_demos::leg4::{self, Halt, SIGNALS, StepController};
+use rmd_demos::step_cycle::{Phase, StepCycle, StepParams};
 use rmd_rt::bus::VirtualClock;
 use rmd_rt::protocol::MotorId;
+use rmd_rt::rig::open::sim_buses;
+use rmd_rt::rt::TelemetrySample;
+use rmd_rt::rt::robot::RobotConfig;
 use rmd_rt::sim::{ControlMode, SimBus};
-use rmd_rt::{LoopOutcome, RobotConfig, RtLoop, RunLimit, StopReason, connect};
+use rmd_rt::{LoopOutcome, Robot, RtLoop, RunLimit, StopReason};
+use support::{Csv, run, temp_file};
 
-/// Runs the leg's controller for `seconds` of virtual time on the simulated leg; returns the
-/// outcome, the simulated bus (to look at the motors) and the loop's telemetry.
+/// The example's robot description.
+const ROBOT: &str = include_str!("../examples/robots/leg4.toml");
+
+fn description() -> RobotConfig {
+    let mut config = RobotConfig::from_toml(ROBOT).unwrap();
+    config.loop_config.telemetry_capacity = 8192;
+    config
+}
+
+/// Runs the leg's controller (believing the leg is `controller_model`) for `seconds` of virtual
+/// time on the simulated leg described by `config`; returns the outcome, the simulated bus (to
+/// look at the motors) and the loop's telemetry.
 fn run_leg(
-    model: &LegModel,
     controller_model: LegModel,
     gains: Gains,
-    robot: RobotConfig,
+    config: RobotConfig,
     seconds: f64,
 ) -> (
-    LoopOutcome<leg4::StepController>,
+    LoopOutcome<StepController>,
     SimBus<VirtualClock>,
-    Vec<rmd_rt::rt::TelemetrySample>,
+    Vec<TelemetrySample>,
 ) {
+    let robot = Robot::try_from(config).unwrap();
     let clock = VirtualClock::new();
-    let sims = leg4::sim(model, &robot, 1).unwrap();
-    let mut buses = connect::sim_buses(&clock, sims).unwrap();
+    let mut buses = sim_buses(&clock, leg4::sims(&robot, 1).unwrap()).unwrap();
     // The first frames on the wire (the start-up and the first ticks).
     buses[0].record_trace(256);
-    let cycle = StepCycle::plan(StepParams::new(leg4::step_center(model))).unwrap();
-    let (recorder, _samples) = runner::recorder(16);
-    let controller = leg4::StepController::new(controller_model, gains, cycle, recorder);
-    let rt = RtLoop::new(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
+    let cycle = StepCycle::plan(StepParams::new(leg4::step_center(&LegModel::new()))).unwrap();
+    let controller = StepController::new(&robot, controller_model, gains, cycle).unwrap();
+    let mut rt = RtLoop::new(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
     let telemetry = rt.telemetry();
     let outcome = rt.run(RunLimit::Duration(Duration::from_secs_f64(seconds)));
     let samples = telemetry.drain().collect();
     (outcome, buses.pop().unwrap(), samples)
-}
-
-fn robot_with_telemetry(model: &LegModel) -> RobotConfig {
-    let mut robot = leg4::robot(model, "sim", 1000.0);
-    robot.loop_config.telemetry_capacity = 8192;
-    robot
 }
 
 fn assert_motors_off(bus: &mut SimBus<VirtualClock>) {
@@ -61,16 +64,17 @@ fn assert_motors_off(bus: &mut SimBus<VirtualClock>) {
     }
 }
 
+fn knee() -> usize {
+    Robot::from_toml(ROBOT)
+        .unwrap()
+        .joint("knee")
+        .unwrap()
+        .index()
+}
+
 #[test]
 fn the_foot_tracks_the_step_cycle() {
-    let model = LegModel::new();
-    let (out, mut bus, _) = run_leg(
-        &model,
-        model.clone(),
-        Gains::new(),
-        robot_with_telemetry(&model),
-        5.0,
-    );
+    let (out, mut bus, samples) = run_leg(LegModel::new(), Gains::new(), description(), 5.0);
     let r = &out.report;
     assert_eq!(r.stop_reason, StopReason::TickLimit, "{r}");
     assert_eq!(r.stats.ticks, 5000);
@@ -98,6 +102,24 @@ fn the_foot_tracks_the_step_cycle() {
     assert!(k.tracking.count > 4000 && rms > 0.1);
     assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
     assert_motors_off(&mut bus);
+    // The user signals carry the controller's view: the error signal is the distance between
+    // the desired and measured foot, and its largest value after the approach is the max.
+    assert_eq!(samples.len(), 5000);
+    let signal = |s: &TelemetrySample, i: usize| s.signals()[i];
+    let mut max_signal: f64 = 0.0;
+    for s in &samples {
+        let d = (0..3)
+            .map(|a| signal(s, leg4::signal::FOOT_DESIRED + a) - signal(s, leg4::signal::FOOT + a))
+            .map(|x| x * x)
+            .sum::<f64>()
+            .sqrt();
+        let e = signal(s, leg4::signal::FOOT_ERROR_MM);
+        assert!((d * 1000.0 - e).abs() < 1e-9, "tick {}", s.tick);
+        if Phase::from_code(signal(s, leg4::signal::PHASE)) != Some(Phase::Approach) {
+            max_signal = max_signal.max(e);
+        }
+    }
+    assert!((max_signal - max).abs() < 1e-9, "{max_signal} vs {max}");
 }
 
 #[test]
@@ -106,13 +128,7 @@ fn gravity_compensation_removes_the_sag() {
     let mut without = Gains::new();
     without.gravity_compensation = false;
     let run = |gains| {
-        let (out, mut bus, _) = run_leg(
-            &model,
-            model.clone(),
-            gains,
-            leg4::robot(&model, "sim", 1000.0),
-            4.0,
-        );
+        let (out, mut bus, _) = run_leg(model.clone(), gains, description(), 4.0);
         assert_motors_off(&mut bus);
         out.controller
     };
@@ -143,18 +159,21 @@ fn gravity_compensation_removes_the_sag() {
 
 #[test]
 fn current_limits_hold_even_when_the_controller_asks_for_more() {
-    let model = LegModel::new();
-    let mut robot = robot_with_telemetry(&model);
+    let mut config = description();
     // A knee motor limited to 0.5 A: the step needs more.
     let knee_limit = 0.5;
-    robot.buses[0].motors[2].current_limit_amps = knee_limit;
-    let (out, mut bus, samples) = run_leg(&model, model.clone(), Gains::new(), robot, 3.0);
+    let knee = knee();
+    config.buses[0].motors[knee].current_limit_amps = knee_limit;
+    let (out, mut bus, samples) = run_leg(LegModel::new(), Gains::new(), config, 3.0);
     assert_eq!(samples.len(), 3000);
-    let clamped = out.report.stats.motors[2].clamped_commands;
+    let clamped = out.report.stats.motors[knee].counters.clamped_commands;
     assert!(clamped > 100, "clamped {clamped}");
     let (commanded, measured) = samples.iter().fold((0.0f64, 0.0f64), |(c, m), s| {
-        let knee = s.joints()[2];
-        (c.max(knee.command_amps.abs()), m.max(knee.iq_amps.abs()))
+        let sample = s.joints()[knee];
+        (
+            c.max(sample.command_amps.abs()),
+            m.max(sample.feedback.motor.current_amps.abs()),
+        )
     });
     // iqControl resolution 0.016 A, iq resolution 0.016 A.
     assert!(commanded <= knee_limit + 1e-9, "commanded {commanded} A");
@@ -164,22 +183,19 @@ fn current_limits_hold_even_when_the_controller_asks_for_more() {
 
 #[test]
 fn a_joint_beyond_its_limit_stops_the_run_safely() {
-    let model = LegModel::new();
     // The controller believes the knee may not bend beyond 80 degrees; the step needs ~100.
-    let mut strict = model.clone();
+    let mut strict = LegModel::new();
     strict.limits[2].max_deg = 80.0;
-    let (out, mut bus, _) = run_leg(
-        &model,
-        strict,
-        Gains::new(),
-        robot_with_telemetry(&model),
-        3.0,
-    );
+    let (out, mut bus, _) = run_leg(strict, Gains::new(), description(), 3.0);
     assert_eq!(out.report.stop_reason, StopReason::ControllerFinished);
     match out.controller.halt {
-        Some(leg4::Halt::JointLimit { joint: 2, deg }) => assert!(deg > 80.0, "{deg}"),
+        Some(Halt::JointLimit { joint, name, deg }) => {
+            assert_eq!((joint.index(), name), (knee(), "knee"));
+            assert!(deg > 80.0, "{deg}");
+        }
         other => panic!("expected a knee limit halt, got {other:?}"),
     }
+    assert!(!out.controller.results(&out.report).ok());
     assert!(out.report.stats.ticks < 3000);
     assert!(out.report.safe_stop.all_off_confirmed());
     assert_motors_off(&mut bus);
@@ -187,20 +203,13 @@ fn a_joint_beyond_its_limit_stops_the_run_safely() {
 
 #[test]
 fn a_joint_out_of_range_at_start_is_never_moved() {
-    let model = LegModel::new();
     // The controller believes the knee must be above 70 degrees: it powers up at 60.
-    let mut strict = model.clone();
+    let mut strict = LegModel::new();
     strict.limits[2].min_deg = 70.0;
-    let (out, mut bus, samples) = run_leg(
-        &model,
-        strict,
-        Gains::new(),
-        robot_with_telemetry(&model),
-        3.0,
-    );
+    let (out, mut bus, samples) = run_leg(strict, Gains::new(), description(), 3.0);
     assert!(matches!(
         out.controller.halt,
-        Some(leg4::Halt::JointLimit { joint: 2, .. })
+        Some(Halt::JointLimit { name: "knee", .. })
     ));
     assert_eq!(out.report.stats.ticks, 1);
     assert!(samples.is_empty());
@@ -227,47 +236,164 @@ fn a_step_beyond_the_joint_limits_is_refused_before_anything_moves() {
     params.center = Vector4::new(0.0, model.hip_offset_m + 0.15, -0.30, 0.0);
     let cycle = StepCycle::plan(params).unwrap();
     let err = leg4::check_cycle(&model, &cycle, 5.0).unwrap_err();
-    assert!(err.contains("hip_aa"), "{err}");
-    let ok = StepCycle::plan(StepParams::new(leg4::step_center(&model))).unwrap();
-    leg4::check_cycle(&model, &ok, 5.0).unwrap();
+    assert!(err.to_string().contains("hip_aa"), "{err}");
+    leg4::plan_cycle(&model).unwrap();
 }
 
 #[test]
-fn the_example_runs_end_to_end_and_writes_its_telemetry() {
-    let csv = std::env::temp_dir().join(format!("rmd-rt-leg4-{}.csv", std::process::id()));
-    let args = leg4::Args::parse_from([
+fn the_controller_needs_every_joint_with_a_torque_constant() {
+    let model = LegModel::new();
+    let cycle = leg4::plan_cycle(&model).unwrap();
+    let renamed = Robot::from_toml(&ROBOT.replace("\"knee\"", "\"shin\"")).unwrap();
+    let err = StepController::new(&renamed, model.clone(), Gains::new(), cycle).unwrap_err();
+    assert!(err.to_string().contains("no joint named `knee`"), "{err}");
+    let mut config = description();
+    config.buses[0].motors[knee()].torque_constant_nm_per_amp = None;
+    let robot = Robot::try_from(config).unwrap();
+    let err = StepController::new(&robot, model, Gains::new(), cycle).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("joint knee has no torque_constant"),
+        "{err}"
+    );
+}
+
+/// The binary, as the README runs it (in virtual time, 2 s, CSV to a file of the test's).
+#[test]
+fn the_example_runs_end_to_end_and_writes_every_tick() {
+    let csv = temp_file("leg4.csv");
+    let ran = run(
         "leg4",
-        "--virtual-time",
-        "--quiet",
-        "--duration",
-        "2",
-        "--csv",
-        csv.to_str().unwrap(),
-    ]);
-    let summary = leg4::run(&args).unwrap();
-    assert!(summary.ok(), "{}", summary.report);
-    assert_eq!(summary.report.stats.ticks, 2000);
-    assert_eq!(summary.dropped_samples, 0);
-    assert_eq!(summary.csv_rows, 2000);
-    let text = std::fs::read_to_string(&csv).unwrap();
-    std::fs::remove_file(&csv).ok();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    assert_eq!(header[0], "time_s");
-    assert_eq!(header.len(), 19);
-    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 2000);
-    assert!(rows.iter().all(|r| r.len() == header.len()));
-    assert!(rows.iter().any(|r| r[1] == "stance") && rows.iter().any(|r| r[1] == "swing"));
-    // The error column is the distance between the desired and measured foot positions.
-    let error_col = header.iter().position(|h| *h == "error_mm").unwrap();
-    for r in rows.iter().step_by(97) {
-        let v: Vec<f64> = r[2..10].iter().map(|x| x.parse().unwrap()).collect();
-        let d = ((v[0] - v[4]).powi(2) + (v[1] - v[5]).powi(2) + (v[2] - v[6]).powi(2)).sqrt();
-        let e: f64 = r[error_col].parse().unwrap();
-        assert!((d * 1000.0 - e).abs() < 0.02, "{r:?}");
+        &[
+            "--virtual-time",
+            "--duration",
+            "2",
+            "--csv",
+            csv.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(ran.code, Some(0), "{}\n{}", ran.stdout, ran.stderr);
+    for line in [
+        "leg4: 4-motor leg on simulated motors, virtual time, 1000 Hz",
+        "rmd-rt loop report: 4 motor(s) on 1 bus(es) at 1000 Hz",
+        "stopped: tick limit reached",
+        "ticks 2000 ",
+        "4/4 motors confirmed off",
+        "leg4 results",
+        "foot tracking  rms",
+    ] {
+        assert!(
+            ran.stdout.contains(line),
+            "{line:?} missing in:\n{}",
+            ran.stdout
+        );
     }
-    // Bad options are refused with a message.
-    let bad = leg4::Args::parse_from(["leg4", "--iface", "can0", "--virtual-time"]);
-    assert!(leg4::run(&bad).unwrap_err().contains("--virtual-time"));
+    assert!(
+        ran.stderr.contains("telemetry: 2000 rows"),
+        "{}",
+        ran.stderr
+    );
+
+    let csv = Csv::take(&csv);
+    // tick, time, eight columns per joint (named after it), the controller's signals.
+    assert_eq!(csv.header.len(), 2 + 8 * JOINTS + SIGNALS.len());
+    assert_eq!(csv.header[..2], ["tick", "time_s"]);
+    assert_eq!(csv.header[2], "hip_aa_angle_deg");
+    assert_eq!(csv.header[2 + 8 * JOINTS..], SIGNALS);
+    assert_eq!(csv.rows.len(), 2000);
+    assert!(csv.rows.iter().all(|r| r.len() == csv.header.len()));
+    assert_eq!(
+        csv.values("tick"),
+        (0..2000).map(f64::from).collect::<Vec<_>>()
+    );
+    let phases = csv.values("phase");
+    assert!(phases.iter().all(|p| Phase::from_code(*p).is_some()));
+    assert!(phases.contains(&Phase::Stance.code()) && phases.contains(&Phase::Swing.code()));
+    // The knee bends through the step: its angle column moves.
+    let knee = csv.values("knee_angle_deg");
+    let (low, high) = knee
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), k| (l.min(*k), h.max(*k)));
+    assert!(high - low > 10.0 && low > 5.0, "knee {low}..{high} deg");
+    // The error column is the distance between the desired and measured foot positions.
+    let error = csv.values("foot_error_mm");
+    let axis = |name: &str| {
+        (
+            csv.values(&format!("foot_{name}_des_m")),
+            csv.values(&format!("foot_{name}_m")),
+        )
+    };
+    let (x, y, z) = (axis("x"), axis("y"), axis("z"));
+    for i in (0..2000).step_by(97) {
+        let d = ((x.0[i] - x.1[i]).powi(2) + (y.0[i] - y.1[i]).powi(2) + (z.0[i] - z.1[i]).powi(2))
+            .sqrt();
+        assert!((d * 1000.0 - error[i]).abs() < 0.01, "row {i}");
+    }
+}
+
+#[test]
+fn bad_options_are_refused_with_a_message_before_anything_moves() {
+    for (args, message) in [
+        (&["--iface", "can0", "--virtual-time"][..], "--virtual-time"),
+        (&["--duration", "inf"], "not a duration"),
+        (&["--duration", "NaN"], "not a duration"),
+        (&["--duration=-1"], "cannot be negative"),
+        (&["--stiffness", "inf"], "not a finite number"),
+        (
+            &["--stiffness=-5", "--virtual-time"],
+            "give zero or a positive number",
+        ),
+        (
+            &["--robot", "/nonexistent/leg.toml"],
+            "/nonexistent/leg.toml",
+        ),
+    ] {
+        let ran = run("leg4", args);
+        assert_eq!(ran.code, Some(2), "{args:?}: {}", ran.stderr);
+        assert!(ran.stderr.contains(message), "{args:?}: {}", ran.stderr);
+        assert!(
+            !ran.stdout.contains("loop report"),
+            "{args:?}: {}",
+            ran.stdout
+        );
+    }
+}
+
+#[test]
+fn a_robot_file_replaces_the_description() {
+    // The same leg at 500 Hz with its knee named "shin": the controller does not find its knee.
+    let renamed = temp_file("leg4-renamed.toml");
+    std::fs::write(&renamed, ROBOT.replace("\"knee\"", "\"shin\"")).unwrap();
+    let ran = run(
+        "leg4",
+        &["--virtual-time", "--robot", renamed.to_str().unwrap()],
+    );
+    std::fs::remove_file(&renamed).ok();
+    assert_eq!(ran.code, Some(2), "{}", ran.stderr);
+    assert!(
+        ran.stderr.contains("no joint named `knee`"),
+        "{}",
+        ran.stderr
+    );
+    // A file at 500 Hz runs at 500 Hz.
+    let slow = temp_file("leg4-500hz.toml");
+    std::fs::write(&slow, ROBOT.replace("rate_hz = 1000.0", "rate_hz = 500.0")).unwrap();
+    let csv = temp_file("leg4-500hz.csv");
+    let ran = run(
+        "leg4",
+        &[
+            "--virtual-time",
+            "--quiet",
+            "--seconds",
+            "1",
+            "--robot",
+            slow.to_str().unwrap(),
+            "--csv",
+            csv.to_str().unwrap(),
+        ],
+    );
+    std::fs::remove_file(&slow).ok();
+    assert_eq!(ran.code, Some(0), "{}", ran.stderr);
+    assert!(ran.stdout.contains("at 500 Hz"), "{}", ran.stdout);
+    assert_eq!(Csv::take(&csv).rows.len(), 500);
 }

@@ -1,14 +1,9 @@
 //! The examples' leg model: kinematics, Jacobian, inverse kinematics, gravity, and the simulated
 //! leg's loads, checked against independent computations (finite differences, potential energy).
 
-// The tests use part of the shared code.
-#[allow(dead_code)]
-#[path = "../examples/shared/mod.rs"]
-mod shared;
-
 use nalgebra::Vector4;
+use rmd_demos::leg::{self, JOINTS, LegModel};
 use rmd_rt::sim::STANDARD_GRAVITY;
-use shared::leg::{self, JOINTS, LegModel};
 
 /// Poses across the leg's range (degrees).
 const POSES: [[f64; JOINTS]; 5] = [
@@ -137,4 +132,45 @@ fn joint_limits_are_checked() {
     // A right leg's abduction range is the mirror image of a left leg's.
     let right = model.mirrored();
     assert_eq!(right.limits[0].min_deg, -model.limits[0].max_deg);
+}
+
+#[test]
+fn the_simulated_leg_matches_the_description_either_way_round() {
+    // One leg whose knee and ankle turn against their motors: the simulated loads, seen from
+    // the joints (through the description's direction), are still the model's gravity.
+    let mut text = String::from("[[bus]]\ninterface = \"can0\"\n");
+    for (id, name, direction) in [
+        (1, "hip_aa", "normal"),
+        (2, "hip_fe", "normal"),
+        (3, "knee", "reversed"),
+        (4, "ankle", "reversed"),
+    ] {
+        text += &format!(
+            "[[bus.motor]]\nid = {id}\nname = \"{name}\"\ndirection = \"{direction}\"\n\
+             gear_ratio = 9.0\ntorque_constant_nm_per_amp = 2.09\n"
+        );
+    }
+    let robot = rmd_rt::Robot::from_toml(&text).unwrap();
+    let joints = leg::LegJoints::find(&robot, "").unwrap();
+    let model = LegModel::new();
+    let pose = [0.0, -45.0, 90.0, -45.0];
+    let mut sims = rmd_rt::rig::sim::sim_configs(&robot, 1);
+    leg::simulate_leg(&model, &robot, &joints, &mut sims, pose, pose);
+    for (i, id) in joints.ids().into_iter().enumerate() {
+        let sign = robot.spec(id).direction.sign();
+        let motor = &sims[0].motors[i];
+        assert_eq!(motor.initial_output_angle_deg, sign * pose[i]);
+        let link = motor.load.gravity.clone().unwrap();
+        for offset_deg in [-30.0, 0.0, 20.0] {
+            let mut q = leg::rad(pose);
+            q[i] += f64::to_radians(offset_deg);
+            // The joint's torque is `sign` times the output's, at output angle `sign * q`.
+            let simulated = sign * link.torque_nm(sign * q[i]);
+            let expected = model.gravity_torques(&q)[i];
+            assert!(
+                (simulated - expected).abs() < 1e-9,
+                "joint {i} at {offset_deg:+}: simulated {simulated}, model {expected}"
+            );
+        }
+    }
 }

@@ -1,35 +1,33 @@
 //! The `quadruped` example on its simulated robot, in virtual time: sixteen motors on four buses,
 //! four 0x280 frames per tick, the robot stands up from its crouch to the target height and holds
-//! it, and every motor ends off.
+//! it, and every motor ends off. The example's binary runs end to end.
 
-// The tests use part of the example (not its `main`).
-#[allow(dead_code)]
-#[path = "../examples/quadruped.rs"]
-mod quadruped;
+mod support;
 
 use core::time::Duration;
 
-use clap::Parser;
-use quadruped::shared::leg::JOINTS;
-use quadruped::shared::runner;
-use quadruped::{LEG_NAMES, LEGS};
+use rmd_demos::leg::JOINTS;
+use rmd_demos::quadruped::{self, LEG_NAMES, LEGS, SIGNALS, STAND_HEIGHT_M, StandController};
 use rmd_rt::bus::VirtualClock;
 use rmd_rt::protocol::MotorId;
+use rmd_rt::rig::open::sim_buses;
 use rmd_rt::sim::{ControlMode, Node};
-use rmd_rt::{RtLoop, RunLimit, StopReason, connect};
+use rmd_rt::{Robot, RtLoop, RunLimit, StopReason};
+use support::{Csv, run, temp_file};
+
+/// The example's robot description.
+const ROBOT: &str = include_str!("../examples/robots/quadruped.toml");
 
 #[test]
 fn the_quadruped_stands_up_and_holds_the_pose() {
-    let names: Vec<String> = (0..LEGS).map(|i| format!("sim{i}")).collect();
-    let robot = quadruped::robot(&names, 1000.0).unwrap();
-    assert_eq!((robot.buses.len(), robot.motor_count()), (4, 16));
+    let robot = Robot::from_toml(ROBOT).unwrap();
+    assert_eq!((robot.buses().len(), robot.joint_count()), (4, 16));
     let clock = VirtualClock::new();
-    let mut buses = connect::sim_buses(&clock, quadruped::sim(&robot, 1).unwrap()).unwrap();
+    let mut buses = sim_buses(&clock, quadruped::sims(&robot, 1).unwrap()).unwrap();
     for bus in &mut buses {
         bus.record_trace(20_000);
     }
-    let (recorder, _samples) = runner::recorder(16);
-    let controller = quadruped::StandController::new(quadruped::STAND_HEIGHT_M, recorder);
+    let controller = StandController::new(&robot, STAND_HEIGHT_M).unwrap();
     let rt = RtLoop::new(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
     let out = rt.run(RunLimit::Duration(Duration::from_secs(3)));
     let r = &out.report;
@@ -54,16 +52,14 @@ fn the_quadruped_stands_up_and_holds_the_pose() {
     );
     assert!(k.rise_s > 0.5 && reached <= k.rise_s + 0.1, "{reached} s");
     for (name, h) in LEG_NAMES.iter().zip(k.heights_m) {
-        assert!(
-            (h - quadruped::STAND_HEIGHT_M).abs() < 0.003,
-            "{name}: {h} m"
-        );
+        assert!((h - STAND_HEIGHT_M).abs() < 0.003, "{name}: {h} m");
     }
     assert!(
         k.hold_error.count > 1000 && k.hold_error.max < 0.003,
         "{:?}",
         k.hold_error
     );
+    assert!(k.results(r).ok());
 
     // Four 0x280 frames per tick, one on each bus, sent at the same instant.
     let starts: Vec<Vec<_>> = buses
@@ -95,28 +91,57 @@ fn the_quadruped_stands_up_and_holds_the_pose() {
 
 #[test]
 fn the_example_runs_end_to_end() {
-    let csv = std::env::temp_dir().join(format!("rmd-rt-quadruped-{}.csv", std::process::id()));
-    let args = quadruped::Args::parse_from([
+    let csv = temp_file("quadruped.csv");
+    let ran = run(
         "quadruped",
-        "--virtual-time",
-        "--quiet",
-        "--duration",
-        "2.5",
-        "--csv",
-        csv.to_str().unwrap(),
-    ]);
-    let summary = quadruped::run(&args).unwrap();
-    std::fs::remove_file(&csv).ok();
-    assert!(summary.ok(), "{}", summary.report);
-    assert_eq!(summary.csv_rows, 2500);
-    // One interface per leg on a real robot.
-    let two = quadruped::Args::parse_from(["quadruped", "--iface", "can0,can1"]);
-    assert!(quadruped::run(&two).unwrap_err().contains("4 buses"));
-    // A height the legs cannot reach is refused before anything moves.
-    let tall = quadruped::Args::parse_from(["quadruped", "--virtual-time", "--height", "0.6"]);
-    assert!(
-        quadruped::run(&tall)
-            .unwrap_err()
-            .contains("out of the leg's reach")
+        &[
+            "--virtual-time",
+            "--quiet",
+            "--duration",
+            "2.5",
+            "--csv",
+            csv.to_str().unwrap(),
+        ],
     );
+    assert_eq!(ran.code, Some(0), "{}\n{}", ran.stdout, ran.stderr);
+    assert!(
+        ran.stdout.contains("16 motor(s) on 4 bus(es)"),
+        "{}",
+        ran.stdout
+    );
+    assert!(
+        ran.stdout.contains("quadruped results\n  stood up"),
+        "{}",
+        ran.stdout
+    );
+    let csv = Csv::take(&csv);
+    assert_eq!(csv.rows.len(), 2500);
+    assert_eq!(csv.header.len(), 2 + 8 * LEGS * JOINTS + SIGNALS.len());
+    assert_eq!(csv.column("hr_ankle_angle_deg"), 2 + 8 * 15);
+    // The body rises from the crouch to the standing height.
+    let body = csv.values("body_height_m");
+    assert!(
+        (body[0] - quadruped::CROUCH_HEIGHT_M).abs() < 0.01,
+        "{}",
+        body[0]
+    );
+    assert!(
+        (body[2499] - STAND_HEIGHT_M).abs() < 0.003,
+        "{}",
+        body[2499]
+    );
+
+    // One interface per leg on a real robot.
+    let two = run("quadruped", &["--iface", "can0,can1"]);
+    assert_eq!(two.code, Some(2));
+    assert!(two.stderr.contains("4 bus(es) but 2"), "{}", two.stderr);
+    // A height the legs cannot reach is refused before anything moves.
+    let tall = run("quadruped", &["--virtual-time", "--height", "0.6"]);
+    assert_eq!(tall.code, Some(2));
+    assert!(
+        tall.stderr.contains("out of the leg's reach"),
+        "{}",
+        tall.stderr
+    );
+    assert!(!tall.stdout.contains("loop report"));
 }

@@ -13,29 +13,29 @@
 //! loop's `update`.
 
 use nalgebra::{Matrix4, Vector4};
-use rmd_rt::Feedback;
+use rmd_loop::Feedback;
 
-use super::leg::{JOINTS, LegModel};
+use crate::leg::{JOINTS, LegJoints, LegModel};
 
 /// Stiffness and damping of the foot, and the joint-limit springs.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub(crate) struct Gains {
+pub struct Gains {
     /// Stiffness along x, y, z (N/m) and about the pitch (N*m/rad).
-    pub(crate) stiffness: Vector4<f64>,
+    pub stiffness: Vector4<f64>,
     /// Damping along x, y, z (N*s/m) and about the pitch (N*m*s/rad).
-    pub(crate) damping: Vector4<f64>,
+    pub damping: Vector4<f64>,
     /// Whether to add the gravity torques.
-    pub(crate) gravity_compensation: bool,
+    pub gravity_compensation: bool,
     /// Width of the zone inside each joint limit where the limit spring acts, rad.
-    pub(crate) limit_zone_rad: f64,
+    pub limit_zone_rad: f64,
     /// Stiffness of the limit springs, N*m/rad.
-    pub(crate) limit_stiffness: f64,
+    pub limit_stiffness: f64,
 }
 
 impl Gains {
     /// 3000 N/m and 60 N*s/m along the axes, 30 N*m/rad and 0.8 N*m*s/rad in pitch, gravity
     /// compensation on, 5 degree limit zones with 60 N*m/rad springs.
-    pub(crate) fn new() -> Self {
+    pub fn new() -> Self {
         Self {
             stiffness: Vector4::new(3000.0, 3000.0, 3000.0, 30.0),
             damping: Vector4::new(60.0, 60.0, 60.0, 0.8),
@@ -46,30 +46,36 @@ impl Gains {
     }
 }
 
-/// One leg's joint state read from the loop's feedback.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub(crate) struct JointState {
-    /// Joint angles, rad.
-    pub(crate) q: Vector4<f64>,
-    /// Joint velocities, rad/s.
-    pub(crate) qd: Vector4<f64>,
-    /// Whether every motor's feedback is fresh this tick.
-    pub(crate) fresh: bool,
+impl Default for Gains {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
-impl JointState {
-    /// The leg whose motors are `first..first + 4` in robot-description order.
-    pub(crate) fn read(feedback: &Feedback<'_>, first: usize) -> Self {
+/// One leg's joint state read from the loop's feedback.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct LegState {
+    /// Joint angles, rad.
+    pub q: Vector4<f64>,
+    /// Joint velocities, rad/s.
+    pub qd: Vector4<f64>,
+    /// Whether every motor's feedback is fresh this tick.
+    pub fresh: bool,
+}
+
+impl LegState {
+    /// The state of the leg whose joints are `joints`.
+    pub fn read(feedback: &Feedback<'_>, joints: &LegJoints) -> Self {
         let mut s = Self {
             q: Vector4::zeros(),
             qd: Vector4::zeros(),
             fresh: true,
         };
-        for i in 0..JOINTS {
-            if let Some(m) = feedback.get(first + i) {
-                s.q[i] = m.joint_angle_rad();
-                s.qd[i] = m.joint_velocity_rad_s();
-                s.fresh &= m.fresh;
+        for (i, id) in joints.ids().into_iter().enumerate() {
+            if let Some(f) = feedback.get(id) {
+                s.q[i] = f.joint.angle_rad();
+                s.qd[i] = f.joint.velocity_rad_s();
+                s.fresh &= f.is_fresh();
             }
         }
         s
@@ -78,29 +84,29 @@ impl JointState {
 
 /// What the impedance law computed in one tick.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub(crate) struct Output {
+pub struct Output {
     /// Joint torques to command, N*m.
-    pub(crate) torque: Vector4<f64>,
+    pub torque: Vector4<f64>,
     /// The foot's task coordinates (m, rad).
-    pub(crate) foot: Vector4<f64>,
+    pub foot: Vector4<f64>,
     /// The foot's task velocity (m/s, rad/s).
-    pub(crate) foot_velocity: Vector4<f64>,
+    pub foot_velocity: Vector4<f64>,
     /// The first joint beyond its limit, if any (the caller stops).
-    pub(crate) beyond_limit: Option<usize>,
+    pub beyond_limit: Option<usize>,
 }
 
 impl Output {
     /// Distance from the foot to `target` in x, y, z, m.
-    pub(crate) fn position_error_m(&self, target: &Vector4<f64>) -> f64 {
+    pub fn position_error_m(&self, target: &Vector4<f64>) -> f64 {
         (target - self.foot).fixed_rows::<3>(0).norm()
     }
 }
 
 /// The impedance law for one leg.
-pub(crate) fn impedance(
+pub fn impedance(
     model: &LegModel,
     gains: &Gains,
-    joints: &JointState,
+    joints: &LegState,
     target: &Vector4<f64>,
     target_velocity: &Vector4<f64>,
 ) -> Output {
@@ -142,25 +148,25 @@ pub(crate) fn impedance(
 
 /// Running statistics of a tracking error (allocation-free).
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
-pub(crate) struct ErrorStats {
+pub struct ErrorStats {
     /// Samples.
-    pub(crate) count: u64,
+    pub count: u64,
     /// Sum of squares.
-    pub(crate) sum_sq: f64,
+    pub sum_sq: f64,
     /// Largest error.
-    pub(crate) max: f64,
+    pub max: f64,
 }
 
 impl ErrorStats {
     /// Adds one sample.
-    pub(crate) fn add(&mut self, e: f64) {
+    pub fn add(&mut self, e: f64) {
         self.count += 1;
         self.sum_sq += e * e;
         self.max = self.max.max(e);
     }
 
     /// Root mean square (0 without samples).
-    pub(crate) fn rms(&self) -> f64 {
+    pub fn rms(&self) -> f64 {
         if self.count == 0 {
             0.0
         } else {

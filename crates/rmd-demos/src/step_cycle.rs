@@ -1,4 +1,4 @@
-//! A foot step cycle planned with the trajectory generator (`rmd_rt::traj`): a stance at
+//! A foot step cycle planned with the trajectory generator (`rmd-traj`): a stance at
 //! constant speed along the ground, then a swing that lifts the foot, carries it forward and
 //! puts it down moving backwards at the ground speed again. Every segment is a time-optimal,
 //! jerk-limited trajectory of the foot's four task coordinates (x, y, z in m, pitch in rad),
@@ -10,36 +10,36 @@
 //! generator is allocation-free). Sampling is a lookup and a polynomial evaluation.
 
 use nalgebra::Vector4;
-use rmd_rt::traj::{Input, Trajectory, TrajectoryError, calculate};
+use rmd_traj::{Input, Trajectory, TrajectoryError, calculate};
 
 /// Axes of the foot trajectory: x, y, z (m) and pitch (rad).
-pub(crate) const AXES: usize = 4;
+pub const AXES: usize = 4;
 
 /// The shape and speed of a step.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub(crate) struct StepParams {
+pub struct StepParams {
     /// The middle of the step (x, y, z in m, pitch in rad, hip frame): the foot passes under it
     /// in the stance.
-    pub(crate) center: Vector4<f64>,
+    pub center: Vector4<f64>,
     /// Step length along x, m.
-    pub(crate) length_m: f64,
+    pub length_m: f64,
     /// How high the swing lifts the foot, m.
-    pub(crate) height_m: f64,
+    pub height_m: f64,
     /// Duration of the stance, s (sets the ground speed `length / stance`).
-    pub(crate) stance_s: f64,
+    pub stance_s: f64,
     /// Shortest duration of the swing, s.
-    pub(crate) swing_s: f64,
+    pub swing_s: f64,
     /// Velocity limits of the swing and approach (m/s, rad/s).
-    pub(crate) max_velocity: [f64; AXES],
+    pub max_velocity: [f64; AXES],
     /// Acceleration limits (m/s², rad/s²).
-    pub(crate) max_acceleration: [f64; AXES],
+    pub max_acceleration: [f64; AXES],
     /// Jerk limits (m/s³, rad/s³).
-    pub(crate) max_jerk: [f64; AXES],
+    pub max_jerk: [f64; AXES],
 }
 
 impl StepParams {
     /// A 12 cm step, 6 cm high, 0.5 s stance and 0.5 s swing, around `center`.
-    pub(crate) fn new(center: Vector4<f64>) -> Self {
+    pub fn new(center: Vector4<f64>) -> Self {
         Self {
             center,
             length_m: 0.12,
@@ -53,7 +53,7 @@ impl StepParams {
     }
 
     /// Ground speed of the stance, m/s.
-    pub(crate) fn ground_speed(&self) -> f64 {
+    pub fn ground_speed(&self) -> f64 {
         self.length_m / self.stance_s
     }
 
@@ -68,7 +68,7 @@ impl StepParams {
 
 /// What the foot is doing.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub(crate) enum Phase {
+pub enum Phase {
     /// Moving from where it was to the start of the cycle.
     Approach,
     /// On the ground (or where the ground would be), moving backwards at the ground speed.
@@ -79,31 +79,55 @@ pub(crate) enum Phase {
 
 impl Phase {
     /// A short name, for displays and CSV files.
-    pub(crate) fn name(self) -> &'static str {
+    pub fn name(self) -> &'static str {
         match self {
             Phase::Approach => "approach",
             Phase::Stance => "stance",
             Phase::Swing => "swing",
         }
     }
+
+    /// The phase as a number, for a telemetry signal: 0 approach, 1 stance, 2 swing.
+    pub fn code(self) -> f64 {
+        match self {
+            Phase::Approach => 0.0,
+            Phase::Stance => 1.0,
+            Phase::Swing => 2.0,
+        }
+    }
+
+    /// The phase a [`code`](Self::code) stands for.
+    ///
+    /// ```
+    /// use rmd_demos::step_cycle::Phase;
+    /// for phase in [Phase::Approach, Phase::Stance, Phase::Swing] {
+    ///     assert_eq!(Phase::from_code(phase.code()), Some(phase));
+    /// }
+    /// assert_eq!(Phase::from_code(0.5), None);
+    /// ```
+    pub fn from_code(code: f64) -> Option<Self> {
+        [Phase::Approach, Phase::Stance, Phase::Swing]
+            .into_iter()
+            .find(|p| p.code() == code)
+    }
 }
 
 /// The desired foot state at one instant.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub(crate) struct FootTarget {
+pub struct FootTarget {
     /// The phase.
-    pub(crate) phase: Phase,
+    pub phase: Phase,
     /// Position (m, rad).
-    pub(crate) position: Vector4<f64>,
+    pub position: Vector4<f64>,
     /// Velocity (m/s, rad/s).
-    pub(crate) velocity: Vector4<f64>,
+    pub velocity: Vector4<f64>,
     /// Completed cycles before this instant.
-    pub(crate) cycle: u64,
+    pub cycle: u64,
 }
 
 /// A planned step cycle and the approach to it.
 #[derive(Copy, Clone, Debug)]
-pub(crate) struct StepCycle {
+pub struct StepCycle {
     params: StepParams,
     /// Stance, swing up to the apex, swing down to touchdown.
     segments: [Trajectory<AXES>; 3],
@@ -140,7 +164,7 @@ fn segment(
 
 impl StepCycle {
     /// Plans the cycle (not the approach).
-    pub(crate) fn plan(params: StepParams) -> Result<Self, TrajectoryError> {
+    pub fn plan(params: StepParams) -> Result<Self, TrajectoryError> {
         let v = params.ground_speed();
         let back = Vector4::new(-v, 0.0, 0.0, 0.0);
         let apex = params.center + Vector4::new(0.0, 0.0, params.height_m, 0.0);
@@ -178,28 +202,28 @@ impl StepCycle {
     }
 
     /// The step's parameters.
-    pub(crate) fn params(&self) -> &StepParams {
+    pub fn params(&self) -> &StepParams {
         &self.params
     }
 
     /// Duration of one cycle, s.
-    pub(crate) fn period_s(&self) -> f64 {
+    pub fn period_s(&self) -> f64 {
         self.period_s
     }
 
     /// Duration of the stance, s.
-    pub(crate) fn stance_s(&self) -> f64 {
+    pub fn stance_s(&self) -> f64 {
         self.segments[0].duration()
     }
 
     /// Duration of the approach, s (0 until it is planned).
-    pub(crate) fn approach_s(&self) -> f64 {
+    pub fn approach_s(&self) -> f64 {
         self.approach.duration()
     }
 
     /// Plans the approach from `from` (at rest) to the start of the stance. Allocation-free: runs
     /// in the controller's first tick.
-    pub(crate) fn plan_approach(&mut self, from: Vector4<f64>) -> Result<(), TrajectoryError> {
+    pub fn plan_approach(&mut self, from: Vector4<f64>) -> Result<(), TrajectoryError> {
         let v = self.params.ground_speed();
         let mut params = self.params;
         // A calmer approach than the swing.
@@ -216,7 +240,7 @@ impl StepCycle {
     }
 
     /// The desired foot state `t` seconds after the start of the approach.
-    pub(crate) fn at(&self, t: f64) -> FootTarget {
+    pub fn at(&self, t: f64) -> FootTarget {
         let state = |traj: &Trajectory<AXES>, t: f64| {
             let s = traj.state_at(t);
             (

@@ -1,77 +1,82 @@
 //! The 4-motor leg of the examples: geometry, masses and joint limits; forward kinematics,
-//! Jacobian, inverse kinematics and gravity torques (nalgebra, fixed-size, no allocation); the
-//! robot description for the loop; and the simulated leg.
+//! Jacobian, inverse kinematics and gravity torques (nalgebra, fixed-size, no allocation); a
+//! leg's joints found by name in a robot description; and the simulated leg.
 //!
 //! Frames: the hip frame has x forward, y to the left, z up. The joints, from the body out:
 //!
-//! 1. hip abduction/adduction (`hip_aa`, motor id 1): about x, at the hip origin;
-//! 2. hip flexion/extension (`hip_fe`, id 2): about y, `hip_offset_m` to the side of the hip;
-//! 3. knee (id 3): about y, `thigh_m` below the hip flexion axis (positive: knee bent forward);
-//! 4. ankle (id 4): about y, `shank_m` below the knee; the foot link (`foot_m`) ends at the sole.
+//! 1. hip abduction/adduction (`hip_aa`): about x, at the hip origin;
+//! 2. hip flexion/extension (`hip_fe`): about y, `hip_offset_m` to the side of the hip;
+//! 3. `knee`: about y, `thigh_m` below the hip flexion axis (positive: knee bent forward);
+//! 4. `ankle`: about y, `shank_m` below the knee; the foot link (`foot_m`) ends at the sole.
 //!
 //! All four at zero: the leg hangs straight down. The task coordinates of the foot are its sole
 //! point (x, y, z) in the hip frame and its pitch `q2 + q3 + q4` (0: foot link vertical), so the
 //! Jacobian is square (4 x 4).
+//!
+//! ```
+//! use rmd_demos::leg::{self, LegModel};
+//! let model = LegModel::new();
+//! let q = leg::rad([0.0, -30.0, 60.0, -30.0]);
+//! let foot = model.foot(&q);
+//! // Folded: the sole 38.6 cm below the hip, under the hip flexion axis, foot vertical.
+//! assert!((foot.z + 0.3864).abs() < 1e-3 && foot.x.abs() < 1e-12 && foot[3].abs() < 1e-12);
+//! let back = model.inverse(&foot).unwrap();
+//! assert!((back - q).norm() < 1e-9);
+//! ```
 
 use nalgebra::{Matrix4, Rotation3, Vector3, Vector4};
-use rmd_rt::connect;
-use rmd_rt::rt::config::Direction;
-use rmd_rt::sim::{GravityLink, STANDARD_GRAVITY, SimConfig};
-use rmd_rt::{BusConfig, MotorConfig, RobotConfig};
+use rmd_loop::{JointId, Robot};
+use rmd_sim::{GravityLink, STANDARD_GRAVITY, SimConfig};
+
+use crate::error::DemoError;
 
 /// Number of joints (and motors) of a leg.
-pub(crate) const JOINTS: usize = 4;
+pub const JOINTS: usize = 4;
 
-/// Joint names, in motor-id order (ids 1..=4).
-pub(crate) const JOINT_NAMES: [&str; JOINTS] = ["hip_aa", "hip_fe", "knee", "ankle"];
-
-/// Gear ratio of the leg's motors (RMD-X8-class, 1:9).
-pub(crate) const GEAR_RATIO: f64 = 9.0;
-
-/// Output torque constant of the leg's motors, N*m/A (RMD-X8 V2 datasheet).
-pub(crate) const TORQUE_CONSTANT: f64 = 2.09;
+/// The leg's joint names, from the body out (a robot description names them with a prefix per
+/// leg, e.g. `fl_knee`).
+pub const JOINT_NAMES: [&str; JOINTS] = ["hip_aa", "hip_fe", "knee", "ankle"];
 
 /// A joint's allowed range, degrees.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub(crate) struct JointLimit {
+pub struct JointLimit {
     /// Lowest angle.
-    pub(crate) min_deg: f64,
+    pub min_deg: f64,
     /// Highest angle.
-    pub(crate) max_deg: f64,
+    pub max_deg: f64,
 }
 
 impl JointLimit {
     /// Whether `deg` lies in the range.
-    pub(crate) fn contains(&self, deg: f64) -> bool {
+    pub fn contains(&self, deg: f64) -> bool {
         (self.min_deg..=self.max_deg).contains(&deg)
     }
 }
 
-/// Geometry, masses, limits and motor settings of one leg.
+/// Geometry, masses and joint limits of one leg (its motors, gear ratios, torque constants and
+/// current limits are in the robot description).
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) struct LegModel {
+pub struct LegModel {
     /// Side offset of the hip flexion axis from the hip abduction axis, m (+ left leg, - right).
-    pub(crate) hip_offset_m: f64,
+    pub hip_offset_m: f64,
     /// Hip flexion axis to knee, m.
-    pub(crate) thigh_m: f64,
+    pub thigh_m: f64,
     /// Knee to ankle, m.
-    pub(crate) shank_m: f64,
+    pub shank_m: f64,
     /// Ankle to sole, m.
-    pub(crate) foot_m: f64,
+    pub foot_m: f64,
     /// Masses of the hip link (hip flexion motor), thigh, shank and foot, kg.
-    pub(crate) mass_kg: [f64; 4],
+    pub mass_kg: [f64; 4],
     /// Distance of each link's centre of mass from its proximal joint along the link, m (the
     /// hip link's is at the hip flexion axis).
-    pub(crate) com_m: [f64; 4],
+    pub com_m: [f64; 4],
     /// Joint limits, degrees.
-    pub(crate) limits: [JointLimit; JOINTS],
-    /// Torque current limit of each motor, A (the loop clamps every command to it).
-    pub(crate) current_limit_amps: [f64; JOINTS],
+    pub limits: [JointLimit; JOINTS],
 }
 
 impl LegModel {
     /// The examples' leg (a left leg): 0.2 m thigh and shank, 2.4 kg in all.
-    pub(crate) fn new() -> Self {
+    pub fn new() -> Self {
         Self {
             hip_offset_m: 0.08,
             thigh_m: 0.20,
@@ -97,12 +102,11 @@ impl LegModel {
                     max_deg: 30.0,
                 },
             ],
-            current_limit_amps: [6.0, 8.0, 8.0, 4.0],
         }
     }
 
     /// The mirror image of this leg (a right leg from a left one).
-    pub(crate) fn mirrored(&self) -> Self {
+    pub fn mirrored(&self) -> Self {
         let mut m = self.clone();
         m.hip_offset_m = -self.hip_offset_m;
         let aa = self.limits[0];
@@ -114,12 +118,12 @@ impl LegModel {
     }
 
     /// Total mass, kg.
-    pub(crate) fn total_mass_kg(&self) -> f64 {
+    pub fn total_mass_kg(&self) -> f64 {
         self.mass_kg.iter().sum()
     }
 
     /// Joint positions, axes, centres of mass and the sole, in the hip frame, at `q` (radians).
-    pub(crate) fn frames(&self, q: &Vector4<f64>) -> Frames {
+    pub fn frames(&self, q: &Vector4<f64>) -> Frames {
         let down = |l: f64| Vector3::new(0.0, 0.0, -l);
         let r1 = Rotation3::from_axis_angle(&Vector3::x_axis(), q[0]);
         let r2 = r1 * Rotation3::from_axis_angle(&Vector3::y_axis(), q[1]);
@@ -145,13 +149,13 @@ impl LegModel {
     }
 
     /// The foot's task coordinates (x, y, z in m, pitch in rad) at `q` (rad).
-    pub(crate) fn foot(&self, q: &Vector4<f64>) -> Vector4<f64> {
+    pub fn foot(&self, q: &Vector4<f64>) -> Vector4<f64> {
         let s = self.frames(q).sole;
         Vector4::new(s.x, s.y, s.z, q[1] + q[2] + q[3])
     }
 
     /// The foot's task coordinates and the Jacobian `d foot / d q` at `q` (rad).
-    pub(crate) fn foot_and_jacobian(&self, q: &Vector4<f64>) -> (Vector4<f64>, Matrix4<f64>) {
+    pub fn foot_and_jacobian(&self, q: &Vector4<f64>) -> (Vector4<f64>, Matrix4<f64>) {
         let f = self.frames(q);
         let mut j = Matrix4::zeros();
         for i in 0..JOINTS {
@@ -167,7 +171,7 @@ impl LegModel {
 
     /// The joint torques gravity exerts on the leg at `q` (rad), N*m. A controller adds their
     /// negative to hold the leg's weight.
-    pub(crate) fn gravity_torques(&self, q: &Vector4<f64>) -> Vector4<f64> {
+    pub fn gravity_torques(&self, q: &Vector4<f64>) -> Vector4<f64> {
         let f = self.frames(q);
         let g = Vector3::new(0.0, 0.0, -STANDARD_GRAVITY);
         let mut tau = Vector4::zeros();
@@ -183,7 +187,7 @@ impl LegModel {
 
     /// The joint angles (rad) that put the sole at `foot` (x, y, z in m, pitch in rad) with the
     /// knee bent forward (positive) and the hip abduction nearest zero, or `None` if out of reach.
-    pub(crate) fn inverse(&self, foot: &Vector4<f64>) -> Option<Vector4<f64>> {
+    pub fn inverse(&self, foot: &Vector4<f64>) -> Option<Vector4<f64>> {
         let (px, py, pz, pitch) = (foot[0], foot[1], foot[2], foot[3]);
         // Hip abduction: in the frame turned by -q1 about x, the sole's y is the hip offset:
         // py cos q1 + pz sin q1 = d.
@@ -216,7 +220,7 @@ impl LegModel {
     }
 
     /// The first joint (index) outside its limits at `q` (rad), if any.
-    pub(crate) fn limit_violation(&self, q: &Vector4<f64>) -> Option<usize> {
+    pub fn limit_violation(&self, q: &Vector4<f64>) -> Option<usize> {
         (0..JOINTS).find(|&i| !self.limits[i].contains(q[i].to_degrees()))
     }
 
@@ -227,7 +231,7 @@ impl LegModel {
     /// is the best per-joint picture of the leg: a controller's multi-body gravity model
     /// ([`gravity_torques`](Self::gravity_torques)) matches it exactly at `pose` and
     /// approximately around it.
-    pub(crate) fn sim_loads(&self, pose: &Vector4<f64>) -> [(GravityLink, f64); JOINTS] {
+    pub fn sim_loads(&self, pose: &Vector4<f64>) -> [(GravityLink, f64); JOINTS] {
         core::array::from_fn(|i| {
             let at = |qi: f64| {
                 let mut q = *pose;
@@ -264,17 +268,23 @@ impl LegModel {
     }
 }
 
+impl Default for LegModel {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// Where the parts of the leg are at one pose (hip frame, m).
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub(crate) struct Frames {
+pub struct Frames {
     /// A point on each joint's axis.
-    pub(crate) origins: [Vector3<f64>; JOINTS],
+    pub origins: [Vector3<f64>; JOINTS],
     /// Each joint's axis (unit vector).
-    pub(crate) axes: [Vector3<f64>; JOINTS],
+    pub axes: [Vector3<f64>; JOINTS],
     /// Centres of mass of the hip link, thigh, shank and foot.
-    pub(crate) coms: [Vector3<f64>; JOINTS],
+    pub coms: [Vector3<f64>; JOINTS],
     /// The sole.
-    pub(crate) sole: Vector3<f64>,
+    pub sole: Vector3<f64>,
 }
 
 fn wrap_pi(a: f64) -> f64 {
@@ -282,75 +292,103 @@ fn wrap_pi(a: f64) -> f64 {
 }
 
 /// Degrees to a joint vector in radians.
-pub(crate) fn rad(deg: [f64; JOINTS]) -> Vector4<f64> {
+pub fn rad(deg: [f64; JOINTS]) -> Vector4<f64> {
     Vector4::from(deg.map(f64::to_radians))
 }
 
 /// A joint vector in radians to degrees.
-pub(crate) fn deg(q: &Vector4<f64>) -> [f64; JOINTS] {
+pub fn deg(q: &Vector4<f64>) -> [f64; JOINTS] {
     [0, 1, 2, 3].map(|i| q[i].to_degrees())
 }
 
-/// One leg's bus in the robot description: motors 1..=4 (RMD-X8-class, 1:9, 2.09 N*m/A), their
-/// current limits, a 70 degC temperature limit, and zero offsets that centre each joint's
-/// power-up window on `power_up_deg` (the pose the leg is in when the motors are switched on).
-pub(crate) fn leg_bus(
-    model: &LegModel,
-    interface: &str,
-    name: &str,
-    power_up_deg: [f64; JOINTS],
-) -> BusConfig {
-    let mut bus = BusConfig::new(interface);
-    bus.name = Some(name.to_string());
-    for i in 0..JOINTS {
-        bus = bus.with_motor(
-            MotorConfig::new(i as u8 + 1)
-                .name(&format!("{name}.{}", JOINT_NAMES[i]))
-                .gear_ratio(GEAR_RATIO)
-                .torque_constant(TORQUE_CONSTANT)
-                .current_limit(model.current_limit_amps[i])
-                .temperature_limit(70.0)
-                .zero_offset_deg(connect::centred_zero_offset_deg(
-                    GEAR_RATIO,
-                    Direction::Normal,
-                    power_up_deg[i],
-                )),
-        );
+/// One leg's four joints in a robot description: `hip_aa`, `hip_fe`, `knee`, `ankle`, each
+/// name after a prefix (`""` for a robot of one leg, `"fl_"` for the front left leg of a
+/// quadruped).
+///
+/// ```
+/// use rmd_demos::leg::LegJoints;
+/// use rmd_loop::Robot;
+/// let mut text = String::from("[[bus]]\ninterface = \"can0\"\n");
+/// for (id, name) in [(1, "fl_hip_aa"), (2, "fl_hip_fe"), (3, "fl_knee"), (4, "fl_ankle")] {
+///     text += &format!("[[bus.motor]]\nid = {id}\nname = \"{name}\"\ntorque_constant_nm_per_amp = 2.09\n");
+/// }
+/// let robot = Robot::from_toml(&text)?;
+/// let leg = LegJoints::find(&robot, "fl_")?;
+/// assert_eq!(leg.ids()[2], robot.joint("fl_knee")?);
+/// assert!(LegJoints::find(&robot, "fr_").is_err());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct LegJoints {
+    ids: [JointId; JOINTS],
+}
+
+impl LegJoints {
+    /// The joints `{prefix}hip_aa`, `{prefix}hip_fe`, `{prefix}knee`, `{prefix}ankle` of
+    /// `robot`. Each must have a torque constant: the leg's controllers command torques.
+    pub fn find(robot: &Robot, prefix: &str) -> Result<Self, DemoError> {
+        let names = JOINT_NAMES.map(|name| format!("{prefix}{name}"));
+        let ids = robot.joints_named(names.each_ref().map(String::as_str))?;
+        for id in ids {
+            let spec = robot.spec(id);
+            if spec.torque_constant_nm_per_amp.is_none() {
+                return Err(DemoError::NoTorqueConstant {
+                    joint: spec.name.clone(),
+                });
+            }
+        }
+        Ok(Self { ids })
     }
-    bus
+
+    /// The joints, from the body out.
+    pub fn ids(&self) -> [JointId; JOINTS] {
+        self.ids
+    }
+
+    /// Whether `joint` is one of this leg's, and which (0 = `hip_aa` .. 3 = `ankle`).
+    pub fn position(&self, joint: JointId) -> Option<usize> {
+        self.ids.iter().position(|&id| id == joint)
+    }
 }
 
-/// A robot of one leg on one bus at `rate_hz`.
-pub(crate) fn leg_robot(
-    model: &LegModel,
-    interface: &str,
-    rate_hz: f64,
-    power_up_deg: [f64; JOINTS],
-) -> RobotConfig {
-    RobotConfig::new(rate_hz).with_bus(leg_bus(model, interface, "leg", power_up_deg))
+/// The simulated motor of `joint` among `sims` (one simulator configuration per bus of `robot`,
+/// motors in description order, as [`rmd_rig::sim::sim_configs`] builds them).
+///
+/// # Panics
+/// If `sims` does not match `robot`.
+pub fn sim_motor_mut<'a>(
+    sims: &'a mut [SimConfig],
+    robot: &Robot,
+    joint: JointId,
+) -> &'a mut rmd_sim::MotorConfig {
+    let spec = robot.spec(joint);
+    let first = robot.buses()[spec.bus].joint_range().start;
+    &mut sims[spec.bus].motors[joint.index() - first]
 }
 
-/// The simulated bus of one leg described by `bus`: motors matching the description, powered up
-/// at `power_up_deg`, each carrying the leg's weight as [`LegModel::sim_loads`] fitted at
-/// `working_pose_deg` (where the leg spends its time).
-pub(crate) fn leg_sim(
+/// Makes the simulated motors of one leg (`joints` of `robot`, among `sims`) that leg: powered
+/// up at `power_up_deg`, each joint carrying the leg's weight as [`LegModel::sim_loads`] fitted
+/// at `working_pose_deg` (where the leg spends its time).
+pub fn simulate_leg(
     model: &LegModel,
-    bus: &BusConfig,
+    robot: &Robot,
+    joints: &LegJoints,
+    sims: &mut [SimConfig],
     power_up_deg: [f64; JOINTS],
     working_pose_deg: [f64; JOINTS],
-    seed: u64,
-) -> SimConfig {
-    let mut sim = connect::sim_config(bus, seed);
+) {
     let loads = model.sim_loads(&rad(working_pose_deg));
-    for ((m, motor), (i, (link, inertia))) in sim
-        .motors
-        .iter_mut()
-        .zip(&bus.motors)
-        .zip(loads.into_iter().enumerate())
-    {
-        m.initial_output_angle_deg = connect::sim_output_angle_deg(motor, power_up_deg[i]);
-        m.load.gravity = Some(link);
-        m.load.output_inertia_kg_m2 = inertia;
+    for (i, (link, inertia)) in loads.into_iter().enumerate() {
+        let joint = joints.ids[i];
+        let spec = robot.spec(joint);
+        let sign = spec.direction.sign();
+        let motor = sim_motor_mut(sims, robot, joint);
+        motor.initial_output_angle_deg = rmd_rig::sim::sim_output_angle_deg(spec, power_up_deg[i]);
+        // The link is fitted in joint angles; the simulated output turns `sign` times the joint.
+        motor.load.gravity = Some(GravityLink {
+            angle_offset_deg: sign * link.angle_offset_deg,
+            ..link
+        });
+        motor.load.output_inertia_kg_m2 = inertia;
     }
-    sim
 }

@@ -1,0 +1,127 @@
+//! What every example's `main` uses besides `rmd-rig`: a status-line part for the motors, the
+//! exit status of a run whose controller may have stopped it on purpose, a telemetry queue
+//! that keeps every sample of a virtual-time run, and printing that survives a closed pipe.
+
+use core::fmt;
+use core::time::Duration;
+use std::io::Write;
+use std::process::ExitCode;
+
+use rmd_loop::TelemetrySample;
+use rmd_loop::robot::RobotConfig;
+use rmd_rig::runner::{EXIT_FAULT, EXIT_OK, Finished};
+
+/// The largest torque current and temperature of any motor so far (a part of the examples'
+/// status lines): `|iq| <= 2.3 A  25 degC`.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct MotorExtremes {
+    /// Largest torque current magnitude, A.
+    pub max_abs_current_amps: f64,
+    /// Highest temperature, degrees Celsius.
+    pub max_temperature_celsius: f64,
+}
+
+impl MotorExtremes {
+    /// Takes one tick into account.
+    pub fn observe(&mut self, sample: &TelemetrySample) {
+        for j in sample.joints() {
+            let motor = &j.feedback.motor;
+            self.max_abs_current_amps = self.max_abs_current_amps.max(motor.current_amps.abs());
+            self.max_temperature_celsius =
+                self.max_temperature_celsius.max(motor.temperature_celsius);
+        }
+    }
+}
+
+impl fmt::Display for MotorExtremes {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "|iq| <= {:.1} A  {:.0} degC",
+            self.max_abs_current_amps, self.max_temperature_celsius
+        )
+    }
+}
+
+/// The exit status of an example's run: the runner's (0 normal, 1 fault, 130 interrupted), but
+/// 1 when the loop ended normally and yet the example did not do what it set out to (its
+/// controller stopped the run on a joint limit, the robot never stood up, ...).
+pub fn exit_code<K>(finished: &Finished<K>, demo_ok: bool) -> ExitCode {
+    match finished.exit_status() {
+        EXIT_OK if !demo_ok => ExitCode::from(EXIT_FAULT),
+        status => ExitCode::from(status),
+    }
+}
+
+/// Most telemetry samples [`keep_every_sample`] asks the loop to queue (3.3 KB each: about 54 MB).
+pub const MAX_QUEUED_SAMPLES: usize = 1 << 14;
+
+/// In virtual time the loop runs far faster than real time, and the runner, taking the
+/// telemetry in every few milliseconds, can fall behind on a busy machine: for a bounded run
+/// (`duration`), sizes the loop's telemetry queue to hold the whole run (up to
+/// [`MAX_QUEUED_SAMPLES`]), so that the CSV file gets every tick. Does nothing in real time.
+pub fn keep_every_sample(config: &mut RobotConfig, virtual_time: bool, duration: Option<Duration>) {
+    let l = &mut config.loop_config;
+    if let (true, Some(d)) = (virtual_time, duration) {
+        let ticks = (d.as_secs_f64() * l.rate_hz).ceil();
+        if ticks.is_finite() && ticks > 0.0 {
+            let wanted = (ticks as usize).saturating_add(16).min(MAX_QUEUED_SAMPLES);
+            l.telemetry_capacity = l.telemetry_capacity.max(wanted);
+        }
+    }
+}
+
+/// `ran 10.0 s of loop time in 0.6 s of wall time`.
+pub fn time_line<K>(finished: &Finished<K>) -> String {
+    format!(
+        "ran {:.1} s of loop time in {:.1} s of wall time",
+        finished.outcome.report.duration_s,
+        finished.wall_time.as_secs_f64()
+    )
+}
+
+/// Prints `text` and a line break on standard output; a closed standard output (`| head`) is
+/// ignored: printing never stops a run.
+pub fn say(text: impl fmt::Display) {
+    let _ = writeln!(std::io::stdout(), "{text}");
+}
+
+/// Parses a finite number (a clap value parser for the examples' own flags): `inf`, `NaN` and
+/// anything not a number are errors that say so.
+///
+/// ```
+/// use rmd_demos::support::parse_finite;
+/// assert_eq!(parse_finite("-20"), Ok(-20.0));
+/// assert!(parse_finite("inf").is_err());
+/// assert!(parse_finite("NaN").is_err());
+/// assert!(parse_finite("ten").is_err());
+/// ```
+pub fn parse_finite(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(format!("`{text}` is not a finite number")),
+        Err(e) => Err(format!("`{text}` is not a number ({e})")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_queue_grows_only_for_bounded_virtual_runs() {
+        let mut config = RobotConfig::new(1000.0);
+        let default = config.loop_config.telemetry_capacity;
+        keep_every_sample(&mut config, false, Some(Duration::from_secs(10)));
+        assert_eq!(config.loop_config.telemetry_capacity, default);
+        keep_every_sample(&mut config, true, None);
+        assert_eq!(config.loop_config.telemetry_capacity, default);
+        keep_every_sample(&mut config, true, Some(Duration::from_secs(10)));
+        assert_eq!(config.loop_config.telemetry_capacity, 10_016);
+        keep_every_sample(&mut config, true, Some(Duration::from_secs(1000)));
+        assert_eq!(config.loop_config.telemetry_capacity, MAX_QUEUED_SAMPLES);
+        // Never smaller than asked for in the description.
+        keep_every_sample(&mut config, true, Some(Duration::from_millis(1)));
+        assert_eq!(config.loop_config.telemetry_capacity, MAX_QUEUED_SAMPLES);
+    }
+}
