@@ -187,7 +187,11 @@ fn a_joint_beyond_its_limit_stops_the_run_safely() {
     let mut strict = LegModel::new();
     strict.limits[2].max_deg = 80.0;
     let (out, mut bus, _) = run_leg(strict, Gains::new(), description(), 3.0);
-    assert_eq!(out.report.stop_reason, StopReason::ControllerFinished);
+    assert_eq!(
+        out.report.stop_reason,
+        StopReason::ControllerHalted("a joint went beyond its limit")
+    );
+    assert!(!out.report.normal_stop);
     match out.controller.halt {
         Some(Halt::JointLimit { joint, name, deg }) => {
             assert_eq!((joint.index(), name), (knee(), "knee"));
@@ -335,8 +339,8 @@ fn the_example_runs_end_to_end_and_writes_every_tick() {
 fn bad_options_are_refused_with_a_message_before_anything_moves() {
     for (args, message) in [
         (&["--iface", "can0", "--virtual-time"][..], "--virtual-time"),
-        (&["--duration", "inf"], "not a duration"),
-        (&["--duration", "NaN"], "not a duration"),
+        (&["--duration", "inf"], "not a finite duration"),
+        (&["--duration", "NaN"], "not a finite duration"),
         (&["--duration=-1"], "cannot be negative"),
         (&["--stiffness", "inf"], "not a finite number"),
         (

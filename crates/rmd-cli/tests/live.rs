@@ -748,3 +748,94 @@ fn bus_errors_say_what_to_do() {
     fails(2, &["status", "1", "--iface", "can0", "--sim"]);
     fails(2, &["sim", "--iface", "vcan0", "--drop", "1.5"]);
 }
+
+/// The leg of the examples, as its description file.
+fn leg_robot() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/robots/leg4.toml")
+        .display()
+        .to_string()
+}
+
+/// The stable interface: `rmd status --robot FILE --sim --json` prints one object per motor,
+/// each carrying its joint `name` from the file (with its bus and joint units).
+#[test]
+fn status_of_a_robot_speaks_joint_names_and_joint_units() {
+    let robot = leg_robot();
+    let objects = json_lines(&ok(&["status", "--robot", &robot, "--sim", "--json"]));
+    let names: Vec<&str> = objects
+        .iter()
+        .map(|o| o["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["hip_aa", "hip_fe", "knee", "ankle"]);
+    for (o, id) in objects.iter().zip(1..) {
+        assert_eq!(o["id"], id);
+        assert_eq!(o["bus"], "leg");
+        // Joint units: the motor's multi-turn angle through the description's mapping
+        // (joint = motor / gear - zero offset); velocity and torque from status 2.
+        let motor_deg = o["motor_angle_degrees"].as_f64().unwrap();
+        let joint_deg = o["joint"]["angle_deg"].as_f64().unwrap();
+        let offset = [20.0, 50.0, -40.0, 50.0][id as usize - 1];
+        assert!((joint_deg - (motor_deg / 9.0 - offset)).abs() < 1e-9, "{o}");
+        assert!(o["joint"]["velocity_dps"].is_f64(), "{o}");
+        assert!(o["joint"]["torque_nm"].is_f64(), "{o}");
+    }
+    // One joint by name, in words.
+    let knee = ok(&["status", "--robot", &robot, "--sim", "knee"]);
+    assert!(knee.starts_with("knee (motor 3 on bus leg)"), "{knee}");
+    assert!(knee.contains("joint angle"), "{knee}");
+    // A joint the robot does not have: a usage error listing the ones it has.
+    let err = fails(2, &["status", "--robot", &robot, "--sim", "elbow"]);
+    assert!(err.contains("hip_aa, hip_fe, knee, ankle"), "{err}");
+}
+
+#[test]
+fn move_by_joint_name_in_joint_degrees_and_monitor_by_joint() {
+    let robot = leg_robot();
+    let log = log_path("move-joint");
+    let out = ok(&[
+        "move",
+        "--robot",
+        &robot,
+        "--sim",
+        "knee",
+        "--deg",
+        "45",
+        "--wait-timeout",
+        "5s",
+        "--log",
+        log.to_str().unwrap(),
+    ]);
+    assert!(out.starts_with("knee: at "), "{out}");
+    // The motor was sent the joint's target turned into motor degrees: (45 + (-40)) * 9 = 45.
+    let sent: Vec<_> = read_log(&log)
+        .into_iter()
+        .filter(|l| l.direction == Direction::Tx)
+        .filter_map(|l| match decode_request(&l.frame) {
+            Ok(DecodedRequest::Single {
+                motor,
+                request: rmd_protocol::Request::Position2 { angle_control, .. },
+            }) => Some((motor.get(), angle_control.degrees())),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(sent, [(3, 45.0)]);
+    // Single-turn modes have no joint meaning.
+    let err = fails(
+        2,
+        &[
+            "move", "--robot", &robot, "--sim", "knee", "--deg", "45", "--mode", "3",
+        ],
+    );
+    assert!(err.contains("mode 1 or 2"), "{err}");
+    // The monitor labels the rows with joint names and shows joint degrees.
+    let table = ok(&["monitor", "--robot", &robot, "--sim", "--count", "1"]);
+    assert!(table.contains("joint °"), "{table}");
+    for name in ["hip_aa", "hip_fe", "knee", "ankle"] {
+        assert!(table.contains(name), "{table}");
+    }
+    let objects = json_lines(&ok(&[
+        "monitor", "--robot", &robot, "--sim", "--count", "1", "--ids", "knee", "--json",
+    ]));
+    assert_eq!(objects[0]["motors"][0]["name"], "knee");
+}

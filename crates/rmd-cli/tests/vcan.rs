@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 use rmd_bus::candump::{Direction, parse_compact_frame, parse_line};
 use rmd_bus::socketcan::{SocketCanBus, SocketCanOptions};
 use rmd_bus::{BusMessage, CanBus, CanFrame, Clock, MonotonicClock};
-use rmd_loop::config::{BusConfig, MotorConfig, ReplyMode, RobotConfig};
+use rmd_loop::robot::{BusConfig, MotorConfig, ReplyMode, RobotConfig};
 use rmd_loop::{Commands, Controller, Feedback, Flow, RtLoop, RunLimit, StopReason, TickContext};
 use rmd_protocol::{
     Accel, AngleControl, Command as Cmd, DecodedRequest, EncoderValue, IqControl, MaxSpeed,
@@ -365,9 +365,11 @@ struct Hold {
 impl Controller for Hold {
     fn update(&mut self, _: &TickContext, feedback: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
         self.updates += 1;
-        for (i, joint) in feedback.iter().enumerate() {
-            let amps = -0.05 * joint.joint_angle_deg - 0.001 * joint.joint_velocity_dps;
-            let _ = cmd.set_current(i, amps);
+        for (joint, f) in feedback.iter() {
+            cmd.set_current(
+                joint,
+                -0.05 * f.joint.angle_deg - 0.001 * f.joint.velocity_dps,
+            );
         }
         Flow::Continue
     }
@@ -394,6 +396,7 @@ fn the_loop_drives_four_motors_against_rmd_sim_with_every_reply_matched() {
     // 20 Hz made the loop miss ticks. Function is tested here, timing in the benchmarks.
     let mut robot = RobotConfig::new(RATE_HZ).with_bus(bus_config);
     robot.loop_config.reply_mode = ReplyMode::Pipelined;
+    let robot = rmd_loop::Robot::try_from(robot).unwrap();
     let bus = SocketCanBus::open(&vcan.name, &SocketCanOptions::new()).unwrap();
     let rt = RtLoop::new(robot, MonotonicClock, vec![bus], Hold { updates: 0 }).unwrap();
     let outcome = rt.run(RunLimit::Ticks(TICKS));
@@ -404,16 +407,17 @@ fn the_loop_drives_four_motors_against_rmd_sim_with_every_reply_matched() {
     assert_eq!(report.stats.ticks, TICKS);
     assert_eq!(outcome.controller.updates, TICKS);
     for motor in &report.stats.motors {
+        let c = &motor.counters;
         assert_eq!(
             (
-                motor.missing_replies,
-                motor.late_replies,
-                motor.unexpected_replies,
-                motor.bad_frames
+                c.missing_replies,
+                c.late_replies,
+                c.unexpected_replies,
+                c.bad_frames
             ),
             (0, 0, 0, 0),
-            "motor {}: {report}",
-            motor.motor
+            "{}: {report}",
+            motor.joint
         );
     }
     assert!(
@@ -425,38 +429,42 @@ fn the_loop_drives_four_motors_against_rmd_sim_with_every_reply_matched() {
     assert_eq!(code, 0, "{stderr}");
 }
 
-// The `pd_hold` example's own code (robot description, controller), compiled into this test.
-#[allow(dead_code)]
-#[path = "../../../examples/pd_hold.rs"]
-mod pd_hold;
-
-/// The examples' way onto a real interface: `rmd_rt::connect` given an interface name (what
-/// `pd_hold --iface vcan0` does) opens SocketCAN, and the example's controller holds the motor
-/// that `rmd sim` runs there. At 10 Hz and pipelined, as above: function here, timing elsewhere.
+/// The examples' way onto a real interface: the `pd_hold` example's own robot file (with its
+/// bus on the test's interface, as `--iface vcan0` does), placement and rig (SocketCAN, and the
+/// supervisor's own socket), and its controller (rmd-demos) hold the motor that `rmd sim` runs
+/// there. At 10 Hz and pipelined, as above: function here, timing elsewhere.
 #[test]
-fn an_example_runs_on_the_interface_through_connect() {
-    use rmd_rt::connect::{self, Target};
+fn an_example_runs_on_the_interface_through_the_rig() {
+    use rmd_rig::placement::{Overrides, Placement, PlacementDefault};
+    use rmd_rig::{BusTarget, Rig};
     let _serial = serial();
     const TICKS: u64 = 50;
     let vcan = Vcan::up();
     let sim = SimProcess::start(&vcan.name, &["--ids", "1", "--seed", "3"]);
-    let target = Target::from_args(std::slice::from_ref(&vcan.name), false).unwrap();
-    assert!(!target.is_simulated());
-    let mut robot = pd_hold::robot(&vcan.name);
-    robot.loop_config.rate_hz = 10.0;
-    robot.loop_config.reply_mode = rmd_rt::rt::config::ReplyMode::Pipelined;
-    let connection = connect::open(&target, &robot, pd_hold::sim(&robot)).unwrap();
+    let mut config =
+        RobotConfig::from_toml(include_str!("../../../examples/robots/pd_hold.toml")).unwrap();
+    config.loop_config.rate_hz = 10.0;
+    config.loop_config.reply_mode = ReplyMode::Pipelined;
+    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let overrides = Overrides {
+        interfaces: vec![vcan.name.clone()],
+        ..Overrides::default()
+    };
+    let placement = Placement::resolve(&robot, &overrides, PlacementDefault::Simulated).unwrap();
+    assert_eq!(placement.buses(), [BusTarget::SocketCan(vcan.name.clone())]);
+    let rig = Rig::open(&robot, &placement, rmd_demos::pd_hold::sims(&robot, 3)).unwrap();
     // Hold where the motor is (a move at 10 Hz would only test the gains' stability).
-    let controller = pd_hold::controller(0.0);
-    let rt = rmd_rt::RtLoop::new(robot, connection.clock, connection.buses, controller).unwrap();
+    let controller = rmd_demos::pd_hold::PdHold::new(&robot, 0.0);
+    let arm = robot.joint_ids().next().unwrap();
+    let mut rt = rig.into_loop(robot, controller).unwrap();
     let telemetry = rt.telemetry();
-    let outcome = rt.run(rmd_rt::RunLimit::Ticks(TICKS));
+    let outcome = rt.run(rmd_loop::RunLimit::Ticks(TICKS));
     let report = &outcome.report;
     println!("{report}");
 
     assert_eq!(report.stop_reason, StopReason::TickLimit, "{report}");
     assert_eq!(report.stats.ticks, TICKS);
-    let motor = &report.stats.motors[0];
+    let motor = &report.stats.motors[0].counters;
     assert_eq!(
         (
             motor.missing_replies,
@@ -473,12 +481,12 @@ fn an_example_runs_on_the_interface_through_connect() {
     );
     // The target came from the first feedback read over the interface, and the joint held it.
     let last = telemetry.latest().expect("telemetry of the last tick");
-    let joint = last.joints()[0];
-    let target_deg = outcome.controller.targets[0];
+    let joint = last.joints()[0].feedback.joint;
+    let target_deg = outcome.controller.targets[arm];
     assert!(
-        (joint.joint_angle_deg - target_deg).abs() < 2.0,
+        (joint.angle_deg - target_deg).abs() < 2.0,
         "joint at {:.2} deg, target {target_deg:.2} deg",
-        joint.joint_angle_deg
+        joint.angle_deg
     );
     let (code, stderr) = sim.stop();
     assert_eq!(code, 0, "{stderr}");

@@ -314,7 +314,7 @@ impl Controller for StepController {
         cmd: &mut Commands<'_>,
     ) -> Flow {
         if self.halt.is_some() {
-            return Flow::Stop;
+            return Flow::Halt("the leg cannot start: see its results");
         }
         let t = ctx.time_s() - self.t0;
         let state = LegState::read(feedback, &self.joints);
@@ -331,7 +331,7 @@ impl Controller for StepController {
         );
         if let Some(i) = out.beyond_limit {
             self.halt_at(&state, i);
-            return Flow::Stop;
+            return Flow::Halt("a joint went beyond its limit");
         }
         for (i, joint) in self.joints.ids().into_iter().enumerate() {
             cmd.set_torque(joint, out.torque[i]);

@@ -290,7 +290,7 @@ impl Controller for StandController {
         cmd: &mut Commands<'_>,
     ) -> Flow {
         if self.halt.is_some() {
-            return Flow::Stop;
+            return Flow::Halt("the robot cannot start: see its results");
         }
         let t = ctx.time_s() - self.t0;
         let plan = self.plan.state_at(t);
@@ -308,7 +308,7 @@ impl Controller for StandController {
                 impedance::impedance(&self.models[l], &self.gains, &state, &target, &velocity);
             if let Some(i) = out.beyond_limit {
                 self.halt_at(l, &state, i);
-                return Flow::Stop;
+                return Flow::Halt("a joint went beyond its limit");
             }
             for (i, joint) in self.legs[l].ids().into_iter().enumerate() {
                 cmd.set_torque(joint, out.torque[i]);

@@ -274,7 +274,7 @@ impl Controller for Follower {
                 }
                 Err(e) => {
                     self.error = Some(e);
-                    return Flow::Stop;
+                    return Flow::Halt("a move could not be planned");
                 }
             },
             Stage::Pausing {

@@ -80,9 +80,13 @@ pub trait Controller: Send {
 pub enum Flow {
     /// Keep running.
     Continue,
-    /// Stop the loop (the motors are made safe; the stop reason is
-    /// [`StopReason::ControllerFinished`]).
+    /// Stop the loop: the controller is done (the motors are made safe; the stop reason is
+    /// [`StopReason::ControllerFinished`], a normal end).
     Stop,
+    /// Stop the loop for a reason of the controller's own safety (a joint beyond its limit, a
+    /// plan that cannot be followed): the motors are made safe and the run ends abnormally
+    /// with [`StopReason::ControllerHalted`] and this reason (keep details in the controller).
+    Halt(&'static str),
 }
 
 /// When and how the current tick runs.

@@ -507,6 +507,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         match flow {
             Flow::Continue => ControlFlow::Continue(()),
             Flow::Stop => ControlFlow::Break(StopReason::ControllerFinished),
+            Flow::Halt(why) => ControlFlow::Break(StopReason::ControllerHalted(why)),
         }
     }
 

@@ -110,6 +110,17 @@ impl JointMap {
         self.sign * motor_deg / self.gear_ratio - self.zero_offset_deg
     }
 
+    /// The continuous motor angle (degrees) at which the joint is at `joint_deg`: the inverse of
+    /// [`joint_angle_deg`](Self::joint_angle_deg).
+    pub fn motor_angle_deg(&self, joint_deg: f64) -> f64 {
+        self.sign * (joint_deg + self.zero_offset_deg) * self.gear_ratio
+    }
+
+    /// Motor turns per joint turn.
+    pub fn gear_ratio(&self) -> f64 {
+        self.gear_ratio
+    }
+
     /// Joint velocity (deg/s) from the motor speed.
     pub fn joint_velocity_dps(&self, motor_dps: f64) -> f64 {
         self.sign * motor_dps / self.gear_ratio
@@ -230,6 +241,7 @@ mod tests {
         assert_eq!(j.joint_torque_nm(2.0), Some(-1.0));
         assert_eq!(j.motor_amps_for_torque(-1.0), Some(2.0));
         assert_eq!(j.motor_amps(3.0), -3.0);
+        assert_eq!(j.motor_angle_deg(-110.0), 600.0);
         // Without a torque constant there is no torque.
         let j = map(MotorConfig::new(1));
         assert_eq!(j.joint_torque_nm(2.0), None);

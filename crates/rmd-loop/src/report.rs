@@ -190,6 +190,8 @@ pub enum StopReason {
     HandleDropped,
     /// The controller returned [`Flow::Stop`](crate::Flow::Stop).
     ControllerFinished,
+    /// The controller returned [`Flow::Halt`](crate::Flow::Halt): a stop for its own safety.
+    ControllerHalted(&'static str),
     /// The run reached its tick limit.
     TickLimit,
     /// A fault.
@@ -205,6 +207,7 @@ impl fmt::Display for StopReason {
             StopReason::EmergencyStop => f.write_str("EMERGENCY STOP"),
             StopReason::HandleDropped => f.write_str("loop handle dropped"),
             StopReason::ControllerFinished => f.write_str("controller finished"),
+            StopReason::ControllerHalted(why) => write!(f, "HALTED by the controller: {why}"),
             StopReason::TickLimit => f.write_str("tick limit reached"),
             StopReason::Fault(fault) => write!(f, "FAULT: {fault}"),
             StopReason::ControllerPanic(msg) => write!(f, "controller panicked: {msg}"),

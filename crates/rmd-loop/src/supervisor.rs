@@ -6,7 +6,7 @@
 //! to a simulated bus), and takes over:
 //!
 //! - when a tick does not complete within the stall bound (`loop.stall_bound_ms`, default ten
-//!   periods and at least 20 ms): the controller or the bus I/O hangs; the run ends with
+//!   periods and at least 50 ms): the controller or the bus I/O hangs; the run ends with
 //!   [`Fault::TickStalled`];
 //! - when an emergency stop is requested: at once, whatever the loop thread is doing;
 //! - when a stop is requested and the loop thread has not begun its safe stop one and a half

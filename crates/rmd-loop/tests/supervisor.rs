@@ -104,9 +104,16 @@ fn wait_until(what: &str, within: Duration, mut f: impl FnMut() -> bool) {
 fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
     let bus = SharedBus::new(41);
     let returned = Arc::new(AtomicBool::new(false));
-    let handle = supervised(&bus, Duration::from_secs(2), None, &returned)
-        .spawn(RunLimit::Forever)
-        .unwrap();
+    // A bound of 300 ms (a loaded test machine stalls for tens of milliseconds at times): the
+    // 2 s hang at tick 200 is the only stall.
+    let handle = supervised(
+        &bus,
+        Duration::from_secs(2),
+        Some(Duration::from_millis(300)),
+        &returned,
+    )
+    .spawn(RunLimit::Forever)
+    .unwrap();
     // The motors are driven at 1 A, then the controller hangs; the supervisor turns every motor
     // off while it still hangs.
     wait_until("torque", Duration::from_secs(10), || {

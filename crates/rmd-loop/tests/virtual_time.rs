@@ -294,6 +294,41 @@ fn the_controller_can_end_the_run() {
     assert_safe(&mut bus, 4);
 }
 
+/// Halts at its 30th tick, for its own safety.
+struct Halting;
+
+impl rmd_loop::Controller for Halting {
+    fn update(
+        &mut self,
+        ctx: &rmd_loop::TickContext,
+        _: &rmd_loop::Feedback<'_>,
+        _: &mut rmd_loop::Commands<'_>,
+    ) -> rmd_loop::Flow {
+        if ctx.index == 29 {
+            rmd_loop::Flow::Halt("the knee went beyond its limit")
+        } else {
+            rmd_loop::Flow::Continue
+        }
+    }
+}
+
+#[test]
+fn a_controller_halt_is_an_abnormal_end_with_its_reason() {
+    let (out, mut bus) = run_leg(17, &[], Halting, 1000);
+    let r = &out.report;
+    assert_eq!(
+        r.stop_reason,
+        StopReason::ControllerHalted("the knee went beyond its limit")
+    );
+    assert!(!r.normal_stop);
+    assert_eq!(r.stats.ticks, 30);
+    assert!(
+        r.stop_description
+            .contains("HALTED by the controller: the knee")
+    );
+    assert_safe(&mut bus, 4);
+}
+
 #[test]
 fn an_emergency_stop_takes_effect_within_one_tick() {
     let clock = VirtualClock::new();

@@ -14,7 +14,7 @@
 //! The handler runs on the `ctrlc` crate's own thread (an ordinary thread, never the loop's),
 //! and is installed once per process by [`install`].
 
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::{Mutex, OnceLock, PoisonError};
 
 use rmd_bus::{Clock, Timestamp};
@@ -32,8 +32,30 @@ pub const EXIT_WAIT: core::time::Duration = core::time::Duration::from_secs(2);
 static COUNT: AtomicU32 = AtomicU32::new(0);
 /// The loop the signals stop, if one is watched.
 static WATCHED: Mutex<Option<Stopper>> = Mutex::new(None);
+/// A command drives motors itself (no loop): the third signal waits for its motor-off.
+static MOVING: AtomicBool = AtomicBool::new(false);
+/// That command has sent motor-off.
+static OFF_SENT: AtomicBool = AtomicBool::new(false);
 /// Whether the handler is installed (or why it could not be).
 static INSTALLED: OnceLock<Result<(), String>> = OnceLock::new();
+
+/// Marks the start of a command that drives motors itself, without a loop (`rmd torque`,
+/// `rmd move`): until [`motors_off_sent`] the third signal waits for its motor-off (at most
+/// [`EXIT_WAIT`]) before the process exits.
+pub fn driving_motors() {
+    OFF_SENT.store(false, Ordering::SeqCst);
+    MOVING.store(true, Ordering::SeqCst);
+}
+
+/// Tells the signal policy that the command's motor-off went out.
+pub fn motors_off_sent() {
+    OFF_SENT.store(true, Ordering::SeqCst);
+}
+
+/// Whether a signal was received since the handler was installed (false before).
+pub fn interrupted() -> bool {
+    COUNT.load(Ordering::SeqCst) > 0
+}
 
 /// Proof that the process's signal handler is installed; cheap to copy.
 #[derive(Copy, Clone, Debug)]
@@ -79,7 +101,18 @@ fn on_signal() {
             }
             std::process::exit(i32::from(EXIT_INTERRUPTED))
         }
-        (_, None) => std::process::exit(i32::from(EXIT_INTERRUPTED)),
+        (_, None) => {
+            // A command driving motors itself: exit once its motor-off went out, or after a
+            // bounded wait.
+            let give_up = std::time::Instant::now() + EXIT_WAIT;
+            while MOVING.load(Ordering::SeqCst)
+                && !OFF_SENT.load(Ordering::SeqCst)
+                && std::time::Instant::now() < give_up
+            {
+                std::thread::sleep(core::time::Duration::from_millis(1));
+            }
+            std::process::exit(i32::from(EXIT_INTERRUPTED))
+        }
     }
 }
 

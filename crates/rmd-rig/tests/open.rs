@@ -46,7 +46,10 @@ fn leg(directions: [Direction; 2]) -> Robot {
                 .zero_offset_deg(centred_zero_offset_deg(9.0, d, -75.0)),
         );
     }
-    Robot::try_from(RobotConfig::new(1000.0).with_bus(bus)).unwrap()
+    let mut config = RobotConfig::new(1000.0).with_bus(bus);
+    // Real-time runs here are supervised: a loaded test machine must not trip the stall bound.
+    config.loop_config.stall_bound_ms = Some(2000);
+    Robot::try_from(config).unwrap()
 }
 
 /// The loop reads the simulated joint's true angle when it powers up inside its window, for

@@ -12,7 +12,13 @@ use super::parse;
 /// Where the motors are, and how to talk to them (flattened into every live command).
 #[derive(Args, Debug, Clone)]
 pub(crate) struct BusArgs {
-    /// SocketCAN interface of the motors (e.g. can0; vcan0 with `rmd sim`).
+    /// The robot description (TOML) whose joints to talk to, by name and in joint units;
+    /// each bus on the interface the description names (`--sim`: simulated motors matching
+    /// it; `--iface`: other interfaces, by bus order or `BUS=IFACE`).
+    #[arg(long, value_name = "FILE")]
+    pub(crate) robot: Option<PathBuf>,
+    /// SocketCAN interface of the motors (e.g. can0; vcan0 with `rmd sim`); with --robot, the
+    /// interface of each bus (`can0,can1` in bus order, or `BUS=IFACE`).
     #[arg(long, value_name = "IFACE", conflicts_with = "sim")]
     pub(crate) iface: Option<String>,
     /// Talk to simulated motors in this process (real time) instead of an interface.
@@ -36,8 +42,8 @@ pub(crate) struct BusArgs {
 }
 
 impl BusArgs {
-    /// Whether a bus was named (`--iface` or `--sim`).
+    /// Whether a bus was named (`--iface`, `--sim` or `--robot`).
     pub(crate) fn has_target(&self) -> bool {
-        self.sim || self.iface.is_some()
+        self.sim || self.iface.is_some() || self.robot.is_some()
     }
 }

@@ -10,7 +10,6 @@ use rmd_bus::Clock;
 use rmd_protocol::{IqControl, MotorId, Request, SpeedControl, Status2};
 
 use crate::args::bus::BusArgs;
-use rmd_rig::args::duration;
 use crate::args::parse;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
@@ -18,6 +17,7 @@ use crate::live::safe_stop;
 use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
 use crate::output::{errln, outln};
+use rmd_rig::args::duration;
 
 /// How long and how often (shared by torque and speed).
 #[derive(Args, Debug)]
@@ -114,7 +114,7 @@ fn drive(
     max_speed: Option<f64>,
 ) -> Result<(), CliError> {
     let mut bus = Connection::open(bus_args, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
-    interrupt::install()?;
+    interrupt::install_driving()?;
     let period = Duration::from_secs_f64(1.0 / timing.rate);
     let start = bus.clock().now();
     let end = start + timing.duration;

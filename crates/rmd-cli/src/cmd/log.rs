@@ -12,13 +12,13 @@ use clap::Args;
 use rmd_bus::record::{RecordOptions, record};
 use rmd_bus::{BusError, BusMessage, CanBus, Clock, MonotonicClock};
 
-use rmd_rig::args::duration;
 use crate::live::connect::{Filter, open_interface, report_recording};
 use crate::live::interrupt;
 use crate::output::console::WatchedSink;
 use crate::output::errln;
 use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
+use rmd_rig::args::duration;
 
 /// Arguments of `rmd log`.
 #[derive(Args, Debug)]

@@ -6,15 +6,15 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Args;
-use rmd_bus::Clock;
-use rmd_protocol::{MotorId, Reply, Request};
+use rmd_bus::{Clock, MonotonicClock};
+use rmd_protocol::{Reply, Request};
 use serde_json::{Value, json};
 
 use crate::args::bus::BusArgs;
-use crate::args::ids::{self, IdList};
 use crate::args::parse;
-use crate::live::connect::{Connection, DEFAULT_TIMEOUT};
+use crate::live::connect::DEFAULT_TIMEOUT;
 use crate::live::interrupt;
+use crate::live::motors::{Motor, Motors};
 use crate::output::progress::{self, Progress};
 use crate::output::readings;
 use crate::output::report::{self, CliError};
@@ -23,10 +23,14 @@ use crate::output::{out, outln};
 
 /// Arguments of `rmd monitor`.
 #[derive(Args, Debug)]
+#[command(
+    after_help = "With --robot FILE: the robot's joints (--ids: joint names), labelled by     name, the angle column in joint degrees; JSON objects carry `name`, `bus` and `joint`."
+)]
 pub(crate) struct MonitorArgs {
-    /// Motors to watch [default: the ones that answer a scan of 1..=32].
-    #[arg(long, value_name = "IDS", value_parser = ids::parse)]
-    ids: Option<IdList>,
+    /// Motors to watch [default: the ones that answer a scan of 1..=32; with --robot, every
+    /// joint]; with --robot, joint names.
+    #[arg(long, value_name = "IDS|JOINTS")]
+    ids: Option<String>,
     /// Readings per second.
     #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = parse::positive, default_value = "10")]
     rate: f64,
@@ -56,42 +60,42 @@ pub(crate) fn run(args: MonitorArgs) -> ExitCode {
 }
 
 fn monitor(args: &MonitorArgs) -> Result<(), CliError> {
-    let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, 0)?;
-    interrupt::install()?;
-    let motors = match &args.ids {
-        Some(ids) => ids.ids().to_vec(),
-        None => {
-            let timeout = bus.policy().timeout;
-            if args.bus.timeout_ms.is_none() {
-                bus.set_timeout(SCAN_TIMEOUT);
-            }
-            let found = scan(&mut bus, progress::shown(args.json))?;
-            bus.set_timeout(timeout);
-            found
-        }
+    let scan_all = args.ids.is_none() && args.bus.robot.is_none();
+    let targets: Vec<String> = match (&args.ids, scan_all) {
+        (Some(ids), _) => vec![ids.clone()],
+        (None, true) => vec!["all".to_owned()],
+        (None, false) => Vec::new(),
     };
+    let mut motors = Motors::open(&args.bus, &targets, DEFAULT_TIMEOUT, 0)?;
+    interrupt::install()?;
+    if scan_all {
+        scan(
+            &mut motors,
+            args.bus.timeout_ms.is_none(),
+            progress::shown(args.json),
+        )?;
+    }
     let period = Duration::from_secs_f64(1.0 / args.rate);
     let redraw = !args.json && std::io::stdout().is_terminal();
-    let start = bus.clock().now();
+    let clock = MonotonicClock;
+    let start = clock.now();
     let mut drawn_lines = 0;
     let mut readings_done = 0u64;
     while args.count.is_none_or(|n| readings_done < n) && !interrupt::requested() {
         let at = start + period * u32::try_from(readings_done).unwrap_or(u32::MAX);
-        if !interrupt::sleep_until(bus.clock(), at) {
+        if !interrupt::sleep_until(&clock, at) {
             break;
         }
-        let time_s = (bus.clock().now() - start).as_secs_f64();
-        let mut rows = Vec::with_capacity(motors.len());
-        for &motor in &motors {
-            rows.push((motor, read(&mut bus, motor)?));
+        let time_s = (clock.now() - start).as_secs_f64();
+        let mut rows = Vec::with_capacity(motors.motors().len());
+        for motor in motors.motors().to_vec() {
+            let reading = read(&mut motors, &motor)?;
+            rows.push((motor, reading));
         }
         let shown = if args.json {
             let list: Vec<Value> = rows
                 .iter()
-                .map(|(motor, row)| match row {
-                    Ok(replies) => readings::object(*motor, replies, bus.width()),
-                    Err(error) => readings::error_object(*motor, error),
-                })
+                .map(|(motor, row)| json_row(motor, row))
                 .collect();
             outln!("{}", json!({"time_s": time_s, "motors": list}))
         } else {
@@ -110,44 +114,71 @@ fn monitor(args: &MonitorArgs) -> Result<(), CliError> {
         };
         if let Err(error) = shown {
             // Nobody reads any more (or the output failed): stop, keeping the recording.
-            bus.finish()?;
+            motors.finish()?;
             return Err(error.into());
         }
         readings_done += 1;
     }
-    bus.finish()?;
+    motors.finish()?;
     Ok(())
 }
 
-/// The motors that answer a status-1 read, ids 1..=32.
-fn scan(bus: &mut Connection, show: bool) -> Result<Vec<MotorId>, CliError> {
-    let mut found = Vec::new();
-    let all = IdList::all();
-    let progress = Progress::counter(all.ids().len() as u64, "ids", show);
+/// One motor's JSON object in a reading: its readings (with a robot: its joint's name, bus and
+/// joint units), or why it could not be read.
+fn json_row(motor: &Motor, row: &Result<Vec<Reply>, String>) -> Value {
+    let mut value = match row {
+        Ok(replies) => readings::object(motor.id, replies, motor.width),
+        Err(error) => readings::error_object(motor.id, error),
+    };
+    if let (Some(joint), Value::Object(map)) = (&motor.joint, &mut value) {
+        map.insert("name".into(), joint.name.clone().into());
+        map.insert("bus".into(), joint.bus_name.clone().into());
+        if let Ok(replies) = row {
+            map.insert("joint".into(), readings::joint_object(&joint.map, replies));
+        }
+    }
+    value
+}
+
+/// Keeps the motors that answer a status-1 read (the scan of ids 1..=32).
+fn scan(motors: &mut Motors, quick: bool, show: bool) -> Result<(), CliError> {
+    let all = motors.motors().to_vec();
+    let progress = Progress::counter(all.len() as u64, "ids", show);
     progress.set_prefix("looking for motors ");
-    for (done, &motor) in all.ids().iter().enumerate() {
+    let mut found = Vec::new();
+    for (done, motor) in all.iter().enumerate() {
         progress.set_position(done as u64);
-        match bus.request(motor, &Request::ReadStatus1) {
-            Ok(_) => found.push(motor),
+        let connection = motors.connection(motor);
+        let timeout = connection.policy().timeout;
+        if quick {
+            connection.set_timeout(SCAN_TIMEOUT);
+        }
+        let answer = connection.request(motor.id, &Request::ReadStatus1);
+        connection.set_timeout(timeout);
+        match answer {
+            Ok(_) => found.push(motor.id),
             Err(error) if error.is_bus_failure() => return Err(error.into()),
             Err(_) => {}
         }
     }
     if found.is_empty() {
+        let name = all
+            .first()
+            .map_or_else(String::new, |m| motors.connection(m).setup().name());
         return Err(CliError::Failed(format!(
-            "no motor answered on {}: check power, wiring and bit rate, or name the motors \
-             with --ids",
-            bus.setup().name()
+            "no motor answered on {name}: check power, wiring and bit rate, or name the motors \
+             with --ids"
         )));
     }
-    Ok(found)
+    motors.retain(|m| found.contains(&m.id));
+    Ok(())
 }
 
 /// One reading of one motor, or why it failed (the monitor goes on).
-fn read(bus: &mut Connection, motor: MotorId) -> Result<Result<Vec<Reply>, String>, CliError> {
+fn read(motors: &mut Motors, motor: &Motor) -> Result<Result<Vec<Reply>, String>, CliError> {
     let mut replies = Vec::with_capacity(READS.len());
     for request in &READS {
-        match bus.request(motor, request) {
+        match motors.request(motor, request) {
             Ok(reply) => replies.push(reply),
             Err(error) if error.is_bus_failure() => return Err(error.into()),
             Err(error) => return Ok(Err(error.to_string())),
@@ -158,20 +189,21 @@ fn read(bus: &mut Connection, motor: MotorId) -> Result<Result<Vec<Reply>, Strin
 
 /// The table of one reading; every line ends with `clear` (on a terminal: "clear to end of
 /// line", so a redraw over a longer previous line leaves nothing behind).
-fn table(time_s: f64, rows: &[(MotorId, Result<Vec<Reply>, String>)], clear: &str) -> String {
+fn table(time_s: f64, rows: &[(Motor, Result<Vec<Reply>, String>)], clear: &str) -> String {
+    let joints = rows.iter().any(|(m, _)| m.joint.is_some());
     let mut table = TextTable::new(&[
-        ("id", Align::Right),
+        (if joints { "joint" } else { "id" }, Align::Right),
         ("temp °C", Align::Right),
         ("volts", Align::Right),
         ("iq A", Align::Right),
         ("speed dps", Align::Right),
-        ("angle °", Align::Right),
+        (if joints { "joint °" } else { "angle °" }, Align::Right),
         ("errors", Align::Left),
     ])
     // The widths of typical values: the table keeps its layout as they change.
     .min_widths(&[3, 7, 5, 6, 9, 10]);
     for (motor, row) in rows {
-        table.row(cells(*motor, row));
+        table.row(cells(motor, row));
     }
     let mut text = format!("t {time_s:8.2} s{clear}\n");
     for line in table.render().lines() {
@@ -183,8 +215,11 @@ fn table(time_s: f64, rows: &[(MotorId, Result<Vec<Reply>, String>)], clear: &st
 }
 
 /// The cells of one motor's row; a motor that did not answer says so in the last column.
-fn cells(motor: MotorId, row: &Result<Vec<Reply>, String>) -> Vec<String> {
-    let id = motor.get().to_string();
+fn cells(motor: &Motor, row: &Result<Vec<Reply>, String>) -> Vec<String> {
+    let id = match &motor.joint {
+        Some(joint) => joint.name.clone(),
+        None => motor.id.get().to_string(),
+    };
     let missing = |why: &str| {
         let mut cells = vec![id.clone()];
         cells.extend(std::iter::repeat_n("-".to_owned(), 5));
@@ -199,7 +234,12 @@ fn cells(motor: MotorId, row: &Result<Vec<Reply>, String>) -> Vec<String> {
         match reply {
             Reply::ReadStatus1(s) => status1 = Some(*s),
             Reply::ReadStatus2(s) => status2 = Some(*s),
-            Reply::ReadMultiTurnAngle { motor_angle } => angle = Some(motor_angle.degrees()),
+            Reply::ReadMultiTurnAngle { motor_angle } => {
+                angle = Some(match &motor.joint {
+                    Some(joint) => joint.map.joint_angle_deg(motor_angle.degrees()),
+                    None => motor_angle.degrees(),
+                })
+            }
             _ => {}
         }
     }
@@ -224,7 +264,12 @@ mod tests {
 
     #[test]
     fn rows_line_up_under_the_header_whatever_their_state() {
-        let id = |n| MotorId::new(n).unwrap();
+        let id = |n| crate::live::motors::Motor {
+            id: rmd_protocol::MotorId::new(n).unwrap(),
+            bus: 0,
+            width: rmd_protocol::EncoderWidth::DEFAULT,
+            joint: None,
+        };
         let answered = vec![
             Reply::ReadStatus1(Status1::default()),
             Reply::ReadStatus2(Status2::default()),

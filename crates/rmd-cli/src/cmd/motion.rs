@@ -7,19 +7,18 @@ use std::time::Duration;
 
 use clap::{Args, ValueEnum};
 use rmd_bus::Clock;
-use rmd_protocol::{
-    AngleControl, MaxSpeed, MotorId, Reply, Request, SingleTurnAngle, SpinDirection,
-};
+use rmd_protocol::{AngleControl, MaxSpeed, Reply, Request, SingleTurnAngle, SpinDirection};
 
 use crate::args::bus::BusArgs;
-use rmd_rig::args::duration;
 use crate::args::parse;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
+use crate::live::motors::{Motor, Motors};
 use crate::live::safe_stop;
 use crate::output::outln;
 use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
+use rmd_rig::args::duration;
 
 /// Direction of the single-turn modes 3 and 4.
 #[derive(Copy, Clone, Debug, ValueEnum)]
@@ -32,12 +31,15 @@ enum Direction {
 
 /// Arguments of `rmd move`.
 #[derive(Args, Debug)]
+#[command(
+    after_help = "With --robot FILE, MOTOR is a joint name and every angle and speed is on     the joint side (gear ratio, direction and zero offset of the description applied); the     multi-turn modes 1 and 2 only."
+)]
 pub(crate) struct MoveArgs {
-    /// Motor id, 1..=32.
-    #[arg(value_parser = parse::motor_id)]
-    id: MotorId,
-    /// Target angle, degrees (motor side): multi-turn for modes 1 and 2, 0..<360 for modes 3
-    /// and 4.
+    /// Motor id, 1..=32; with --robot, a joint name.
+    #[arg(value_name = "MOTOR")]
+    target: String,
+    /// Target angle, degrees (motor side; with --robot, joint side): multi-turn for modes 1 and
+    /// 2, 0..<360 for modes 3 and 4.
     #[arg(long, value_parser = parse::finite, allow_hyphen_values = true)]
     deg: f64,
     /// Position mode: 1 (0xA3, multi-turn), 2 (0xA4, multi-turn with --max-speed), 3 (0xA5,
@@ -78,15 +80,37 @@ const POLL: Duration = Duration::from_millis(50);
 
 /// Runs `rmd move`.
 pub(crate) fn run(args: MoveArgs) -> ExitCode {
-    report::exit(match position_request(&args) {
-        Ok(request) => move_to(&args, request),
-        Err(message) => Err(CliError::Usage(message)),
-    })
+    report::exit(run_move(&args))
 }
 
-/// The position request the arguments describe, with every limit checked.
-fn position_request(args: &MoveArgs) -> Result<Request, String> {
-    let id = args.id;
+fn run_move(args: &MoveArgs) -> Result<(), CliError> {
+    if args.bus.robot.is_some() && args.mode >= 3 {
+        return Err(CliError::Usage(
+            "with --robot, the single-turn modes 3 and 4 have no joint meaning: use mode 1 or 2"
+                .to_owned(),
+        ));
+    }
+    // The limits are checked before anything is opened: a bad target sends nothing.
+    if args.bus.robot.is_none() {
+        parse::motor_id(&args.target).map_err(CliError::Usage)?;
+    }
+    check_limits(args).map_err(CliError::Usage)?;
+    let mut motors = Motors::open(
+        &args.bus,
+        std::slice::from_ref(&args.target),
+        DEFAULT_TIMEOUT,
+        DEFAULT_RETRIES,
+    )?;
+    let motor = motors.motors()[0].clone();
+    let request = position_request(args, &motor).map_err(CliError::Usage)?;
+    let moved = move_to(args, &mut motors, &motor, request);
+    // Whatever happened, the recording (--log) is flushed and reported.
+    let finished = motors.finish().map_err(CliError::Failed);
+    moved.and(finished)
+}
+
+/// The target against `--min-deg` / `--max-deg` (both in the units of `--deg`).
+fn check_limits(args: &MoveArgs) -> Result<(), String> {
     let (min, max) = (
         args.min_deg.unwrap_or(f64::NEG_INFINITY),
         args.max_deg.unwrap_or(f64::INFINITY),
@@ -96,13 +120,29 @@ fn position_request(args: &MoveArgs) -> Result<Request, String> {
     }
     if !(min..=max).contains(&args.deg) {
         return Err(format!(
-            "target {}° for motor {id} is outside the limits {}..={} (--min-deg/--max-deg): \
+            "target {}° for {} is outside the limits {}..={} (--min-deg/--max-deg): \
              nothing was sent",
             args.deg,
+            if args.bus.robot.is_some() {
+                format!("joint {}", args.target)
+            } else {
+                format!("motor {}", args.target)
+            },
             args.min_deg.map_or("-inf".into(), |v| v.to_string()),
             args.max_deg.map_or("+inf".into(), |v| v.to_string())
         ));
     }
+    Ok(())
+}
+
+/// The position request the arguments describe for `motor` (with a joint: its target and speed
+/// turned into the motor's).
+fn position_request(args: &MoveArgs, motor: &Motor) -> Result<Request, String> {
+    let id = motor.label();
+    let (deg, speed_factor) = match &motor.joint {
+        Some(joint) => (joint.map.motor_angle_deg(args.deg), joint.map.gear_ratio()),
+        None => (args.deg, 1.0),
+    };
     let single_turn = args.mode >= 3;
     let with_speed = args.mode == 2 || args.mode == 4;
     if args.max_speed.is_some() && !with_speed {
@@ -117,17 +157,17 @@ fn position_request(args: &MoveArgs) -> Result<Request, String> {
             args.mode
         ));
     }
-    let max_speed = MaxSpeed::from_dps(args.max_speed.unwrap_or(DEFAULT_MAX_SPEED_DPS))
-        .map_err(|e| format!("--max-speed: {e}"))?;
+    let max_speed =
+        MaxSpeed::from_dps(args.max_speed.unwrap_or(DEFAULT_MAX_SPEED_DPS) * speed_factor)
+            .map_err(|e| format!("--max-speed: {e}"))?;
     let spin_direction = match args.direction.unwrap_or(Direction::Cw) {
         Direction::Cw => SpinDirection::Clockwise,
         Direction::Ccw => SpinDirection::CounterClockwise,
     };
-    let multi =
-        || AngleControl::from_degrees(args.deg).map_err(|e| format!("--deg for motor {id}: {e}"));
+    let multi = || AngleControl::from_degrees(deg).map_err(|e| format!("--deg for {id}: {e}"));
     let single = || {
-        SingleTurnAngle::from_degrees(args.deg).map_err(|e| {
-            format!("--deg for motor {id}: {e} (modes 3 and 4 take a single-turn angle, 0..<360°)")
+        SingleTurnAngle::from_degrees(deg).map_err(|e| {
+            format!("--deg for {id}: {e} (modes 3 and 4 take a single-turn angle, 0..<360°)")
         })
     };
     Ok(match args.mode {
@@ -150,37 +190,41 @@ fn position_request(args: &MoveArgs) -> Result<Request, String> {
     })
 }
 
-fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
-    let id = args.id;
-    let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
+fn move_to(
+    args: &MoveArgs,
+    motors: &mut Motors,
+    motor: &Motor,
+    request: Request,
+) -> Result<(), CliError> {
+    let (id, label) = (motor.id, motor.label());
+    let bus = motors.connection(motor);
     if !args.no_wait {
         // Before the motor moves: from here Ctrl-C turns it off instead of killing us.
-        interrupt::install()?;
+        interrupt::install_driving()?;
     }
     let reply = bus.request(id, &request)?;
     if reply.status2().is_none() {
         return Err(CliError::Failed(format!(
-            "motor {id} answered {} with {}: the command may not have been taken; check with \
+            "{label} answered {} with {}: the command may not have been taken; check with \
              `rmd status {id}`",
             request.command(),
             reply.command()
         )));
     }
     if args.no_wait {
-        bus.finish()?;
-        outln!("motor {id}: moving to {}° (mode {})", args.deg, args.mode)?;
+        outln!("{label}: moving to {}° (mode {})", args.deg, args.mode)?;
         return Ok(());
     }
     let single_turn = args.mode >= 3;
     let progress = Progress::spinner(progress::shown(false));
-    progress.set_prefix(format!("motor {id} "));
+    progress.set_prefix(format!("{label} "));
     let start = bus.clock().now();
     let mut angle = None;
     let outcome = loop {
         if interrupt::requested() {
-            break Err(CliError::Interrupted(format!("moving motor {id}")));
+            break Err(CliError::Interrupted(format!("moving {label}")));
         }
-        match read_angle(&mut bus, id, single_turn) {
+        match read_angle(bus, motor, single_turn) {
             Ok(a) => angle = Some(a),
             Err(error) => break Err(error),
         }
@@ -196,7 +240,7 @@ fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
         }
         if elapsed >= args.wait_timeout {
             break Err(CliError::Failed(format!(
-                "motor {id} did not reach {}° within {:.1} s (it is at {:.2}°): check the \
+                "{label} did not reach {}° within {:.1} s (it is at {:.2}°): check the \
                  load, --max-speed, and the motor's max-angle setting",
                 args.deg,
                 args.wait_timeout.as_secs_f64(),
@@ -204,15 +248,14 @@ fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
             )));
         }
         if !interrupt::sleep_until(bus.clock(), bus.clock().now() + POLL) {
-            break Err(CliError::Interrupted(format!("moving motor {id}")));
+            break Err(CliError::Interrupted(format!("moving {label}")));
         }
     };
     drop(progress);
     match outcome {
         Ok(elapsed) => {
-            bus.finish()?;
             outln!(
-                "motor {id}: at {:.2}° (target {}°) after {:.2} s; holding the position \
+                "{label}: at {:.2}° (target {}°) after {:.2} s; holding the position \
                  (`rmd off {id}` releases it)",
                 angle.unwrap_or(f64::NAN),
                 args.deg,
@@ -220,23 +263,24 @@ fn move_to(args: &MoveArgs, request: Request) -> Result<(), CliError> {
             )?;
             Ok(())
         }
-        Err(error) => {
-            let result = safe_stop::finish(&mut bus, &[id], Err(error));
-            bus.finish()?;
-            result
-        }
+        Err(error) => safe_stop::finish(bus, &[id], Err(error)),
     }
 }
 
-/// The motor's angle: multi-turn (0x92) or single-turn (0x94), degrees.
-fn read_angle(bus: &mut Connection, id: MotorId, single_turn: bool) -> Result<f64, CliError> {
+/// The motor's angle: multi-turn (0x92) or single-turn (0x94), degrees; with a joint, the joint
+/// angle.
+fn read_angle(bus: &mut Connection, motor: &Motor, single_turn: bool) -> Result<f64, CliError> {
+    let id = motor.id;
     let request = if single_turn {
         Request::ReadSingleTurnAngle
     } else {
         Request::ReadMultiTurnAngle
     };
     match bus.request(id, &request)? {
-        Reply::ReadMultiTurnAngle { motor_angle } => Ok(motor_angle.degrees()),
+        Reply::ReadMultiTurnAngle { motor_angle } => Ok(match &motor.joint {
+            Some(joint) => joint.map.joint_angle_deg(motor_angle.degrees()),
+            None => motor_angle.degrees(),
+        }),
         Reply::ReadSingleTurnAngle { circle_angle } => Ok(circle_angle.degrees()),
         other => Err(CliError::Failed(format!(
             "motor {id} answered with an unexpected {} reply",

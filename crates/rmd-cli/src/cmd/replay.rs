@@ -201,7 +201,7 @@ fn play_onto_bus(args: &ReplayArgs, records: &[LogRecord], pace: Pace) -> Result
     interrupt::install()?;
     let name = match bus.setup() {
         Setup::Interface(iface) => iface.clone(),
-        Setup::Simulator(_) => "sim".to_owned(),
+        Setup::Simulator(_) | Setup::Robot(_) => "sim".to_owned(),
     };
     let progress = Progress::counter(records.len() as u64, "frames sent", progress::shown(false));
     progress.set_prefix(format!("replay onto {name} "));

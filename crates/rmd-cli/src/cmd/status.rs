@@ -4,11 +4,11 @@
 use std::process::ExitCode;
 
 use clap::Args;
-use rmd_protocol::{EncoderWidth, MotorId, Reply, Request};
+use rmd_protocol::{EncoderWidth, Reply, Request};
 
 use crate::args::bus::BusArgs;
-use crate::args::ids::{self, IdList};
-use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::live::connect::{DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::live::motors::{Motor, Motors};
 use crate::output::console::WriteError;
 use crate::output::readings;
 use crate::output::report::{self, CliError};
@@ -17,10 +17,13 @@ use crate::output::{errln, out, outln};
 
 /// Arguments of `rmd status`.
 #[derive(Args, Debug)]
+#[command(
+    after_help = "With --robot FILE: the joints by name (all of them without JOINTS), each     on its bus, with its joint angle, velocity and torque in joint units; JSON objects then also     carry `name` (the joint), `bus` (the bus's name) and `joint` {angle_deg, velocity_dps,     torque_nm}."
+)]
 pub(crate) struct StatusArgs {
-    /// Motor id(s): 1, 1-4, 1,3.
-    #[arg(value_name = "IDS", value_parser = ids::parse)]
-    ids: IdList,
+    /// Motor id(s): 1, 1-4, 1,3; with --robot, joint names (none: every joint).
+    #[arg(value_name = "IDS|JOINTS")]
+    targets: Vec<String>,
     /// Print one JSON object per motor (one per line).
     #[arg(long)]
     json: bool,
@@ -44,15 +47,15 @@ pub(crate) fn run(args: StatusArgs) -> ExitCode {
 }
 
 fn status(args: &StatusArgs) -> Result<(), CliError> {
-    let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
+    let mut motors = Motors::open(&args.bus, &args.targets, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     let mut failed = Vec::new();
-    for &motor in args.ids.ids() {
-        match read_all(&mut bus, motor) {
+    for motor in motors.motors().to_vec() {
+        match read_all(&mut motors, &motor) {
             Ok(replies) => {
                 if args.json {
-                    outln!("{}", readings::object(motor, &replies, bus.width()))?;
+                    outln!("{}", json_object(&motor, &replies))?;
                 } else {
-                    print_human(motor, &replies, bus.width())?;
+                    print_human(&motor, &replies)?;
                 }
             }
             Err(error) => {
@@ -60,44 +63,82 @@ fn status(args: &StatusArgs) -> Result<(), CliError> {
                     return Err(error.into());
                 }
                 if args.json {
-                    outln!("{}", readings::error_object(motor, &error.to_string()))?;
+                    let mut value = readings::error_object(motor.id, &error.to_string());
+                    name_it(&mut value, &motor);
+                    outln!("{value}")?;
                 }
                 errln!("error: {error}");
-                failed.push(motor);
+                failed.push(motor.label());
             }
         }
     }
-    bus.finish()?;
+    motors.finish()?;
     if failed.is_empty() {
         Ok(())
     } else {
-        let ids: Vec<String> = failed.iter().map(ToString::to_string).collect();
         Err(CliError::Failed(format!(
-            "could not read motor(s) {} (see above)",
-            ids.join(", ")
+            "could not read {} (see above)",
+            failed.join(", ")
         )))
+    }
+}
+
+/// One motor's JSON object: its readings, and with a robot its joint's name, bus and joint units.
+fn json_object(motor: &Motor, replies: &[Reply]) -> serde_json::Value {
+    let mut value = readings::object(motor.id, replies, motor.width);
+    name_it(&mut value, motor);
+    if let (Some(joint), serde_json::Value::Object(map)) = (&motor.joint, &mut value) {
+        map.insert("joint".into(), readings::joint_object(&joint.map, replies));
+    }
+    value
+}
+
+/// Adds `name` and `bus` to a motor's object, with a robot.
+fn name_it(value: &mut serde_json::Value, motor: &Motor) {
+    if let (Some(joint), serde_json::Value::Object(map)) = (&motor.joint, value) {
+        map.insert("name".into(), joint.name.clone().into());
+        map.insert("bus".into(), joint.bus_name.clone().into());
     }
 }
 
 /// The replies to [`READS`].
 fn read_all(
-    bus: &mut Connection,
-    motor: MotorId,
+    motors: &mut Motors,
+    motor: &Motor,
 ) -> Result<Vec<Reply>, crate::live::exchange::ExchangeError> {
     READS
         .iter()
-        .map(|request| bus.request(motor, request))
+        .map(|request| motors.request(motor, request))
         .collect()
 }
 
-fn print_human(motor: MotorId, replies: &[Reply], width: EncoderWidth) -> Result<(), WriteError> {
+fn print_human(motor: &Motor, replies: &[Reply]) -> Result<(), WriteError> {
     let mut table = TextTable::without_header(&[Align::Left, Align::Left])
         .indent(2)
         .gap(1);
-    for (label, value) in rows(replies, width) {
+    if let Some(joint) = &motor.joint {
+        let units = readings::joint_object(&joint.map, replies);
+        let show = |key: &str, unit: &str| {
+            units
+                .get(key)
+                .and_then(serde_json::Value::as_f64)
+                .map_or("-".to_owned(), |v| format!("{v:.2} {unit}"))
+        };
+        table.row(["joint angle".to_owned(), show("angle_deg", "°")]);
+        table.row(["joint velocity".to_owned(), show("velocity_dps", "°/s")]);
+        table.row(["joint torque".to_owned(), show("torque_nm", "N·m")]);
+    }
+    for (label, value) in rows(replies, motor.width) {
         table.row([label.to_owned(), value]);
     }
-    out!("motor {motor}\n{}", table.render())
+    let title = match &motor.joint {
+        Some(joint) => format!(
+            "{} (motor {} on bus {})",
+            joint.name, motor.id, joint.bus_name
+        ),
+        None => format!("motor {}", motor.id),
+    };
+    out!("{title}\n{}", table.render())
 }
 
 /// The readings in words: `(label, value)` per line, in the order of [`READS`].

@@ -60,12 +60,32 @@ impl Connection {
                     .to_owned(),
             ));
         };
+        Self::on(
+            bus,
+            setup,
+            args,
+            args.encoder_bits,
+            default_timeout,
+            default_retries,
+        )
+    }
+
+    /// A connection on an open `bus` (recorded if `args` asks), with the timeout and retries of
+    /// `args` or the defaults.
+    pub(crate) fn on(
+        bus: Box<dyn CanBus>,
+        setup: Setup,
+        args: &BusArgs,
+        width: EncoderWidth,
+        default_timeout: Duration,
+        default_retries: u32,
+    ) -> Result<Self, CliError> {
         let (bus, recording) = match &args.log {
             None => (bus, None),
             Some(path) => {
                 let name = match &setup {
                     Setup::Interface(iface) => iface.as_str(),
-                    Setup::Simulator(_) => "sim",
+                    Setup::Simulator(_) | Setup::Robot(_) => "sim",
                 };
                 let (bus, writer) = record_to(bus, path, name)?;
                 (
@@ -87,7 +107,7 @@ impl Connection {
                 retries: args.retries.unwrap_or(default_retries),
                 setup,
             },
-            width: args.encoder_bits,
+            width,
             recording,
         })
     }

@@ -35,6 +35,8 @@ pub(crate) enum Setup {
     Interface(String),
     /// The in-process simulator with these motors.
     Simulator(IdList),
+    /// The in-process simulated motors of a robot description's bus (`--robot FILE --sim`).
+    Robot(String),
 }
 
 impl Setup {
@@ -43,6 +45,7 @@ impl Setup {
         match self {
             Setup::Interface(iface) => format!("--iface {iface}"),
             Setup::Simulator(ids) => format!("--sim --sim-ids {ids}"),
+            Setup::Robot(file) => format!("--robot {file} --sim"),
         }
     }
 
@@ -50,7 +53,7 @@ impl Setup {
     pub(crate) fn name(&self) -> String {
         match self {
             Setup::Interface(iface) => iface.clone(),
-            Setup::Simulator(_) => "the simulated bus".to_owned(),
+            Setup::Simulator(_) | Setup::Robot(_) => "the simulated bus".to_owned(),
         }
     }
 
@@ -65,6 +68,9 @@ impl Setup {
             ),
             Setup::Simulator(ids) => {
                 format!("the simulated motors are {ids} (choose them with --sim-ids)")
+            }
+            Setup::Robot(file) => {
+                format!("the simulated motors are the ones {file} describes")
             }
         }
     }

@@ -19,6 +19,8 @@ pub(crate) fn turn_off(bus: &mut Connection, motors: &[MotorId]) -> Result<(), S
             Err(error) => problems.push(error.to_string()),
         }
     }
+    // Sent (confirmed or not): a third Ctrl-C may now exit.
+    rmd_rig::signals::motors_off_sent();
     if problems.is_empty() {
         return Ok(());
     }

@@ -17,6 +17,34 @@ pub(crate) fn object(motor: MotorId, replies: &[Reply], width: EncoderWidth) -> 
     Value::Object(map)
 }
 
+/// A joint's readings in joint units, from a motor's replies (multi-turn angle, status 2): `{"angle_deg",
+/// "velocity_dps", "torque_nm"}`, each present when a reply carried it (torque: with the torque
+/// constant).
+pub(crate) fn joint_object(map: &rmd_loop::mapping::JointMap, replies: &[Reply]) -> Value {
+    let mut joint = Map::new();
+    for reply in replies {
+        match reply {
+            Reply::ReadMultiTurnAngle { motor_angle } => {
+                joint.insert(
+                    "angle_deg".into(),
+                    json!(map.joint_angle_deg(motor_angle.degrees())),
+                );
+            }
+            Reply::ReadStatus2(s) | Reply::Torque(s) => {
+                joint.insert(
+                    "velocity_dps".into(),
+                    json!(map.joint_velocity_dps(s.speed.dps())),
+                );
+                if let Some(nm) = map.joint_torque_nm(s.iq.amps()) {
+                    joint.insert("torque_nm".into(), json!(nm));
+                }
+            }
+            _ => {}
+        }
+    }
+    Value::Object(joint)
+}
+
 /// `{"id": N, "error": "..."}` for a motor that could not be read.
 pub(crate) fn error_object(motor: MotorId, error: &str) -> Value {
     json!({"id": motor.get(), "error": error})

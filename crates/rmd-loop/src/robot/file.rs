@@ -85,7 +85,7 @@ pub struct LoopConfig {
     pub allow_over_budget: bool,
     /// A tick that does not complete within this long (the controller or the bus I/O hangs) is
     /// ended by the supervisor, which makes the motors safe itself. Default: ten periods, at
-    /// least 20 ms.
+    /// least 50 ms.
     pub stall_bound_ms: Option<u64>,
     /// What the loop does with a command it cannot send as given (not a finite number, a torque
     /// without a torque constant, an unknown joint): `"fault"` (the default) or `"zero"`.

@@ -110,7 +110,8 @@ pub struct LoopSettings {
     pub allow_over_budget: bool,
     /// What to do with a command that cannot be sent as given.
     pub rejected_command: RejectedCommandPolicy,
-    /// A tick not complete after this long is ended by the supervisor (more than a period).
+    /// A tick not complete after this long is ended by the supervisor (more than a period;
+    /// default ten periods, at least 50 ms).
     pub stall_bound: Duration,
 }
 
@@ -471,7 +472,7 @@ fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
         |key: &str, v: u32| NonZeroU32::new(v).ok_or_else(|| invalid(key, "must be at least 1"));
     let stall_bound = match l.stall_bound_ms {
         Some(ms) => Duration::from_millis(ms),
-        None => (p * 10).max(Duration::from_millis(20)),
+        None => (p * 10).max(Duration::from_millis(50)),
     };
     if stall_bound <= p {
         return Err(invalid(
@@ -662,7 +663,8 @@ fn joint_spec(b: usize, m: &MotorConfig, key: &str) -> Result<JointSpec, RobotEr
         zero_offset_deg: m.zero_offset_deg,
         current_limit: CurrentLimit {
             amps,
-            raw: IqControl::from_amps_saturating(amps).raw(),
+            // Rounded towards zero: a clamped command never exceeds the described limit.
+            raw: (amps * f64::from(IqControl::MAX.raw()) / MAX_COMMAND_AMPS).floor() as i16,
         },
         torque_constant_nm_per_amp: m.torque_constant_nm_per_amp,
         temperature_limit_celsius: m.temperature_limit_celsius,
@@ -741,6 +743,13 @@ mod tests {
         assert_eq!(hip.direction, Direction::Reversed);
         assert_eq!(hip.encoder.bits(), 14);
         assert_eq!(hip.current_limit.raw(), 500);
+        // Never above the described limit: 3.0 A is 187.5 steps of 16 mA, 187 are allowed.
+        let three =
+            Robot::from_toml(&LEG.replace("current_limit_amps = 8.0", "current_limit_amps = 3.0"))
+                .unwrap();
+        let raw = three.joints()[0].current_limit.raw();
+        assert_eq!(raw, 187);
+        assert!(IqControl::saturating(raw).amps() <= 3.0);
         // Unnamed joints get a name from their bus and id.
         assert_eq!(robot.joints()[1].name, "bus0_motor2");
         assert_eq!(robot.buses()[0].name, "bus0");

@@ -250,7 +250,13 @@ mod tests {
         .apply(&mut config);
         let l = &config.loop_config;
         assert_eq!(
-            (l.rate_hz, l.cpu, l.fifo_priority, l.lock_memory, l.spin_margin_us),
+            (
+                l.rate_hz,
+                l.cpu,
+                l.fifo_priority,
+                l.lock_memory,
+                l.spin_margin_us
+            ),
             (500.0, Some(1), Some(80), true, 50)
         );
         // Flags not given leave the description alone.

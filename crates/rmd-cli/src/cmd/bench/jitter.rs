@@ -12,8 +12,8 @@ use rmd_loop::schedule::Period;
 use serde_json::{Value, json};
 
 use super::histogram;
-use rmd_rig::args::duration::run_length;
 use rmd_rig::args::RealtimeArgs;
+use rmd_rig::args::duration::run_length;
 
 /// Stack pre-faulted by the measuring thread (as the loop does).
 const PREFAULT_STACK_BYTES: usize = 512 * 1024;

@@ -19,10 +19,10 @@ use serde_json::{Value, json};
 use super::flags;
 use super::pd::{self, MovingTargetPd};
 use super::robot;
-use rmd_rig::args::duration::run_length;
-use rmd_rig::args::{RealtimeArgs, values};
 use crate::output::progress::{self, Progress};
 use crate::output::report;
+use rmd_rig::args::duration::run_length;
+use rmd_rig::args::{RealtimeArgs, values};
 
 /// Arguments of `rmd bench loop`.
 #[derive(Args, Debug)]
@@ -142,8 +142,7 @@ fn run_on<C: Clock + Clone + 'static>(
     args.rt.apply(&mut config);
     let robot = Robot::try_from(config).map_err(|e| Failure::Usage(e.to_string()))?;
     let period = robot.settings().period.get();
-    let ticks =
-        u64::try_from(args.duration.as_nanos() / period.as_nanos()).unwrap_or(u64::MAX);
+    let ticks = u64::try_from(args.duration.as_nanos() / period.as_nanos()).unwrap_or(u64::MAX);
     let buses = robot::sim_buses(&clock, args.buses, args.motors)
         .map_err(|e| Failure::Run(format!("simulator: {e}")))?;
     let mut rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))

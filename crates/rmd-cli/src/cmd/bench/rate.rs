@@ -30,12 +30,12 @@ use super::flags;
 use super::pd::MovingTargetPd;
 use super::robot;
 use super::wire_limit::{self, WireLimit, us};
-use rmd_rig::args::duration::run_length;
-use rmd_rig::args::{RealtimeArgs, values};
 use crate::output::errln;
 use crate::output::progress::{self, Progress};
 use crate::output::report;
 use crate::output::table::{Align, TextTable};
+use rmd_rig::args::duration::run_length;
+use rmd_rig::args::{RealtimeArgs, values};
 
 /// Bit rate of the simulated buses.
 const BITRATE: u32 = 1_000_000;
