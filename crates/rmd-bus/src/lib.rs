@@ -1,4 +1,7 @@
-//! The bus layer of rmd-rt: the [`CanBus`] trait every transport implements (the simulator,
+//! The bus layer of rmd-rt: the `CanBus` and `Clock` traits, wire timing, candump formats, the
+//! SocketCAN backend. Above `rmd-protocol`; `rmd-sim` and `rmd-loop` sit on it.
+//!
+//! The [`CanBus`] trait every transport implements (the simulator,
 //! Linux SocketCAN) and the [`Clock`] that lets everything run in real or virtual time; CAN wire
 //! timing ([`wire`]); candump's text formats ([`candump`]); recording a bus to a `candump -L`
 //! log without blocking it ([`record`]) and playing a log back in time ([`replay`]).

@@ -1,4 +1,4 @@
-//! Joint handles: a [`JointId`] names one joint of a [`Robot`](crate::robot::Robot) (resolved
+//! Joint handles: a [`JointId`] names one joint of a [`Robot`] (resolved
 //! once from its name, then used every tick), and a [`JointArray`] holds one value per joint.
 //!
 //! ```

@@ -153,10 +153,10 @@ impl JointMap {
 /// use rmd_loop::mapping::power_up_window;
 /// use rmd_loop::robot::{BusConfig, Direction, MotorConfig, Robot, RobotConfig};
 /// let hip = MotorConfig::new(2).gear_ratio(9.0).zero_offset_deg(-30.0);
+/// let reversed = MotorConfig::new(3).gear_ratio(9.0).zero_offset_deg(-30.0).direction(Direction::Reversed);
 /// let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(BusConfig::new("can0")
-///     .with_motor(hip.clone())
-///     .with_motor(hip.clone().direction(Direction::Reversed).name("reversed").zero_offset_deg(-30.0))))?;
-/// # let _ = robot.joint("reversed")?;
+///     .with_motor(hip)
+///     .with_motor(reversed)))?;
 /// assert_eq!(power_up_window(&robot.joints()[0]), (30.0, 70.0));
 /// assert_eq!(power_up_window(&robot.joints()[1]), (-10.0, 30.0));
 /// # Ok::<(), rmd_loop::robot::RobotError>(())

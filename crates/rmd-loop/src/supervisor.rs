@@ -15,7 +15,7 @@
 //! Taking over, it sends zero torque and motor-off on every bus with the same safe stop as the
 //! loop; when the loop thread comes back it sends nothing more, and its report carries the
 //! supervisor's safe stop. The supervisor never touches the loop thread's data: it reads a few
-//! atomics ([`crate::watch`]) and sleeps in real time between looks.
+//! atomics (the `watch` module) and sleeps in real time between looks.
 
 use core::time::Duration;
 use std::sync::Arc;

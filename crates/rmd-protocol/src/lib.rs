@@ -1,5 +1,7 @@
-//! The GYEMS / MyActuator RMD CAN protocol (v1.61): a typed, `no_std`, allocation-free model of
-//! every command and reply.
+//! The wire format of RMD motors: every command and reply of protocol v1.61 (and the LK-TECH
+//! dialect), typed, with units; `no_std`, no allocation. The bottom of rmd-rt: imports nothing.
+//!
+//! A typed, allocation-free model of every command and reply.
 //!
 //! # Frames
 //!

@@ -1,5 +1,8 @@
 //! # rmd-rig: a robot on its buses, and the runner every program shares
 //!
+//! Where each bus is, opening SocketCAN or simulated motors, the signal policy, the runner and
+//! the standard flags. Above `rmd-loop`, `rmd-sim` and `rmd-bus`; the `rmd` tool and examples use it.
+//!
 //! Opens a [`Robot`](rmd_loop::Robot) where it is (each bus on the SocketCAN interface its
 //! description names, or on simulated motors matching the description; `--iface` and `--sim`
 //! override), handles signals one way for the whole project, and runs loops with a status line,

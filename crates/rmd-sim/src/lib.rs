@@ -1,3 +1,6 @@
+//! Simulated RMD motors (firmware, physics, faults) behind a simulated CAN wire, as a `CanBus`.
+//! Above `rmd-protocol` and `rmd-bus`; `rmd-rig` opens it for a robot description.
+//!
 //! Simulated GYEMS / MyActuator RMD motors and a simulated CAN bus, so that controllers can be
 //! developed, tested and benchmarked without hardware: in virtual time (deterministic, faster
 //! than real time) or in real time, with seeded fault injection.

@@ -1,5 +1,8 @@
 //! # rmd-traj
 //!
+//! Time-optimal, jerk-limited, multi-axis trajectories; `no_std`, allocation-free, depends on
+//! `libm` only. Stands alone in rmd-rt: controllers and the `rmd` tool use it.
+//!
 //! Time-optimal, jerk-limited trajectory generation from any state to any target state, for
 //! several axes that arrive together, in the style of Ruckig (Berscheid & Kröger, RSS 2021).
 //! `no_std` (disable the default `std` feature; `libm` supplies the float functions) and

@@ -1,6 +1,6 @@
 //! The robot description: its buses, its joints (one motor each) and the loop settings.
 //!
-//! A description is written as TOML (or built in code) in its [file form](file), then
+//! A description is written as TOML (or built in code) in its [file form](mod@file), then
 //! converted once, with [`Robot::try_from`] or [`Robot::from_file`], into a [`Robot`] whose
 //! every value is checked and typed: motor ids are [`MotorId`]s that fit a 0x280 frame, encoder
 //! widths are [`EncoderWidth`]s, the rate is a [`Period`], the reply deadline a [`Duration`].
