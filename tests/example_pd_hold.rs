@@ -98,7 +98,6 @@ fn the_example_runs_end_to_end() {
         "ticks 3000 ",
         "1/1 motors confirmed off",
         "pd_hold results",
-        "target -20.00 deg",
     ] {
         assert!(
             ran.stdout.contains(line),
@@ -106,6 +105,16 @@ fn the_example_runs_end_to_end() {
             ran.stdout
         );
     }
+    // The target is the start angle (the arm hangs still for the few milliseconds of the
+    // start-up identification) moved by -20 degrees.
+    let target: f64 = ran
+        .stdout
+        .split("(target ")
+        .nth(1)
+        .and_then(|rest| rest.split(" deg").next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no target in:\n{}", ran.stdout));
+    assert!((target + 20.0).abs() < 0.05, "{target}");
     let csv = Csv::take(&csv);
     assert_eq!(csv.rows.len(), 3000);
     assert_eq!(csv.header.len(), 2 + 8);

@@ -7,6 +7,8 @@ use core::ops::Range;
 pub(crate) struct BusLink<B> {
     pub(crate) bus: B,
     pub(crate) joints: Range<usize>,
+    /// Whether a 0x280 frame was ever sent on it (before that, nothing needs undoing).
+    pub(crate) commanded: bool,
 }
 
 impl<B> BusLink<B> {

@@ -22,7 +22,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 
 use rmd_bus::{CanBus, Clock, MonotonicClock, Timestamp};
-use rmd_protocol::IqControl;
+use rmd_protocol::ScaledCurrent;
 
 use crate::bus_link::BusLink;
 use crate::commands::{Commands, MAX_SIGNALS, Rejections};
@@ -160,6 +160,7 @@ pub struct Running<B, C, K> {
     start: Timestamp,
     realtime: RtStatus,
     supervisor: Option<JoinHandle<()>>,
+    identified: Vec<crate::report::IdentifiedMotor>,
 }
 
 impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
@@ -292,9 +293,23 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
         parts.shared.set_running(true);
         crate::panics::enter();
         let realtime = startup::prepare_thread(parts.robot.settings());
+        let identified = match startup::identify_motors(&mut parts) {
+            Ok(identified) => identified,
+            Err(reason) => {
+                return Err(Box::new(finish::finish(
+                    parts,
+                    controller,
+                    reason,
+                    realtime,
+                    None,
+                    None,
+                    Vec::new(),
+                )));
+            }
+        };
         if let Err(reason) = startup::probe(&mut parts) {
             return Err(Box::new(finish::finish(
-                parts, controller, reason, realtime, None, None,
+                parts, controller, reason, realtime, None, None, identified,
             )));
         }
         let settings = *parts.robot.settings();
@@ -311,7 +326,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
         if let Err(payload) = started {
             let reason = StopReason::ControllerPanic(finish::panic_message(payload.as_ref()));
             return Err(Box::new(finish::finish(
-                parts, controller, reason, realtime, None, None,
+                parts, controller, reason, realtime, None, None, identified,
             )));
         }
         parts.shared.watch.progress(parts.clock.now(), 0);
@@ -328,6 +343,8 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                         .map(|(bus, spec)| BusLink {
                             bus,
                             joints: spec.joint_range(),
+                            // The supervisor acts while the loop ticks: torque was commanded.
+                            commanded: true,
                         })
                         .collect(),
                     ids: parts.exchange.motors.iter().map(|m| m.id).collect(),
@@ -338,13 +355,14 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                     Err(_) => {
                         let reason = StopReason::Fault(Fault::Supervisor);
                         return Err(Box::new(finish::finish(
-                            parts, controller, reason, realtime, None, None,
+                            parts, controller, reason, realtime, None, None, identified,
                         )));
                     }
                 }
             }
         };
         Ok(Running {
+            identified,
             supervisor,
             scheduler: Scheduler::new(settings.period, settings.spin_margin, settings.overrun, t0),
             start: t0,
@@ -527,6 +545,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
             self.realtime,
             Some(self.start),
             takeover,
+            self.identified,
         )
     }
 }
@@ -564,12 +583,13 @@ impl<B, C> Parts<B, C> {
             let mut slots = ZERO_TORQUE;
             for m in link.joints() {
                 let motor = &exchange.motors[m];
-                let raw = IqControl::from_amps_saturating(self.command_amps[m]).raw();
+                let scale = motor.command_scale;
+                let raw = ScaledCurrent::from_amps_saturating(self.command_amps[m], scale).raw();
                 let limited = raw.clamp(-motor.limit_raw, motor.limit_raw);
                 if limited != raw {
                     self.stats.motors[m].clamped_commands += 1;
                 }
-                let iq = IqControl::saturating(limited);
+                let iq = ScaledCurrent::saturating(i64::from(limited), scale);
                 self.command_amps[m] = iq.amps();
                 slots[motor.slot] = iq;
             }

@@ -8,7 +8,7 @@ use crate::controller::Controller;
 use crate::engine::Parts;
 use crate::os::RtStatus;
 use crate::panics;
-use crate::report::{LoopReport, PanicReport, StopReason};
+use crate::report::{IdentifiedMotor, LoopReport, PanicReport, StopReason};
 use crate::safe_stop;
 use crate::watch::{Phase, Takeover};
 
@@ -31,6 +31,7 @@ pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
     realtime: RtStatus,
     start: Option<Timestamp>,
     takeover: Option<Takeover>,
+    identified: Vec<IdentifiedMotor>,
 ) -> LoopOutcome<K> {
     // The supervisor's reason is the run's: the loop thread only noticed it had taken over.
     let reason = takeover.as_ref().map_or(reason, |t| t.reason.clone());
@@ -82,6 +83,7 @@ pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
         safe_stop,
         realtime_warnings: realtime.warnings().map(str::to_string).collect(),
         realtime,
+        identified,
         panic,
     };
     LoopOutcome { report, controller }

@@ -4,7 +4,7 @@ use core::fmt;
 use core::time::Duration;
 
 use rmd_bus::BusError;
-use rmd_protocol::MotorId;
+use rmd_protocol::{MotorId, ProtocolFamily};
 use serde::Serialize;
 
 use crate::commands::Rejection;
@@ -87,6 +87,27 @@ pub enum Fault {
     },
     /// The supervisor thread could not be started: the run did not begin.
     Supervisor,
+    /// A motor answered at start-up on a bus but the description does not have it: the 0x280
+    /// frame would command it. Nothing was sent but read-only requests.
+    UndescribedMotor {
+        /// Bus index.
+        bus: usize,
+        /// Its id.
+        motor: MotorId,
+        /// Its protocol family, as identified.
+        family: ProtocolFamily,
+    },
+    /// A described motor's firmware is not what the loop can drive as described: MyActuator V3
+    /// (its 0x280 frame is a command byte for every motor), another family than the described
+    /// dialect's (the current scales would be wrong), or conflicting answers.
+    Firmware {
+        /// The motor.
+        at: MotorRef,
+        /// Its family, as identified.
+        family: ProtocolFamily,
+        /// The described dialect's family.
+        described: ProtocolFamily,
+    },
     /// A tick did not complete within the stall bound (the controller or the bus I/O hung): the
     /// supervisor made every motor safe.
     TickStalled {
@@ -105,10 +126,37 @@ pub enum Fault {
     },
 }
 
+fn firmware_problem(family: ProtocolFamily, described: ProtocolFamily) -> String {
+    match family {
+        ProtocolFamily::MyActuatorV3 => "its firmware speaks MyActuator V3 (it answers on \
+             0x240 + id): a 0x280 frame is a command byte executed by every motor on the bus, not \
+             per-motor torque, so the loop cannot drive it; nothing was sent"
+            .to_string(),
+        ProtocolFamily::Unknown => "it answers on both 0x140 + id and 0x240 + id (two devices \
+             on one id, or unknown firmware): nothing was sent"
+            .to_string(),
+        other => format!(
+            "its firmware speaks {other} but the description says {described} (the current \
+             scales would be wrong): set protocol = \"{}\" (with lk_series for LK-TECH) or \
+             model; nothing was sent",
+            other.name()
+        ),
+    }
+}
+
 impl Fault {
     /// The fault in words, naming joints by their names in `robot`.
     pub fn describe(&self, robot: &Robot) -> String {
         match self {
+            Fault::Firmware {
+                at,
+                family,
+                described,
+            } => format!(
+                "{}: {}",
+                at.describe(robot),
+                firmware_problem(*family, *described)
+            ),
             Fault::NoFreshFeedback { at, ticks } => format!(
                 "{} gave no fresh feedback for {ticks} consecutive ticks: its replies were missing \
                  or late (check its power, wiring and id, and the bus load)",
@@ -158,6 +206,20 @@ impl fmt::Display for Fault {
             Fault::OverTemperature { at, celsius } => {
                 write!(f, "{at} reports {celsius} degC, at or above its limit")
             }
+            Fault::UndescribedMotor { bus, motor, family } => write!(
+                f,
+                "motor {} answers on bus {bus} ({family}) but the robot description does not \
+                 have it: the 0x280 frame would command it, so nothing was sent. Describe it \
+                 (a [[bus.motor]] with id = {}), or list it in the bus's zero_torque_ids to let \
+                 the loop command it zero torque",
+                motor.get(),
+                motor.get()
+            ),
+            Fault::Firmware {
+                at,
+                family,
+                described,
+            } => write!(f, "{at}: {}", firmware_problem(*family, *described)),
             Fault::Supervisor => f.write_str(
                 "the supervisor thread could not be started (out of threads or memory?)",
             ),
@@ -265,9 +327,33 @@ pub struct LoopReport {
     pub realtime: RtStatus,
     /// Warnings about real-time privileges that were not granted.
     pub realtime_warnings: Vec<String>,
+    /// The motors found at start-up and their firmware (empty when the start did not get that
+    /// far).
+    pub identified: Vec<IdentifiedMotor>,
     /// The controller's panic, if it panicked: reported once the motors were safe.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub panic: Option<PanicReport>,
+}
+
+fn serialize_motor_id<S: serde::Serializer>(id: &MotorId, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_u8(id.get())
+}
+
+/// A motor found on a bus at start-up, and what its firmware is.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct IdentifiedMotor {
+    /// Bus index.
+    pub bus: usize,
+    /// Its id.
+    #[serde(serialize_with = "serialize_motor_id")]
+    pub motor: MotorId,
+    /// Its joint, if described.
+    pub joint: Option<String>,
+    /// Its protocol family (`v1.61`, `lk-v2.3x`, `myactuator-v3`, `unknown`).
+    #[serde(serialize_with = "serialize_display")]
+    pub family: ProtocolFamily,
+    /// What decided.
+    pub finding: String,
 }
 
 /// A panic of the controller (or of the loop itself), as reported after the safe stop.

@@ -35,6 +35,9 @@ pub struct MotorSafeStop {
     /// Motor id.
     #[serde(serialize_with = "serialize_motor_id")]
     pub motor: MotorId,
+    /// Whether the run ever commanded its bus (a 0x280 frame); if not, nothing was sent to it
+    /// (the start stopped before any torque) and there is nothing to undo.
+    pub commanded: bool,
     /// A zero-torque 0x280 frame was queued on its bus.
     pub zero_torque_sent: bool,
     /// Motor-off (0x80) commands queued to it.
@@ -61,6 +64,8 @@ pub enum BusStopOutcome {
         /// How long it was waited for, milliseconds.
         waited_ms: f64,
     },
+    /// Nothing was ever commanded on the bus: nothing was sent to undo it.
+    NotCommanded,
     /// The deadline passed with motors unconfirmed (their replies were lost, or the bus would not
     /// take the frames).
     Deadline {
@@ -112,28 +117,37 @@ pub enum SafeStopBy {
 }
 
 impl SafeStopReport {
-    /// Whether every motor confirmed motor-off.
+    /// Whether every motor the run commanded confirmed motor-off.
     pub fn all_off_confirmed(&self) -> bool {
-        self.motors.iter().all(|m| m.off_confirmed)
+        self.unconfirmed().next().is_none()
     }
 
-    /// The motors that did not confirm motor-off (they may still be energised).
+    /// The motors the run commanded that did not confirm motor-off (they may still be
+    /// energised).
     pub fn unconfirmed(&self) -> impl Iterator<Item = &MotorSafeStop> {
-        self.motors.iter().filter(|m| !m.off_confirmed)
+        self.motors
+            .iter()
+            .filter(|m| m.commanded && !m.off_confirmed)
     }
 }
 
 impl fmt::Display for SafeStopReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let commanded = self.motors.iter().filter(|m| m.commanded).count();
+        if commanded == 0 {
+            return f.write_str(
+                "safe stop: nothing to do: no torque was commanded (the run stopped before the \
+                 first 0x280 frame)",
+            );
+        }
         let confirmed = self.motors.iter().filter(|m| m.off_confirmed).count();
         write!(
             f,
-            "safe stop{}: zero torque then motor off; {confirmed}/{} motors confirmed off",
+            "safe stop{}: zero torque then motor off; {confirmed}/{commanded} motors confirmed off",
             match self.by {
                 SafeStopBy::Loop => "",
                 SafeStopBy::Supervisor => " (by the supervisor)",
             },
-            self.motors.len()
         )?;
         for m in self.unconfirmed() {
             let bus = self.buses.iter().find(|b| b.bus == m.bus);
@@ -212,6 +226,7 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
                 joint: j.name.clone(),
                 bus: j.bus,
                 motor: j.motor,
+                commanded: links[j.bus].commanded,
                 zero_torque_sent: false,
                 off_attempts: 0,
                 off_confirmed: false,
@@ -230,7 +245,11 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
             last_error: None,
         })
         .collect();
-    let mut outcomes: Vec<Option<BusStopOutcome>> = vec![None; links.len()];
+    // A bus never commanded has nothing to undo: nothing is sent to it.
+    let mut outcomes: Vec<Option<BusStopOutcome>> = links
+        .iter()
+        .map(|l| (!l.commanded).then_some(BusStopOutcome::NotCommanded))
+        .collect();
     let mut off_sent_told = false;
     loop {
         let now = clock.now();
@@ -369,6 +388,7 @@ fn receive<B: CanBus>(
         match link.bus.recv_until(now) {
             Ok(Some(received)) => match received.message {
                 BusMessage::Frame(frame) => {
+                    // Motor-off's echo has the same layout in every dialect rmd-rt drives.
                     if let Ok((id, Reply::MotorOff)) =
                         rmd_protocol::decode_reply_to(&frame, Command::MotorOff)
                         && let Some(m) = link.joints().find(|&m| ids[m] == id)

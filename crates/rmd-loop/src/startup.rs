@@ -1,14 +1,18 @@
-//! Starting a loop: the thread's real-time setup, and the probe that waits for every motor to
-//! answer once before any torque is commanded.
+//! Starting a loop: the thread's real-time setup; the identification of every motor on every bus
+//! before any torque (no undescribed motor, no firmware whose 0x280 frame is not per-motor
+//! torque, no firmware other than the described one); and the probe that waits for every motor
+//! to answer a zero-torque 0x280 frame once.
 
 use core::time::Duration;
 
-use rmd_bus::{CanBus, Clock};
+use rmd_bus::{BusMessage, CanBus, Clock};
+use rmd_protocol::identify::{Finding, Identification, ProbeAnswers, identify, probe_requests};
+use rmd_protocol::{MULTI_TORQUE_MOTORS, MotorId, ProtocolFamily};
 
 use crate::engine::Parts;
 use crate::exchange::frames::ZERO_TORQUE;
 use crate::os::{self, RtRequest, RtStatus};
-use crate::report::{Fault, StopReason};
+use crate::report::{Fault, IdentifiedMotor, MotorRef, StopReason};
 use crate::robot::LoopSettings;
 
 /// Stack pre-faulted at start.
@@ -26,11 +30,143 @@ pub(crate) fn prepare_thread(settings: &LoopSettings) -> RtStatus {
     })
 }
 
+/// How long the bus must be quiet after the last answer for the identification to stop waiting.
+const QUIET: Duration = Duration::from_millis(3);
+
+/// How long the identification waits for answers at most.
+fn probe_timeout(settings: &LoopSettings) -> Duration {
+    (settings.period.get() * 4).max(Duration::from_millis(20))
+}
+
+/// Identifies every motor that answers on ids 1..=4 of every bus (read-only requests 0x9A and
+/// 0x9C, answers on `0x140 + id` and `0x240 + id`), before anything else is sent; refuses a
+/// described motor whose firmware is not the described dialect's family or whose 0x280 frame
+/// would not mean per-motor torque, and a motor that answers but is not described (unless the
+/// bus lists it in `zero_torque_ids`). Returns what was found.
+pub(crate) fn identify_motors<B: CanBus, C: Clock>(
+    parts: &mut Parts<B, C>,
+) -> Result<Vec<IdentifiedMotor>, StopReason> {
+    let timeout = probe_timeout(parts.robot.settings());
+    let Parts {
+        exchange,
+        clock,
+        robot,
+        shared,
+        ..
+    } = parts;
+    let ids = multi_torque_ids();
+    let mut found = Vec::new();
+    for (b, link) in exchange.links.iter_mut().enumerate() {
+        if let Some(request) = shared.stop.pending() {
+            return Err(request.into());
+        }
+        let mut answers = [ProbeAnswers::new(); MULTI_TORQUE_MOTORS];
+        for id in ids {
+            for frame in probe_requests(id) {
+                // A refused frame leaves that motor unidentified (the 0x280 probe still waits for
+                // it); only bus-off or a lost interface stop the start.
+                match link.bus.send(&frame) {
+                    Ok(()) | Err(rmd_bus::BusError::TxQueueFull | rmd_bus::BusError::Io(_)) => {}
+                    Err(rmd_bus::BusError::BusOff) => {
+                        return Err(StopReason::Fault(Fault::BusOff { bus: b }));
+                    }
+                    Err(error) => return Err(StopReason::Fault(Fault::Bus { bus: b, error })),
+                }
+            }
+        }
+        // Answers come within a millisecond or so: wait until the bus has been quiet for a
+        // while after the last one (absent motors never answer), at most the timeout.
+        let give_up = clock.now() + timeout;
+        let mut quiet_until = (clock.now() + QUIET).min(give_up);
+        while let Ok(Some(received)) = link.bus.recv_until(quiet_until) {
+            if let BusMessage::Frame(frame) = received.message {
+                for (id, answer) in ids.iter().zip(&mut answers) {
+                    answer.offer(*id, &frame);
+                }
+            }
+            quiet_until = (received.at + QUIET).min(give_up);
+        }
+        let spec = &robot.buses()[b];
+        for (id, answer) in ids.iter().zip(&answers) {
+            let identification = identify(*id, answer);
+            let joint = spec.joints().find(|&j| robot.spec(j).motor == *id);
+            let answered = identification.evidence.finding != Finding::NoAnswer;
+            if !answered && joint.is_none() {
+                continue;
+            }
+            check(robot, b, *id, joint, &identification)?;
+            found.push(IdentifiedMotor {
+                bus: b,
+                motor: *id,
+                joint: joint.map(|j| robot.spec(j).name.clone()),
+                family: identification.family,
+                finding: identification.evidence.finding.to_string(),
+            });
+        }
+    }
+    Ok(found)
+}
+
+/// Motor ids 1..=4, the ones a 0x280 frame addresses.
+fn multi_torque_ids() -> [MotorId; MULTI_TORQUE_MOTORS] {
+    const fn id(n: u8) -> MotorId {
+        match MotorId::new(n) {
+            Ok(id) => id,
+            Err(_) => panic!("1..=4 are motor ids"),
+        }
+    }
+    [id(1), id(2), id(3), id(4)]
+}
+
+/// Whether the loop may start with motor `id` of bus `b` identified as `identification`.
+fn check(
+    robot: &crate::robot::Robot,
+    b: usize,
+    id: MotorId,
+    joint: Option<crate::joint::JointId>,
+    identification: &Identification,
+) -> Result<(), StopReason> {
+    let family = identification.family;
+    let Some(joint) = joint else {
+        // Answering, but not described.
+        if robot.buses()[b].zero_torque_ids.contains(&id) {
+            return Ok(());
+        }
+        return Err(StopReason::Fault(Fault::UndescribedMotor {
+            bus: b,
+            motor: id,
+            family,
+        }));
+    };
+    let at = MotorRef {
+        joint,
+        bus: b,
+        motor: id,
+    };
+    let described = robot.spec(joint).dialect.family();
+    let refuse = match family {
+        // Its 0x280 frame is a command byte for every motor, or nothing is known (answers on both
+        // reply ids): never drive it with 0x280 frames.
+        ProtocolFamily::MyActuatorV3 => true,
+        ProtocolFamily::Unknown => identification.evidence.finding == Finding::AnsweredOnBothIds,
+        // Identified, and not the described one (the current scales would be wrong).
+        known => known != described,
+    };
+    if refuse {
+        return Err(StopReason::Fault(Fault::Firmware {
+            at,
+            family,
+            described,
+        }));
+    }
+    Ok(())
+}
+
 /// The start-up probe: one zero-torque exchange at a time, waiting generously for replies,
 /// until every motor has answered (which also measures each motor's round trip).
 pub(crate) fn probe<B: CanBus, C: Clock>(parts: &mut Parts<B, C>) -> Result<(), StopReason> {
     let settings = *parts.robot.settings();
-    let timeout = (settings.period.get() * 4).max(Duration::from_millis(20));
+    let timeout = probe_timeout(&settings);
     let Parts {
         exchange,
         stats,

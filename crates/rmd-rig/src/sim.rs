@@ -33,7 +33,8 @@ pub fn sim_config(robot: &Robot, bus: &BusSpec, seed: u64) -> SimConfig {
 }
 
 /// A simulated motor matching `joint` (RMD-X8-class defaults for everything the description
-/// does not say): same id, gear ratio, encoder width and, when given, output torque constant;
+/// does not say): same id, firmware family (the joint's dialect), gear ratio, encoder width and,
+/// when given, output torque constant;
 /// its encoder mounted so that the loop reads the joint's true angle whenever the joint powers
 /// up inside its power-up window. The simulated output angle is `direction * joint angle` (see
 /// [`sim_output_angle_deg`]).
@@ -58,6 +59,10 @@ pub fn sim_config(robot: &Robot, bus: &BusSpec, seed: u64) -> SimConfig {
 /// ```
 pub fn sim_motor(joint: &JointSpec) -> rmd_sim::MotorConfig {
     let mut sim = rmd_sim::MotorConfig::new(joint.motor);
+    sim.firmware.family = match joint.dialect {
+        rmd_protocol::Dialect::V161 => rmd_sim::FirmwareFamily::V161,
+        rmd_protocol::Dialect::LkV23x(series) => rmd_sim::FirmwareFamily::LkV23x(series),
+    };
     sim.motor.gear_ratio = joint.gear_ratio;
     if let Some(kt) = joint.torque_constant_nm_per_amp {
         sim.motor.torque_constant_nm_per_a = kt / joint.gear_ratio;

@@ -4,18 +4,19 @@
 use core::ops::Range;
 
 use rmd_protocol::{
-    CanFrame, Command, IqControl, MULTI_TORQUE_MOTORS, MotorId, MultiTorque, Reply, decode_reply_to,
+    CanFrame, Command, CurrentScale, DialectReply, MULTI_TORQUE_MOTORS, MotorId, ScaledCurrent,
+    ScaledMultiTorque, decode_reply_to_with,
 };
 
 use super::motor::MotorLink;
 
-/// One bus's torque commands, by slot (motor id - 1).
-pub(crate) type TorqueSlots = [IqControl; MULTI_TORQUE_MOTORS];
+/// One bus's torque commands, by slot (motor id - 1), each in its motor's command scale.
+pub(crate) type TorqueSlots = [ScaledCurrent; MULTI_TORQUE_MOTORS];
 
-/// No torque current.
-const ZERO_IQ: IqControl = match IqControl::new(0) {
+/// No torque current (raw 0 is 0 A in every dialect).
+const ZERO_IQ: ScaledCurrent = match ScaledCurrent::new(0, CurrentScale::V161_IQ_CONTROL) {
     Ok(zero) => zero,
-    Err(_) => panic!("0 is a valid iqControl"),
+    Err(_) => panic!("0 is a valid current"),
 };
 
 /// Zero torque for every motor of a bus.
@@ -23,18 +24,19 @@ pub(crate) const ZERO_TORQUE: TorqueSlots = [ZERO_IQ; MULTI_TORQUE_MOTORS];
 
 /// The 0x280 frame carrying `slots`.
 pub(crate) fn torque_frame(slots: &TorqueSlots) -> CanFrame {
-    MultiTorque::new(*slots).encode()
+    ScaledMultiTorque::new(*slots).encode()
 }
 
 /// What a received frame is to the bus's motors.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub(crate) enum Incoming {
-    /// A reply of motor `motor` (index in description order) to the expected command.
+    /// A reply of motor `motor` (index in description order) to the expected command, decoded
+    /// in the motor's dialect.
     Reply {
         /// The motor, as an index in description order.
         motor: usize,
         /// The decoded reply.
-        reply: Reply,
+        reply: DialectReply,
     },
     /// A frame on the id of motor `motor` that is not a valid reply to the expected command.
     Bad {
@@ -45,22 +47,21 @@ pub(crate) enum Incoming {
     Foreign,
 }
 
-/// Decodes `frame` as a reply to `expect` and finds which of the motors `joints` sent it.
+/// Finds which of the motors `joints` sent `frame` (by its CAN id) and decodes it, in that
+/// motor's dialect, as a reply to `expect`.
 pub(crate) fn match_reply(
     frame: &CanFrame,
     expect: Command,
     motors: &[MotorLink],
     joints: Range<usize>,
 ) -> Incoming {
-    let decoded = decode_reply_to(frame, expect);
-    let id = match decoded {
-        Ok((id, _)) => Some(id),
-        Err(_) => MotorId::from_can_id(frame.id()).ok(),
-    };
-    let Some(motor) = id.and_then(|id| joints.clone().find(|&m| motors[m].id == id)) else {
+    let Ok(id) = MotorId::from_can_id(frame.id()) else {
         return Incoming::Foreign;
     };
-    match decoded {
+    let Some(motor) = joints.clone().find(|&m| motors[m].id == id) else {
+        return Incoming::Foreign;
+    };
+    match decode_reply_to_with(motors[motor].dialect, frame, expect) {
         Ok((_, reply)) => Incoming::Reply { motor, reply },
         Err(_) => Incoming::Bad { motor },
     }

@@ -42,6 +42,7 @@ impl<B> Exchange<B> {
             .map(|(spec, bus)| BusLink {
                 bus,
                 joints: spec.joint_range(),
+                commanded: false,
             })
             .collect::<Vec<_>>();
         Self {

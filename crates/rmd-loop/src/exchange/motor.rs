@@ -3,7 +3,7 @@
 use core::time::Duration;
 
 use rmd_bus::Timestamp;
-use rmd_protocol::{EncoderWidth, MotorId, Status2};
+use rmd_protocol::{CurrentScale, Dialect, EncoderWidth, MotorId, ScaledStatus2};
 
 use super::pending::{PendingRequests, RESYNC_AFTER};
 use crate::feedback::{Freshness, JointFeedback, JointState, MotorState, RawStatus};
@@ -30,6 +30,10 @@ pub(crate) struct MotorLink {
     /// Which joint, bus and motor this is.
     pub(crate) at: MotorRef,
     pub(crate) id: MotorId,
+    /// The dialect its firmware speaks.
+    pub(crate) dialect: Dialect,
+    /// The scale of its torque commands.
+    pub(crate) command_scale: CurrentScale,
     /// Index in the 0x280 frame (id - 1).
     pub(crate) slot: usize,
     width: EncoderWidth,
@@ -58,6 +62,8 @@ impl MotorLink {
                 motor: joint.motor,
             },
             id: joint.motor,
+            dialect: joint.dialect,
+            command_scale: joint.command_scale(),
             slot: joint.slot(),
             width: joint.encoder,
             map: JointMap::from_spec(joint),
@@ -115,7 +121,7 @@ impl MotorLink {
     /// `max_age` ticks old are accepted; updates `feedback` and `counters`.
     pub(crate) fn on_reply(
         &mut self,
-        status: &Status2,
+        status: &ScaledStatus2,
         at: Timestamp,
         tick: u64,
         max_age: u64,
@@ -192,16 +198,16 @@ mod tests {
     use super::super::pending::PENDING_CAPACITY;
     use super::*;
     use crate::robot::{BusConfig, MotorConfig, Robot, RobotConfig};
-    use rmd_protocol::{EncoderValue, Iq, Speed, Temperature};
+    use rmd_protocol::{EncoderValue, Speed, Temperature};
 
     fn t(us: u64) -> Timestamp {
         Timestamp::from_nanos(us * 1_000)
     }
 
-    fn status(encoder: u16) -> Status2 {
-        Status2 {
+    fn status(encoder: u16) -> ScaledStatus2 {
+        ScaledStatus2 {
             temperature: Temperature::saturating(30),
-            iq: Iq::saturating(100),
+            iq: rmd_protocol::ScaledCurrent::saturating(100, CurrentScale::V161_IQ),
             speed: Speed::saturating(0),
             encoder: EncoderValue::from_raw(encoder),
         }

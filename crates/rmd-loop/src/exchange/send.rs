@@ -20,6 +20,7 @@ impl<B: CanBus> Exchange<B> {
         stats: &mut LoopStats,
     ) -> Result<(), Fault> {
         let link = &mut self.links[b];
+        link.commanded = true;
         match link.bus.send(&torque_frame(slots)) {
             Ok(()) => {
                 for m in link.joints() {

@@ -155,12 +155,25 @@ pub struct MotorConfig {
     /// Default: `bus<b>_motor<id>`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
-    /// Encoder resolution in bits (12..=18, default 14).
-    #[serde(default = "default_encoder_bits")]
-    pub encoder_bits: u8,
-    /// Motor turns per joint turn (e.g. 6.0 for a 1:6 gearbox).
-    #[serde(default = "one")]
-    pub gear_ratio: f64,
+    /// A known motor model (e.g. `"rmd-x8-v2"`, `"mg4005e-i10"`; `rmd_protocol::models`): its
+    /// protocol, current scales, gear ratio, torque constant and encoder width, each taken unless
+    /// given here.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
+    /// The motor's protocol: `"v1.61"` (the default) or `"lk-v2.3x"` (then `lk_series`);
+    /// overrides the bus's and the model's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub protocol: Option<String>,
+    /// The LK-TECH motor series (`"mf"`, `"mg"`), whose current scale differs, for
+    /// `protocol = "lk-v2.3x"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lk_series: Option<String>,
+    /// Encoder resolution in bits (12..=18; default: the model's, else 14).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub encoder_bits: Option<u8>,
+    /// Motor turns per joint turn (e.g. 6.0 for a 1:6 gearbox; default: the model's, else 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gear_ratio: Option<f64>,
     /// Joint direction relative to the motor.
     #[serde(default)]
     pub direction: Direction,
@@ -172,7 +185,8 @@ pub struct MotorConfig {
     /// is the only limit on the torque the loop commands.
     #[serde(default = "default_current_limit")]
     pub current_limit_amps: f64,
-    /// Joint-side torque per ampere of torque current (N*m/A), for commands and feedback in N*m.
+    /// Joint-side torque per ampere of torque current (N*m/A), for commands and feedback in N*m
+    /// (default: the model's, if it has one).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub torque_constant_nm_per_amp: Option<f64>,
     /// A reported temperature at or above this is a fault (degrees Celsius).
@@ -180,24 +194,21 @@ pub struct MotorConfig {
     pub temperature_limit_celsius: Option<f64>,
 }
 
-fn default_encoder_bits() -> u8 {
-    14
-}
-fn one() -> f64 {
-    1.0
-}
 fn default_current_limit() -> f64 {
     5.0
 }
 
 impl MotorConfig {
-    /// A motor with default settings (14-bit encoder, no gearbox, 5 A limit).
+    /// A motor with default settings (14-bit encoder, no gearbox, 5 A limit, v1.61).
     pub fn new(id: u8) -> Self {
         Self {
             id,
             name: None,
-            encoder_bits: default_encoder_bits(),
-            gear_ratio: 1.0,
+            model: None,
+            protocol: None,
+            lk_series: None,
+            encoder_bits: None,
+            gear_ratio: None,
             direction: Direction::Normal,
             zero_offset_deg: 0.0,
             current_limit_amps: default_current_limit(),
@@ -211,14 +222,25 @@ impl MotorConfig {
         self.name = Some(name.to_string());
         self
     }
+    /// Sets the motor model (see `rmd_protocol::models`).
+    pub fn model(mut self, model: &str) -> Self {
+        self.model = Some(model.to_string());
+        self
+    }
+    /// Sets the protocol (`"v1.61"`, `"lk-v2.3x"`) and, for LK-TECH, the series (`"mf"`, `"mg"`).
+    pub fn protocol(mut self, protocol: &str, lk_series: Option<&str>) -> Self {
+        self.protocol = Some(protocol.to_string());
+        self.lk_series = lk_series.map(str::to_string);
+        self
+    }
     /// Sets the encoder resolution.
     pub fn encoder_bits(mut self, bits: u8) -> Self {
-        self.encoder_bits = bits;
+        self.encoder_bits = Some(bits);
         self
     }
     /// Sets the gear ratio.
     pub fn gear_ratio(mut self, ratio: f64) -> Self {
-        self.gear_ratio = ratio;
+        self.gear_ratio = Some(ratio);
         self
     }
     /// Sets the direction.
@@ -264,6 +286,18 @@ pub struct BusConfig {
     /// exchange budget.
     #[serde(default = "default_turnaround")]
     pub turnaround_us: u64,
+    /// The protocol of the bus's motors unless a motor says otherwise (`"v1.61"`, `"lk-v2.3x"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub protocol: Option<String>,
+    /// The LK-TECH series of the bus's motors unless a motor says otherwise (`"mf"`, `"mg"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lk_series: Option<String>,
+    /// Ids among 1..=4 of motors on this bus that the description does not drive but that may
+    /// answer: the loop's 0x280 frame commands them zero torque every tick, and they are made
+    /// safe at the end. Without this, an undescribed motor that answers at start-up stops the
+    /// start before any torque is sent.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub zero_torque_ids: Vec<u8>,
     /// The motors.
     #[serde(default, rename = "motor")]
     pub motors: Vec<MotorConfig>,
@@ -284,6 +318,9 @@ impl BusConfig {
             interface: interface.to_string(),
             bitrate: default_bitrate(),
             turnaround_us: default_turnaround(),
+            protocol: None,
+            lk_series: None,
+            zero_torque_ids: Vec::new(),
             motors: Vec::new(),
         }
     }

@@ -37,7 +37,8 @@ use core::time::Duration;
 use std::path::Path;
 
 use rmd_bus::wire;
-use rmd_protocol::{EncoderWidth, IqControl, MULTI_TORQUE_MOTORS, MotorId};
+use rmd_protocol::models::{MODELS, MotorModel, find_model};
+use rmd_protocol::{CurrentScale, Dialect, EncoderWidth, MULTI_TORQUE_MOTORS, MotorId};
 
 pub use error::RobotError;
 use error::invalid;
@@ -55,7 +56,8 @@ pub const MAX_BUSES: usize = 8;
 pub const MAX_MOTORS_PER_BUS: usize = MULTI_TORQUE_MOTORS;
 /// Most joints one loop drives.
 pub const MAX_JOINTS: usize = MAX_BUSES * MAX_MOTORS_PER_BUS;
-/// Largest torque current a 0x280 command can carry (iqControl 2000 = 32 A).
+/// Largest torque current a v1.61 0x280 command can carry (iqControl 2000 = 32 A; other
+/// dialects: their own range).
 pub const MAX_COMMAND_AMPS: f64 = 32.0;
 
 /// A `SCHED_FIFO` priority, 1..=99.
@@ -178,6 +180,9 @@ pub struct BusSpec {
     pub bitrate: u32,
     /// Expected motor turnaround, for the exchange budget.
     pub turnaround: Duration,
+    /// Motors the description does not drive but acknowledges (`zero_torque_ids`): commanded
+    /// zero torque every tick, made safe at the end.
+    pub zero_torque_ids: Vec<MotorId>,
     joints: Range<usize>,
 }
 
@@ -203,7 +208,7 @@ impl BusSpec {
     }
 }
 
-/// A torque current limit: amperes, and the raw `iqControl` it allows.
+/// A torque current limit: amperes, and the raw command it allows in the joint's dialect.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct CurrentLimit {
     amps: f64,
@@ -211,12 +216,12 @@ pub struct CurrentLimit {
 }
 
 impl CurrentLimit {
-    /// The limit in amperes (0 < limit <= 32).
+    /// The limit in amperes (above 0, at most the dialect's command range).
     pub fn amps(self) -> f64 {
         self.amps
     }
 
-    /// The largest raw `iqControl` magnitude it allows.
+    /// The largest raw command magnitude it allows (rounded towards zero).
     pub fn raw(self) -> i16 {
         self.raw
     }
@@ -231,6 +236,10 @@ pub struct JointSpec {
     pub bus: usize,
     /// Its motor's id (1..=4).
     pub motor: MotorId,
+    /// The protocol dialect its firmware speaks (the current scales of its commands and replies).
+    pub dialect: Dialect,
+    /// Its model, when the description names one.
+    pub model: Option<&'static str>,
     /// The motor's encoder width.
     pub encoder: EncoderWidth,
     /// Motor turns per joint turn (positive).
@@ -251,6 +260,16 @@ impl JointSpec {
     /// The motor's slot in its bus's 0x280 frame (id - 1).
     pub fn slot(&self) -> usize {
         usize::from(self.motor.get() - 1)
+    }
+
+    /// The scale of its torque commands (0x280 slots, 0xA1).
+    pub fn command_scale(&self) -> CurrentScale {
+        self.dialect.iq_control_scale()
+    }
+
+    /// The scale of the torque current in its replies.
+    pub fn reply_scale(&self) -> CurrentScale {
+        self.dialect.iq_scale()
     }
 }
 
@@ -400,7 +419,7 @@ impl TryFrom<RobotConfig> for Robot {
             }
             for (m, motor) in bus.motors.iter().enumerate() {
                 let mkey = format!("{key}.motor[{m}]");
-                let joint = joint_spec(b, motor, &mkey)?;
+                let joint = joint_spec(b, bus, motor, &mkey)?;
                 if bus.motors[..m].iter().any(|o| o.id == motor.id) {
                     return Err(invalid(
                         format!("{mkey}.id"),
@@ -581,16 +600,114 @@ fn bus_spec(b: usize, bus: &BusConfig, key: &str, first: usize) -> Result<BusSpe
         Some(name) => name.clone(),
         None => format!("bus{b}"),
     };
+    let mut zero_torque_ids = Vec::new();
+    for (i, &id) in bus.zero_torque_ids.iter().enumerate() {
+        let ikey = format!("{key}.zero_torque_ids[{i}]");
+        let motor = MotorId::new(id)
+            .ok()
+            .filter(|m| usize::from(m.get()) <= MAX_MOTORS_PER_BUS)
+            .ok_or_else(|| invalid(&ikey, format!("is {id}, must be 1..=4")))?;
+        if bus.motors.iter().any(|m| m.id == id) {
+            return Err(invalid(
+                ikey,
+                format!("motor {id} is described on this bus: it cannot also be undriven"),
+            ));
+        }
+        if !zero_torque_ids.contains(&motor) {
+            zero_torque_ids.push(motor);
+        }
+    }
     Ok(BusSpec {
         name,
         interface,
         bitrate: bus.bitrate,
         turnaround: Duration::from_micros(bus.turnaround_us),
+        zero_torque_ids,
         joints: first..first + bus.motors.len(),
     })
 }
 
-fn joint_spec(b: usize, m: &MotorConfig, key: &str) -> Result<JointSpec, RobotError> {
+/// The model named at `key`, if any.
+fn model_of(m: &MotorConfig, key: &str) -> Result<Option<&'static MotorModel>, RobotError> {
+    let Some(name) = &m.model else {
+        return Ok(None);
+    };
+    find_model(name).map(Some).map_err(|_| {
+        invalid(
+            format!("{key}.model"),
+            format!(
+                "is `{name}`, which rmd-rt does not know (known models: {}); describe the motor \
+                 with its own keys instead",
+                MODELS.iter().map(|m| m.name).collect::<Vec<_>>().join(", ")
+            ),
+        )
+    })
+}
+
+/// The motor's dialect: its own `protocol`, the bus's, the model's, or v1.61.
+fn dialect_of(
+    bus: &BusConfig,
+    m: &MotorConfig,
+    model: Option<&MotorModel>,
+    key: &str,
+) -> Result<Dialect, RobotError> {
+    let (protocol, protocol_key) = match (&m.protocol, &bus.protocol) {
+        (Some(p), _) => (Some(p.as_str()), format!("{key}.protocol")),
+        (None, Some(p)) => (Some(p.as_str()), format!("{key}.protocol (from its bus)")),
+        (None, None) => (None, format!("{key}.protocol")),
+    };
+    let series = m.lk_series.as_deref().or(bus.lk_series.as_deref()).or(model
+        .and_then(|md| md.dialect)
+        .and_then(|d| d.lk_series())
+        .map(|s| s.name()));
+    let model_dialect = match model {
+        Some(md) => Some(md.dialect.ok_or_else(|| {
+            invalid(
+                format!("{key}.model"),
+                format!(
+                    "`{}` speaks {}, whose 0x280 frame is a command for every motor, not \
+                     per-motor torque: the loop cannot drive it",
+                    md.name, md.family
+                ),
+            )
+        })?),
+        None => None,
+    };
+    let dialect = match protocol {
+        Some(p) => Dialect::from_names(p, series).map_err(|e| {
+            invalid(
+                protocol_key.clone(),
+                format!(
+                    "is `{p}`: {e} (\"v1.61\", or \"lk-v2.3x\" with lk_series = \"mf\" or \"mg\")"
+                ),
+            )
+        })?,
+        None => model_dialect.unwrap_or_default(),
+    };
+    if let (Some(md), Some(model_dialect)) = (model, model_dialect)
+        && model_dialect.family() != dialect.family()
+    {
+        return Err(invalid(
+            protocol_key,
+            format!(
+                "is {}, but model `{}` speaks {}",
+                dialect.name(),
+                md.name,
+                model_dialect.name()
+            ),
+        ));
+    }
+    Ok(dialect)
+}
+
+fn joint_spec(
+    b: usize,
+    bus: &BusConfig,
+    m: &MotorConfig,
+    key: &str,
+) -> Result<JointSpec, RobotError> {
+    let model = model_of(m, key)?;
+    let dialect = dialect_of(bus, m, model, key)?;
     let motor = MotorId::new(m.id)
         .ok()
         .filter(|id| usize::from(id.get()) <= MAX_MOTORS_PER_BUS)
@@ -603,34 +720,49 @@ fn joint_spec(b: usize, m: &MotorConfig, key: &str) -> Result<JointSpec, RobotEr
                 ),
             )
         })?;
-    let encoder = EncoderWidth::new(m.encoder_bits).map_err(|_| {
-        invalid(
-            format!("{key}.encoder_bits"),
-            format!(
-                "is {}, must be {}..={}",
-                m.encoder_bits,
-                EncoderWidth::MIN_BITS,
-                EncoderWidth::MAX_BITS
-            ),
-        )
-    })?;
-    if !(m.gear_ratio.is_finite() && m.gear_ratio > 0.0) {
+    let encoder = match (m.encoder_bits, model.and_then(|md| md.encoder_bits)) {
+        (Some(bits), _) => EncoderWidth::new(bits).map_err(|_| {
+            invalid(
+                format!("{key}.encoder_bits"),
+                format!(
+                    "is {bits}, must be {}..={}",
+                    EncoderWidth::MIN_BITS,
+                    EncoderWidth::MAX_BITS
+                ),
+            )
+        })?,
+        (None, Some(from_model)) => from_model.value,
+        (None, None) => EncoderWidth::DEFAULT,
+    };
+    let gear_ratio = m
+        .gear_ratio
+        .or(model.and_then(|md| md.gear_ratio).map(|g| g.value))
+        .unwrap_or(1.0);
+    if !(gear_ratio.is_finite() && gear_ratio > 0.0) {
         return Err(invalid(
             format!("{key}.gear_ratio"),
-            format!("is {}, must be a positive number", m.gear_ratio),
+            format!("is {gear_ratio}, must be a positive number"),
         ));
     }
+    let torque_constant = m.torque_constant_nm_per_amp.or(model
+        .and_then(|md| md.torque_constant_nm_per_a)
+        .map(|kt| kt.value));
     if !m.zero_offset_deg.is_finite() {
         return Err(invalid(format!("{key}.zero_offset_deg"), "must be finite"));
     }
     let amps = m.current_limit_amps;
-    if !(amps.is_finite() && amps > 0.0 && amps <= MAX_COMMAND_AMPS) {
+    let scale = dialect.iq_control_scale();
+    let max_amps = scale.max_amps();
+    if !(amps.is_finite() && amps > 0.0 && amps <= max_amps) {
         return Err(invalid(
             format!("{key}.current_limit_amps"),
-            format!("is {amps}, must be in (0, {MAX_COMMAND_AMPS}] A"),
+            format!(
+                "is {amps}, must be in (0, {max_amps}] A (the {} command range)",
+                dialect
+            ),
         ));
     }
-    if let Some(kt) = m.torque_constant_nm_per_amp
+    if let Some(kt) = torque_constant
         && !(kt.is_finite() && kt > 0.0)
     {
         return Err(invalid(
@@ -657,16 +789,20 @@ fn joint_spec(b: usize, m: &MotorConfig, key: &str) -> Result<JointSpec, RobotEr
         name,
         bus: b,
         motor,
+        dialect,
+        model: model.map(|md| md.name),
         encoder,
-        gear_ratio: m.gear_ratio,
+        gear_ratio,
         direction: m.direction,
         zero_offset_deg: m.zero_offset_deg,
         current_limit: CurrentLimit {
             amps,
             // Rounded towards zero: a clamped command never exceeds the described limit.
-            raw: (amps * f64::from(IqControl::MAX.raw()) / MAX_COMMAND_AMPS).floor() as i16,
+            raw: (amps / scale.amps_per_lsb())
+                .floor()
+                .min(f64::from(scale.max_raw())) as i16,
         },
-        torque_constant_nm_per_amp: m.torque_constant_nm_per_amp,
+        torque_constant_nm_per_amp: torque_constant,
         temperature_limit_celsius: m.temperature_limit_celsius,
     })
 }
@@ -749,7 +885,7 @@ mod tests {
                 .unwrap();
         let raw = three.joints()[0].current_limit.raw();
         assert_eq!(raw, 187);
-        assert!(IqControl::saturating(raw).amps() <= 3.0);
+        assert!(rmd_protocol::IqControl::saturating(raw).amps() <= 3.0);
         // Unnamed joints get a name from their bus and id.
         assert_eq!(robot.joints()[1].name, "bus0_motor2");
         assert_eq!(robot.buses()[0].name, "bus0");

@@ -150,3 +150,28 @@ impl Controller for PdTo {
 }
 
 pub const MS: Duration = Duration::from_millis(1);
+
+/// A simulated bus the test can look at while the loop drives it.
+#[derive(Clone)]
+pub struct SharedSim(pub std::sync::Arc<std::sync::Mutex<SimBus<VirtualClock>>>);
+
+impl SharedSim {
+    pub fn new(bus: SimBus<VirtualClock>) -> Self {
+        Self(std::sync::Arc::new(std::sync::Mutex::new(bus)))
+    }
+    pub fn snapshot(&self, motor: MotorId) -> rmd_sim::MotorSnapshot {
+        self.0.lock().unwrap().snapshot(motor).unwrap()
+    }
+}
+
+impl rmd_bus::CanBus for SharedSim {
+    fn send(&mut self, frame: &rmd_protocol::CanFrame) -> Result<(), rmd_bus::BusError> {
+        self.0.lock().unwrap().send(frame)
+    }
+    fn recv_until(
+        &mut self,
+        deadline: rmd_bus::Timestamp,
+    ) -> Result<Option<rmd_bus::Received>, rmd_bus::BusError> {
+        self.0.lock().unwrap().recv_until(deadline)
+    }
+}
