@@ -64,9 +64,9 @@ impl AnyBus {
             AnyBus::Sim(bus) => Ok(Box::new(bus.clone())),
             #[cfg(target_os = "linux")]
             AnyBus::SocketCan(bus) => {
-                use rmd_bus::socketcan::{SocketCanBus, SocketCanOptions};
+                use rmd_bus::socketcan::SocketCanBus;
                 let iface = bus.iface().to_string();
-                SocketCanBus::open(&iface, &SocketCanOptions::new())
+                SocketCanBus::open(&iface, &crate::open::loop_socket_options())
                     .map(|port| Box::new(port) as SafetyPort)
                     .map_err(|source| crate::RigError::Open {
                         bus: format!("{iface} (the supervisor's socket)"),
