@@ -89,3 +89,8 @@ pub use handle::ServoHandle;
 pub use setpoint::{JointRef, Setpoint};
 pub use state::{JointCounters, JointStatus, Reference, ServoMode, ServoState};
 pub use trajectory::{JointTrajectory, JointTrajectoryPoint, TrajectoryReceipt, TrajectoryStart};
+
+/// docs/servo.md, whose code blocks `cargo test --doc -p rmd-servo` compiles and runs.
+#[cfg(doctest)]
+#[doc = include_str!("../../../docs/servo.md")]
+pub struct ServoGuide;
