@@ -622,8 +622,7 @@ impl ServoController {
     /// Zero torque everywhere; the joints' measured state still published.
     fn zero(&mut self, ctx: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) {
         cmd.zero_all();
-        for (i, status) in self.state.joints_mut().iter_mut().enumerate() {
-            let f = fb[JointId::from_index(i)];
+        for (status, (_, f)) in self.state.joints_mut().iter_mut().zip(fb.iter()) {
             status.position_rad = f.joint.angle_rad();
             status.velocity_rad_s = f.joint.velocity_rad_s();
             status.commanded_effort_nm = 0.0;

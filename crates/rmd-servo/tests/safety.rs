@@ -449,3 +449,30 @@ fn a_servo_disabled_at_start_waits_for_enable() {
     bench.run_s(1.0);
     assert!((bench.truth_rad(2) - 0.1).abs() < 0.01);
 }
+
+#[test]
+fn a_servo_configured_for_another_robot_halts_the_loop() {
+    use rmd_loop::Robot;
+    use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
+    use rmd_servo::{ServoConfig, ServoController};
+    // Two joints named differently: the loop's robot has four.
+    let other = Robot::try_from(
+        RobotConfig::new(1000.0).with_bus(
+            BusConfig::new("sim")
+                .with_motor(MotorConfig::new(1).name("a").torque_constant(2.09))
+                .with_motor(MotorConfig::new(2).name("b").torque_constant(2.09)),
+        ),
+    )
+    .unwrap();
+    let (servo, handle) = ServoController::new(ServoConfig::defaults(&other).unwrap());
+    let mut bench = Bench::with(common::robot(), servo, handle, [0.0; 4]);
+    let outcome = bench.outcome.take().expect("the loop halted");
+    assert_eq!(
+        outcome.report.stop_reason,
+        StopReason::ControllerHalted("the servo's configuration was built for another robot")
+    );
+    bench.step(1);
+    for i in 0..JOINTS.len() {
+        assert_eq!(bench.motor(i).mode, ControlMode::Off);
+    }
+}
