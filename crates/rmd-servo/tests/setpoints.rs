@@ -50,6 +50,28 @@ fn position_setpoints_by_name_in_one_batch_are_applied_in_one_tick_and_reached()
 }
 
 #[test]
+fn the_servo_writes_each_joints_position_error_as_a_user_signal() {
+    let mut bench = Bench::new(SERVO, [0.0; 4]);
+    bench.handle.set_position("knee", 0.3, 0.0, 0.0).unwrap();
+    bench.step(5);
+    let sample = bench.telemetry.latest().unwrap();
+    let state = bench.state().unwrap();
+    assert_eq!(sample.tick, state.tick);
+    let errors: Vec<f64> = state
+        .joints()
+        .iter()
+        .map(|j| j.position_error_rad.unwrap())
+        .collect();
+    assert_eq!(sample.signals(), errors.as_slice());
+    assert!(errors[2] > 0.2, "{errors:?}");
+    let outcome = bench.finish();
+    assert_eq!(
+        rmd_loop::Controller::signals(&outcome.controller),
+        JOINTS.map(|j| format!("servo_{j}_error_rad"))
+    );
+}
+
+#[test]
 fn the_feed_forward_terms_enter_the_law() {
     let mut bench = Bench::new(SERVO, [0.0; 4]);
     bench.handle.set_position("knee", 0.05, 0.4, 0.7).unwrap();

@@ -7,8 +7,9 @@ use std::ops::ControlFlow;
 use std::sync::{Arc, Mutex, Once};
 
 use rmd_bus::{BusError, CanBus, Received, Timestamp, VirtualClock};
+use rmd_loop::mailbox::Receiver;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
-use rmd_loop::{LoopOutcome, Robot, RtLoop, Running, StopReason};
+use rmd_loop::{LoopOutcome, Robot, RtLoop, Running, StopReason, TelemetrySample};
 use rmd_protocol::{CanFrame, MotorId};
 use rmd_servo::{ServoConfig, ServoController, ServoHandle, ServoState};
 use rmd_sim::{MotorSnapshot, SimBus};
@@ -66,6 +67,8 @@ pub struct Bench {
     pub robot: Robot,
     /// How the loop ended, if it ended on its own.
     pub outcome: Option<LoopOutcome<ServoController>>,
+    /// The loop's telemetry (every tick: feedback, commands, the servo's user signals).
+    pub telemetry: Receiver<TelemetrySample>,
 }
 
 static HOOK: Once = Once::new();
@@ -93,7 +96,8 @@ impl Bench {
         }
         let bus = rmd_rig::open::sim_buses(&clock, sims).unwrap().remove(0);
         let bus = Shared(Arc::new(Mutex::new(bus)));
-        let rt = RtLoop::new(robot.clone(), clock, vec![bus.clone()], controller).unwrap();
+        let mut rt = RtLoop::new(robot.clone(), clock, vec![bus.clone()], controller).unwrap();
+        let telemetry = rt.telemetry();
         let running = match rt.start() {
             Ok(running) => running,
             Err(outcome) => panic!("the loop did not start: {}", outcome.report),
@@ -109,6 +113,7 @@ impl Bench {
             handle,
             robot,
             outcome: None,
+            telemetry,
         };
         bench.step(1);
         bench
