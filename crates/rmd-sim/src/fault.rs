@@ -754,7 +754,7 @@ mod tests {
 
     #[test]
     fn a_first_after_window_takes_the_first_frames_at_or_after_its_start() {
-        let at = |ms| Timestamp::from_nanos(ms * 1_000_000);
+        let at = |ms: u64| Timestamp::from_nanos(ms * 1_000_000);
         let rule = FaultRule::new(FaultKind::TxStall {
             duration: Duration::from_millis(5),
         })
