@@ -14,11 +14,14 @@ use crate::fault::{DrillFault, Probability};
 use crate::spec::DrillSpec;
 use crate::verdict::SimMotorRef;
 
-/// How much the resident memory may grow after the first drill, KiB: drills hold nothing from
-/// one to the next, so growth beyond allocator noise is a leak.
+/// How much the resident memory may grow after the warm-up, KiB: drills hold nothing from one
+/// to the next, so growth beyond allocator noise is a leak. (The warm-up fills the process's
+/// one-time caches: the first panic with `RUST_BACKTRACE=1` loads the debug information to
+/// symbolise its backtrace, tens of MiB in a debug build.)
 pub const MEMORY_BOUND_KIB: u64 = 64 * 1024;
 
-/// A chaos run: drills with random faults until their run time adds up to `seconds`.
+/// A chaos run: a warm-up of one short drill of every kind of the matrix, in order, then drills
+/// with random faults until their run time adds up to `seconds` (the warm-up's included).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ChaosSpec {
     /// Total run time of the drills (simulated time in virtual time).
@@ -91,9 +94,9 @@ pub enum ChaosFailure {
         /// Why.
         message: String,
     },
-    /// Resident memory grew by more than [`MEMORY_BOUND_KIB`] after the first drill.
+    /// Resident memory grew by more than [`MEMORY_BOUND_KIB`] after the warm-up.
     Memory {
-        /// After the first drill, KiB.
+        /// After the warm-up, KiB.
         first_kib: u64,
         /// The most seen, KiB.
         max_kib: u64,
@@ -132,11 +135,15 @@ pub fn chaos(spec: &ChaosSpec, mut each: impl FnMut(&ChaosDrill)) -> ChaosReport
     let mut rng = Pcg64Mcg::seed_from_u64(spec.seed);
     let mut report = ChaosReport::default();
     let mut elapsed = Duration::ZERO;
-    let mut first_rss = None;
+    let mut baseline_rss = None;
     let mut max_rss = 0;
+    let mut warm_up = warm_up(&mut rng, spec.time).into_iter();
     while elapsed < spec.seconds {
         let index = report.drills.len();
-        let drill = random_drill(&mut rng, spec.time);
+        let (drill, warming) = match warm_up.next() {
+            Some(drill) => (drill, true),
+            None => (random_drill(&mut rng, spec.time), false),
+        };
         elapsed += drill.seconds;
         let budget = budget(&drill);
         let (tx, rx) = mpsc::channel();
@@ -191,8 +198,8 @@ pub fn chaos(spec: &ChaosSpec, mut each: impl FnMut(&ChaosDrill)) -> ChaosReport
             report.failures.push(ChaosFailure::WrongBelief { index });
         }
         let rss_kib = resident_kib();
-        if let Some(rss) = rss_kib {
-            let first = *first_rss.get_or_insert(rss);
+        if let Some(rss) = rss_kib.filter(|_| !warming) {
+            let first = *baseline_rss.get_or_insert(rss);
             max_rss = max_rss.max(rss);
             if max_rss > first + MEMORY_BOUND_KIB
                 && !report
@@ -245,6 +252,21 @@ fn budget(drill: &DrillSpec) -> Duration {
         SimTime::Virtual => Duration::ZERO,
     };
     own + hangs + Duration::from_secs(60)
+}
+
+/// One drill of every kind of the matrix, 300 ms each, on two buses of four motors.
+fn warm_up(rng: &mut Pcg64Mcg, time: SimTime) -> Vec<DrillSpec> {
+    DrillFault::matrix()
+        .into_iter()
+        .map(|fault| {
+            DrillSpec::new(fault)
+                .buses(2)
+                .at(Duration::from_millis(100))
+                .seconds(Duration::from_millis(300))
+                .seed(rng.next_u64())
+                .time(time)
+        })
+        .collect()
 }
 
 /// A drill with 1 to 3 random faults from the matrix at random times.

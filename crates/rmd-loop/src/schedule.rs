@@ -189,6 +189,11 @@ impl Scheduler {
         self.period
     }
 
+    /// The index of the tick [`wait_next`](Self::wait_next) returns next, unless it skips.
+    pub fn next_index(&self) -> u64 {
+        self.next
+    }
+
     /// When tick `index` is due.
     pub fn scheduled(&self, index: u64) -> Timestamp {
         let nanos = u128::from(index) * self.period.as_nanos();
