@@ -11,6 +11,7 @@ use rmd_protocol::{IqControl, MotorId, Request, SpeedControl, Status2};
 
 use crate::args::bus::BusArgs;
 use crate::args::parse;
+use crate::args::timing;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
 use crate::live::safe_stop;
@@ -27,7 +28,7 @@ struct Timing {
     #[arg(long, visible_alias = "seconds", value_name = "DURATION", value_parser = duration::any, default_value = "1s", allow_hyphen_values = true)]
     duration: Duration,
     /// How often the command is sent again (and the motor's reply shown), Hz.
-    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = parse::positive, default_value = "50")]
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = timing::rate_hz, default_value = "50", allow_hyphen_values = true)]
     rate: f64,
 }
 
@@ -115,7 +116,7 @@ fn drive(
 ) -> Result<(), CliError> {
     let mut bus = Connection::open(bus_args, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     interrupt::install_driving()?;
-    let period = Duration::from_secs_f64(1.0 / timing.rate);
+    let period = timing::period(timing.rate);
     let start = bus.clock().now();
     let end = start + timing.duration;
     let mut sent: u32 = 0;

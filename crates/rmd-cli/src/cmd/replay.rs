@@ -20,7 +20,7 @@ use rmd_bus::{BusMessage, Clock, Timestamp};
 use rmd_protocol::{DecodedRequest, MotorId, Request, decode_request};
 
 use crate::args::bus::BusArgs;
-use crate::args::parse;
+use crate::args::timing;
 use crate::cmd::decode::pairing::{Pairing, Role};
 use crate::live::confirm;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
@@ -50,7 +50,7 @@ pub(crate) struct ReplayArgs {
     #[arg(value_name = "FILE")]
     file: PathBuf,
     /// Play this many times faster than recorded (0.5: half speed).
-    #[arg(long, value_parser = parse::positive, default_value = "1")]
+    #[arg(long, value_parser = timing::replay_speed, default_value = "1", allow_hyphen_values = true)]
     speed: f64,
     /// Play every frame at once, without the recorded pauses.
     #[arg(long, conflicts_with = "speed")]

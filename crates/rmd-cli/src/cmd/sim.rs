@@ -22,6 +22,7 @@ use rmd_sim::{
 
 use crate::args::ids::{self, IdList};
 use crate::args::parse;
+use crate::args::timing;
 use crate::live::connect::{Filter, open_interface, report_recording};
 use crate::live::interrupt;
 use crate::output::errln;
@@ -57,11 +58,11 @@ struct MotorOptions {
     /// Gear ratio (motor turns per output turn).
     #[arg(long, value_parser = parse::positive, default_value = "9")]
     gear_ratio: f64,
-    /// Time from a request to its reply, microseconds.
-    #[arg(long, value_name = "US", default_value_t = 200)]
+    /// Time from a request to its reply, microseconds (0..=60000000).
+    #[arg(long, value_name = "US", value_parser = timing::sim_delay_us, default_value = "200", allow_hyphen_values = true)]
     turnaround_us: u64,
-    /// Random extra turnaround, 0..=this, microseconds.
-    #[arg(long, value_name = "US", default_value_t = 20)]
+    /// Random extra turnaround, 0..=this, microseconds (0..=60000000).
+    #[arg(long, value_name = "US", value_parser = timing::sim_delay_us, default_value = "20", allow_hyphen_values = true)]
     jitter_us: u64,
     /// Seed of every random draw (jitter, faults): the same seed and traffic give the same run.
     #[arg(long, default_value_t = 0)]
