@@ -14,6 +14,7 @@ use crate::args::parse;
 use crate::args::timing;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
+use crate::live::recording;
 use crate::live::safe_stop;
 use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
@@ -160,14 +161,17 @@ fn drive(
     drop(progress);
     let elapsed = bus.clock().now() - start;
     let result = safe_stop::finish(&mut bus, &[id], outcome);
-    bus.finish()?;
-    result?;
+    // The motor is off: the log (a stalled reader is waited for a bounded time) comes after.
+    let finished = bus.finish();
+    if result.is_err() {
+        return recording::after(result, finished);
+    }
     outln!(
         "motor {id}: {what} for {:.2} s ({sent} commands), then turned off{}",
         elapsed.as_secs_f64(),
         last.map_or(String::new(), |s| format!("; last reply: {}", reading(&s)))
     )?;
-    Ok(())
+    finished
 }
 
 /// One status-2 reply in words.

@@ -26,6 +26,7 @@ use crate::live::confirm;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::exchange::{self, Setup};
 use crate::live::interrupt;
+use crate::live::recording;
 use crate::live::safe_stop;
 use crate::output::console::WriteError;
 use crate::output::progress::{self, Progress};
@@ -248,13 +249,13 @@ fn play_onto_bus(args: &ReplayArgs, records: &[LogRecord], pace: Pace) -> Result
         safe_stop::finish(&mut bus, &moved, outcome)
     };
     let target = bus.setup().name();
-    bus.finish()?;
+    let finished = bus.finish();
     errln!(
         "replayed {sent} frame(s) onto {target} in {:.3} s; {} frame(s) received",
         elapsed.as_secs_f64(),
         received
     );
-    result
+    recording::after(result, finished)
 }
 
 /// Prints frames as candump -L lines with direction markers, on the wall clock.
