@@ -1,5 +1,7 @@
 //! The live commands end as a robotics engineer expects, whatever the flags, the log or the log's
 //! reader do (simulated motors in the process, `--sim`):
+//! - `rmd replay` asks before sending frames that write a motor's ROM, and refuses without a
+//!   terminal unless `--yes`, naming the frames;
 //! - a `--log` FIFO whose reader stops reading never holds the end of a command, nor its
 //!   signals;
 //! - SIGTERM ends `rmd torque`, `speed` and `move` with status 130 after motor-off.
@@ -12,7 +14,10 @@ use std::process::{Child, Command as StdCommand, Stdio};
 use std::time::{Duration, Instant};
 
 use rmd_bus::candump::{Direction, parse_line};
-use rmd_protocol::Command as Cmd;
+use rmd_protocol::{Command as Cmd, DecodedRequest, decode_request};
+
+mod support;
+use support::{fails, ok, rmd, text};
 
 /// A fresh file path in a per-test directory.
 fn temp_path(test: &str, name: &str) -> PathBuf {
@@ -35,6 +40,20 @@ fn frames(path: &Path) -> Vec<(Direction, u16, u8)> {
                 parsed.frame.id(),
                 parsed.frame.data()[0],
             )
+        })
+        .collect()
+}
+
+/// The host's single-motor requests of a log: (motor, command).
+fn host_commands(path: &Path) -> Vec<(u8, Cmd)> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|line| parse_line(line).unwrap())
+        .filter(|l| l.direction == Some(Direction::Tx))
+        .filter_map(|l| match decode_request(&l.frame) {
+            Ok(DecodedRequest::Single { motor, request }) => Some((motor.get(), request.command())),
+            _ => None,
         })
         .collect()
 }
@@ -163,6 +182,71 @@ fn rest(mut reader: impl Read) -> String {
 fn send(child: &Child, signal: nix::sys::signal::Signal) {
     let pid = nix::unistd::Pid::from_raw(i32::try_from(child.id()).unwrap());
     nix::sys::signal::kill(pid, signal).unwrap();
+}
+
+/// A log holding a zero write (0x19) to motor 1 and a PID write to ROM (0x32) to motor 2, each
+/// with its reply.
+fn rom_log(test: &str) -> PathBuf {
+    let log = temp_path(test, "rom.log");
+    std::fs::write(
+        &log,
+        "(1.000000) can0 141#1900000000000000 T\n\
+         (1.000300) can0 141#1900000000001234 R\n\
+         (1.001000) can0 141#9C00000000000000 T\n\
+         (1.001300) can0 141#9C19000000000000 R\n\
+         (1.002000) can0 142#3200640A64286432 T\n\
+         (1.002300) can0 142#3200640A64286432 R\n",
+    )
+    .unwrap();
+    log
+}
+
+#[test]
+fn replaying_rom_writes_asks_first_and_refuses_without_a_terminal() {
+    let log = rom_log("replay-rom");
+    let file = log.to_str().unwrap();
+    let session = temp_path("replay-rom", "session.log");
+    let session_arg = session.to_str().unwrap();
+    // No terminal, no --yes: refused before anything is opened or sent, naming the frames.
+    let err = fails(1, &["replay", file, "--sim", "--log", session_arg]);
+    assert!(err.contains("needs confirmation"), "{err}");
+    assert!(err.contains("pass --yes"), "{err}");
+    assert!(
+        err.contains("line 1: 0x19") && err.contains("to motor 1"),
+        "{err}"
+    );
+    assert!(
+        err.contains("line 5: 0x32") && err.contains("to motor 2"),
+        "{err}"
+    );
+    assert!(!err.contains("line 3"), "a read is not a ROM write: {err}");
+    assert!(!session.exists(), "nothing may be sent");
+    // Replies travel on the motors' ids too: replaying them writes ROM as well.
+    let err = fails(1, &["replay", file, "--sim", "--frames", "motors"]);
+    assert!(
+        err.contains("line 2: 0x19") && err.contains("line 6: 0x32"),
+        "{err}"
+    );
+    // Confirmed with --yes: sent, and the simulated motors answered both.
+    let out = rmd(&["replay", file, "--sim", "--yes", "--log", session_arg]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(
+        host_commands(&session),
+        [
+            (1, Cmd::WriteZeroRom),
+            (1, Cmd::ReadStatus2),
+            (2, Cmd::WritePidRom)
+        ]
+    );
+    let answered: Vec<u8> = frames(&session)
+        .iter()
+        .filter(|f| f.0 == Direction::Rx)
+        .map(|f| f.2)
+        .collect();
+    assert_eq!(answered, [0x19, 0x9C, 0x32]);
+    // Printing the log never asks.
+    let printed = ok(&["replay", file, "--fast"]);
+    assert_eq!(printed.lines().count(), 6);
 }
 
 /// A FIFO whose reader holds it open and never reads, already full: the first write of a
