@@ -119,10 +119,21 @@ fn every_time_flag_refuses_unrepresentable_values_naming_the_flag() {
 
 #[test]
 fn representable_values_still_parse() {
-    // The edges: a zero-length drive (one command, then motor-off), the slowest rate, the
-    // longest reply timeout.
+    // The edges: a zero-length drive (one command, then motor-off), a rate above what the motor
+    // answers, the slowest rate, the longest reply timeout.
     for args in [
         &["torque", "1", "--amps", "0.1", "--sim", "--duration", "0"][..],
+        &[
+            "speed",
+            "1",
+            "--dps",
+            "10",
+            "--sim",
+            "--seconds",
+            "0.01",
+            "--rate",
+            "1e300",
+        ],
         &[
             "monitor", "--sim", "--ids", "1", "--count", "1", "--rate", "1e-9",
         ],

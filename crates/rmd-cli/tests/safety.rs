@@ -1,5 +1,6 @@
 //! The live commands end as a robotics engineer expects, whatever the flags, the log or the log's
 //! reader do (simulated motors in the process, `--sim`):
+//! - `--duration` of `rmd torque` / `rmd speed` is wall-clock time, whatever `--rate` asks;
 //! - `rmd replay` asks before sending frames that write a motor's ROM, and refuses without a
 //!   terminal unless `--yes`, naming the frames;
 //! - a `--log` FIFO whose reader stops reading never holds the end of a command, nor its
@@ -182,6 +183,39 @@ fn rest(mut reader: impl Read) -> String {
 fn send(child: &Child, signal: nix::sys::signal::Signal) {
     let pid = nix::unistd::Pid::from_raw(i32::try_from(child.id()).unwrap());
     nix::sys::signal::kill(pid, signal).unwrap();
+}
+
+#[test]
+fn drive_duration_is_wall_clock_time_at_any_rate() {
+    for (command, setpoint) in [("torque", ["--amps", "0.2"]), ("speed", ["--dps", "90"])] {
+        let log = temp_path("rate", &format!("{command}.log"));
+        let started = Instant::now();
+        let out = ok(&[
+            command,
+            "2",
+            setpoint[0],
+            setpoint[1],
+            "--duration",
+            "1s",
+            "--rate",
+            "20000",
+            "--sim",
+            "--log",
+            log.to_str().unwrap(),
+        ]);
+        let took = started.elapsed();
+        // 1 s of driving ends long before the 10 s that 20 000 commands take (each waits for
+        // its reply); the bound only catches the old behaviour.
+        assert!(took < Duration::from_secs(6), "{command}: {took:?}");
+        assert!(out.contains("is more than the motor answers"), "{out}");
+        let commands = host_commands(&log);
+        let driven = commands.iter().filter(|c| c.1 != Cmd::MotorOff).count();
+        assert!(
+            driven > 1 && driven < 20_000,
+            "{command}: {driven} commands"
+        );
+        ends_with_confirmed_motor_off(&log, 2);
+    }
 }
 
 /// A log holding a zero write (0x19) to motor 1 and a PID write to ROM (0x32) to motor 2, each
