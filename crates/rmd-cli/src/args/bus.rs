@@ -31,7 +31,7 @@ pub(crate) struct BusArgs {
     #[arg(long, value_name = "BITS", value_parser = parse::encoder_width, default_value = "14")]
     pub(crate) encoder_bits: EncoderWidth,
     /// How long to wait for each reply, milliseconds [default: 50; scan: 20].
-    #[arg(long, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=60_000))]
+    #[arg(long, value_name = "MS", value_parser = super::timing::reply_timeout_ms, allow_hyphen_values = true)]
     pub(crate) timeout_ms: Option<u64>,
     /// How many times to send a request again after a timeout [default: 2; scan: 0].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=100))]

@@ -105,7 +105,7 @@ fn run_move(args: &MoveArgs) -> Result<(), CliError> {
     let request = position_request(args, &motor).map_err(CliError::Usage)?;
     let moved = move_to(args, &mut motors, &motor, request);
     // Whatever happened, the recording (--log) is flushed and reported.
-    let finished = motors.finish().map_err(CliError::Failed);
+    let finished = motors.finish();
     moved.and(finished)
 }
 

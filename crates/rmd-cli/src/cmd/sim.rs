@@ -13,7 +13,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Args;
-use rmd_bus::record::{LogWriter, RecordOptions, record};
+use rmd_bus::record::RecordOptions;
 use rmd_bus::{BusError, BusMessage, CanBus, Clock, MonotonicClock};
 use rmd_protocol::EncoderWidth;
 use rmd_sim::{
@@ -22,8 +22,10 @@ use rmd_sim::{
 
 use crate::args::ids::{self, IdList};
 use crate::args::parse;
-use crate::live::connect::{Filter, open_interface, report_recording};
+use crate::args::timing;
+use crate::live::connect::{Filter, open_interface};
 use crate::live::interrupt;
+use crate::live::recording::{self, LogSink, Recording};
 use crate::output::errln;
 use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
@@ -57,11 +59,11 @@ struct MotorOptions {
     /// Gear ratio (motor turns per output turn).
     #[arg(long, value_parser = parse::positive, default_value = "9")]
     gear_ratio: f64,
-    /// Time from a request to its reply, microseconds.
-    #[arg(long, value_name = "US", default_value_t = 200)]
+    /// Time from a request to its reply, microseconds (0..=60000000).
+    #[arg(long, value_name = "US", value_parser = timing::sim_delay_us, default_value = "200", allow_hyphen_values = true)]
     turnaround_us: u64,
-    /// Random extra turnaround, 0..=this, microseconds.
-    #[arg(long, value_name = "US", default_value_t = 20)]
+    /// Random extra turnaround, 0..=this, microseconds (0..=60000000).
+    #[arg(long, value_name = "US", value_parser = timing::sim_delay_us, default_value = "20", allow_hyphen_values = true)]
     jitter_us: u64,
     /// Seed of every random draw (jitter, faults): the same seed and traffic give the same run.
     #[arg(long, default_value_t = 0)]
@@ -173,16 +175,16 @@ fn serve(args: &SimArgs) -> Result<(), CliError> {
     let clock = MonotonicClock;
     let mut motors = SimMotors::new(&config, clock.now()).map_err(|e| e.to_string())?;
     let bus = open_interface(&args.iface, Filter::MotorsAndMulti)?;
-    let (mut bus, writer): (Box<dyn CanBus>, Option<LogWriter<std::fs::File>>) = match &args.log {
+    let (mut bus, recording): (Box<dyn CanBus>, Option<Recording>) = match &args.log {
         None => (bus, None),
         Some(path) => {
-            let file = std::fs::File::create(path)
-                .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+            let sink = LogSink::create(path)?;
             // No direction markers: seen from the motors, T would mark the replies, which
             // `rmd decode` would take for requests; without markers it pairs by content.
             let options = RecordOptions::new(&args.iface).directions(false);
-            let (bus, writer) = record(bus, clock, file, options).map_err(|e| e.to_string())?;
-            (Box::new(bus), Some(writer))
+            let (bus, recording) =
+                Recording::start(bus, clock, sink, |sink| Box::new(sink), options)?;
+            (Box::new(bus), Some(recording))
         }
     };
     interrupt::install()?;
@@ -214,10 +216,10 @@ fn serve(args: &SimArgs) -> Result<(), CliError> {
         counts.replies,
         counts.send_failures
     );
-    if let (Some(path), Some(writer)) = (&args.log, writer) {
-        report_recording(path, writer)?;
+    match recording {
+        Some(recording) => recording::after(outcome, recording.finish()),
+        None => outcome,
     }
-    outcome
 }
 
 fn run_loop(

@@ -1,11 +1,9 @@
 //! Opening the bus every live command talks to: `--iface IFACE` (SocketCAN) or `--sim`
 //! (simulated motors in this process, in real time), optionally recorded with `--log FILE`.
 
-use std::fs::File;
-use std::path::PathBuf;
 use std::time::Duration;
 
-use rmd_bus::record::{LogWriter, RecordOptions, record};
+use rmd_bus::record::RecordOptions;
 use rmd_bus::{CanBus, MonotonicClock};
 use rmd_protocol::{EncoderWidth, MotorId, Reply, Request};
 use rmd_sim::{MotorConfig, SimBus, SimConfig};
@@ -13,7 +11,7 @@ use rmd_sim::{MotorConfig, SimBus, SimConfig};
 use crate::args::bus::BusArgs;
 use crate::args::ids::IdList;
 use crate::live::exchange::{self, ExchangeError, Policy, Setup};
-use crate::output::errln;
+use crate::live::recording::{LogSink, Recording};
 use crate::output::report::CliError;
 
 /// Default reply timeout of a request.
@@ -28,11 +26,6 @@ pub(crate) struct Connection {
     policy: Policy,
     width: EncoderWidth,
     recording: Option<Recording>,
-}
-
-struct Recording {
-    path: PathBuf,
-    writer: LogWriter<File>,
 }
 
 impl Connection {
@@ -87,14 +80,8 @@ impl Connection {
                     Setup::Interface(iface) => iface.as_str(),
                     Setup::Simulator(_) | Setup::Robot(_) => "sim",
                 };
-                let (bus, writer) = record_to(bus, path, name)?;
-                (
-                    bus,
-                    Some(Recording {
-                        path: path.clone(),
-                        writer,
-                    }),
-                )
+                let (bus, recording) = record_to(bus, path, name)?;
+                (bus, Some(recording))
             }
         };
         Ok(Self {
@@ -151,42 +138,16 @@ impl Connection {
         self.width
     }
 
-    /// Ends the connection: flushes the recording, if any, and says where it went. Dropping a
-    /// connection also flushes it, without the summary.
-    pub(crate) fn finish(self) -> Result<(), String> {
+    /// Ends the connection: flushes the recording, if any, and says where it went (a stalled
+    /// reader of the log is waited for at most [`FINISH_LIMIT`](crate::live::recording::FINISH_LIMIT)).
+    /// Dropping a connection also flushes it, without the summary.
+    pub(crate) fn finish(self) -> Result<(), CliError> {
         let Self { bus, recording, .. } = self;
         drop(bus);
         match recording {
             None => Ok(()),
-            Some(Recording { path, writer }) => report_recording(&path, writer),
+            Some(recording) => recording.finish(),
         }
-    }
-}
-
-/// Prints what a recording wrote (and dropped) on stderr.
-pub(crate) fn report_recording<W>(
-    path: &std::path::Path,
-    writer: LogWriter<W>,
-) -> Result<(), String> {
-    match writer.finish() {
-        Ok(stats) => {
-            errln!(
-                "recorded {} frames to {}{}",
-                stats.written,
-                path.display(),
-                if stats.dropped > 0 {
-                    format!(
-                        " ({} dropped: the disk could not keep up; record to a faster disk or \
-                         tmpfs)",
-                        stats.dropped
-                    )
-                } else {
-                    String::new()
-                }
-            );
-            Ok(())
-        }
-        Err(error) => Err(format!("{}: {error}", path.display())),
     }
 }
 
@@ -195,11 +156,16 @@ fn record_to(
     bus: Box<dyn CanBus>,
     path: &std::path::Path,
     interface: &str,
-) -> Result<(Box<dyn CanBus>, LogWriter<File>), String> {
-    let file = File::create(path).map_err(|e| format!("cannot create {}: {e}", path.display()))?;
-    let (bus, writer) = record(bus, MonotonicClock, file, RecordOptions::new(interface))
-        .map_err(|e| e.to_string())?;
-    Ok((Box::new(bus), writer))
+) -> Result<(Box<dyn CanBus>, Recording), String> {
+    let sink = LogSink::create(path)?;
+    let (bus, recording) = Recording::start(
+        bus,
+        MonotonicClock,
+        sink,
+        |sink| Box::new(sink),
+        RecordOptions::new(interface),
+    )?;
+    Ok((Box::new(bus), recording))
 }
 
 /// Simulated motors `ids` on a simulated 1 Mbit/s bus, in real time.

@@ -205,7 +205,7 @@ impl Motors {
     }
 
     /// Ends every connection (flushing a recording).
-    pub(crate) fn finish(self) -> Result<(), String> {
+    pub(crate) fn finish(self) -> Result<(), CliError> {
         for bus in self.buses {
             bus.finish()?;
         }

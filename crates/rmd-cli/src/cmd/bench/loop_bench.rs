@@ -19,13 +19,17 @@ use serde_json::{Value, json};
 use super::flags;
 use super::pd::{self, MovingTargetPd};
 use super::robot;
+use crate::args::timing;
 use crate::output::progress::{self, Progress};
 use crate::output::report;
+use rmd_rig::args::RealtimeArgs;
 use rmd_rig::args::duration::run_length;
-use rmd_rig::args::{RealtimeArgs, values};
 
 /// Arguments of `rmd bench loop`.
 #[derive(Args, Debug)]
+// `--spin-us` of `rmd_rig::args::RealtimeArgs`, with the CLI's parser: `-1` or `1e300` is a
+// usage error naming the flag.
+#[command(mut_arg("spin_us", |arg| arg.allow_hyphen_values(true).value_parser(timing::spin_us)))]
 #[command(
     after_help = "JSON (--json): the loop report as one object: ticks, deadline_misses, \
     skipped_ticks, missing_replies, late_replies, telemetry_drops, and wake_latency_us, \
@@ -42,7 +46,7 @@ pub(crate) struct LoopArgs {
     #[arg(long, default_value = "1", value_parser = flags::buses)]
     buses: usize,
     /// Loop rate in Hz.
-    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", default_value = "1000", value_parser = values::rate, allow_hyphen_values = true)]
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", default_value = "1000", value_parser = flags::loop_rate, allow_hyphen_values = true)]
     rate: f64,
     /// How long to run, in real or virtual time (e.g. 5s, 500ms; a bare number is seconds).
     #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "5s", value_parser = run_length, allow_hyphen_values = true)]

@@ -30,12 +30,13 @@ use super::flags;
 use super::pd::MovingTargetPd;
 use super::robot;
 use super::wire_limit::{self, WireLimit, us};
+use crate::args::timing;
 use crate::output::errln;
 use crate::output::progress::{self, Progress};
 use crate::output::report;
 use crate::output::table::{Align, TextTable};
+use rmd_rig::args::RealtimeArgs;
 use rmd_rig::args::duration::run_length;
-use rmd_rig::args::{RealtimeArgs, values};
 
 /// Bit rate of the simulated buses.
 const BITRATE: u32 = 1_000_000;
@@ -50,6 +51,9 @@ const MAX_CONFIRM_RUNS: u32 = 6;
 
 /// Arguments of `rmd bench rate`.
 #[derive(Args, Debug, Clone)]
+// `--spin-us` of `rmd_rig::args::RealtimeArgs`, with the CLI's parser: `-1` or `1e300` is a
+// usage error naming the flag.
+#[command(mut_arg("spin_us", |arg| arg.allow_hyphen_values(true).value_parser(timing::spin_us)))]
 #[command(
     after_help = "Output: one line per trial, then the highest rate that passed, the wire \
     limit of that run's frames (1 / longest exchange: 0x280 start to the end of the last reply) \
@@ -70,7 +74,7 @@ pub(crate) struct RateArgs {
     rt: RealtimeArgs,
     /// Let the simulated bus busy-wait the last US microseconds before each frame it delivers
     /// (a polling receive) instead of sleeping all the way (a blocking receive, the default).
-    #[arg(long, value_name = "US", default_value_t = 0)]
+    #[arg(long, value_name = "US", value_parser = timing::spin_us, default_value = "0", allow_hyphen_values = true)]
     rx_spin_us: u64,
     /// Stop bisecting when the interval is narrower than this, percent of the rate.
     #[arg(long, value_name = "PCT", default_value = "0.5", value_parser = resolution)]
@@ -79,7 +83,7 @@ pub(crate) struct RateArgs {
     #[arg(long, value_name = "N", default_value_t = 1)]
     confirm: u32,
     /// Run one trial at this rate instead of searching.
-    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = values::rate, allow_hyphen_values = true)]
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = flags::loop_rate, allow_hyphen_values = true)]
     rate: Option<f64>,
     /// Run on a virtual clock (the loop then costs no time: the search finds the wire limit).
     #[arg(long)]
