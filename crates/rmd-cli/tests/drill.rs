@@ -45,6 +45,35 @@ fn one_drill_prints_one_json_object_with_the_stable_fields() {
 }
 
 #[test]
+fn an_emergency_stop_acts_while_the_controller_hangs() {
+    // The controller hangs at 0.3 s; the estop comes 20 ms later, before the stall bound (50 ms):
+    // the supervisor acts on it at once.
+    for time in [&["--virtual-time"][..], &[]] {
+        let mut args = vec![
+            "drill",
+            "--fault",
+            "controller-hang:3000@0.3",
+            "--fault",
+            "estop@0.32",
+            "--seconds",
+            "0.6",
+            "--json",
+        ];
+        args.extend_from_slice(time);
+        let (code, stdout, stderr) = rmd(&args);
+        assert_eq!(code, 0, "{stderr}");
+        let json: Value = serde_json::from_str(&stdout).unwrap();
+        assert_eq!(json["fault"], "controller-hang:3000 + estop");
+        assert_eq!(json["stop_reason"], "EMERGENCY STOP", "{json}");
+        assert_eq!(json["report"]["safe_stop"]["by"], "supervisor", "{json}");
+        // From the hang: the estop 20 ms later, then the supervisor's safe stop. In real time,
+        // a wide bound (a loaded machine); what matters is that it is well before the hang ends.
+        let tts = json["time_to_safe_ms"].as_f64().unwrap();
+        assert!((20.0..1000.0).contains(&tts), "{tts}");
+    }
+}
+
+#[test]
 fn motors_left_energised_exit_1_and_are_named() {
     // A bus-off longer than the safe stop waits for a restart.
     let (code, stdout, _) = rmd(&[

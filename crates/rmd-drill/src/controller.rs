@@ -4,7 +4,7 @@
 use core::time::Duration;
 use std::sync::{Arc, OnceLock};
 
-use rmd_bus::{Timestamp, VirtualClock};
+use rmd_bus::{Clock, MonotonicClock, Timestamp, VirtualClock};
 use rmd_loop::{Commands, Controller, Feedback, Flow, JointArray, Robot, Stopper, TickContext};
 
 use crate::fault::DrillFault;
@@ -12,33 +12,43 @@ use crate::fault::DrillFault;
 /// How time passes for the controller while it hangs or works slowly.
 #[derive(Clone, Debug)]
 pub(crate) enum Pace {
-    /// Real time: it sleeps (or, for short spans, keeps the CPU busy as real work would).
+    /// Real time: a hang sleeps, slow work keeps the CPU busy.
     Real,
-    /// Virtual time: it moves the run's clock on, a millisecond at a time, pausing briefly in
-    /// real time at each step so the supervisor, which looks in real time, sees time pass.
+    /// Virtual time: the controller moves the run's clock on; a hang does so a millisecond at a
+    /// time, pausing briefly in real time at each step so the supervisor, which looks in real
+    /// time, sees time pass.
     Virtual(VirtualClock),
 }
 
 impl Pace {
-    fn pass(&self, d: Duration) {
+    fn now(&self) -> Timestamp {
         match self {
-            Pace::Real if d <= Duration::from_millis(2) => {
+            Pace::Real => MonotonicClock.now(),
+            Pace::Virtual(clock) => clock.now(),
+        }
+    }
+
+    /// Lets `d` pass as work on the CPU would (short spans busy-wait in real time).
+    fn work(&self, d: Duration) {
+        match self {
+            Pace::Real => {
                 let until = std::time::Instant::now() + d;
                 while std::time::Instant::now() < until {
                     core::hint::spin_loop();
                 }
             }
-            Pace::Real => std::thread::sleep(d),
+            Pace::Virtual(clock) => clock.advance(d),
+        }
+    }
+
+    /// Lets one step of at most a millisecond of a hang pass, never beyond `until`.
+    fn hang_step(&self, until: Timestamp) {
+        let step = (until - self.now()).min(Duration::from_millis(1));
+        match self {
+            Pace::Real => std::thread::sleep(step),
             Pace::Virtual(clock) => {
-                let mut left = d;
-                while !left.is_zero() {
-                    let step = left.min(Duration::from_millis(1));
-                    clock.advance(step);
-                    left -= step;
-                    if d > Duration::from_millis(2) {
-                        std::thread::sleep(Duration::from_micros(250));
-                    }
-                }
+                clock.advance(step);
+                std::thread::sleep(Duration::from_micros(250));
             }
         }
     }
@@ -90,31 +100,53 @@ impl DrillController {
         }
     }
 
+    /// Strikes the faults due at `now`. An operator's stop and emergency stop are struck
+    /// even while the controller hangs (the drill plays the operator, who does not wait for the
+    /// controller).
     fn inject(&mut self, now: Timestamp) {
+        self.operator(now);
         for i in 0..self.injections.len() {
             let injection = &mut self.injections[i];
-            if injection.done || now < injection.at {
+            if injection.done || now < injection.at || injection.is_operator() {
                 continue;
             }
             injection.done = true;
             match injection.fault {
-                DrillFault::ControllerHang(d) => self.pace.pass(d),
+                DrillFault::ControllerHang(d) => {
+                    let until = now + d;
+                    while self.pace.now() < until {
+                        self.pace.hang_step(until);
+                        self.operator(self.pace.now());
+                    }
+                }
                 DrillFault::ControllerPanic => panic!("drill: the controller panics"),
                 DrillFault::NanCommand => self.nan = true,
                 DrillFault::SlowController(d) => self.slow = d,
-                DrillFault::Estop => {
-                    if let Some(stopper) = self.stopper.get() {
-                        stopper.emergency_stop();
-                    }
-                }
-                DrillFault::Stop => {
-                    if let Some(stopper) = self.stopper.get() {
-                        stopper.stop();
-                    }
-                }
                 _ => {}
             }
         }
+    }
+
+    /// The operator's requests due at `now`.
+    fn operator(&mut self, now: Timestamp) {
+        for injection in &mut self.injections {
+            if injection.done || now < injection.at || !injection.is_operator() {
+                continue;
+            }
+            injection.done = true;
+            if let Some(stopper) = self.stopper.get() {
+                match injection.fault {
+                    DrillFault::Estop => stopper.emergency_stop(),
+                    _ => stopper.stop(),
+                }
+            }
+        }
+    }
+}
+
+impl Injection {
+    fn is_operator(&self) -> bool {
+        matches!(self.fault, DrillFault::Estop | DrillFault::Stop)
     }
 }
 
@@ -142,7 +174,7 @@ impl Controller for DrillController {
         }
         self.inject(ctx.woke);
         if !self.slow.is_zero() {
-            self.pace.pass(self.slow);
+            self.pace.work(self.slow);
         }
         Flow::Continue
     }

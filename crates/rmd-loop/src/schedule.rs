@@ -252,7 +252,16 @@ mod tests {
 
     #[test]
     fn absurd_rates_are_errors_not_panics() {
-        for hz in [1e-300, 1e-30, f64::MIN_POSITIVE, 0.0, -1.0, f64::NAN, f64::INFINITY, 1e300] {
+        for hz in [
+            1e-300,
+            1e-30,
+            f64::MIN_POSITIVE,
+            0.0,
+            -1.0,
+            f64::NAN,
+            f64::INFINITY,
+            1e300,
+        ] {
             assert!(Period::from_hz(hz).is_err(), "{hz}");
         }
         assert!(matches!(

@@ -36,9 +36,10 @@ use crate::output::{errln, outln};
     rmd drill --chaos --seconds 60 --seed 7 --virtual-time --json"
 )]
 pub(crate) struct DrillArgs {
-    /// The fault to inject (KIND[:ARG]; see below).
-    #[arg(long, value_name = "KIND[:ARG]", required_unless_present_any = ["all", "chaos"], conflicts_with_all = ["all", "chaos"])]
-    fault: Option<DrillFault>,
+    /// The fault to inject (KIND[:ARG]; see below), at --at or at its own time with
+    /// `@SECONDS` (`--fault controller-hang:3000@0.5 --fault estop@0.52`); repeatable.
+    #[arg(long, value_name = "KIND[:ARG][@SECONDS]", value_parser = timed_fault, required_unless_present_any = ["all", "chaos"], conflicts_with_all = ["all", "chaos"])]
+    fault: Vec<(DrillFault, Option<Duration>)>,
     /// Run every kind of the matrix, one drill each, and print a table.
     #[arg(long, conflicts_with = "chaos")]
     all: bool,
@@ -74,6 +75,20 @@ fn at(text: &str) -> Result<Duration, String> {
     duration::parse(text, Bounds::up_to(duration::MAX_RUN))
 }
 
+/// `KIND[:ARG][@SECONDS]`.
+fn timed_fault(text: &str) -> Result<(DrillFault, Option<Duration>), String> {
+    let (fault, when) = match text.rsplit_once('@') {
+        Some((fault, when)) => (fault, Some(at(when)?)),
+        None => (text, None),
+    };
+    Ok((
+        fault
+            .parse()
+            .map_err(|e: rmd_drill::FaultParseError| e.to_string())?,
+        when,
+    ))
+}
+
 pub(crate) fn run(args: DrillArgs) -> ExitCode {
     let time = if args.virtual_time {
         SimTime::Virtual
@@ -93,8 +108,12 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
         run_chaos(&args, time)
     } else if args.all {
         run_all(&args, spec)
-    } else if let Some(fault) = args.fault {
-        run_one(&spec(fault), args.json)
+    } else if let Some((&(first, first_at), rest)) = args.fault.split_first() {
+        let mut one = spec(first).at(first_at.unwrap_or(args.at));
+        for &(fault, when) in rest {
+            one = one.and(fault, when.unwrap_or(args.at));
+        }
+        run_one(&one, args.json)
     } else {
         Err(CliError::Usage(
             "give --fault KIND[:ARG], --all or --chaos".into(),
@@ -109,7 +128,8 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
 
 fn drill(spec: &DrillSpec, show: bool) -> Result<Drill, CliError> {
     let progress = Progress::spinner(show);
-    progress.set_message(format!("drill {}", spec.faults()[0].0));
+    let faults: Vec<String> = spec.faults().iter().map(|(f, _)| f.to_string()).collect();
+    progress.set_message(format!("drill {}", faults.join(" + ")));
     let drill = rmd_drill::run(spec).map_err(|e| CliError::Usage(e.to_string()))?;
     drop(progress);
     Ok(drill)
