@@ -244,18 +244,38 @@ fn run_all(args: &DrillArgs, spec: impl Fn(DrillFault) -> DrillSpec) -> Result<b
     Ok(passed)
 }
 
-/// The stop reason, cut at its first explanation (the table's column).
+/// The stop reason in a few words (the table's column).
 fn short_stop(d: &Drill) -> String {
-    let text = d.stop_reason.as_str();
-    let cut = text
-        .find(" (")
-        .or_else(|| text.find(": the"))
-        .unwrap_or(text.len());
-    let mut short: String = text[..cut].chars().take(70).collect();
-    if short.len() < text.len() && cut == text.len() {
-        short.push('…');
+    use rmd_loop::{Fault, StopReason};
+    let joint = |at: &rmd_loop::MotorRef| format!("motor {} on bus {}", at.motor.get(), at.bus);
+    match &d.report.stop_reason {
+        StopReason::Fault(fault) => match fault {
+            Fault::NoFreshFeedback { at, ticks } => {
+                format!("no fresh feedback, {} ({ticks} ticks)", joint(at))
+            }
+            Fault::StartupTimeout { at, .. } => format!("start-up timeout, {}", joint(at)),
+            Fault::BusOff { bus } => format!("bus-off, bus {bus}"),
+            Fault::Bus { bus, .. } => format!("bus error, bus {bus}"),
+            Fault::DeadlineMisses { consecutive } => format!("{consecutive} deadline misses"),
+            Fault::OverTemperature { at, celsius } => {
+                format!("over-temperature, {} ({celsius:.0} degC)", joint(at))
+            }
+            Fault::Supervisor => "supervisor did not start".to_string(),
+            Fault::UndescribedMotor { bus, motor, .. } => {
+                format!("undescribed motor {} on bus {bus}", motor.get())
+            }
+            Fault::Firmware { at, .. } => format!("firmware refused, {}", joint(at)),
+            Fault::TickStalled { bound, .. } => {
+                format!("tick stalled > {} ms", bound.as_millis())
+            }
+            Fault::RejectedCommand { .. } => "rejected command".to_string(),
+        },
+        StopReason::ControllerPanic(_) => "controller panicked".to_string(),
+        StopReason::EmergencyStop => "emergency stop".to_string(),
+        StopReason::Requested => "stop requested".to_string(),
+        StopReason::TickLimit => "ran to the end".to_string(),
+        other => other.to_string(),
     }
-    short
 }
 
 fn run_chaos(args: &DrillArgs, time: SimTime) -> Result<bool, CliError> {
