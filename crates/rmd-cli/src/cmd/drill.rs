@@ -36,9 +36,7 @@ use crate::output::{errln, outln};
     rmd drill --chaos --seconds 60 --seed 7 --virtual-time --json"
 )]
 pub(crate) struct DrillArgs {
-    /// The fault to inject (KIND[:ARG]; see below), at --at or at its own time with
-    /// `@SECONDS` (`--fault controller-hang:3000@0.5 --fault estop@0.52`); repeatable.
-    #[arg(long, value_name = "KIND[:ARG][@SECONDS]", value_parser = timed_fault, required_unless_present_any = ["all", "chaos"], conflicts_with_all = ["all", "chaos"])]
+    #[arg(long, help = "The fault to inject (KIND[:ARG]; see below), at --at or at its own time with @SECONDS (--fault controller-hang:3000@0.5 --fault estop@0.52); repeatable", value_name = "KIND[:ARG][@SECONDS]", value_parser = timed_fault, required_unless_present_any = ["all", "chaos"], conflicts_with_all = ["all", "chaos"])]
     fault: Vec<(DrillFault, Option<Duration>)>,
     /// Run every kind of the matrix, one drill each, and print a table.
     #[arg(long, conflicts_with = "chaos")]
