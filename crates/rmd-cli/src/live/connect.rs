@@ -1,5 +1,6 @@
 //! Opening the bus every live command talks to: `--iface IFACE` (SocketCAN) or `--sim`
-//! (simulated motors in this process, in real time), optionally recorded with `--log FILE`.
+//! (simulated motors in this process, in real time, running the firmware of `--sim-firmware`),
+//! optionally recorded with `--log FILE`, speaking the protocol of `--protocol`.
 
 use std::fs::File;
 use std::path::PathBuf;
@@ -8,7 +9,7 @@ use std::time::Duration;
 use rmd_bus::record::{LogWriter, RecordOptions, record};
 use rmd_bus::{CanBus, MonotonicClock};
 use rmd_protocol::{EncoderWidth, MotorId, Reply, Request};
-use rmd_sim::{MotorConfig, SimBus, SimConfig};
+use rmd_sim::{FirmwareFamily, MotorConfig, SimBus, SimConfig};
 
 use crate::args::bus::BusArgs;
 use crate::args::ids::IdList;
@@ -45,10 +46,20 @@ impl Connection {
     ) -> Result<Self, CliError> {
         let (bus, setup): (Box<dyn CanBus>, Setup) = if args.sim {
             (
-                Box::new(simulated_bus(&args.sim_ids, args.encoder_bits)?),
+                Box::new(simulated_bus(
+                    &args.sim_ids,
+                    args.encoder_bits,
+                    args.sim_family(),
+                )?),
                 Setup::Simulator(args.sim_ids.clone()),
             )
         } else if let Some(iface) = &args.iface {
+            if let Some(firmware) = args.sim_firmware {
+                return Err(CliError::Usage(format!(
+                    "--sim-firmware {firmware} chooses the firmware of the simulated motors of \
+                     --sim; the motors on {iface} run their own"
+                )));
+            }
             (
                 open_interface(iface, Filter::Motors)?,
                 Setup::Interface(iface.clone()),
@@ -80,6 +91,7 @@ impl Connection {
         default_timeout: Duration,
         default_retries: u32,
     ) -> Result<Self, CliError> {
+        let dialect = args.dialect().map_err(CliError::Usage)?;
         let (bus, recording) = match &args.log {
             None => (bus, None),
             Some(path) => {
@@ -106,6 +118,7 @@ impl Connection {
                     .map_or(default_timeout, Duration::from_millis),
                 retries: args.retries.unwrap_or(default_retries),
                 setup,
+                dialect,
             },
             width,
             recording,
@@ -202,10 +215,12 @@ fn record_to(
     Ok((Box::new(bus), writer))
 }
 
-/// Simulated motors `ids` on a simulated 1 Mbit/s bus, in real time.
+/// Simulated motors `ids` running `family`'s firmware on a simulated 1 Mbit/s bus, in real
+/// time.
 pub(crate) fn simulated_bus(
     ids: &IdList,
     width: EncoderWidth,
+    family: FirmwareFamily,
 ) -> Result<SimBus<MonotonicClock>, String> {
     let mut config = SimConfig::with_motors(0);
     config.motors = ids
@@ -214,6 +229,7 @@ pub(crate) fn simulated_bus(
         .map(|&id| {
             let mut motor = MotorConfig::new(id);
             motor.firmware.encoder_width = width;
+            motor.firmware.family = family;
             motor
         })
         .collect();
@@ -223,7 +239,8 @@ pub(crate) fn simulated_bus(
 /// Which frames an interface delivers.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub(crate) enum Filter {
-    /// The motors' ids, 0x141..=0x160 (a host talking to motors).
+    /// The motors' ids, 0x141..=0x160, and the reply ids of MyActuator V3 firmware,
+    /// 0x241..=0x260 (a host talking to motors, recognising V3 motors by their answers).
     Motors,
     /// Those and the 0x280 multi-motor frame (simulated motors answering a host).
     MotorsAndMulti,
@@ -236,7 +253,10 @@ pub(crate) enum Filter {
 pub(crate) fn open_interface(iface: &str, filter: Filter) -> Result<Box<dyn CanBus>, String> {
     use rmd_bus::socketcan::{SocketCanBus, SocketCanOptions};
     let options = match filter {
-        Filter::Motors => SocketCanOptions::new(),
+        Filter::Motors => SocketCanOptions::new().accept_ids(
+            rmd_protocol::v3::REPLY_BASE_ID + 1
+                ..=rmd_protocol::v3::REPLY_BASE_ID + u16::from(MotorId::MAX),
+        ),
         Filter::MotorsAndMulti => {
             SocketCanOptions::new().accept_id(rmd_protocol::MULTI_TORQUE_CAN_ID)
         }

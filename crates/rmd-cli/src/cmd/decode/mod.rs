@@ -1,10 +1,20 @@
-//! `rmd decode [--as request|reply|auto] [FILE]`: frames in, one JSON object per frame out.
+//! `rmd decode [--as request|reply|auto] [--protocol P] [FILE]`: frames in, one JSON object per
+//! frame out.
 //!
 //! Reads FILE (or stdin, also with `-`) line by line in any of candump's text formats (see
-//! [`rmd_bus::candump`]). Each valid frame prints one JSON object on stdout, in input order (see
-//! [`crate::output::json`]); each bad line prints `line N: <what is wrong>` on stderr and the run goes
-//! on; the exit status is 1 if any line failed. Blank lines are skipped.
+//! [`rmd_bus::candump`]), in bounded memory: a line longer than [`lines::MAX_LINE`] bytes is that
+//! line's error. Each valid frame prints one JSON object on stdout, in input order (see
+//! [`crate::output::json`]); each bad line prints `line N: <what is wrong>` on stderr and the run
+//! goes on; the exit status is 1 if any line failed. Blank lines are skipped.
+//!
+//! A reply with a field out of range (an `iq` beyond ±2048, an encoder value beyond the encoder
+//! width) still prints every other field: the bad one is left out, named under `errors` in the
+//! JSON and on stderr as `line N: ...`, and the exit status is 1 ([`fields`]). Errors of the
+//! whole frame (identifier, DLC, unknown command byte, a reply to another command) print no
+//! object.
 
+pub(crate) mod fields;
+pub(crate) mod lines;
 pub(crate) mod pairing;
 
 use std::fs::File;
@@ -14,14 +24,19 @@ use std::process::ExitCode;
 
 use clap::{Args, ValueEnum};
 use rmd_bus::candump::{self, CandumpLine};
-use rmd_protocol::{DecodedRequest, EncoderWidth, decode_reply, decode_reply_to, decode_request};
+use rmd_protocol::{
+    Command, DecodedRequest, Dialect, DialectRequest, EncoderWidth, ProtocolError,
+    decode_reply_to_with, decode_reply_with, decode_request_with,
+};
 use serde_json::Value;
 
+use crate::args::bus::ProtocolArgs;
 use crate::args::parse;
 use crate::output::console::WriteError;
 use crate::output::errln;
 use crate::output::json::FrameJson;
 use crate::output::report;
+use lines::{Line, Lines};
 use pairing::{Pairing, Role};
 
 /// How to read each frame.
@@ -41,8 +56,12 @@ enum Mode {
 #[command(
     after_help = "Output: one JSON object per frame: `id` (motor id, absent for 0x280), \
     `can_id` (\"0x141\"), `direction` (request|reply), `command`, then each field under its \
-    snake_case spec name with its raw value and physical values under `<field>_<unit>` names. \
-    Bad lines are reported on stderr as `line N: ...`; the exit status is 1 if any line failed."
+    snake_case spec name with its raw value and physical values under `<field>_<unit>` names, \
+    and `errors` ({field, raw, error} objects) for fields out of range, which are left out. Bad \
+    lines and bad fields are reported on stderr as `line N: ...`; the exit status is 1 if any \
+    line failed. Lines longer than 4096 bytes are errors. Pairing (--as auto): a frame repeating \
+    the pending request of a read command is another request; TX/RX markers decide when the \
+    log has TX frames."
 )]
 pub(crate) struct DecodeArgs {
     /// Read frames as requests, replies, or decide per frame.
@@ -54,6 +73,15 @@ pub(crate) struct DecodeArgs {
     encoder_bits: EncoderWidth,
     /// Input file; stdin if absent or `-`.
     file: Option<PathBuf>,
+    #[command(flatten)]
+    protocol: ProtocolArgs,
+}
+
+/// A decoded line: its object, and the fields that could not be read (each also under
+/// `errors` in the object).
+struct Decoded {
+    value: Value,
+    field_errors: Vec<String>,
 }
 
 /// Decodes one parsed line into its JSON object.
@@ -62,7 +90,8 @@ fn decode_line(
     mode: Mode,
     pairing: &mut Pairing,
     width: EncoderWidth,
-) -> Result<Value, String> {
+    dialect: Dialect,
+) -> Result<Decoded, String> {
     let frame = &line.frame;
     let role = match mode {
         Mode::Request => Role::Request,
@@ -79,29 +108,51 @@ fn decode_line(
             width,
         )
     };
-    let value = match role {
-        Role::Request => match decode_request(frame).map_err(|e| e.to_string())? {
-            DecodedRequest::Single { request, .. } => {
-                request
-                    .check_encoder_width(width)
-                    .map_err(|e| encoder_hint(e, width))?;
-                header("request", request.command().name()).request(&request)
-            }
-            DecodedRequest::Multi(m) => header("request", "multi-torque").multi(&m),
-        },
+    let json = match role {
+        Role::Request => {
+            let request = decode_request_with(dialect, frame).map_err(|e| e.to_string())?;
+            let command = match &request {
+                DialectRequest::Torque { .. } => Command::Torque.name(),
+                DialectRequest::MultiTorque(_)
+                | DialectRequest::Common(DecodedRequest::Multi(_)) => "multi-torque",
+                DialectRequest::Common(DecodedRequest::Single { request, .. }) => {
+                    request
+                        .check_encoder_width(width)
+                        .map_err(|e| encoder_hint(e, width))?;
+                    request.command().name()
+                }
+            };
+            header("request", command).dialect_request(&request)
+        }
         Role::Reply(pending) => {
-            let (_, reply) = match pending {
-                Some(command) => decode_reply_to(frame, command),
-                None => decode_reply(frame),
+            let decoded = match pending {
+                Some(command) => decode_reply_to_with(dialect, frame, command),
+                None => decode_reply_with(dialect, frame),
+            };
+            match decoded {
+                Ok((_, reply)) => header("reply", reply.command().name())
+                    .checking_encoder_width()
+                    .dialect_reply(&reply),
+                // Identifier, DLC, command byte and pairing passed: one field is out of range.
+                Err(error @ ProtocolError::ValueOutOfRange { .. }) => {
+                    let command = frame
+                        .data()
+                        .first()
+                        .and_then(|&code| Command::from_code(code))
+                        .ok_or_else(|| error.to_string())?;
+                    let json = header("reply", command.name()).checking_encoder_width();
+                    fields::partial_reply(json, dialect, command, frame)
+                        .ok_or_else(|| error.to_string())?
+                }
+                Err(error) => return Err(error.to_string()),
             }
-            .map_err(|e| e.to_string())?;
-            reply
-                .check_encoder_width(width)
-                .map_err(|e| encoder_hint(e, width))?;
-            header("reply", reply.command().name()).reply(&reply)
         }
     };
-    Ok(value.into_value())
+    let field_errors = json.errors().iter().map(|e| e.message.clone()).collect();
+    Ok(Decoded {
+        value: json.into_value(),
+        field_errors,
+    })
 }
 
 fn encoder_hint(err: rmd_protocol::ProtocolError, width: EncoderWidth) -> String {
@@ -113,6 +164,10 @@ fn encoder_hint(err: rmd_protocol::ProtocolError, width: EncoderWidth) -> String
 
 /// Runs `rmd decode`.
 pub(crate) fn run(args: DecodeArgs) -> ExitCode {
+    let dialect = match args.protocol.dialect() {
+        Ok(dialect) => dialect,
+        Err(message) => return report::usage_error(message),
+    };
     let input: Box<dyn BufRead> = match &args.file {
         None => Box::new(BufReader::new(io::stdin().lock())),
         Some(path) if path.as_os_str() == "-" => Box::new(BufReader::new(io::stdin().lock())),
@@ -124,16 +179,29 @@ pub(crate) fn run(args: DecodeArgs) -> ExitCode {
     let mut out = BufWriter::new(io::stdout().lock());
     let mut pairing = Pairing::default();
     let mut failed = false;
-    for (index, line) in input.split(b'\n').enumerate() {
-        let number = index + 1;
-        let bytes = match line {
-            Ok(bytes) => bytes,
+    let mut input = Lines::new(input, lines::MAX_LINE);
+    let mut number = 0usize;
+    loop {
+        number += 1;
+        let bytes = match input.next_line() {
+            Ok(None) => break,
+            Ok(Some(Line::Text(bytes))) => bytes,
+            Ok(Some(Line::TooLong)) => {
+                failed = true;
+                let _ = out.flush();
+                errln!(
+                    "line {number}: longer than {} bytes, not a candump line (skipped to the \
+                     next newline)",
+                    lines::MAX_LINE
+                );
+                continue;
+            }
             Err(e) => {
                 let _ = out.flush();
                 return report::failure(format!("line {number}: read error: {e}"));
             }
         };
-        let Ok(text) = std::str::from_utf8(&bytes) else {
+        let Ok(text) = std::str::from_utf8(bytes) else {
             failed = true;
             let _ = out.flush();
             errln!("line {number}: not valid UTF-8 text");
@@ -144,16 +212,25 @@ pub(crate) fn run(args: DecodeArgs) -> ExitCode {
         }
         let result = candump::parse_line(text)
             .map_err(|e| e.to_string())
-            .and_then(|parsed| decode_line(&parsed, args.mode, &mut pairing, args.encoder_bits));
+            .and_then(|parsed| {
+                decode_line(&parsed, args.mode, &mut pairing, args.encoder_bits, dialect)
+            });
         match result {
-            Ok(value) => {
-                if let Err(error) = writeln!(out, "{value}") {
+            Ok(decoded) => {
+                if let Err(error) = writeln!(out, "{}", decoded.value) {
                     return written_until(WriteError::from_io(error), failed);
+                }
+                if !decoded.field_errors.is_empty() {
+                    failed = true;
+                    // Keep stdout and stderr in input order when both go to a terminal.
+                    let _ = out.flush();
+                    for message in &decoded.field_errors {
+                        errln!("line {number}: {message}");
+                    }
                 }
             }
             Err(message) => {
                 failed = true;
-                // Keep stdout and stderr in input order when both go to a terminal.
                 let _ = out.flush();
                 errln!("line {number}: {message}");
             }
