@@ -173,3 +173,123 @@ fn protocol_and_firmware_options_are_checked() {
         "{err}"
     );
 }
+
+/// `rmd scan ARGS --json`: the array's objects.
+fn scan_json(args: &[&str]) -> Vec<Value> {
+    let mut all = vec!["scan", "--json"];
+    all.extend_from_slice(args);
+    match json_lines(&ok(&all)).remove(0) {
+        Value::Array(list) => list,
+        other => panic!("not an array: {other}"),
+    }
+}
+
+#[test]
+fn scan_identifies_each_simulated_family() {
+    // Ids 5 and 6 are probed too and absent: not listed.
+    for (firmware, reply_base) in [
+        ("v1.61", 0x140),
+        ("lk-v2.3x", 0x140),
+        ("myactuator-v3", 0x240),
+    ] {
+        let list = scan_json(&["--sim", "--sim-firmware", firmware, "--ids", "1-6"]);
+        let ids: Vec<u64> = list.iter().map(|m| m["id"].as_u64().unwrap()).collect();
+        assert_eq!(ids, [1, 2, 3, 4], "{firmware}");
+        for m in &list {
+            assert_eq!(m["firmware"], firmware, "{m}");
+            assert_eq!(m["ambiguous"], false, "{m}");
+            let id = m["id"].as_u64().unwrap();
+            assert_eq!(
+                m["evidence"]["reply_id"],
+                format!("0x{:03X}", reply_base + id),
+                "{m}"
+            );
+            assert_eq!(m["evidence"]["answered_status1"], true);
+            assert_eq!(m["evidence"]["answered_status2"], true);
+            // Status 1 in the family's own layout: the simulated supply is 48 V.
+            assert_eq!(m["voltage_volts"], 48.0, "{m}");
+        }
+    }
+    // The evidence of an LK motor: its 0x9A read both ways.
+    let lk = &scan_json(&["--sim", "--sim-firmware", "lk-v2.3x", "--ids", "1"])[0];
+    assert_eq!(lk["evidence"]["lk_volts"], 48.0);
+    assert_eq!(lk["evidence"]["v161_volts"], 1.8);
+    assert_eq!(lk["voltage"], 4800);
+    assert_eq!(lk["motor_state_name"], "on");
+    // A V3 motor's model, read with 0xB5.
+    let v3 = &scan_json(&["--sim", "--sim-firmware", "myactuator-v3", "--ids", "2"])[0];
+    assert_eq!(v3["model"], "RMD-SIM");
+    assert!(v3["evidence"].get("v161_volts").is_none());
+}
+
+#[test]
+fn scan_of_a_mixed_bus_names_each_motors_firmware() {
+    let args = [
+        "--sim",
+        "--sim-ids",
+        "1-3,5",
+        "--sim-firmware",
+        "lk-v2.3x,v1.61,myactuator-v3,lk-v2.3x",
+        "--lk-series",
+        "mf",
+        "--ids",
+        "1-8",
+    ];
+    let list = scan_json(&args);
+    let found: Vec<(u64, &str)> = list
+        .iter()
+        .map(|m| (m["id"].as_u64().unwrap(), m["firmware"].as_str().unwrap()))
+        .collect();
+    assert_eq!(
+        found,
+        [
+            (1, "lk-v2.3x"),
+            (2, "v1.61"),
+            (3, "myactuator-v3"),
+            (5, "lk-v2.3x")
+        ]
+    );
+    // The table: one row per motor, with its firmware and the V3 motor's model.
+    let mut human = vec!["scan"];
+    human.extend_from_slice(&args);
+    let table = ok(&human);
+    let rows: Vec<Vec<&str>> = table
+        .lines()
+        .map(|l| l.split_whitespace().collect())
+        .collect();
+    assert_eq!(rows[0][..2], ["id", "firmware"]);
+    let firmware: Vec<&str> = rows[1..].iter().map(|r| r[1]).collect();
+    assert_eq!(firmware, ["lk-v2.3x", "v1.61", "myactuator-v3", "lk-v2.3x"]);
+    assert!(table.contains("model RMD-SIM"), "{table}");
+}
+
+#[test]
+fn sim_firmware_lists_must_fit_the_motors() {
+    let err = fails(
+        2,
+        &[
+            "scan",
+            "--sim",
+            "--sim-ids",
+            "1-3",
+            "--sim-firmware",
+            "v1.61,lk-v2.3x",
+        ],
+    );
+    assert!(
+        err.contains("--sim-firmware lists 2 firmware families for 3 simulated motors"),
+        "{err}"
+    );
+    let err = fails(
+        1,
+        &[
+            "scan",
+            "--sim",
+            "--sim-firmware",
+            "lk-v2.3x",
+            "--ids",
+            "9-10",
+        ],
+    );
+    assert!(err.contains("no motor answered"), "{err}");
+}

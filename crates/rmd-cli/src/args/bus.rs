@@ -42,9 +42,10 @@ pub(crate) struct BusArgs {
     #[arg(long = "log", value_name = "FILE")]
     pub(crate) log: Option<PathBuf>,
     /// The firmware the simulated motors of --sim run: v1.61, lk-v2.3x (an MG motor, or the
-    /// series of --lk-series) or myactuator-v3 (answers on 0x240 + id).
-    #[arg(long, value_name = "FIRMWARE", value_parser = parse::sim_firmware, requires = "sim", conflicts_with = "robot")]
-    pub(crate) sim_firmware: Option<ProtocolFamily>,
+    /// series of --lk-series) or myactuator-v3 (answers on 0x240 + id); one for every motor, or
+    /// a comma-separated list with one per --sim-ids motor, in id order (a mixed bus).
+    #[arg(long, value_name = "FIRMWARE", value_parser = parse::sim_firmware, value_delimiter = ',', requires = "sim", conflicts_with = "robot")]
+    pub(crate) sim_firmware: Vec<ProtocolFamily>,
     #[command(flatten)]
     pub(crate) protocol: ProtocolArgs,
 }
@@ -95,21 +96,34 @@ impl BusArgs {
         self.sim || self.iface.is_some() || self.robot.is_some()
     }
 
-    /// The firmware of the simulated motors of `--sim` (v1.61 unless `--sim-firmware` says
-    /// otherwise; LK-TECH motors of the `--lk-series`, MG by default).
-    pub(crate) fn sim_family(&self) -> FirmwareFamily {
-        match self.sim_firmware {
-            Some(ProtocolFamily::LkV23x) => {
+    /// The firmware of each simulated motor of `--sim`, in the order of `--sim-ids` (v1.61
+    /// unless `--sim-firmware` says otherwise; LK-TECH motors of the `--lk-series`, MG by
+    /// default), or a usage message when the list does not fit the motors.
+    pub(crate) fn sim_families(&self) -> Result<Vec<FirmwareFamily>, String> {
+        let count = self.sim_ids.ids().len();
+        let one = |family: ProtocolFamily| match family {
+            ProtocolFamily::LkV23x => {
                 FirmwareFamily::LkV23x(self.protocol.lk_series.unwrap_or(LkSeries::Mg))
             }
-            Some(ProtocolFamily::MyActuatorV3) => FirmwareFamily::MyActuatorV3,
+            ProtocolFamily::MyActuatorV3 => FirmwareFamily::MyActuatorV3,
             _ => FirmwareFamily::V161,
+        };
+        match self.sim_firmware.as_slice() {
+            [] => Ok(vec![FirmwareFamily::V161; count]),
+            [family] => Ok(vec![one(*family); count]),
+            list if list.len() == count => Ok(list.iter().copied().map(one).collect()),
+            list => Err(format!(
+                "--sim-firmware lists {} firmware families for {count} simulated motors \
+                 (--sim-ids {}): give one for all, or one per motor",
+                list.len(),
+                self.sim_ids
+            )),
         }
     }
 
     /// The dialect the commands speak (`--protocol`, `--lk-series`), or a usage message.
     pub(crate) fn dialect(&self) -> Result<Dialect, String> {
-        let series_for_sim = self.sim_firmware == Some(ProtocolFamily::LkV23x);
+        let series_for_sim = self.sim_firmware.contains(&ProtocolFamily::LkV23x);
         self.protocol.dialect_or(series_for_sim)
     }
 }

@@ -49,15 +49,15 @@ impl Connection {
                 Box::new(simulated_bus(
                     &args.sim_ids,
                     args.encoder_bits,
-                    args.sim_family(),
+                    &args.sim_families().map_err(CliError::Usage)?,
                 )?),
                 Setup::Simulator(args.sim_ids.clone()),
             )
         } else if let Some(iface) = &args.iface {
-            if let Some(firmware) = args.sim_firmware {
+            if !args.sim_firmware.is_empty() {
                 return Err(CliError::Usage(format!(
-                    "--sim-firmware {firmware} chooses the firmware of the simulated motors of \
-                     --sim; the motors on {iface} run their own"
+                    "--sim-firmware chooses the firmware of the simulated motors of --sim; the \
+                     motors on {iface} run their own"
                 )));
             }
             (
@@ -215,21 +215,22 @@ fn record_to(
     Ok((Box::new(bus), writer))
 }
 
-/// Simulated motors `ids` running `family`'s firmware on a simulated 1 Mbit/s bus, in real
-/// time.
+/// Simulated motors `ids`, each running the firmware of `families` at the same position (v1.61
+/// past its end), on a simulated 1 Mbit/s bus, in real time.
 pub(crate) fn simulated_bus(
     ids: &IdList,
     width: EncoderWidth,
-    family: FirmwareFamily,
+    families: &[FirmwareFamily],
 ) -> Result<SimBus<MonotonicClock>, String> {
     let mut config = SimConfig::with_motors(0);
     config.motors = ids
         .ids()
         .iter()
-        .map(|&id| {
+        .enumerate()
+        .map(|(k, &id)| {
             let mut motor = MotorConfig::new(id);
             motor.firmware.encoder_width = width;
-            motor.firmware.family = family;
+            motor.firmware.family = families.get(k).copied().unwrap_or_default();
             motor
         })
         .collect();

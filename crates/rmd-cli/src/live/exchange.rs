@@ -227,11 +227,6 @@ pub(crate) enum ExchangeError {
 }
 
 impl ExchangeError {
-    /// Whether the motor simply did not answer (as opposed to a bus failure or a bad reply).
-    pub(crate) fn is_no_reply(&self) -> bool {
-        matches!(self, ExchangeError::NoReply { .. })
-    }
-
     /// Whether the bus itself failed (nothing else will work on it either).
     pub(crate) fn is_bus_failure(&self) -> bool {
         matches!(
@@ -485,7 +480,7 @@ mod tests {
 
         let (clock, mut bus) = sim(&[drop_two]);
         let error = request(&mut bus, &clock, &policy(1), id(1), &Request::ReadPid).unwrap_err();
-        assert!(error.is_no_reply(), "{error}");
+        assert!(matches!(error, ExchangeError::NoReply { .. }), "{error}");
         assert_eq!(
             error.to_string(),
             "motor 1 did not answer read-pid within 10 ms (2 attempts): the simulated motors \

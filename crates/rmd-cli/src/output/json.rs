@@ -18,6 +18,7 @@ use rmd_protocol::{
     DialectReply, DialectRequest, DialectStatus1, EncoderValue, EncoderWidth, LkStatus1,
     MULTI_TORQUE_CAN_ID, MotorId, MultiTorque, PidParams, ProtocolError, Reply, Request,
     ScaledCurrent, ScaledMultiTorque, ScaledStatus2, SpinDirection, Status1, Status2, Temperature,
+    v3::V3Status1,
 };
 use serde_json::{Map, Value, json};
 
@@ -235,6 +236,17 @@ impl FrameJson {
         self.put("error_state", json!(s.error_state.raw()));
         self.put("low_voltage", json!(s.error_state.low_voltage()));
         self.put("over_temperature", json!(s.error_state.over_temperature()));
+    }
+
+    /// Adds the fields of a MyActuator V3 status 1 (0x9A on `0x240 + id`).
+    pub(crate) fn v3_status1(mut self, s: &V3Status1) -> Self {
+        self.temperature("temperature", s.temperature);
+        self.temperature("mos_temperature", s.mos_temperature);
+        self.put("brake_released", json!(s.brake_released));
+        self.put("voltage", json!(s.voltage.raw()));
+        self.put("voltage_volts", json!(s.voltage.volts()));
+        self.put("error_state", json!(s.error_state.raw()));
+        self
     }
 
     /// Adds the fields of a reply decoded in a dialect.
