@@ -376,13 +376,78 @@ fn direction_markers_win_over_the_repeat_rule() {
 }
 
 #[test]
-fn an_all_zero_reply_without_markers_is_read_as_another_request() {
-    // The one ambiguity left (docs/cli.md): motor 2 at rest answers 0x9D with no phase current,
-    // a frame identical to the request. Without markers it reads as a second request; the next
-    // non-zero 0x9D then pairs with it.
-    let input = "142#9D00000000000000\n142#9D00000000000000\n142#9D00400000000000\n";
+fn all_zero_replies_of_a_motor_at_rest_pair_by_what_follows() {
+    // `rmd status` of a motor at rest, recorded by a listen-only logger: 0x9D, 0x90, 0x92 and
+    // 0x94 are answered with all zeros, frames identical to their requests. What follows each
+    // pair on the ID (another command) says the second frame was the reply.
+    let input = "\
+(1.000000) can0 141#9A00000000000000 R
+(1.000200) can0 141#9A1900E001000000 R
+(1.000400) can0 141#9D00000000000000 R
+(1.000500) can0 142#9C00000000000000 R
+(1.000600) can0 141#9D00000000000000 R
+(1.000700) can0 142#9C1E3E000A000010 R
+(1.000800) can0 141#9000000000000000 R
+(1.001000) can0 141#9000000000000000 R
+(1.001200) can0 141#9200000000000000 R
+(1.001400) can0 141#9200000000000000 R
+";
     let out = ok(&[], input);
-    assert_eq!(directions(&out), ["request", "request", "reply"]);
+    assert_eq!(
+        directions(&out),
+        [
+            "request", "reply", "request", "request", "reply", "reply", "request", "reply",
+            "request", "reply"
+        ]
+    );
+    // Input order is kept while the 0x9D pair waits for what follows it.
+    let lines: Vec<f64> = out
+        .iter()
+        .map(|o| o["timestamp"].as_f64().unwrap())
+        .collect();
+    assert!(lines.windows(2).all(|w| w[0] < w[1]), "{lines:?}");
+    assert_eq!(out[4]["command"], "read-status-3");
+    assert_eq!(out[4]["i_a_amps"], 0.0);
+    assert_eq!(out[9]["motor_angle_degrees"], 0.0);
+}
+
+#[test]
+fn the_ambiguity_left_reads_as_documented() {
+    // docs/cli.md: query, all-zero reply, query, reply with data on one ID reads as three
+    // requests and a reply (markers from the sending host tell them apart).
+    let input =
+        "142#9D00000000000000\n142#9D00000000000000\n142#9D00000000000000\n142#9D00400000000000\n";
+    let out = ok(&[], input);
+    assert_eq!(directions(&out), ["request", "request", "request", "reply"]);
+    let marked = "\
+(1.0) can0 142#9D00000000000000 T
+(1.1) can0 142#9D00000000000000 R
+(1.2) can0 142#9D00000000000000 T
+(1.3) can0 142#9D00400000000000 R
+";
+    assert_eq!(
+        directions(&ok(&[], marked)),
+        ["request", "reply", "request", "reply"]
+    );
+}
+
+#[test]
+fn a_pair_is_held_at_most_256_lines() {
+    // A query and its all-zero copy on 0x141, then 300 frames of motor 2: the pair is decided
+    // without its follower (request, reply) and every line still comes out, in order.
+    let mut input = String::from("141#9D00000000000000\n141#9D00000000000000\n");
+    for _ in 0..150 {
+        input.push_str("142#9C00000000000000\n142#9C1E3E000A000010\n");
+    }
+    input.push_str("141#9D00400000000000\n");
+    let out = ok(&[], &input);
+    assert_eq!(out.len(), 303);
+    assert_eq!(
+        directions(&out[..4]),
+        ["request", "reply", "request", "reply"]
+    );
+    // Nothing was pending on 0x141 any more: the last frame is a request.
+    assert_eq!(out[302]["direction"], "request");
 }
 
 #[test]

@@ -17,8 +17,9 @@ pub(crate) mod fields;
 pub(crate) mod lines;
 pub(crate) mod pairing;
 
+use std::collections::VecDeque;
 use std::fs::File;
-use std::io::{self, BufRead, BufReader, BufWriter, Write};
+use std::io::{self, BufRead, BufReader, BufWriter, StdoutLock, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -37,7 +38,7 @@ use crate::output::errln;
 use crate::output::json::FrameJson;
 use crate::output::report;
 use lines::{Line, Lines};
-use pairing::{Pairing, Role};
+use pairing::{HELD_LINES, LookAhead, Role, Ticket};
 
 /// How to read each frame.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -59,9 +60,9 @@ enum Mode {
     snake_case spec name with its raw value and physical values under `<field>_<unit>` names, \
     and `errors` ({field, raw, error} objects) for fields out of range, which are left out. Bad \
     lines and bad fields are reported on stderr as `line N: ...`; the exit status is 1 if any \
-    line failed. Lines longer than 4096 bytes are errors. Pairing (--as auto): a frame repeating \
-    the pending request of a read command is another request; TX/RX markers decide when the \
-    log has TX frames."
+    line failed. Lines longer than 4096 bytes are errors. Pairing (--as auto): frames repeating \
+    the pending request of a read command are more requests when its reply follows, else \
+    all-zero replies; TX/RX markers decide when the log has TX frames (docs/cli.md)."
 )]
 pub(crate) struct DecodeArgs {
     /// Read frames as requests, replies, or decide per frame.
@@ -84,20 +85,14 @@ struct Decoded {
     field_errors: Vec<String>,
 }
 
-/// Decodes one parsed line into its JSON object.
+/// Decodes one parsed line, a frame of `role`, into its JSON object.
 fn decode_line(
     line: &CandumpLine,
-    mode: Mode,
-    pairing: &mut Pairing,
+    role: Role,
     width: EncoderWidth,
     dialect: Dialect,
 ) -> Result<Decoded, String> {
     let frame = &line.frame;
-    let role = match mode {
-        Mode::Request => Role::Request,
-        Mode::Reply => Role::Reply(None),
-        Mode::Auto => pairing.classify(frame.id(), frame.data(), line.direction),
-    };
     let header = |direction: &str, command: &str| {
         FrameJson::new(
             line.timestamp,
@@ -162,6 +157,112 @@ fn encoder_hint(err: rmd_protocol::ProtocolError, width: EncoderWidth) -> String
     )
 }
 
+/// A line waiting for its turn on the output (input order), its role perhaps still undecided
+/// (a run of repeated queries, see [`pairing::LookAhead`]).
+enum Held {
+    /// A frame.
+    Frame {
+        number: usize,
+        line: CandumpLine,
+        role: Slot,
+    },
+    /// A line that is not a frame: its error message.
+    Error { number: usize, message: String },
+}
+
+/// A frame's role: known, or to be taken from the look-ahead.
+enum Slot {
+    Known(Role),
+    Pending(Ticket),
+}
+
+/// Prints decoded lines in input order as their roles are decided.
+struct Printer<'a> {
+    out: BufWriter<StdoutLock<'a>>,
+    held: VecDeque<Held>,
+    pairing: LookAhead,
+    width: EncoderWidth,
+    dialect: Dialect,
+    failed: bool,
+}
+
+impl Printer<'_> {
+    /// Queues a line that is not a frame.
+    fn error(&mut self, number: usize, message: String) {
+        self.held.push_back(Held::Error { number, message });
+    }
+
+    /// Queues a frame, classified as `mode` says.
+    fn frame(&mut self, number: usize, line: CandumpLine, mode: Mode) {
+        let role = match mode {
+            Mode::Request => Slot::Known(Role::Request),
+            Mode::Reply => Slot::Known(Role::Reply(None)),
+            Mode::Auto => Slot::Pending(self.pairing.push(
+                line.frame.id(),
+                line.frame.data(),
+                line.direction,
+            )),
+        };
+        self.held.push_back(Held::Frame { number, line, role });
+    }
+
+    /// Prints every line whose turn has come; a run held for [`HELD_LINES`] lines is decided
+    /// without its follower. `end`: decide everything.
+    fn print_ready(&mut self, end: bool) -> Result<(), WriteError> {
+        if end {
+            self.pairing.finish();
+        } else if self.held.len() > HELD_LINES
+            && let Some(Held::Frame {
+                role: Slot::Pending(ticket),
+                ..
+            }) = self.held.front()
+        {
+            self.pairing.decide(*ticket);
+        }
+        loop {
+            // The front line's role, if it is a frame whose role is decided.
+            let role = match self.held.front() {
+                None => return Ok(()),
+                Some(Held::Frame {
+                    role: Slot::Pending(ticket),
+                    ..
+                }) => match self.pairing.take(*ticket) {
+                    Some(role) => Some(role),
+                    None => return Ok(()),
+                },
+                Some(Held::Frame {
+                    role: Slot::Known(role),
+                    ..
+                }) => Some(*role),
+                Some(Held::Error { .. }) => None,
+            };
+            match (self.held.pop_front(), role) {
+                (Some(Held::Error { number, message }), _) => self.fail(number, &message),
+                (Some(Held::Frame { number, line, .. }), Some(role)) => {
+                    match decode_line(&line, role, self.width, self.dialect) {
+                        Ok(decoded) => {
+                            writeln!(self.out, "{}", decoded.value).map_err(WriteError::from_io)?;
+                            for message in &decoded.field_errors {
+                                self.fail(number, message);
+                            }
+                        }
+                        Err(message) => self.fail(number, &message),
+                    }
+                }
+                _ => return Ok(()),
+            }
+        }
+    }
+
+    /// Reports `line N: message` on stderr (stdout flushed first, to keep input order on a
+    /// terminal) and marks the run failed.
+    fn fail(&mut self, number: usize, message: &str) {
+        self.failed = true;
+        let _ = self.out.flush();
+        errln!("line {number}: {message}");
+    }
+}
+
 /// Runs `rmd decode`.
 pub(crate) fn run(args: DecodeArgs) -> ExitCode {
     let dialect = match args.protocol.dialect() {
@@ -176,70 +277,56 @@ pub(crate) fn run(args: DecodeArgs) -> ExitCode {
             Err(e) => return report::failure(format!("cannot read {}: {e}", path.display())),
         },
     };
-    let mut out = BufWriter::new(io::stdout().lock());
-    let mut pairing = Pairing::default();
-    let mut failed = false;
+    let mut printer = Printer {
+        out: BufWriter::new(io::stdout().lock()),
+        held: VecDeque::new(),
+        pairing: LookAhead::default(),
+        width: args.encoder_bits,
+        dialect,
+        failed: false,
+    };
     let mut input = Lines::new(input, lines::MAX_LINE);
     let mut number = 0usize;
     loop {
         number += 1;
-        let bytes = match input.next_line() {
+        match input.next_line() {
             Ok(None) => break,
-            Ok(Some(Line::Text(bytes))) => bytes,
-            Ok(Some(Line::TooLong)) => {
-                failed = true;
-                let _ = out.flush();
-                errln!(
-                    "line {number}: longer than {} bytes, not a candump line (skipped to the \
-                     next newline)",
+            Ok(Some(Line::TooLong)) => printer.error(
+                number,
+                format!(
+                    "longer than {} bytes, not a candump line (skipped to the next newline)",
                     lines::MAX_LINE
-                );
-                continue;
-            }
+                ),
+            ),
+            Ok(Some(Line::Text(bytes))) => match std::str::from_utf8(bytes) {
+                Err(_) => printer.error(number, "not valid UTF-8 text".to_owned()),
+                Ok(text) if text.trim().is_empty() => continue,
+                Ok(text) => match candump::parse_line(text) {
+                    Ok(line) => printer.frame(number, line, args.mode),
+                    Err(e) => printer.error(number, e.to_string()),
+                },
+            },
             Err(e) => {
-                let _ = out.flush();
+                let printed = printer
+                    .print_ready(true)
+                    .and_then(|()| printer.out.flush().map_err(WriteError::from_io));
+                if let Err(error) = printed {
+                    return written_until(error, printer.failed);
+                }
                 return report::failure(format!("line {number}: read error: {e}"));
             }
-        };
-        let Ok(text) = std::str::from_utf8(bytes) else {
-            failed = true;
-            let _ = out.flush();
-            errln!("line {number}: not valid UTF-8 text");
-            continue;
-        };
-        if text.trim().is_empty() {
-            continue;
         }
-        let result = candump::parse_line(text)
-            .map_err(|e| e.to_string())
-            .and_then(|parsed| {
-                decode_line(&parsed, args.mode, &mut pairing, args.encoder_bits, dialect)
-            });
-        match result {
-            Ok(decoded) => {
-                if let Err(error) = writeln!(out, "{}", decoded.value) {
-                    return written_until(WriteError::from_io(error), failed);
-                }
-                if !decoded.field_errors.is_empty() {
-                    failed = true;
-                    // Keep stdout and stderr in input order when both go to a terminal.
-                    let _ = out.flush();
-                    for message in &decoded.field_errors {
-                        errln!("line {number}: {message}");
-                    }
-                }
-            }
-            Err(message) => {
-                failed = true;
-                let _ = out.flush();
-                errln!("line {number}: {message}");
-            }
+        if let Err(error) = printer.print_ready(false) {
+            return written_until(error, printer.failed);
         }
     }
-    if let Err(error) = out.flush() {
-        return written_until(WriteError::from_io(error), failed);
+    let printed = printer
+        .print_ready(true)
+        .and_then(|()| printer.out.flush().map_err(WriteError::from_io));
+    if let Err(error) = printed {
+        return written_until(error, printer.failed);
     }
-    if failed {
+    if printer.failed {
         ExitCode::from(report::FAILURE)
     } else {
         ExitCode::SUCCESS
