@@ -642,8 +642,8 @@ fn a_recorded_session_decodes_and_replays() {
     assert_eq!(printed, original);
 
     // The host's frames of a scan sent again to simulated motors, which answer them again.
-    // (One request per motor: a burst of requests to one motor, as a stalled replay would send,
-    // can overflow its three transmit mailboxes, as on a real motor.)
+    // (Two requests per motor: a longer burst of requests to one motor, as a stalled replay
+    // would send, can overflow its three transmit mailboxes, as on a real motor.)
     let scan = log_path("scan-session");
     let scan_arg = scan.to_str().unwrap();
     ok(&["scan", "--sim", "--ids", "1-4", "--log", scan_arg]);
@@ -666,13 +666,18 @@ fn a_recorded_session_decodes_and_replays() {
             (motor.get(), reply)
         })
         .collect();
-    assert_eq!(sent, [0x141, 0x142, 0x143, 0x144]);
-    assert_eq!(replies.len(), 4);
+    // The scan's two probes per motor: 0x9A and 0x9C.
+    assert_eq!(
+        sent,
+        [0x141, 0x141, 0x142, 0x142, 0x143, 0x143, 0x144, 0x144]
+    );
+    assert_eq!(replies.len(), 8);
     for (i, (motor, reply)) in replies.iter().enumerate() {
-        assert_eq!(usize::from(*motor), i + 1);
-        assert_eq!(reply.command(), Cmd::ReadStatus1);
+        assert_eq!(usize::from(*motor), i / 2 + 1);
+        let probe = [Cmd::ReadStatus1, Cmd::ReadStatus2][i % 2];
+        assert_eq!(reply.command(), probe);
     }
-    assert!(text(&out.stderr).contains("replayed 4 frame(s) onto the simulated bus"));
+    assert!(text(&out.stderr).contains("replayed 8 frame(s) onto the simulated bus"));
 }
 
 #[test]

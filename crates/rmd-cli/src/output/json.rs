@@ -4,15 +4,54 @@
 //! id; absent for 0x280), `can_id` (`"0x141"`), `direction` (`request` / `reply`), `command`
 //! (kebab-case name, `multi-torque` for 0x280), then every field under its snake_case spec name
 //! with its RAW integer value, each physical value right after its raw field under
-//! `<field>_<unit>` (`iq_amps`, `voltage_volts`, `temperature_celsius`, `speed_dps`, ...).
+//! `<field>_<unit>` (`iq_amps`, `voltage_volts`, `temperature_celsius`, `speed_dps`, ...), and
+//! last, when a field could not be read, `errors`: one `{"field", "raw", "error"}` object per
+//! field left out (see [`FieldError`]).
+//!
+//! The same keys in every protocol: an LK-TECH reply (`--protocol lk-v2.3x`) has its own raw
+//! values (`voltage` in 0.01 V, `iq` in the series' steps) and physical values, plus the fields
+//! v1.61 lacks (`bus_current`, `motor_state`).
 
 use std::time::Duration;
 
 use rmd_protocol::{
-    EncoderValue, EncoderWidth, MULTI_TORQUE_CAN_ID, MotorId, MultiTorque, PidParams, Reply,
-    Request, SpinDirection, Status1, Status2,
+    DialectReply, DialectRequest, DialectStatus1, EncoderValue, EncoderWidth, LkStatus1,
+    MULTI_TORQUE_CAN_ID, MotorId, MultiTorque, PidParams, ProtocolError, Reply, Request,
+    ScaledCurrent, ScaledMultiTorque, ScaledStatus2, SpinDirection, Status1, Status2, Temperature,
+    v3::V3Status1,
 };
 use serde_json::{Map, Value, json};
+
+/// A field of a frame that could not be read (a value outside its range): left out of the
+/// object and named under `errors`.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct FieldError {
+    /// The field's key (`iq`, `encoder_raw`, `circle_angle`).
+    pub(crate) key: String,
+    /// Its raw value on the wire.
+    pub(crate) raw: i64,
+    /// What is wrong, one line (`iq 2049 is out of range -2048..=2048`).
+    pub(crate) message: String,
+}
+
+impl FieldError {
+    /// The field of a [`ProtocolError::ValueOutOfRange`] (any other error names no field, and
+    /// is returned as it is).
+    pub(crate) fn from_protocol(error: ProtocolError) -> Result<Self, ProtocolError> {
+        match error {
+            ProtocolError::ValueOutOfRange { field, value, .. } => Ok(Self {
+                key: field.name().to_owned(),
+                raw: value,
+                message: error.to_string(),
+            }),
+            other => Err(other),
+        }
+    }
+
+    fn to_value(&self) -> Value {
+        json!({"field": self.key, "raw": self.raw, "error": self.message})
+    }
+}
 
 /// The fields of a reply as `rmd decode` names them (raw values and physical values), without
 /// the frame header (`id`, `can_id`, `direction`, `command`).
@@ -34,6 +73,9 @@ pub(crate) fn reply_fields(reply: &Reply, width: EncoderWidth) -> Map<String, Va
 pub(crate) struct FrameJson {
     map: Map<String, Value>,
     width: EncoderWidth,
+    /// Whether encoder values are checked against the width (`rmd decode`).
+    check_width: bool,
+    errors: Vec<FieldError>,
 }
 
 impl FrameJson {
@@ -61,11 +103,32 @@ impl FrameJson {
         map.insert("can_id".into(), json!(format!("0x{can_id:03X}")));
         map.insert("direction".into(), json!(direction));
         map.insert("command".into(), json!(command));
-        Self { map, width }
+        Self {
+            map,
+            width,
+            check_width: false,
+            errors: Vec::new(),
+        }
     }
 
-    /// The finished object.
-    pub(crate) fn into_value(self) -> Value {
+    /// Checks every encoder value against the encoder width: one outside it is left out and
+    /// named under `errors`.
+    pub(crate) fn checking_encoder_width(mut self) -> Self {
+        self.check_width = true;
+        self
+    }
+
+    /// The fields that could not be read so far.
+    pub(crate) fn errors(&self) -> &[FieldError] {
+        &self.errors
+    }
+
+    /// The finished object (with `errors` last, if any field could not be read).
+    pub(crate) fn into_value(mut self) -> Value {
+        if !self.errors.is_empty() {
+            let errors = self.errors.iter().map(FieldError::to_value).collect();
+            self.map.insert("errors".into(), Value::Array(errors));
+        }
         Value::Object(self.map)
     }
 
@@ -83,8 +146,32 @@ impl FrameJson {
     }
 
     fn encoder(&mut self, key: &str, v: EncoderValue) {
+        if self.check_width && v.check(self.width).is_err() {
+            let bits = self.width.bits();
+            self.errors.push(FieldError {
+                key: key.to_owned(),
+                raw: i64::from(v.raw()),
+                message: format!(
+                    "{key} {} is out of range 0..={} for a {bits}-bit encoder (see \
+                     --encoder-bits)",
+                    v.raw(),
+                    (1u32 << bits) - 1
+                ),
+            });
+            return;
+        }
         self.put(key, json!(v.raw()));
         self.put(&format!("{key}_degrees"), json!(v.degrees(self.width)));
+    }
+
+    fn temperature(&mut self, key: &str, t: Temperature) {
+        self.put(key, json!(t.raw()));
+        self.put(&format!("{key}_celsius"), json!(t.celsius()));
+    }
+
+    fn current(&mut self, key: &str, v: ScaledCurrent) {
+        self.put(key, json!(v.raw()));
+        self.put(&format!("{key}_amps"), json!(v.amps()));
     }
 
     fn spin(&mut self, d: SpinDirection) {
@@ -97,8 +184,7 @@ impl FrameJson {
     }
 
     fn status1(&mut self, s: &Status1) {
-        self.put("temperature", json!(s.temperature.raw()));
-        self.put("temperature_celsius", json!(s.temperature.celsius()));
+        self.temperature("temperature", s.temperature);
         self.put("voltage", json!(s.voltage.raw()));
         self.put("voltage_volts", json!(s.voltage.volts()));
         self.put("error_state", json!(s.error_state.raw()));
@@ -107,13 +193,104 @@ impl FrameJson {
     }
 
     fn status2(&mut self, s: &Status2) {
-        self.put("temperature", json!(s.temperature.raw()));
-        self.put("temperature_celsius", json!(s.temperature.celsius()));
-        self.put("iq", json!(s.iq.raw()));
-        self.put("iq_amps", json!(s.iq.amps()));
-        self.put("speed", json!(s.speed.raw()));
-        self.put("speed_dps", json!(s.speed.dps()));
-        self.encoder("encoder", s.encoder);
+        self.scaled_status2(&ScaledStatus2::from(*s));
+    }
+
+    fn scaled_status2(&mut self, s: &ScaledStatus2) {
+        self.partial_status2(s.temperature, Ok(s.iq), s.speed, s.encoder);
+    }
+
+    /// Status 2 with `iq` that may have failed its range check.
+    pub(crate) fn partial_status2(
+        &mut self,
+        temperature: Temperature,
+        iq: Result<ScaledCurrent, FieldError>,
+        speed: rmd_protocol::Speed,
+        encoder: EncoderValue,
+    ) {
+        self.temperature("temperature", temperature);
+        match iq {
+            Ok(iq) => self.current("iq", iq),
+            Err(error) => self.errors.push(error),
+        }
+        self.put("speed", json!(speed.raw()));
+        self.put("speed_dps", json!(speed.dps()));
+        self.encoder("encoder", encoder);
+    }
+
+    fn lk_status1(&mut self, s: &LkStatus1) {
+        self.temperature("temperature", s.temperature);
+        self.put("voltage", json!(s.voltage.raw()));
+        self.put("voltage_volts", json!(s.voltage.volts()));
+        self.put("bus_current", json!(s.bus_current.raw()));
+        self.put("bus_current_amps", json!(s.bus_current.amps()));
+        self.put("motor_state", json!(s.motor_state.raw()));
+        let state = if s.motor_state.is_on() {
+            "on"
+        } else if s.motor_state.is_off() {
+            "off"
+        } else {
+            "unknown"
+        };
+        self.put("motor_state_name", json!(state));
+        self.put("error_state", json!(s.error_state.raw()));
+        self.put("low_voltage", json!(s.error_state.low_voltage()));
+        self.put("over_temperature", json!(s.error_state.over_temperature()));
+    }
+
+    /// Adds the fields of a MyActuator V3 status 1 (0x9A on `0x240 + id`).
+    pub(crate) fn v3_status1(mut self, s: &V3Status1) -> Self {
+        self.temperature("temperature", s.temperature);
+        self.temperature("mos_temperature", s.mos_temperature);
+        self.put("brake_released", json!(s.brake_released));
+        self.put("voltage", json!(s.voltage.raw()));
+        self.put("voltage_volts", json!(s.voltage.volts()));
+        self.put("error_state", json!(s.error_state.raw()));
+        self
+    }
+
+    /// Adds the fields of a reply decoded in a dialect.
+    pub(crate) fn dialect_reply(mut self, reply: &DialectReply) -> Self {
+        match reply {
+            DialectReply::Status1 {
+                status: DialectStatus1::V161(s),
+                ..
+            } => self.status1(s),
+            DialectReply::Status1 {
+                status: DialectStatus1::Lk(s),
+                ..
+            } => self.lk_status1(s),
+            DialectReply::Status2 { status, .. } => self.scaled_status2(status),
+            DialectReply::LkSingleTurnAngle { circle_angle } => {
+                self.put("circle_angle", json!(circle_angle.raw()));
+                self.put("circle_angle_degrees", json!(circle_angle.degrees()));
+            }
+            DialectReply::Common(reply) => return self.reply(reply),
+        }
+        self
+    }
+
+    /// Adds the fields of a request decoded in a dialect.
+    pub(crate) fn dialect_request(mut self, request: &DialectRequest) -> Self {
+        match request {
+            DialectRequest::Torque { iq_control, .. } => {
+                self.current("iq_control", *iq_control);
+                self
+            }
+            DialectRequest::MultiTorque(m) => self.scaled_multi(m),
+            DialectRequest::Common(rmd_protocol::DecodedRequest::Single { request, .. }) => {
+                self.request(request)
+            }
+            DialectRequest::Common(rmd_protocol::DecodedRequest::Multi(m)) => self.multi(m),
+        }
+    }
+
+    fn scaled_multi(mut self, m: &ScaledMultiTorque) -> Self {
+        let raw: Vec<i16> = m.iq_control.iter().map(|v| v.raw()).collect();
+        let amps: Vec<f64> = m.iq_control.iter().map(|v| v.amps()).collect();
+        self.put("iq_control", json!(raw));
+        self.put("iq_control_amps", json!(amps));
+        self
     }
 
     /// Adds the fields of a single-motor request.
@@ -127,10 +304,7 @@ impl FrameJson {
             Request::WriteEncoderOffset { encoder_offset } => {
                 self.encoder("encoder_offset", *encoder_offset)
             }
-            Request::Torque { iq_control } => {
-                self.put("iq_control", json!(iq_control.raw()));
-                self.put("iq_control_amps", json!(iq_control.amps()));
-            }
+            Request::Torque { iq_control } => self.current("iq_control", (*iq_control).into()),
             Request::Speed { speed_control } => {
                 self.put("speed_control", json!(speed_control.raw()));
                 self.put("speed_control_dps", json!(speed_control.dps()));
@@ -174,12 +348,19 @@ impl FrameJson {
     }
 
     /// Adds the fields of the 0x280 frame.
-    pub(crate) fn multi(mut self, m: &MultiTorque) -> Self {
-        let raw: Vec<i16> = m.iq_control.iter().map(|v| v.raw()).collect();
-        let amps: Vec<f64> = m.iq_control.iter().map(|v| v.amps()).collect();
-        self.put("iq_control", json!(raw));
-        self.put("iq_control_amps", json!(amps));
-        self
+    pub(crate) fn multi(self, m: &MultiTorque) -> Self {
+        self.scaled_multi(&ScaledMultiTorque::from(*m))
+    }
+
+    /// The single-turn angle of v1.61's 0x94 reply, which may have failed its range check.
+    pub(crate) fn circle_angle(&mut self, angle: Result<rmd_protocol::CircleAngle, FieldError>) {
+        match angle {
+            Ok(angle) => {
+                self.put("circle_angle", json!(angle.raw()));
+                self.put("circle_angle_degrees", json!(angle.degrees()));
+            }
+            Err(error) => self.errors.push(error),
+        }
     }
 
     /// Adds the fields of a reply.
@@ -207,10 +388,7 @@ impl FrameJson {
                 self.put("motor_angle", json!(motor_angle.raw()));
                 self.put("motor_angle_degrees", json!(motor_angle.degrees()));
             }
-            Reply::ReadSingleTurnAngle { circle_angle } => {
-                self.put("circle_angle", json!(circle_angle.raw()));
-                self.put("circle_angle_degrees", json!(circle_angle.degrees()));
-            }
+            Reply::ReadSingleTurnAngle { circle_angle } => self.circle_angle(Ok(*circle_angle)),
             Reply::ReadStatus1(s) | Reply::ClearError(s) => self.status1(s),
             Reply::ReadStatus3(s) => {
                 for (key, current) in [("i_a", s.i_a), ("i_b", s.i_b), ("i_c", s.i_c)] {
