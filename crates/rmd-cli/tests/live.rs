@@ -782,6 +782,9 @@ fn status_of_a_robot_speaks_joint_names_and_joint_units() {
         let joint_deg = o["joint"]["angle_deg"].as_f64().unwrap();
         let offset = [20.0, 50.0, -40.0, 50.0][id as usize - 1];
         assert!((joint_deg - (motor_deg / 9.0 - offset)).abs() < 1e-9, "{o}");
+        // The simulated joints power up in the middle of their power-up windows (40 degrees
+        // wide from -offset), where the description reads them right.
+        assert!((joint_deg - (20.0 - offset)).abs() < 0.05, "{o}");
         assert!(o["joint"]["velocity_dps"].is_f64(), "{o}");
         assert!(o["joint"]["torque_nm"].is_f64(), "{o}");
     }
@@ -819,12 +822,47 @@ fn move_by_joint_name_in_joint_degrees_and_monitor_by_joint() {
         .filter_map(|l| match decode_request(&l.frame) {
             Ok(DecodedRequest::Single {
                 motor,
-                request: rmd_protocol::Request::Position2 { angle_control, .. },
-            }) => Some((motor.get(), angle_control.degrees())),
+                request:
+                    rmd_protocol::Request::Position2 {
+                        angle_control,
+                        max_speed,
+                    },
+            }) => Some((motor.get(), angle_control.degrees(), max_speed.dps())),
             _ => None,
         })
         .collect();
-    assert_eq!(sent, [(3, 45.0)]);
+    // Without --max-speed, 360 dps at the motor, as without --robot.
+    assert_eq!(sent, [(3, 45.0, 360.0)]);
+    assert!(out.contains("`rmd off 3 --robot"), "{out}");
+    // With it, joint degrees per second: 10 at the joint is 90 at the motor.
+    let log = log_path("move-joint-speed");
+    ok(&[
+        "move",
+        "--robot",
+        &robot,
+        "--sim",
+        "knee",
+        "--deg",
+        "42",
+        "--max-speed",
+        "10",
+        "--wait-timeout",
+        "10s",
+        "--log",
+        log.to_str().unwrap(),
+    ]);
+    let speeds: Vec<f64> = read_log(&log)
+        .into_iter()
+        .filter(|l| l.direction == Direction::Tx)
+        .filter_map(|l| match decode_request(&l.frame) {
+            Ok(DecodedRequest::Single {
+                request: rmd_protocol::Request::Position2 { max_speed, .. },
+                ..
+            }) => Some(max_speed.dps()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(speeds, [90.0]);
     // Single-turn modes have no joint meaning.
     let err = fails(
         2,

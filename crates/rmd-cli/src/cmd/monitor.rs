@@ -24,7 +24,7 @@ use crate::output::{out, outln};
 /// Arguments of `rmd monitor`.
 #[derive(Args, Debug)]
 #[command(
-    after_help = "With --robot FILE: the robot's joints (--ids: joint names), labelled by     name, the angle column in joint degrees; JSON objects carry `name`, `bus` and `joint`."
+    after_help = "With --robot FILE: the robot's joints (--ids: joint names), labelled by name, the angle column in joint degrees; JSON objects carry `name`, `bus` and `joint`."
 )]
 pub(crate) struct MonitorArgs {
     /// Motors to watch [default: the ones that answer a scan of 1..=32; with --robot, every

@@ -120,7 +120,9 @@ impl Motors {
                 robot.buses().len()
             )));
         }
-        let sims = rmd_rig::sim::sim_configs(&robot, 1);
+        // Each simulated joint powered up where the description reads it right.
+        let mut sims = rmd_rig::sim::sim_configs(&robot, 1);
+        rmd_rig::sim::power_up_centred(&robot, &mut sims);
         let mut buses = Vec::new();
         for ((spec, target), sim) in robot.buses().iter().zip(placement.buses()).zip(sims) {
             let (bus, setup): (Box<dyn rmd_bus::CanBus>, Setup) = match target {
