@@ -273,7 +273,13 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
         };
         let ran = catch_unwind(AssertUnwindSafe(|| {
             let mut ran = 0;
-            while ran < max_ticks && running.scheduler.next_index() < due_before {
+            // A tick past the end is never run: not the next one, and not one a skip after an
+            // overrun would land on (the clock already past the end).
+            let end = running.scheduler.scheduled(due_before);
+            while ran < max_ticks
+                && running.scheduler.next_index() < due_before
+                && (due_before == u64::MAX || running.parts.clock.now() < end)
+            {
                 if let ControlFlow::Break(reason) = running.step() {
                     return reason;
                 }
