@@ -43,9 +43,13 @@ struct IoErrors {
     first: Option<String>,
 }
 
-/// The file behind the MCAP writer: buffered, and recording every I/O error.
+/// Where the MCAP bytes go: a file or a caller's writer.
+trait Output: Write + Seek + Send {}
+impl<T: Write + Seek + Send> Output for T {}
+
+/// The output behind the MCAP writer, recording every I/O error.
 struct RecordingFile {
-    inner: BufWriter<File>,
+    inner: Box<dyn Output>,
     errors: Arc<Mutex<IoErrors>>,
 }
 
@@ -122,9 +126,32 @@ impl McapSink {
         let path = path.as_ref().to_owned();
         let file = File::create(&path)
             .map_err(|e| SinkError::io(format!("creating {}", path.display()), e))?;
+        Self::with_output(Box::new(BufWriter::new(file)), path, layout, options)
+    }
+
+    /// Writes the MCAP stream to `writer` (a buffer, a pipe with seeking, a custom file) instead
+    /// of a file; `label` names it in reports and errors.
+    ///
+    /// # Errors
+    /// As [`McapSink::create`], for the header and metadata written now.
+    pub fn to_writer(
+        writer: impl Write + Seek + Send + 'static,
+        label: impl Into<PathBuf>,
+        layout: &RunLayout,
+        options: McapOptions,
+    ) -> Result<Self, SinkError> {
+        Self::with_output(Box::new(writer), label.into(), layout, options)
+    }
+
+    fn with_output(
+        output: Box<dyn Output>,
+        path: PathBuf,
+        layout: &RunLayout,
+        options: McapOptions,
+    ) -> Result<Self, SinkError> {
         let errors = Arc::new(Mutex::new(IoErrors::default()));
         let file = RecordingFile {
-            inner: BufWriter::new(file),
+            inner: output,
             errors: Arc::clone(&errors),
         };
         let write_options = McapWriteOptions::new()
@@ -154,7 +181,7 @@ impl McapSink {
         })
     }
 
-    /// The file's path.
+    /// The file's path (or the label given to [`McapSink::to_writer`]).
     pub fn path(&self) -> &Path {
         &self.path
     }

@@ -50,10 +50,12 @@ pub enum SinkError {
         source: std::io::Error,
     },
     /// The Foxglove SDK refused (creating the MCAP writer, a channel, or the server).
-    #[error("{context}: {source}")]
+    #[error("{context}: {detail}")]
     Foxglove {
         /// What was being done.
         context: String,
+        /// The SDK's error with its causes, e.g. `MCAP error: ...: No space left on device`.
+        detail: String,
         /// The SDK's error.
         #[source]
         source: foxglove::FoxgloveError,
@@ -92,8 +94,19 @@ impl SinkError {
     }
 
     pub(crate) fn foxglove(context: impl Into<String>, source: foxglove::FoxgloveError) -> Self {
+        let mut detail = source.to_string();
+        let mut cause = std::error::Error::source(&source);
+        while let Some(error) = cause {
+            let text = error.to_string();
+            if !detail.contains(&text) {
+                detail.push_str(": ");
+                detail.push_str(&text);
+            }
+            cause = error.source();
+        }
         Self::Foxglove {
             context: context.into(),
+            detail,
             source,
         }
     }
