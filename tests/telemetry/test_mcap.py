@@ -25,7 +25,10 @@ TICKS = 3500  # 3.5 s at 1 kHz: four /diagnostics messages (three full seconds a
 def run(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("mcap")
     mcap, csv, truth = tmp / "run.mcap", tmp / "run.csv", tmp / "truth.json"
-    stats = run_synth("--ticks", TICKS, "--mcap", mcap, "--csv", csv, truth=truth)
+    layout = tmp / "layout.json"
+    stats = run_synth(
+        "--ticks", TICKS, "--mcap", mcap, "--csv", csv, "--foxglove-layout", layout, truth=truth
+    )
     with open(mcap, "rb") as f:
         reader = make_reader(f, decoder_factories=decoder_factories())
         summary = reader.get_summary()
@@ -40,6 +43,7 @@ def run(tmp_path_factory):
         "metadata": metadata,
         "messages": messages,
         "csv": csv,
+        "layout": json.loads(layout.read_text(encoding="utf-8")),
     }
 
 
@@ -187,3 +191,36 @@ def test_the_csv_has_one_row_per_record_with_the_values_written(run):
             assert row[f"{joint}.fresh"] == ("1" if rec["fresh"][j] else "0")
         for name, value in zip(truth["signals"], rec["signals"]):
             assert float(row[name]) == value
+
+
+def resolve(message, path: str):
+    """Evaluates the simple Foxglove message paths the layout uses: `.field` and `[index]`."""
+    import re
+
+    value = message
+    for field, index in re.findall(r"\.(\w+)|\[(\d+)\]", path):
+        if field:
+            value = value[field] if isinstance(value, dict) else getattr(value, field)
+        else:
+            value = value[int(index)]
+    return value
+
+
+def test_every_plot_of_the_foxglove_layout_finds_numbers_in_the_file(run):
+    layout = run["layout"]
+    latest = {}
+    for m in run["messages"]:
+        latest[m.channel.topic] = m.decoded_message
+    plotted = 0
+    for panel_id, config in layout["configById"].items():
+        if panel_id.startswith("DiagnosticSummary!"):
+            assert config["topicToRender"] == "/diagnostics"
+            continue
+        for series in config["paths"]:
+            topic, _, rest = series["value"].partition(".")
+            value = resolve(latest[topic], "." + rest)
+            assert isinstance(value, (int, float)) and not isinstance(value, bool), series
+            plotted += 1
+    # 3 angles, 2 torques (the ankle has no torque constant), 6 currents, 4 timings,
+    # 3 counters, 2 signals.
+    assert plotted == 20

@@ -59,6 +59,9 @@ struct Args {
     /// Where to write the truth (what was fed), before the run starts.
     #[arg(long)]
     truth: Option<PathBuf>,
+    /// Write the Foxglove layout of this run here.
+    #[arg(long)]
+    foxglove_layout: Option<PathBuf>,
     /// The run's start as Unix nanoseconds (default: now).
     #[arg(long)]
     start_unix_ns: Option<u64>,
@@ -157,6 +160,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let layout = builder.build()?;
     let period_ns = (1e9 / args.rate).round() as u64;
 
+    if let Some(path) = &args.foxglove_layout {
+        std::fs::write(path, rmd_telemetry::foxglove_layout(&layout).to_string())?;
+    }
     if let Some(path) = &args.truth {
         std::fs::write(path, truth(&layout, args.ticks, period_ns).to_string())?;
     }

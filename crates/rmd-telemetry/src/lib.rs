@@ -42,6 +42,7 @@
 
 mod channels;
 mod csv_file;
+mod foxglove_layout;
 mod health;
 mod json;
 mod layout;
@@ -56,6 +57,7 @@ pub use channels::{
     DIAGNOSTICS_TOPIC, JOINT_STATES_TOPIC, LOOP_TIMING_TOPIC, MOTOR_STATES_TOPIC, SIGNALS_TOPIC,
 };
 pub use csv_file::CsvSink;
+pub use foxglove_layout::foxglove_layout;
 pub use layout::{JointInfo, LayoutError, RunLayout, RunLayoutBuilder};
 pub use live::{DEFAULT_LIVE_ADDR, DEFAULT_LIVE_RATE_HZ, LiveOptions, LiveSink};
 pub use mcap_file::{McapOptions, McapSink};
