@@ -2,6 +2,7 @@
 
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::sync::Arc;
+use std::time::Duration;
 
 use foxglove::{Context, WebSocketServer, WebSocketServerHandle};
 
@@ -93,17 +94,23 @@ pub struct LiveSink {
     name: String,
     channels: Channels,
     server: Option<WebSocketServerHandle>,
+    runtime: Option<tokio::runtime::Runtime>,
     _context: Arc<Context>,
     decimator: Decimator,
     addr: SocketAddr,
 }
 
 impl LiveSink {
-    /// Starts the server (it runs its own small async runtime) and advertises the channels.
+    /// Starts the server on its own async runtime (one worker thread, `rmd-tlm-live`, plus
+    /// the threads the runtime starts for blocking work) and advertises the channels.
+    ///
+    /// The runtime's threads inherit the calling thread's CPU affinity: start the sink before
+    /// pinning the calling thread to the real-time CPU, or from another thread.
     ///
     /// # Errors
-    /// [`SinkError::Config`] for a rate that is not a positive number; [`SinkError::Foxglove`] if
-    /// the address cannot be bound or a channel cannot be created.
+    /// [`SinkError::Config`] for a rate that is not a positive number; [`SinkError::Io`] if the
+    /// runtime cannot start; [`SinkError::Foxglove`] if the address cannot be bound or a channel
+    /// cannot be created.
     pub fn start(layout: &RunLayout, options: LiveOptions) -> Result<Self, SinkError> {
         if !(options.rate_hz.is_finite() && options.rate_hz > 0.0) {
             return Err(SinkError::Config(format!(
@@ -111,12 +118,24 @@ impl LiveSink {
                 options.rate_hz
             )));
         }
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(1)
+            .thread_name("rmd-tlm-live")
+            .enable_io()
+            .enable_time()
+            .build()
+            .map_err(|e| SinkError::io("starting the live server's runtime", e))?;
         let context = Context::new();
-        let server = WebSocketServer::new()
-            .name(options.server_name.clone())
-            .bind(options.addr.ip().to_string(), options.addr.port())
-            .context(&context)
-            .start_blocking()
+        // Started inside our runtime, the server runs its tasks there (not on the SDK's own
+        // runtime, which would take a worker thread per CPU).
+        let server = runtime
+            .block_on(
+                WebSocketServer::new()
+                    .name(options.server_name.clone())
+                    .bind(options.addr.ip().to_string(), options.addr.port())
+                    .context(&context)
+                    .start(),
+            )
             .map_err(|e| SinkError::foxglove(format!("serving on {}", options.addr), e))?;
         let addr = SocketAddr::new(options.addr.ip(), server.port());
         let channels = Channels::new(&context, Arc::new(layout.clone()))?;
@@ -124,6 +143,7 @@ impl LiveSink {
             name: format!("foxglove ws://{addr}"),
             channels,
             server: Some(server),
+            runtime: Some(runtime),
             _context: context,
             decimator: Decimator::new(options.rate_hz),
             addr,
@@ -161,6 +181,9 @@ impl Sink for LiveSink {
         self.channels.close();
         if let Some(server) = self.server.take() {
             server.stop().wait_blocking();
+        }
+        if let Some(runtime) = self.runtime.take() {
+            runtime.shutdown_timeout(Duration::from_secs(1));
         }
         health
     }
