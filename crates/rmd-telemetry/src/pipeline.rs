@@ -138,20 +138,19 @@ impl Producer {
             return PushOutcome::Closed;
         }
         intake.offered.fetch_add(1, Ordering::Relaxed);
-        let mut pending = *record;
-        loop {
+        // One copy, straight into the queue's slot when there is room.
+        let Err(mut pending) = intake.queue.push(*record) else {
+            return PushOutcome::Queued;
+        };
+        while intake.delivery == Delivery::Lossless && intake.open.load(Ordering::Acquire) {
+            thread::sleep(RETRY);
             match intake.queue.push(pending) {
                 Ok(()) => return PushOutcome::Queued,
-                Err(back) => {
-                    if intake.delivery == Delivery::Lossy || !intake.open.load(Ordering::Acquire) {
-                        intake.dropped.fetch_add(1, Ordering::Relaxed);
-                        return PushOutcome::Dropped;
-                    }
-                    pending = back;
-                    thread::sleep(RETRY);
-                }
+                Err(back) => pending = back,
             }
         }
+        intake.dropped.fetch_add(1, Ordering::Relaxed);
+        PushOutcome::Dropped
     }
 }
 
