@@ -2,7 +2,7 @@
 //!
 //! The node never talks to motors. It reads samples and diagnostics from a port and gives it
 //! setpoints, trajectories and enable / estop requests that have passed validation (see
-//! [`crate::validate`]); the port forwards them (for a real robot: into the real-time loop's
+//! [`crate::Validator`]); the port forwards them (for a real robot: into the real-time loop's
 //! lock-free mailbox). All values are SI: rad, rad/s, rad/s², N·m, °C, V.
 
 use std::time::{Duration, SystemTime};
@@ -118,7 +118,7 @@ pub enum Setpoint {
 }
 
 /// Validated setpoints for some of the robot's joints (each joint at most once, every value
-/// finite and within the joint's limits). Only [`crate::validate`] makes them.
+/// finite and within the joint's limits). Only a [`crate::Validator`] makes them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Setpoints {
     pub(crate) stamp: Option<SystemTime>,
@@ -151,7 +151,7 @@ pub struct TrajectoryPoint {
 }
 
 /// A validated trajectory: distinct known joints, at least one point, strictly increasing
-/// times, finite values within the limits. Only [`crate::validate`] makes them.
+/// times, finite values within the limits. Only a [`crate::Validator`] makes them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Trajectory {
     pub(crate) start: Option<SystemTime>,
