@@ -76,3 +76,9 @@ class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::Diagnost
 class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticArray_"):
     header: Header = field(default_factory=Header)
     status: sequence[DiagnosticStatus] = field(default_factory=list)
+
+
+@dataclass
+class NotAJointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
+    """Not a JointState at all, under its type name: what a confused peer might send."""
+    code: uint8 = 0

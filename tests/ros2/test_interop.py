@@ -23,6 +23,7 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from ros2_types import (
+    NotAJointState,
     Bool,
     DiagnosticArray,
     Duration,
@@ -168,7 +169,7 @@ def node():
     stats = n.stop()
     # Every rejection the tests provoked is in the final counters too.
     for kind in ["unknown_joint", "not_finite", "out_of_limit", "length_mismatch", "empty",
-                 "duplicate_joint", "bad_time", "port_refused"]:
+                 "duplicate_joint", "bad_time", "malformed", "port_refused"]:
         assert stats[f"rejected_{kind}"] >= 1, f"{kind}: {stats}"
     assert stats["commands_accepted"] >= 2 and stats["trajectories_accepted"] >= 1, stats
     assert stats["enables_accepted"] >= 2, stats
@@ -255,6 +256,14 @@ def test_bad_messages_are_counted_and_move_nothing(peer):
     }
     for m in bad_commands.values():
         peer.commands.write(m)
+    # A sample that does not decode as a JointState: another type under JointState's name,
+    # from a participant of its own.
+    garbage_dp = DomainParticipant(DOMAIN)
+    garbage = DataWriter(garbage_dp, Topic(garbage_dp, f"rt{NS}/joint_commands", NotAJointState),
+                         qos=Qos(Policy.Reliability.Reliable(duration(seconds=1)),
+                                 Policy.History.KeepLast(1)))
+    wait_until("the garbage writer to match", lambda: len(garbage.get_matched_subscriptions()) > 0)
+    garbage.write(NotAJointState(code=7))
     backwards = JointTrajectory(joint_names=["hip"], points=[
         JointTrajectoryPoint(positions=[0.1], time_from_start=Duration(2, 0)),
         JointTrajectoryPoint(positions=[0.2], time_from_start=Duration(1, 0)),
@@ -262,6 +271,7 @@ def test_bad_messages_are_counted_and_move_nothing(peer):
     peer.trajectory.write(backwards)
     expected = {k: int(c0[f"rejected_{k}"]) + 1 for k in bad_commands}
     expected["bad_time"] = int(c0["rejected_bad_time"]) + 1
+    expected["malformed"] = int(c0["rejected_malformed"]) + 1
     wait_until("every rejection counted in diagnostics", lambda: (
         (c := peer.counters()) is not None
         and all(int(c[f"rejected_{k}"]) >= n for k, n in expected.items()) and c))

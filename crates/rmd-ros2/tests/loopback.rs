@@ -179,6 +179,16 @@ fn node_publishes_takes_commands_and_rejects_bad_ones() {
             node.stats().rejected(kind) > n
         });
     }
+    // A sample that does not decode as a JointState (a Bool under JointState's type name).
+    let garbage: Publisher<msg::Bool> = {
+        let qos = QosProfile::publisher_default();
+        let t = c.topic::<msg::JointState>(&format!("{ns}/joint_commands"), &qos);
+        c.node.create_publisher(&t, Some(qos)).unwrap()
+    };
+    wait_for("a malformed sample to be counted", || {
+        garbage.publish(msg::Bool { data: true }).unwrap();
+        node.stats().rejected(RejectionKind::Malformed) > 0
+    });
     let mut backwards = msg::JointTrajectory {
         joint_names: vec!["hip".into()],
         points: vec![Default::default(), Default::default()],
