@@ -336,8 +336,9 @@ impl<P: RobotPort> Worker<P> {
                 // there and publish on schedule all the same, by sleeping instead.
                 Err(_) => std::thread::sleep(wake.saturating_duration_since(Instant::now())),
             }
-            // Readers are edge-triggered: take everything each time one is ready; when poll
-            // failed, take from all of them.
+            // Readers are edge-triggered: take everything each time one is ready. A wake-up
+            // without events (timeout or failed poll) takes from all of them, a cheap safety
+            // net against a missed edge.
             let (mut c, mut t, mut e) = (events.is_empty(), events.is_empty(), events.is_empty());
             for ev in events.iter() {
                 match ev.token() {
