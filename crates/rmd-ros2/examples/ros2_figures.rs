@@ -1,7 +1,8 @@
 //! Figures for `docs/ros2.md`, printed, not asserted, both in one process over loopback DDS:
 //!
-//! 1. the cost of publishing one `joint_states` message (building it from a sample and
-//!    `publish`, with a matched best-effort reader in the process), for 3 and 12 joints;
+//! 1. the cost of publishing one `joint_states` message on the publishing thread (building it
+//!    from a sample, serializing it, handing it to RustDDS, whose event-loop thread sends it),
+//!    with a matched best-effort reader in the process, for 3 and 12 joints;
 //! 2. the latency from publishing a `joint_commands` sample (its header stamp) to the port
 //!    receiving the validated setpoints, over a few thousand commands at 500 Hz.
 //!
