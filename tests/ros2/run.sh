@@ -23,7 +23,7 @@ if [[ ! -x "$venv/bin/python" ]] || ! cmp -s "$req" "$stamp"; then
 fi
 
 cargo build --quiet -p rmd-ros2 --example fake_node
-node="$root/target/debug/examples/fake_node"
+node="${CARGO_TARGET_DIR:-$root/target}/debug/examples/fake_node"
 
 # A network namespace of our own: as root a plain one, otherwise inside a user namespace.
 if [[ $(id -u) -eq 0 ]]; then unshare=(unshare --net); else unshare=(unshare --map-root-user --net); fi
