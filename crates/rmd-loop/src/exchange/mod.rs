@@ -55,7 +55,7 @@ impl<B> Exchange<B> {
                 .joints()
                 .iter()
                 .enumerate()
-                .map(|(i, j)| MotorLink::new(i, j))
+                .map(|(i, j)| MotorLink::new(i, j, robot.buses()[j.bus].bitrate))
                 .collect(),
             feedback: vec![JointFeedback::UNSET; robot.joint_count()],
             max_age: match robot.settings().reply_mode {
