@@ -562,7 +562,7 @@ impl RobotLoop {
         match mcap {
             Some((path, stats)) => {
                 let m = stats_dict(py, &stats)?;
-                m.set_item("path", path)?;
+                m.set_item("path", path.display().to_string())?;
                 d.set_item("mcap", m)?;
             }
             None => d.set_item("mcap", py.None())?,
