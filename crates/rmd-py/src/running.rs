@@ -557,9 +557,9 @@ impl RobotLoop {
     /// Which telemetry sinks are on: `{"mcap": {"path": ..., counts...} | None, "live":
     /// {"addr": ..., counts...} | None}`.
     fn telemetry_status<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let (mcap, live) = self.telemetry().status();
+        let status = self.telemetry().status();
         let d = PyDict::new(py);
-        match mcap {
+        match status.mcap {
             Some((path, stats)) => {
                 let m = stats_dict(py, &stats)?;
                 m.set_item("path", path.display().to_string())?;
@@ -567,7 +567,7 @@ impl RobotLoop {
             }
             None => d.set_item("mcap", py.None())?,
         }
-        match live {
+        match status.live {
             Some((addr, stats)) => {
                 let l = stats_dict(py, &stats)?;
                 l.set_item("addr", addr.to_string())?;

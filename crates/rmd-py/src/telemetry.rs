@@ -56,6 +56,14 @@ impl Control {
     }
 }
 
+/// Which sinks are on, and their counts so far.
+pub(crate) struct SinkStatus {
+    /// The MCAP file being written.
+    pub(crate) mcap: Option<(PathBuf, PipelineStats)>,
+    /// The live server's address.
+    pub(crate) live: Option<(SocketAddr, PipelineStats)>,
+}
+
 /// The telemetry thread of one loop and its switchable sinks.
 pub(crate) struct TelemetryWorker {
     control: Arc<Control>,
@@ -154,23 +162,18 @@ impl TelemetryWorker {
     }
 
     /// The sinks that are on, and their counts so far.
-    pub(crate) fn status(
-        &self,
-    ) -> (
-        Option<(PathBuf, PipelineStats)>,
-        Option<(SocketAddr, PipelineStats)>,
-    ) {
+    pub(crate) fn status(&self) -> SinkStatus {
         let sinks = self.control.sinks();
-        (
-            sinks
+        SinkStatus {
+            mcap: sinks
                 .mcap
                 .as_ref()
                 .map(|(path, a)| (path.clone(), a.pipeline.stats())),
-            sinks
+            live: sinks
                 .live
                 .as_ref()
                 .map(|(addr, a)| (*addr, a.pipeline.stats())),
-        )
+        }
     }
 
     /// Takes the samples left, closes every sink and ends the thread (after the loop ended).
