@@ -39,7 +39,8 @@ def test_the_event_loop_runs_while_a_request_waits():
         return beats
 
     beats = asyncio.run(main())
-    assert beats >= 10, beats
+    # About 40 beats of 5 ms in the 0.2 s wait; an event loop blocked by the request: 1.
+    assert beats >= 5, beats
 
 
 def test_async_commands_move_motors_and_refuse_rom_writes():
