@@ -359,7 +359,10 @@ pub struct StatsSummary {
 impl StatsSummary {
     /// Commands clamped to a joint's current limit, over every joint.
     pub fn clamped_commands(&self) -> u64 {
-        self.motors.iter().map(|m| m.counters.clamped_commands).sum()
+        self.motors
+            .iter()
+            .map(|m| m.counters.clamped_commands)
+            .sum()
     }
 }
 
