@@ -134,6 +134,10 @@ pub enum RejectionKind {
     BadTime,
     /// [`Rejection::Unsupported`].
     Unsupported,
+    /// A trajectory the robot cannot follow as given, found by the robot's own checks
+    /// ([`crate::PortError::Invalid`]): too many points, not ending at rest, no motion within
+    /// the joint's limits reaching a point.
+    Infeasible,
     /// A sample DDS delivered but that did not decode as the topic's type.
     Malformed,
     /// A valid input the port refused ([`crate::PortError`]).
@@ -142,7 +146,7 @@ pub enum RejectionKind {
 
 impl RejectionKind {
     /// Every kind, in a fixed order (the order of [`crate::NodeStats::rejections`]).
-    pub const ALL: [RejectionKind; 10] = [
+    pub const ALL: [RejectionKind; 11] = [
         RejectionKind::Empty,
         RejectionKind::UnknownJoint,
         RejectionKind::DuplicateJoint,
@@ -151,6 +155,7 @@ impl RejectionKind {
         RejectionKind::OutOfLimit,
         RejectionKind::BadTime,
         RejectionKind::Unsupported,
+        RejectionKind::Infeasible,
         RejectionKind::Malformed,
         RejectionKind::PortRefused,
     ];
@@ -166,6 +171,7 @@ impl RejectionKind {
             RejectionKind::OutOfLimit => "out_of_limit",
             RejectionKind::BadTime => "bad_time",
             RejectionKind::Unsupported => "unsupported",
+            RejectionKind::Infeasible => "infeasible",
             RejectionKind::Malformed => "malformed",
             RejectionKind::PortRefused => "port_refused",
         }
