@@ -44,6 +44,11 @@ enum Mode {
 
 /// `rmd ros2 ...`.
 #[derive(Args, Debug)]
+// The rig's robot flags, worded for this command: the description is required, and the
+// simulated motors run in real time only.
+#[command(mut_arg("robot", |a| a.required(true).help("The robot's description (TOML; see examples/robots/)")))]
+#[command(mut_arg("iface", |a| a.help("CAN interface of each bus: in bus order (`can0,can1`) or by bus name (`front=can0`); repeatable. Default: the description's interfaces")))]
+#[command(mut_arg("virtual_time", |a| a.hide(true)))]
 #[command(
     after_help = "Topics (relative to --namespace): joint_states (sensor_msgs/JointState, \
     best effort), /diagnostics (diagnostic_msgs/DiagnosticArray), joint_commands \
