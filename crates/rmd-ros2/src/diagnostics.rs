@@ -137,9 +137,9 @@ pub fn diagnostic_array(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kind::RejectionKind;
     use crate::port::{LoopEnd, LoopTiming, MotorDiagnostics};
     use crate::stats::Counters;
-    use crate::validate::RejectionKind;
 
     fn value<'a>(s: &'a DiagnosticStatus, key: &str) -> &'a str {
         &s.values.iter().find(|kv| kv.key == key).unwrap().value

@@ -39,6 +39,7 @@ mod config;
 pub mod diagnostics;
 #[cfg(feature = "fake-robot")]
 pub mod fake;
+mod kind;
 pub mod msg;
 mod node;
 mod port;
@@ -48,10 +49,11 @@ mod stats;
 mod validate;
 
 pub use config::{ConfigError, NodeConfig, TopicNames};
+pub use kind::RejectionKind;
 pub use node::{DdsNames, NodeError, Ros2Node};
 pub use port::{
     Enable, JointIndex, JointInfo, JointLimits, LoopEnd, LoopTiming, MotorDiagnostics, PortError,
     RobotDiagnostics, RobotPort, RobotState, Setpoint, Setpoints, Trajectory, TrajectoryPoint,
 };
 pub use stats::{Input, NodeStats};
-pub use validate::{CommandMode, Field, Rejection, RejectionKind, Validator};
+pub use validate::{CommandMode, Field, Rejection, Validator};

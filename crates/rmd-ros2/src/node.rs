@@ -16,11 +16,12 @@ use serde::de::DeserializeOwned;
 
 use crate::config::{ConfigError, NodeConfig};
 use crate::diagnostics::diagnostic_array;
+use crate::kind::RejectionKind;
 use crate::msg::{self, RosMessage};
 use crate::port::{Enable, RobotPort};
 use crate::qos;
 use crate::stats::{Counters, Input, NodeStats};
-use crate::validate::{RejectionKind, Validator};
+use crate::validate::Validator;
 
 /// Why the node could not start or did not stop cleanly.
 #[derive(Debug, thiserror::Error)]

@@ -226,7 +226,7 @@ pub enum PortError {
     #[error("the robot refused the input: {reason}")]
     Invalid {
         /// The counter it goes to.
-        kind: crate::RejectionKind,
+        kind: crate::kind::RejectionKind,
         /// The robot's reason, telling what to change.
         reason: String,
     },
@@ -234,11 +234,11 @@ pub enum PortError {
 
 impl PortError {
     /// The counter a refusal goes to: [`Invalid`](Self::Invalid)'s own kind, else
-    /// [`RejectionKind::PortRefused`](crate::RejectionKind::PortRefused).
-    pub fn kind(&self) -> crate::RejectionKind {
+    /// [`RejectionKind::PortRefused`](crate::kind::RejectionKind::PortRefused).
+    pub fn kind(&self) -> crate::kind::RejectionKind {
         match self {
             PortError::Invalid { kind, .. } => *kind,
-            _ => crate::RejectionKind::PortRefused,
+            _ => crate::kind::RejectionKind::PortRefused,
         }
     }
 }

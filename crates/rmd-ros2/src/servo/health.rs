@@ -4,10 +4,30 @@
 use std::time::Duration;
 
 use rmd_loop::{Percentiles, StatsSummary};
-use rmd_servo::{JointStatus, ServoMode, ServoState};
+use rmd_servo::{JointStatus, ServoHandle, ServoMode, ServoState};
 
-use super::{LoopEnded, ServoPort};
-use crate::port::{LoopEnd, LoopTiming, MotorDiagnostics, RobotDiagnostics};
+use super::feed::{LoopEnded, LoopFeed};
+use crate::port::{JointInfo, LoopEnd, LoopTiming, MotorDiagnostics, RobotDiagnostics};
+
+/// One motor as the diagnostics describe it.
+#[derive(Clone, Debug)]
+pub(super) struct Motor {
+    pub(super) bus: usize,
+    pub(super) id: u8,
+    pub(super) can_id: u16,
+    pub(super) temperature_limit_c: Option<f64>,
+}
+
+/// What the diagnostics are made of.
+pub(super) struct Sources<'a> {
+    pub(super) handle: &'a ServoHandle,
+    pub(super) joints: &'a [JointInfo],
+    pub(super) motors: &'a [Motor],
+    pub(super) bus_labels: &'a [String],
+    pub(super) period: Duration,
+    pub(super) feed: &'a LoopFeed,
+    pub(super) last_trajectory: Option<&'a str>,
+}
 
 /// How close to its limit a motor's temperature is worth a warning, °C.
 pub(crate) const TEMPERATURE_MARGIN_C: f64 = 10.0;
@@ -61,7 +81,7 @@ fn timing(
 }
 
 fn loop_values(
-    port: &ServoPort,
+    port: &Sources<'_>,
     stats: Option<&StatsSummary>,
     state: Option<&ServoState>,
 ) -> Vec<(String, String)> {
@@ -101,14 +121,14 @@ fn loop_values(
         "servo_refusals_unattributed",
         port.handle.rejected_unattributed(),
     ));
-    if let Some(t) = &port.last_trajectory {
+    if let Some(t) = port.last_trajectory {
         values.push(kv("last_trajectory", t));
     }
     values
 }
 
 fn motor(
-    port: &ServoPort,
+    port: &Sources<'_>,
     index: usize,
     status: Option<&JointStatus>,
     stats: Option<&StatsSummary>,
@@ -208,7 +228,7 @@ fn motor(
 }
 
 /// The port's diagnostics now.
-pub(super) fn diagnostics(port: &mut ServoPort) -> RobotDiagnostics {
+pub(super) fn diagnostics(port: &Sources<'_>) -> RobotDiagnostics {
     let state = port.handle.state();
     let stats = port.feed.stats();
     let end = port.feed.end();

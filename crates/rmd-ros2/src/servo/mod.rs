@@ -51,6 +51,7 @@ use rmd_servo::{
 };
 
 pub use feed::{LoopEnded, LoopFeed};
+use health::Motor;
 
 use crate::port::{
     Enable, JointInfo, JointLimits, PortError, RobotDiagnostics, RobotPort, RobotState, Setpoint,
@@ -93,15 +94,6 @@ pub enum ServoPortError {
         /// Buses of the robot.
         buses: usize,
     },
-}
-
-/// One motor as the port describes it.
-#[derive(Clone, Debug)]
-struct Motor {
-    bus: usize,
-    id: u8,
-    can_id: u16,
-    temperature_limit_c: Option<f64>,
 }
 
 /// The [`RobotPort`] over a [`ServoHandle`] (see the [module](self) documentation).
@@ -325,7 +317,15 @@ impl RobotPort for ServoPort {
     }
 
     fn diagnostics(&mut self) -> RobotDiagnostics {
-        health::diagnostics(self)
+        health::diagnostics(&health::Sources {
+            handle: &self.handle,
+            joints: &self.joints,
+            motors: &self.motors,
+            bus_labels: &self.bus_labels,
+            period: self.period,
+            feed: &self.feed,
+            last_trajectory: self.last_trajectory.as_deref(),
+        })
     }
 
     fn send_setpoints(&mut self, setpoints: &Setpoints) -> Result<(), PortError> {

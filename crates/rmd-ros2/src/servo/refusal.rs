@@ -4,8 +4,8 @@
 
 use rmd_servo::{ServoError, TrajectoryRefusal};
 
+use crate::kind::RejectionKind;
 use crate::port::PortError;
-use crate::validate::RejectionKind;
 
 /// The port's error for a refusal of the servo.
 pub(crate) fn port_error(error: ServoError) -> PortError {
