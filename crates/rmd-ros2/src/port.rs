@@ -111,31 +111,9 @@ pub struct LoopEnd {
     pub normal: bool,
 }
 
-/// What one joint is told to do.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Setpoint {
-    /// Go to `position_rad`; `velocity_ff_rad_s` and `effort_ff_nm` are feed-forward terms.
-    Position {
-        /// Target position, rad.
-        position_rad: f64,
-        /// Velocity feed-forward, rad/s.
-        velocity_ff_rad_s: f64,
-        /// Effort feed-forward, N·m.
-        effort_ff_nm: f64,
-    },
-    /// Turn at `velocity_rad_s`, with an effort feed-forward.
-    Velocity {
-        /// Target velocity, rad/s.
-        velocity_rad_s: f64,
-        /// Effort feed-forward, N·m.
-        effort_ff_nm: f64,
-    },
-    /// Apply `effort_nm`.
-    Effort {
-        /// Target effort, N·m.
-        effort_nm: f64,
-    },
-}
+/// What one joint is told to do: the joint servo's own setpoint (rad, rad/s, N·m), so a
+/// validated command reaches the servo unchanged.
+pub use rmd_servo::Setpoint;
 
 /// Validated setpoints for some of the robot's joints (each joint at most once, every value
 /// finite and within the joint's limits). Only a [`crate::Validator`] makes them.

@@ -46,16 +46,14 @@ use std::time::{Duration, SystemTime};
 
 use rmd_bus::{Clock, Timestamp};
 use rmd_loop::{JointId, Robot};
-use rmd_servo::{
-    JointTrajectory, JointTrajectoryPoint, ServoHandle, Setpoint as ServoSetpoint, TrajectoryStart,
-};
+use rmd_servo::{JointTrajectory, JointTrajectoryPoint, ServoHandle, TrajectoryStart};
 
 pub use feed::{LoopEnded, LoopFeed};
 use health::Motor;
 
 use crate::port::{
-    Enable, JointInfo, JointLimits, PortError, RobotDiagnostics, RobotPort, RobotState, Setpoint,
-    Setpoints, Trajectory,
+    Enable, JointInfo, JointLimits, PortError, RobotDiagnostics, RobotPort, RobotState, Setpoints,
+    Trajectory,
 };
 
 /// What `false` on the enable topic does to the servo.
@@ -267,29 +265,6 @@ impl ServoPort {
     }
 }
 
-/// The servo's form of a setpoint (the same fields).
-fn servo_setpoint(setpoint: Setpoint) -> ServoSetpoint {
-    match setpoint {
-        Setpoint::Position {
-            position_rad,
-            velocity_ff_rad_s,
-            effort_ff_nm,
-        } => ServoSetpoint::Position {
-            position_rad,
-            velocity_ff_rad_s,
-            effort_ff_nm,
-        },
-        Setpoint::Velocity {
-            velocity_rad_s,
-            effort_ff_nm,
-        } => ServoSetpoint::Velocity {
-            velocity_rad_s,
-            effort_ff_nm,
-        },
-        Setpoint::Effort { effort_nm } => ServoSetpoint::Effort { effort_nm },
-    }
-}
-
 impl RobotPort for ServoPort {
     fn joints(&self) -> &[JointInfo] {
         &self.joints
@@ -331,9 +306,10 @@ impl RobotPort for ServoPort {
     fn send_setpoints(&mut self, setpoints: &Setpoints) -> Result<(), PortError> {
         self.handle
             .set_many(
-                setpoints.joints().iter().map(|&(joint, setpoint)| {
-                    (JointId::from_index(joint.0), servo_setpoint(setpoint))
-                }),
+                setpoints
+                    .joints()
+                    .iter()
+                    .map(|&(joint, setpoint)| (JointId::from_index(joint.0), setpoint)),
             )
             .map_err(refusal::port_error)
     }
