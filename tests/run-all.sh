@@ -16,3 +16,6 @@ cargo test --workspace --doc
 # The tests that need a real Linux CAN stack: natively when this machine has a usable vcan0 and
 # root, otherwise in a small qemu VM on Debian's stock kernel (see docs/socketcan.md).
 ./tests/vcan/run.sh
+# `rmd ros2` against an independent DDS (Cyclone DDS's Python binding, in a venv the script
+# makes), in a private network namespace (see docs/ros2.md).
+./tests/ros2/run.sh
