@@ -15,7 +15,7 @@ use rmd_sim::{FirmwareFamily, MotorConfig, SimBus, SimConfig};
 use crate::args;
 use crate::errors::{BusError, ConfigError, NoReplyError, ProtocolError, RomWriteNotConfirmed};
 use crate::exchange::{ExchangeError, Policy, Replies, exchange};
-use crate::protocol::{ROM_WRITES, build_frame, command_name};
+use crate::protocol::{build_frame, command_name, writes_rom};
 use crate::sim::{SimBusView, Simulator};
 
 /// The bus and its clock: what the mutex guards.
@@ -188,7 +188,7 @@ impl NativeBus {
         let command = command_name(command).map_err(ProtocolError::new_err)?;
         let frame = build_frame(command, id, fields, self.policy.dialect)
             .map_err(ProtocolError::new_err)?;
-        if ROM_WRITES.contains(&command) && !confirm_rom_write {
+        if writes_rom(command, self.policy.dialect) && !confirm_rom_write {
             return Err(RomWriteNotConfirmed::new_err(format!(
                 "{command} writes the motor's ROM (flash, which wears out{}): nothing was sent; \
                  pass confirm_rom_write=True to do it",

@@ -50,7 +50,15 @@ pub(crate) const COMMANDS: [&str; 24] = [
 
 /// The commands that write the motor's ROM (flash): `Bus.request` sends them only when
 /// confirmed.
-pub(crate) const ROM_WRITES: [&str; 2] = ["write-pid-rom", "write-zero-rom"];
+const ROM_WRITES: [&str; 2] = ["write-pid-rom", "write-zero-rom"];
+
+/// Whether `command` writes the motor's ROM (flash) under `dialect`: the PID and zero writes
+/// always; the encoder offset (0x91) on LK-TECH firmware, which keeps it in ROM as the motor's
+/// zero (v1.61 does not say it persists), as `rmd replay` counts it.
+pub(crate) fn writes_rom(command: &str, dialect: Dialect) -> bool {
+    ROM_WRITES.contains(&command)
+        || (command == "write-encoder-offset" && matches!(dialect, Dialect::LkV23x(_)))
+}
 
 /// The command named `name`, as a `'static` name.
 pub(crate) fn command_name(name: &str) -> Result<&'static str, String> {

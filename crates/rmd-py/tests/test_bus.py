@@ -93,6 +93,22 @@ def test_rom_writes_need_confirmation_and_send_nothing_without_it():
     assert bus.write_zero_rom(1, confirm_rom_write=True)["command"] == "write-zero-rom"
 
 
+def test_the_encoder_offset_is_a_rom_write_on_lk_tech_only():
+    lk = rmd_rt.Bus.simulated([1], virtual_time=True, protocol="lk-v2.3x", lk_series="mf")
+    before = lk.read_encoder(1)["encoder_offset"]
+    assert before != 100
+    with pytest.raises(rmd_rt.RomWriteNotConfirmed, match="confirm_rom_write=True"):
+        lk.write_encoder_offset(1, 100)
+    with pytest.raises(rmd_rt.RomWriteNotConfirmed):
+        lk.request("write-encoder-offset", 1, encoder_offset=100)
+    assert lk.read_encoder(1)["encoder_offset"] == before
+    assert lk.write_encoder_offset(1, 100, confirm_rom_write=True)["encoder_offset"] == 100
+    assert lk.read_encoder(1)["encoder_offset"] == 100
+    # v1.61 does not say 0x91 persists: no confirmation there (as `rmd encoder offset`).
+    v161 = rmd_rt.Bus.simulated([1], virtual_time=True)
+    assert v161.write_encoder_offset(1, 100)["encoder_offset"] == 100
+
+
 def test_a_missing_motor_is_a_no_reply_error_with_advice():
     bus = rmd_rt.Bus.simulated([1], virtual_time=True, timeout_s=0.01, retries=1)
     with pytest.raises(rmd_rt.NoReplyError, match=r"motor 5 did not answer .* \(2 attempts\)"):

@@ -199,11 +199,16 @@ class Bus:
         """0x34: writes the acceleration (dps/s) to RAM."""
         return self.request("write-accel-ram", id, accel=accel)
 
-    def write_encoder_offset(self, id: int, encoder_offset: int) -> Reply:
-        """0x91: writes the encoder offset (0..2^encoder_bits-1)."""
+    def write_encoder_offset(
+        self, id: int, encoder_offset: int, *, confirm_rom_write: bool = False
+    ) -> Reply:
+        """0x91: writes the encoder offset (0..2^encoder_bits-1). On LK-TECH firmware this
+        writes ROM (the motor's zero, kept over power cycles): there only with
+        ``confirm_rom_write=True``."""
         return self.request(
             "write-encoder-offset",
             id,
+            confirm_rom_write=confirm_rom_write,
             encoder_offset=encoder_offset,
             encoder_bits=self.encoder_bits,
         )
@@ -413,9 +418,13 @@ class AsyncBus:
         """:meth:`Bus.write_accel_ram`."""
         return await self._run(self.bus.write_accel_ram, id, accel)
 
-    async def write_encoder_offset(self, id: int, encoder_offset: int) -> Reply:
+    async def write_encoder_offset(
+        self, id: int, encoder_offset: int, *, confirm_rom_write: bool = False
+    ) -> Reply:
         """:meth:`Bus.write_encoder_offset`."""
-        return await self._run(self.bus.write_encoder_offset, id, encoder_offset)
+        return await self._run(
+            self.bus.write_encoder_offset, id, encoder_offset, confirm_rom_write=confirm_rom_write
+        )
 
     async def write_zero_rom(self, id: int, *, confirm_rom_write: bool = False) -> Reply:
         """:meth:`Bus.write_zero_rom`."""
