@@ -227,6 +227,20 @@ fn accel_and_encoder_commands() {
         ok(&["encoder", "offset", "4", "--here", "--sim"]),
         "motor 4: encoder offset 0 written\n"
     );
+    // LK-TECH firmware keeps the offset in ROM: asked first, as `rmd zero`.
+    let lk = ["--protocol", "lk-v2.3x", "--lk-series", "mf"];
+    let err = fails(
+        1,
+        &[&["encoder", "offset", "4", "99", "--sim"][..], &lk].concat(),
+    );
+    assert!(
+        err.contains("encoder offset of motor 4 to ROM") && err.contains("pass --yes"),
+        "{err}"
+    );
+    assert_eq!(
+        ok(&[&["encoder", "offset", "4", "99", "--sim", "--yes"][..], &lk].concat()),
+        "motor 4: encoder offset 99 written\n"
+    );
     // Checked against the encoder width before anything is sent.
     let err = fails(2, &["encoder", "offset", "4", "20000", "--sim"]);
     assert!(err.contains("for a 14-bit encoder"), "{err}");

@@ -3,10 +3,11 @@
 use std::process::ExitCode;
 
 use clap::{ArgGroup, Args, Subcommand};
-use rmd_protocol::{EncoderValue, MotorId, Reply, Request};
+use rmd_protocol::{EncoderValue, MotorId, ProtocolFamily, Reply, Request};
 
 use crate::args::bus::BusArgs;
 use crate::args::parse;
+use crate::live::confirm;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::output::outln;
 use crate::output::readings;
@@ -33,7 +34,8 @@ enum EncoderCommand {
         bus: BusArgs,
     },
     /// Write the encoder offset (0x91): encoder = raw - offset. `--here` makes the present
-    /// position zero. For a zero kept across power cycles, see `rmd zero`.
+    /// position zero. For a zero kept across power cycles, see `rmd zero`. LK-TECH firmware
+    /// keeps the offset in ROM: with `--protocol lk-v2.3x` this asks first (or `--yes`).
     Offset(OffsetArgs),
 }
 
@@ -49,6 +51,9 @@ struct OffsetArgs {
     /// Use the present raw position as the offset (the motor reads 0 here).
     #[arg(long)]
     here: bool,
+    /// Do not ask first (LK-TECH firmware writes the offset to ROM).
+    #[arg(long)]
+    yes: bool,
     #[command(flatten)]
     bus: BusArgs,
 }
@@ -102,6 +107,16 @@ fn set_offset(args: &OffsetArgs) -> Result<(), CliError> {
         })?),
         None => None,
     };
+    if args.bus.protocol.protocol == ProtocolFamily::LkV23x {
+        confirm::confirm(
+            &format!("writing the encoder offset of motor {id} to ROM"),
+            &format!(
+                "LK-TECH firmware keeps the encoder offset (0x91) in ROM as motor {id}'s zero. \
+                 Every ROM write wears the motor's flash."
+            ),
+            args.yes,
+        )?;
+    }
     let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     let offset = match given {
         Some(offset) => offset,
