@@ -316,6 +316,38 @@ def test_velocity_commands_move_the_joint_at_that_speed(peer):
     assert int(d["stale_events"]) >= 1, d
 
 
+def test_effort_commands_reach_the_motor_as_that_torque(peer):
+    ankle = JOINTS.index("ankle")
+    streaming = threading.Event()
+    streaming.set()
+
+    def stream():
+        while streaming.is_set():
+            peer.commands.write(JointState(name=["ankle"], effort=[0.3]))
+            time.sleep(0.02)
+
+    sender = threading.Thread(target=stream)
+    sender.start()
+    efforts = []
+    try:
+        t_end = time.monotonic() + 0.4
+        while time.monotonic() < t_end:
+            time.sleep(0.03)
+            efforts.append(peer.fresh_state().effort[ankle])
+        mode = values(peer.status(peer.fresh_diag(), "motor ankle"))["mode"]
+    finally:
+        streaming.clear()
+        sender.join()
+    # The measured torque (the motor's current times the torque constant) is the command's,
+    # within the current's resolution, once the first commands arrived.
+    late = sorted(efforts[len(efforts) // 2:])
+    assert abs(late[len(late) // 2] - 0.3) < 0.05, efforts
+    assert mode == "effort", mode
+    # Stale, then held where it went: back to a position for the tests after this one.
+    peer.commands.write(JointState(name=["ankle"], position=[-0.3]))
+    peer.wait_position("ankle", -0.3)
+
+
 def test_trajectory_moves_the_robot(peer):
     t = JointTrajectory(joint_names=["hip_fe", "hip_aa"], points=[
         JointTrajectoryPoint(positions=[-0.2, 0.2], time_from_start=Duration(0, 500_000_000)),
@@ -447,7 +479,13 @@ def test_estop_can_end_the_run_when_asked_to():
         p = Ros2Peer()
         p.wait_matched()
         p.fresh_state()
-        p.enable.write(Bool(data=False))
+        # Written until the run ends: the module's other node (same namespace) may be the
+        # only match when the first write goes out, and a late-joining reader of a volatile
+        # topic never sees it.
+        deadline = time.monotonic() + TIMEOUT
+        while r.proc.poll() is None and time.monotonic() < deadline:
+            p.enable.write(Bool(data=False))
+            time.sleep(0.2)
         code, report, err = r.wait()
     finally:
         r.kill()
