@@ -93,7 +93,10 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
         if let Value::Object(map) = &mut value {
             map.insert("bench".into(), bench_json(&args, controller));
             if let Some(telemetry) = &telemetry {
-                map.insert("telemetry".into(), telemetry_json(telemetry));
+                map.insert(
+                    "telemetry".into(),
+                    crate::output::telemetry::report_json(telemetry),
+                );
             }
         }
         if let Err(code) = super::emit(&format!("{value}\n")) {
@@ -145,26 +148,6 @@ fn bench_json(args: &LoopArgs, controller: &MovingTargetPd) -> Value {
         "tracking_rms_error_deg": controller.rms_error_deg(),
         "tracking_max_error_deg": controller.max_error_deg(),
     })
-}
-
-/// Each sink's counts.
-fn telemetry_json(report: &TelemetryReport) -> Value {
-    Value::Array(
-        report
-            .sinks()
-            .iter()
-            .map(|s| {
-                json!({
-                    "name": s.name,
-                    "written": s.written,
-                    "dropped": s.dropped,
-                    "failed": s.failed,
-                    "errors": s.errors,
-                    "first_error": s.first_error,
-                })
-            })
-            .collect(),
-    )
 }
 
 enum Failure {
