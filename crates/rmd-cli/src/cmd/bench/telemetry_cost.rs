@@ -175,7 +175,11 @@ fn median(mut values: Vec<f64>) -> f64 {
 }
 
 fn rounds(args: &TelemetryCostArgs, folder: &std::path::Path) -> Result<Vec<Round>, String> {
-    let progress = Progress::counter(u64::from(args.rounds) * 2, "rounds", progress::shown(args.json));
+    let progress = Progress::counter(
+        u64::from(args.rounds) * 2,
+        "rounds",
+        progress::shown(args.json),
+    );
     progress.set_prefix("bench telemetry ");
     let mut rounds = Vec::new();
     for i in 0..args.rounds * 2 {
@@ -212,10 +216,10 @@ fn one_round(args: &TelemetryCostArgs, outputs: &TelemetryOutputs) -> Result<Rou
     let mut config = robot::robot(args.rate, args.buses, args.motors);
     args.rt.apply(&mut config);
     let robot = Robot::try_from(config).map_err(|e| e.to_string())?;
-    let buses = robot::sim_buses(&clock, args.buses, args.motors)
-        .map_err(|e| format!("simulator: {e}"))?;
-    let mut rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(true))
-        .map_err(|e| e.to_string())?;
+    let buses =
+        robot::sim_buses(&clock, args.buses, args.motors).map_err(|e| format!("simulator: {e}"))?;
+    let mut rt =
+        RtLoop::new(robot, clock, buses, MovingTargetPd::new(true)).map_err(|e| e.to_string())?;
     let mut sinks = TelemetrySinks::attach(&mut rt, outputs).map_err(|e| e.to_string())?;
     let on = sinks.is_some();
     let handle = rt
