@@ -11,6 +11,14 @@ else
 fi
 # nextest does not run doc tests.
 cargo test --workspace --doc
+# The Python package: built and installed in a venv the script creates, then its pytest suite.
+./tests/python/run.sh
+# Telemetry against independent readers (Python mcap + mcap-ros2-support, jsonschema, a
+# websockets client on loopback), installed by the script into a venv (see docs/telemetry.md).
+./tests/telemetry/run.sh
 # The tests that need a real Linux CAN stack: natively when this machine has a usable vcan0 and
 # root, otherwise in a small qemu VM on Debian's stock kernel (see docs/socketcan.md).
 ./tests/vcan/run.sh
+# `rmd ros2` against an independent DDS (Cyclone DDS's Python binding, in a venv the script
+# makes), in a private network namespace (see docs/ros2.md).
+./tests/ros2/run.sh

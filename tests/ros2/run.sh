@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
-# Interoperability test of the rmd-rt ROS 2 node against an independent DDS: Eclipse Cyclone DDS
-# (its Python binding, which bundles the C library), in a private network namespace where `lo`
-# is the only interface, multicast enabled on it. Touches no real network.
+# Interoperability test of `rmd ros2` (the real-time loop running the joint servo on simulated
+# motors, and the ROS 2 node) against an independent DDS: Eclipse Cyclone DDS (its Python
+# binding, which bundles the C library), in a private network namespace where `lo` is the only
+# interface, multicast enabled on it. Touches no real network.
 #
-# Creates (once) a venv under target/ with the pinned tests/ros2/requirements.txt, builds the
-# node on its test-double robot (examples/fake_node.rs of crates/rmd-ros2), and runs
-# tests/ros2/test_interop.py with pytest inside the namespace. Fails on any failed check.
+# Creates (once) a venv under target/ with the pinned tests/ros2/requirements.txt, builds `rmd`,
+# and runs tests/ros2/test_interop.py with pytest inside the namespace, where it drives
+# `rmd ros2 --robot examples/robots/leg4.toml --sim` in real time. Fails on any failed check,
+# and clearly when no network namespace can be made.
 # Usage: ./tests/ros2/run.sh [pytest args...]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -22,16 +24,23 @@ if [[ ! -x "$venv/bin/python" ]] || ! cmp -s "$req" "$stamp"; then
   cp "$req" "$stamp"
 fi
 
-cargo build --quiet -p rmd-ros2 --example fake_node
-node="${CARGO_TARGET_DIR:-$root/target}/debug/examples/fake_node"
+cargo build --quiet -p rmd-cli
+rmd="${CARGO_TARGET_DIR:-$root/target}/debug/rmd"
 
+command -v ip >/dev/null || { echo "ros2 interop: needs iproute2's ip (apt-get install iproute2)" >&2; exit 1; }
 # A network namespace of our own: as root a plain one, otherwise inside a user namespace.
 if [[ $(id -u) -eq 0 ]]; then unshare=(unshare --net); else unshare=(unshare --map-root-user --net); fi
+if ! "${unshare[@]}" true 2>/dev/null; then
+  echo "ros2 interop: cannot create a private network namespace (${unshare[*]} failed):" >&2
+  echo "  this test needs root, or unprivileged user namespaces (kernel.unprivileged_userns_clone=1)," >&2
+  echo "  so that DDS traffic stays off every real network" >&2
+  exit 1
+fi
 
 # Cyclone DDS on lo only, multicast on (SPDP discovery by multicast, as on a real network).
 cyclone_xml='<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface name="lo" multicast="true"/></Interfaces><AllowMulticast>true</AllowMulticast></General></Domain></CycloneDDS>'
 
-exec "${unshare[@]}" env RMD_ROS2_NODE="$node" CYCLONEDDS_URI="$cyclone_xml" \
+exec "${unshare[@]}" env RMD_BIN="$rmd" CYCLONEDDS_URI="$cyclone_xml" \
   PYTHONDONTWRITEBYTECODE=1 bash -c '
   set -euo pipefail
   ip link set lo up

@@ -175,7 +175,9 @@ fn check(
         // Its 0x280 frame is a command byte for every motor, or nothing is known (answers on both
         // reply ids): never drive it with 0x280 frames.
         ProtocolFamily::MyActuatorV3 => true,
-        ProtocolFamily::Unknown => identification.evidence.finding == Finding::AnsweredOnBothIds,
+        // Answers that identify no family: what 0x280 means to it is not known. (No answer at
+        // all is left to the start-up probe, which names a motor that never answers.)
+        ProtocolFamily::Unknown => identification.evidence.finding != Finding::NoAnswer,
         // Identified, and not the described one (the current scales would be wrong).
         known => known != described,
     };
@@ -184,6 +186,7 @@ fn check(
             at,
             family,
             described,
+            finding: identification.evidence.finding,
         }));
     }
     Ok(())

@@ -1,5 +1,7 @@
 //! The ROS 2 node on the test-double robot (`FakeRobot`: three joints `hip`, `knee`, `wrist`
-//! that follow setpoints with a first-order response), for interoperability tests and demos.
+//! that follow setpoints with a first-order response), for demos and for trying a ROS 2 setup
+//! without the real-time loop (`rmd ros2 --robot FILE --sim` runs the real one on simulated
+//! motors).
 //!
 //! ```text
 //! cargo run -p rmd-ros2 --example fake_node -- --namespace /fake --seconds 30

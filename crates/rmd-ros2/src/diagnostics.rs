@@ -45,26 +45,37 @@ pub fn diagnostic_array(
             loop_values.push(kv(key, micros(v)));
         }
     }
-    let loop_level = if !robot.enabled || t.deadline_misses > 0 || t.missing_replies > 0 {
-        Level::Warn
-    } else {
-        Level::Ok
+    loop_values.extend(robot.values.iter().map(|(k, v)| kv(k, v)));
+    let (loop_level, state) = match &robot.stopped {
+        Some(end) => {
+            loop_values.push(kv("stopped", &end.reason));
+            (
+                if end.normal {
+                    Level::Warn
+                } else {
+                    Level::Error
+                },
+                format!("stopped ({})", end.reason),
+            )
+        }
+        None if !robot.enabled => (Level::Warn, "estopped".to_owned()),
+        None if t.deadline_misses > 0 || t.missing_replies > 0 => {
+            (Level::Warn, "enabled".to_owned())
+        }
+        None => (Level::Ok, "enabled".to_owned()),
     };
     let mut status = vec![DiagnosticStatus {
         level: loop_level as u8,
         name: format!("{node}: loop"),
         message: format!(
-            "{}; {} cycles, {} deadline misses, {} missing replies",
-            if robot.enabled { "enabled" } else { "estopped" },
-            t.cycles,
-            t.deadline_misses,
-            t.missing_replies
+            "{state}; {} cycles, {} deadline misses, {} missing replies",
+            t.cycles, t.deadline_misses, t.missing_replies
         ),
         hardware_id: String::new(),
         values: loop_values,
     }];
     for m in &robot.motors {
-        let mut values = Vec::with_capacity(3);
+        let mut values = Vec::with_capacity(3 + m.values.len());
         if let Some(c) = m.temperature_c {
             values.push(kv("temperature_c", c));
         }
@@ -72,10 +83,14 @@ pub fn diagnostic_array(
             values.push(kv("voltage_v", v));
         }
         values.push(kv("faults", m.faults.join(", ")));
-        let (level, message) = if m.faults.is_empty() {
-            (Level::Ok, "ok".to_owned())
-        } else {
+        values.push(kv("warnings", m.warnings.join(", ")));
+        values.extend(m.values.iter().map(|(k, v)| kv(k, v)));
+        let (level, message) = if !m.faults.is_empty() {
             (Level::Error, m.faults.join(", "))
+        } else if !m.warnings.is_empty() {
+            (Level::Warn, m.warnings.join(", "))
+        } else {
+            (Level::Ok, "ok".to_owned())
         };
         status.push(DiagnosticStatus {
             level: level as u8,
@@ -122,9 +137,9 @@ pub fn diagnostic_array(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::port::{LoopTiming, MotorDiagnostics};
+    use crate::kind::RejectionKind;
+    use crate::port::{LoopEnd, LoopTiming, MotorDiagnostics};
     use crate::stats::Counters;
-    use crate::validate::RejectionKind;
 
     fn value<'a>(s: &'a DiagnosticStatus, key: &str) -> &'a str {
         &s.values.iter().find(|kv| kv.key == key).unwrap().value
@@ -142,13 +157,16 @@ mod tests {
                 ..LoopTiming::default()
             },
             enabled: true,
+            values: vec![("work_p99_us".into(), "40.0".into())],
+            stopped: None,
             motors: vec![
                 MotorDiagnostics {
                     joint: "hip".into(),
                     hardware_id: "can0:0x141".into(),
                     temperature_c: Some(41.0),
                     voltage_v: Some(24.5),
-                    faults: vec![],
+                    values: vec![("mode".into(), "hold".into())],
+                    ..MotorDiagnostics::default()
                 },
                 MotorDiagnostics {
                     joint: "knee".into(),
@@ -156,6 +174,8 @@ mod tests {
                     temperature_c: None,
                     voltage_v: None,
                     faults: vec!["over temperature".into()],
+                    warnings: vec!["no fresh reply".into()],
+                    values: vec![],
                 },
             ],
         };
@@ -178,9 +198,12 @@ mod tests {
         assert!(l.values.iter().all(|kv| kv.key != "wake_latency_p50_us"));
         assert_eq!(a.status[1].hardware_id, "can0:0x141");
         assert_eq!(value(&a.status[1], "temperature_c"), "41");
+        assert_eq!(value(&a.status[1], "mode"), "hold");
+        assert_eq!(value(l, "work_p99_us"), "40.0");
         assert_eq!(a.status[1].level, Level::Ok as u8);
         assert_eq!(a.status[2].level, Level::Error as u8);
         assert_eq!(a.status[2].message, "over temperature");
+        assert_eq!(value(&a.status[2], "warnings"), "no fresh reply");
         let inputs = &a.status[3];
         assert_eq!(inputs.name, "/rmd_rt: ros2 inputs");
         assert_eq!(value(inputs, "rejected_unknown_joint"), "1");
@@ -188,5 +211,47 @@ mod tests {
         assert_eq!(inputs.level, Level::Warn as u8);
         assert_eq!(value(inputs, "last_rejection"), "unknown joint \"elbow\"");
         assert!(inputs.message.starts_with("1 inputs rejected"));
+    }
+
+    #[test]
+    fn an_ended_loop_and_motor_warnings_set_the_levels() {
+        let motor = |warnings: Vec<String>| MotorDiagnostics {
+            joint: "knee".into(),
+            warnings,
+            ..MotorDiagnostics::default()
+        };
+        let mut robot = RobotDiagnostics {
+            enabled: true,
+            motors: vec![motor(vec!["setpoint stale".into()])],
+            ..RobotDiagnostics::default()
+        };
+        let stats = Counters::default().snapshot();
+        let a = diagnostic_array("/n", SystemTime::UNIX_EPOCH, &robot, &stats, None);
+        assert_eq!(a.status[0].level, Level::Ok as u8);
+        assert!(a.status[0].message.starts_with("enabled;"));
+        assert_eq!(a.status[1].level, Level::Warn as u8);
+        assert_eq!(a.status[1].message, "setpoint stale");
+        robot.stopped = Some(LoopEnd {
+            reason: "FAULT: bus 0 is bus-off".into(),
+            normal: false,
+        });
+        let a = diagnostic_array("/n", SystemTime::UNIX_EPOCH, &robot, &stats, None);
+        assert_eq!(a.status[0].level, Level::Error as u8);
+        assert!(
+            a.status[0]
+                .message
+                .starts_with("stopped (FAULT: bus 0 is bus-off)")
+        );
+        assert_eq!(value(&a.status[0], "stopped"), "FAULT: bus 0 is bus-off");
+        robot.stopped = Some(LoopEnd {
+            reason: "stop requested".into(),
+            normal: true,
+        });
+        let a = diagnostic_array("/n", SystemTime::UNIX_EPOCH, &robot, &stats, None);
+        assert_eq!(a.status[0].level, Level::Warn as u8);
+        robot.stopped = None;
+        robot.enabled = false;
+        let a = diagnostic_array("/n", SystemTime::UNIX_EPOCH, &robot, &stats, None);
+        assert!(a.status[0].message.starts_with("estopped;"));
     }
 }

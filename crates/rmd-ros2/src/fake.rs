@@ -296,9 +296,10 @@ impl RobotPort for FakeRobot {
                     hardware_id: format!("fake:{}", i + 1),
                     temperature_c: Some(30.0 + s.effort[i].abs()),
                     voltage_v: Some(24.0),
-                    faults: Vec::new(),
+                    ..MotorDiagnostics::default()
                 })
                 .collect(),
+            ..RobotDiagnostics::default()
         }
     }
 

@@ -15,7 +15,9 @@
 //!
 //! The robot is a [`RobotPort`]: the node reads samples and diagnostics from it and gives it
 //! validated [`Setpoints`], [`Trajectory`]s and [`Enable`] requests. All DDS work runs on one
-//! ordinary thread the node owns; the port is only ever called from there.
+//! ordinary thread the node owns; the port is only ever called from there. The port of a real
+//! robot is [`servo::ServoPort`], over `rmd-servo`'s joint servo in the real-time loop (the
+//! `rmd ros2` command runs them together).
 //!
 //! ```no_run
 //! use rmd_ros2::{NodeConfig, Ros2Node, fake::FakeRobot};
@@ -37,18 +39,21 @@ mod config;
 pub mod diagnostics;
 #[cfg(feature = "fake-robot")]
 pub mod fake;
+mod kind;
 pub mod msg;
 mod node;
 mod port;
 pub mod qos;
+pub mod servo;
 mod stats;
 mod validate;
 
 pub use config::{ConfigError, NodeConfig, TopicNames};
+pub use kind::RejectionKind;
 pub use node::{DdsNames, NodeError, Ros2Node};
 pub use port::{
-    Enable, JointIndex, JointInfo, JointLimits, LoopTiming, MotorDiagnostics, PortError,
+    Enable, JointIndex, JointInfo, JointLimits, LoopEnd, LoopTiming, MotorDiagnostics, PortError,
     RobotDiagnostics, RobotPort, RobotState, Setpoint, Setpoints, Trajectory, TrajectoryPoint,
 };
 pub use stats::{Input, NodeStats};
-pub use validate::{CommandMode, Field, Rejection, RejectionKind, Validator};
+pub use validate::{CommandMode, Field, Rejection, Validator};

@@ -16,11 +16,12 @@ use serde::de::DeserializeOwned;
 
 use crate::config::{ConfigError, NodeConfig};
 use crate::diagnostics::diagnostic_array;
+use crate::kind::RejectionKind;
 use crate::msg::{self, RosMessage};
 use crate::port::{Enable, RobotPort};
 use crate::qos;
 use crate::stats::{Counters, Input, NodeStats};
-use crate::validate::{RejectionKind, Validator};
+use crate::validate::Validator;
 
 /// Why the node could not start or did not stop cleanly.
 #[derive(Debug, thiserror::Error)]
@@ -154,7 +155,8 @@ impl<P: RobotPort> Ros2Node<P> {
         &self.dds_names
     }
 
-    /// Stops the thread, leaves the DDS domain, and returns the port.
+    /// Publishes one last `diagnostics` message (the port's final diagnostics and counters),
+    /// stops the thread, leaves the DDS domain, and returns the port.
     pub fn stop(mut self) -> Result<P, NodeError> {
         self.stop.store(true, Ordering::Relaxed);
         let thread = self
@@ -190,6 +192,9 @@ fn panic_text(e: Option<Box<dyn std::any::Any + Send>>) -> String {
 const COMMANDS: Token = Token(0);
 const TRAJECTORY: Token = Token(1);
 const ENABLE: Token = Token(2);
+
+/// How long the thread stays after its last diagnostics message, so that it goes out.
+const FINAL_LINGER: Duration = Duration::from_millis(100);
 
 /// Upper bound on samples taken from one reader per wake-up, so a flood on one topic cannot
 /// starve publishing.
@@ -366,6 +371,11 @@ impl<P: RobotPort> Worker<P> {
                 next_diag = advance(next_diag, diag_period, now);
             }
         }
+        // A last word: the robot's final state (e.g. how its loop ended) and the final
+        // counters, for whoever watches diagnostics. RustDDS sends from its own event-loop
+        // thread: give it a moment before the participant goes.
+        self.publish_diagnostics();
+        std::thread::sleep(FINAL_LINGER);
     }
 
     fn reject(&mut self, kind: RejectionKind, text: String) {
@@ -380,7 +390,7 @@ impl<P: RobotPort> Worker<P> {
                 Ok(Some((m, _))) => match self.validator.joint_command(&m) {
                     Ok(s) => match self.port.send_setpoints(&s) {
                         Ok(()) => self.counters.accepted(Input::JointCommands),
-                        Err(e) => self.reject(RejectionKind::PortRefused, e.to_string()),
+                        Err(e) => self.reject(e.kind(), format!("joint_commands: {e}")),
                     },
                     Err(r) => self.reject(r.kind(), format!("joint_commands: {r}")),
                 },
@@ -396,7 +406,7 @@ impl<P: RobotPort> Worker<P> {
                 Ok(Some((m, _))) => match self.validator.trajectory(&m) {
                     Ok(t) => match self.port.send_trajectory(&t) {
                         Ok(()) => self.counters.accepted(Input::JointTrajectory),
-                        Err(e) => self.reject(RejectionKind::PortRefused, e.to_string()),
+                        Err(e) => self.reject(e.kind(), format!("joint_trajectory: {e}")),
                     },
                     Err(r) => self.reject(r.kind(), format!("joint_trajectory: {r}")),
                 },
@@ -417,7 +427,7 @@ impl<P: RobotPort> Worker<P> {
                     };
                     match self.port.set_enable(enable) {
                         Ok(()) => self.counters.accepted(Input::Enable),
-                        Err(e) => self.reject(RejectionKind::PortRefused, e.to_string()),
+                        Err(e) => self.reject(e.kind(), format!("enable: {e}")),
                     }
                 }
                 Err(e) => self.reject(RejectionKind::Malformed, format!("enable: {e}")),

@@ -74,10 +74,16 @@ pub struct MotorDiagnostics {
     pub hardware_id: String,
     /// Temperature, °C.
     pub temperature_c: Option<f64>,
-    /// Supply voltage, V.
+    /// Supply voltage, V (`None`: not measured; say why in [`values`](Self::values)).
     pub voltage_v: Option<f64>,
-    /// Active faults, each as a short text (empty: none).
+    /// Active faults, each as a short text (empty: none). Any fault makes the motor's status
+    /// an error.
     pub faults: Vec<String>,
+    /// Conditions worth a look that are not faults (a missing reply, a stale setpoint), each
+    /// as a short text. Any warning makes the motor's status a warning.
+    pub warnings: Vec<String>,
+    /// Further key-value pairs for the motor's status (counters, the servo's mode, ...).
+    pub values: Vec<(String, String)>,
 }
 
 /// Everything the node publishes on `diagnostics` about the robot.
@@ -87,35 +93,27 @@ pub struct RobotDiagnostics {
     pub timing: LoopTiming,
     /// Whether the robot is enabled (not estopped).
     pub enabled: bool,
+    /// The loop has ended, and why (`None` while it runs). An abnormal end (a fault, an
+    /// emergency stop) makes the loop's status an error.
+    pub stopped: Option<LoopEnd>,
+    /// Further key-value pairs for the loop's status (work per tick, late replies, ...).
+    pub values: Vec<(String, String)>,
     /// One entry per motor.
     pub motors: Vec<MotorDiagnostics>,
 }
 
-/// What one joint is told to do.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Setpoint {
-    /// Go to `position_rad`; `velocity_ff_rad_s` and `effort_ff_nm` are feed-forward terms.
-    Position {
-        /// Target position, rad.
-        position_rad: f64,
-        /// Velocity feed-forward, rad/s.
-        velocity_ff_rad_s: f64,
-        /// Effort feed-forward, N·m.
-        effort_ff_nm: f64,
-    },
-    /// Turn at `velocity_rad_s`, with an effort feed-forward.
-    Velocity {
-        /// Target velocity, rad/s.
-        velocity_rad_s: f64,
-        /// Effort feed-forward, N·m.
-        effort_ff_nm: f64,
-    },
-    /// Apply `effort_nm`.
-    Effort {
-        /// Target effort, N·m.
-        effort_nm: f64,
-    },
+/// How the robot's loop ended.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LoopEnd {
+    /// Why, in words.
+    pub reason: String,
+    /// Whether that is a normal end (a requested stop, the end of the run's time).
+    pub normal: bool,
 }
+
+/// What one joint is told to do: the joint servo's own setpoint (rad, rad/s, N·m), so a
+/// validated command reaches the servo unchanged.
+pub use rmd_servo::Setpoint;
 
 /// Validated setpoints for some of the robot's joints (each joint at most once, every value
 /// finite and within the joint's limits). Only a [`crate::Validator`] makes them.
@@ -185,7 +183,7 @@ pub enum Enable {
     Estop,
 }
 
-/// Why a port refused a validated input (nothing about the input itself was wrong).
+/// Why a port refused an input that passed the node's validation.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum PortError {
     /// The queue to the real-time loop is full; the input was dropped.
@@ -197,6 +195,30 @@ pub enum PortError {
     /// The robot's loop is not running.
     #[error("the robot's control loop is not running: {0}")]
     NotRunning(String),
+    /// The robot cannot take this input now (e.g. every trajectory buffer is in use); the
+    /// same input may be taken later.
+    #[error("the robot is busy: {0}")]
+    Busy(String),
+    /// The robot's own checks, beyond the node's, found the input invalid (e.g. a trajectory
+    /// whose motion between points leaves the position limits). Counted under `kind`.
+    #[error("the robot refused the input: {reason}")]
+    Invalid {
+        /// The counter it goes to.
+        kind: crate::kind::RejectionKind,
+        /// The robot's reason, telling what to change.
+        reason: String,
+    },
+}
+
+impl PortError {
+    /// The counter a refusal goes to: [`Invalid`](Self::Invalid)'s own kind, else
+    /// [`RejectionKind::PortRefused`](crate::kind::RejectionKind::PortRefused).
+    pub fn kind(&self) -> crate::kind::RejectionKind {
+        match self {
+            PortError::Invalid { kind, .. } => *kind,
+            _ => crate::kind::RejectionKind::PortRefused,
+        }
+    }
 }
 
 /// The robot as the ROS 2 node sees it.

@@ -3,7 +3,7 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::validate::RejectionKind;
+use crate::kind::RejectionKind;
 
 /// Which input topic a rejection or an acceptance came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

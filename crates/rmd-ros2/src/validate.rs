@@ -6,6 +6,7 @@
 
 use std::time::Duration;
 
+use crate::kind::RejectionKind;
 use crate::msg;
 use crate::port::{JointIndex, JointInfo, Setpoint, Setpoints, Trajectory, TrajectoryPoint};
 
@@ -112,69 +113,6 @@ pub enum Rejection {
     /// A field the node does not forward.
     #[error("{0} in trajectory points is not supported: leave it empty")]
     Unsupported(Field),
-}
-
-/// The kinds of [`Rejection`], plus the two failures that are not about a message's values
-/// (undecodable samples and inputs the port refused); used to count them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum RejectionKind {
-    /// [`Rejection::Empty`].
-    Empty,
-    /// [`Rejection::UnknownJoint`].
-    UnknownJoint,
-    /// [`Rejection::DuplicateJoint`].
-    DuplicateJoint,
-    /// [`Rejection::LengthMismatch`] and [`Rejection::MissingField`].
-    LengthMismatch,
-    /// [`Rejection::NotFinite`].
-    NotFinite,
-    /// [`Rejection::OutOfLimit`].
-    OutOfLimit,
-    /// [`Rejection::TimeNotIncreasing`] and [`Rejection::BadTime`].
-    BadTime,
-    /// [`Rejection::Unsupported`].
-    Unsupported,
-    /// A sample DDS delivered but that did not decode as the topic's type.
-    Malformed,
-    /// A valid input the port refused ([`crate::PortError`]).
-    PortRefused,
-}
-
-impl RejectionKind {
-    /// Every kind, in a fixed order (the order of [`crate::NodeStats::rejections`]).
-    pub const ALL: [RejectionKind; 10] = [
-        RejectionKind::Empty,
-        RejectionKind::UnknownJoint,
-        RejectionKind::DuplicateJoint,
-        RejectionKind::LengthMismatch,
-        RejectionKind::NotFinite,
-        RejectionKind::OutOfLimit,
-        RejectionKind::BadTime,
-        RejectionKind::Unsupported,
-        RejectionKind::Malformed,
-        RejectionKind::PortRefused,
-    ];
-
-    /// A short snake_case name (the key in diagnostics).
-    pub fn name(self) -> &'static str {
-        match self {
-            RejectionKind::Empty => "empty",
-            RejectionKind::UnknownJoint => "unknown_joint",
-            RejectionKind::DuplicateJoint => "duplicate_joint",
-            RejectionKind::LengthMismatch => "length_mismatch",
-            RejectionKind::NotFinite => "not_finite",
-            RejectionKind::OutOfLimit => "out_of_limit",
-            RejectionKind::BadTime => "bad_time",
-            RejectionKind::Unsupported => "unsupported",
-            RejectionKind::Malformed => "malformed",
-            RejectionKind::PortRefused => "port_refused",
-        }
-    }
-
-    /// Position in [`RejectionKind::ALL`].
-    pub(crate) fn index(self) -> usize {
-        self as usize
-    }
 }
 
 impl Rejection {
@@ -747,20 +685,6 @@ mod tests {
         let mut fast = point(1.0, &[0.0]);
         fast.velocities = vec![6.0];
         assert_eq!(kind(traj(&["hip"], vec![fast])), RejectionKind::OutOfLimit);
-    }
-
-    #[test]
-    fn every_kind_has_a_distinct_name_and_index() {
-        for (i, k) in RejectionKind::ALL.iter().enumerate() {
-            assert_eq!(k.index(), i);
-            assert_eq!(
-                RejectionKind::ALL
-                    .iter()
-                    .filter(|o| o.name() == k.name())
-                    .count(),
-                1
-            );
-        }
     }
 
     #[test]

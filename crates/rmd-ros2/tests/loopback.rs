@@ -3,89 +3,20 @@
 //! counted and move nothing. (The independent check, against Cyclone DDS, is
 //! `tests/ros2/run.sh`.)
 
-use std::net::{IpAddr, Ipv4Addr};
-use std::time::{Duration, Instant};
+mod common;
 
+use std::time::Duration;
+
+use common::{Client, drain, wait_for};
 use rmd_ros2::fake::{FakeRobot, FakeRobotHandle};
-use rmd_ros2::msg::{self, RosMessage};
+use rmd_ros2::msg;
 use rmd_ros2::{NodeConfig, RejectionKind, Ros2Node};
-use ros2_client::dds::rustdds::DomainParticipantBuilder;
-use ros2_client::dds::{Context, Node, Publisher, Subscription};
-use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, QosProfile};
-use serde::Serialize;
+use ros2_client::QosProfile;
+use ros2_client::dds::{Publisher, Subscription};
 use serde::de::DeserializeOwned;
 
-const LOOPBACK: IpAddr = IpAddr::V4(Ipv4Addr::LOCALHOST);
-
-fn wait_for(what: &str, mut f: impl FnMut() -> bool) {
-    let t0 = Instant::now();
-    while !f() {
-        assert!(
-            t0.elapsed() < Duration::from_secs(30),
-            "timed out waiting for {what}"
-        );
-        std::thread::sleep(Duration::from_millis(10));
-    }
-}
-
-struct Client {
-    node: Node,
-}
-
-impl Client {
-    fn new(domain: u16) -> Client {
-        let dp = DomainParticipantBuilder::new(domain)
-            .with_only_networks([LOOPBACK])
-            .build()
-            .unwrap();
-        let ctx = Context::from_domain_participant(dp).unwrap();
-        let node = ctx
-            .new_node(
-                NodeName::new("/", "test_client").unwrap(),
-                NodeOptions::new()
-                    .enable_rosout(false)
-                    .start_parameter_services(false),
-            )
-            .unwrap();
-        Client { node }
-    }
-
-    fn topic<M: RosMessage>(
-        &mut self,
-        name: &str,
-        qos: &QosProfile,
-    ) -> ros2_client::dds::rustdds::Topic {
-        self.node
-            .create_topic(
-                &Name::parse(name).unwrap(),
-                MessageTypeName::new(M::PACKAGE, M::NAME),
-                qos,
-            )
-            .unwrap()
-    }
-
-    fn publisher<M: RosMessage + Serialize>(&mut self, name: &str) -> Publisher<M> {
-        let qos = QosProfile::publisher_default();
-        let t = self.topic::<M>(name, &qos);
-        self.node.create_publisher(&t, Some(qos)).unwrap()
-    }
-
-    fn subscription<M: RosMessage + DeserializeOwned + 'static>(
-        &mut self,
-        name: &str,
-        qos: QosProfile,
-    ) -> Subscription<M> {
-        let t = self.topic::<M>(name, &qos);
-        self.node.create_subscription(&t, Some(qos)).unwrap()
-    }
-}
-
 fn latest<M: 'static + DeserializeOwned>(s: &Subscription<M>) -> Option<M> {
-    let mut last = None;
-    while let Ok(Some((m, _))) = s.take() {
-        last = Some(m);
-    }
-    last
+    drain(s).0
 }
 
 fn command(names: &[&str], position: &[f64]) -> msg::JointState {
@@ -113,7 +44,7 @@ fn node_publishes_takes_commands_and_rejects_bad_ones() {
             domain_id: domain,
             joint_state_rate_hz: 200.0,
             diagnostics_period: Duration::from_millis(200),
-            networks: vec![LOOPBACK],
+            networks: vec![common::LOOPBACK],
             ..NodeConfig::default()
         },
         robot,

@@ -13,9 +13,9 @@ use std::process::ExitCode;
 
 use clap::{ArgGroup, Args, Subcommand, ValueEnum};
 use rmd_protocol::{
-    Accel, AngleControl, CanFrame, Dialect, DialectRequest, EncoderValue, EncoderWidth, MaxSpeed,
-    MotorId, PidParams, ProtocolError, Request, ScaledCurrent, ScaledMultiTorque, SingleTurnAngle,
-    SpeedControl, SpinDirection, encode_request_with,
+    Accel, AngleControl, CanFrame, Dialect, DialectRequest, EncoderWidth, MaxSpeed, MotorId,
+    PidParams, Request, ScaledCurrent, ScaledMultiTorque, SingleTurnAngle, SpeedControl,
+    SpinDirection, encode_request_with,
 };
 
 use crate::args::bus::ProtocolArgs;
@@ -318,20 +318,7 @@ enum EncodeCommand {
 
 /// The torque current of `--iq-control` (raw) or `--amps` in `dialect`'s `iqControl` scale.
 fn current(dialect: Dialect, raw: Option<i64>, amps: Option<f64>) -> Result<ScaledCurrent, String> {
-    let scale = dialect.iq_control_scale();
-    match (raw, amps) {
-        (Some(raw), _) => ScaledCurrent::new(raw, scale)
-            .map_err(|e| format!("--iq-control: {e} in {dialect} ({scale})")),
-        (None, Some(amps)) => ScaledCurrent::from_amps(amps, scale).map_err(|e| match e {
-            ProtocolError::ValueOutOfRange { .. } => format!(
-                "--amps {amps}: {dialect} takes {}..={} A; {e}",
-                scale.amps(scale.min_raw()),
-                scale.amps(scale.max_raw())
-            ),
-            other => format!("--amps: {other}"),
-        }),
-        (None, None) => Err("missing --iq-control or --amps".to_owned()),
-    }
+    rmd_frames::encode::torque_current(dialect, raw, amps)
 }
 
 /// Builds the frame the command line asks for, in `dialect`.
@@ -347,12 +334,7 @@ fn frame(command: EncodeCommand, dialect: Dialect) -> Result<CanFrame, String> {
         C::ReadEncoder(t) => single(t, Request::ReadEncoder),
         C::WriteEncoderOffset(a) => {
             let encoder_offset =
-                EncoderValue::new(a.encoder_offset, a.encoder_bits).map_err(|e| {
-                    format!(
-                        "--encoder-offset: {e} for a {}-bit encoder (see --encoder-bits)",
-                        a.encoder_bits.bits()
-                    )
-                })?;
+                rmd_frames::encode::encoder_offset(a.encoder_offset, a.encoder_bits)?;
             single(a.target, Request::WriteEncoderOffset { encoder_offset })
         }
         C::WriteZeroRom(t) => single(t, Request::WriteZeroRom),

@@ -16,6 +16,7 @@ mod motion;
 mod pid;
 mod power;
 mod replay;
+mod ros2;
 mod scan;
 mod sim;
 mod status;
@@ -69,6 +70,8 @@ pub(crate) enum Command {
     Bench(bench::BenchArgs),
     /// Fault drills on simulated motors, judged by the simulated firmware: is every motor safe?
     Drill(drill::DrillArgs),
+    /// A robot as a ROS 2 node over DDS: joint states and diagnostics out, commands, trajectories and estop in.
+    Ros2(ros2::Ros2Args),
     /// Trajectory generator tools: `rmd traj check FILE` runs a test-vector file.
     Traj(traj::TrajArgs),
     /// Print the shell completion script (bash, zsh, fish, elvish, powershell).
@@ -99,6 +102,7 @@ impl Command {
             Command::Log(args) => log::run(args),
             Command::Replay(args) => replay::run(args),
             Command::Bench(args) => bench::run(args),
+            Command::Ros2(args) => ros2::run(args),
             Command::Traj(args) => traj::run(args),
             Command::Completions(args) => completions::run(args),
         }

@@ -1,11 +1,10 @@
 //! What the commands print: stdout and stderr without panics ([`console`], with the
 //! [`outln!`] and [`errln!`] macros), errors and exit codes ([`report`]), frames and replies as
-//! JSON ([`json`]), readings of motors as JSON objects or words ([`readings`]), tables
-//! ([`table`]), progress on a terminal ([`progress`]), what the telemetry sinks got
-//! ([`telemetry`]).
+//! JSON ([`json`], from `rmd-frames`, shared with the Python package), readings of motors as
+//! JSON objects or words ([`readings`]), tables ([`table`]), progress on a terminal
+//! ([`progress`]), what the telemetry sinks got ([`telemetry`]).
 
 pub(crate) mod console;
-pub(crate) mod json;
 pub(crate) mod progress;
 pub(crate) mod readings;
 pub(crate) mod report;
@@ -41,3 +40,6 @@ macro_rules! errln {
 }
 
 pub(crate) use {errln, out, outln};
+
+/// Frames and replies as JSON objects: `rmd-frames`' builder, shared with the Python package.
+pub(crate) use rmd_frames::json;

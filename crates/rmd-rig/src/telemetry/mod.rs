@@ -1,6 +1,6 @@
 //! The loop's telemetry to files and a live view: [`TelemetryOutputs`] (the sinks a run writes:
 //! `--csv`, `--mcap`, `--foxglove`) started as [`TelemetrySinks`] on the run's
-//! [`RunLayout`](rmd_telemetry::RunLayout), fed the loop's samples on an ordinary thread (the
+//! [`RunLayout`], fed the loop's samples on an ordinary thread (the
 //! runner's, or a thread of its own: [`spawn_feed`]), each turned into a
 //! [`TickRecord`](rmd_telemetry::TickRecord) by a [`Recorder`] and fanned out by
 //! `rmd-telemetry`'s pipeline; a [`TelemetryReport`] at the end says what each sink got.

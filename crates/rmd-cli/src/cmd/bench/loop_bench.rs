@@ -62,6 +62,10 @@ pub(crate) struct LoopArgs {
     /// Run on a virtual clock: deterministic, as fast as the CPU allows (latencies are then 0).
     #[arg(long)]
     virtual_time: bool,
+    /// The simulated motors' firmware: v1.61 (default), lk-v2.3x (MG), myactuator-v3. The
+    /// robot is described as v1.61, so any other is refused at start-up, before any torque.
+    #[arg(long, value_name = "FIRMWARE", default_value = "v1.61", value_parser = crate::args::parse::sim_firmware)]
+    sim_firmware: rmd_protocol::ProtocolFamily,
     #[command(flatten)]
     rt: RealtimeArgs,
     #[command(flatten)]
@@ -165,7 +169,14 @@ fn run_on<C: Clock + Clone + 'static>(clock: C, args: &LoopArgs) -> Result<Ran, 
     let robot = Robot::try_from(config).map_err(|e| Failure::Usage(e.to_string()))?;
     let period = robot.settings().period.get();
     let ticks = u64::try_from(args.duration.as_nanos() / period.as_nanos()).unwrap_or(u64::MAX);
-    let buses = robot::sim_buses(&clock, args.buses, args.motors)
+    let family = match args.sim_firmware {
+        rmd_protocol::ProtocolFamily::LkV23x => {
+            rmd_sim::FirmwareFamily::LkV23x(rmd_protocol::LkSeries::Mg)
+        }
+        rmd_protocol::ProtocolFamily::MyActuatorV3 => rmd_sim::FirmwareFamily::MyActuatorV3,
+        _ => rmd_sim::FirmwareFamily::V161,
+    };
+    let buses = robot::sim_buses_of(&clock, args.buses, args.motors, family)
         .map_err(|e| Failure::Run(format!("simulator: {e}")))?;
     let mut rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
         .map_err(|e| Failure::Usage(e.to_string()))?;

@@ -4,7 +4,7 @@
 
 use rmd_bus::Clock;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
-use rmd_sim::{SimBus, SimConfig};
+use rmd_sim::{FirmwareFamily, SimBus, SimConfig};
 
 /// Gear ratio of the simulator's default motor.
 const GEAR_RATIO: f64 = 9.0;
@@ -41,11 +41,23 @@ pub(crate) fn sim_buses<C: Clock + Clone>(
     buses: usize,
     motors: u8,
 ) -> Result<Vec<SimBus<C>>, rmd_sim::ConfigError> {
+    sim_buses_of(clock, buses, motors, FirmwareFamily::V161)
+}
+
+/// [`sim_buses`] whose motors run `family`'s firmware (`rmd bench loop --sim-firmware`).
+pub(crate) fn sim_buses_of<C: Clock + Clone>(
+    clock: &C,
+    buses: usize,
+    motors: u8,
+    family: FirmwareFamily,
+) -> Result<Vec<SimBus<C>>, rmd_sim::ConfigError> {
     (0..buses)
         .map(|b| {
             SimBus::new(
                 clock.clone(),
-                SimConfig::with_motors(motors).seed(SEED + b as u64),
+                SimConfig::with_motors(motors)
+                    .seed(SEED + b as u64)
+                    .firmware_family(family),
             )
         })
         .collect()

@@ -12,11 +12,10 @@
 //!
 //! A reply with a field out of range (an `iq` beyond ±2048, an encoder value beyond the encoder
 //! width) still prints every other field: the bad one is left out, named under `errors` in the
-//! JSON and on stderr as `line N: ...`, and the exit status is 1 ([`fields`]). Errors of the
+//! JSON and on stderr as `line N: ...`, and the exit status is 1 ([`rmd_frames::partial`]). Errors of the
 //! whole frame (identifier, DLC, unknown command byte, a reply to another command) print no
 //! object.
 
-pub(crate) mod fields;
 pub(crate) mod lines;
 pub(crate) mod mcap;
 pub(crate) mod pairing;
@@ -29,17 +28,14 @@ use std::process::ExitCode;
 
 use clap::{Args, ValueEnum};
 use rmd_bus::candump::{self, CandumpLine};
-use rmd_protocol::{
-    Command, DecodedRequest, Dialect, DialectRequest, EncoderWidth, ProtocolError,
-    decode_reply_to_with, decode_reply_with, decode_request_with,
-};
+use rmd_frames::decode::Decoded;
+use rmd_protocol::{Dialect, EncoderWidth};
 use serde_json::Value;
 
 use crate::args::bus::ProtocolArgs;
 use crate::args::parse;
 use crate::output::console::WriteError;
 use crate::output::errln;
-use crate::output::json::FrameJson;
 use crate::output::report;
 use lines::{Line, Lines};
 use mcap::McapFrames;
@@ -88,83 +84,18 @@ pub(crate) struct DecodeArgs {
     protocol: ProtocolArgs,
 }
 
-/// A decoded line: its object, and the fields that could not be read (each also under
-/// `errors` in the object).
-struct Decoded {
-    value: Value,
-    field_errors: Vec<String>,
-}
-
-/// Decodes one parsed line, a frame of `role`, into its JSON object.
+/// Decodes one parsed line, a frame of `role`, into its JSON object (`rmd-frames`, shared with
+/// the Python package's `decode`).
 fn decode_line(
     line: &CandumpLine,
     role: Role,
     width: EncoderWidth,
     dialect: Dialect,
 ) -> Result<Decoded, String> {
-    let frame = &line.frame;
-    let header = |direction: &str, command: &str| {
-        FrameJson::new(
-            line.timestamp,
-            line.interface.as_deref(),
-            frame.id(),
-            direction,
-            command,
-            width,
-        )
-    };
-    let json = match role {
-        Role::Request => {
-            let request = decode_request_with(dialect, frame).map_err(|e| e.to_string())?;
-            let command = match &request {
-                DialectRequest::Torque { .. } => Command::Torque.name(),
-                DialectRequest::MultiTorque(_)
-                | DialectRequest::Common(DecodedRequest::Multi(_)) => "multi-torque",
-                DialectRequest::Common(DecodedRequest::Single { request, .. }) => {
-                    request
-                        .check_encoder_width(width)
-                        .map_err(|e| encoder_hint(e, width))?;
-                    request.command().name()
-                }
-            };
-            header("request", command).dialect_request(&request)
-        }
-        Role::Reply(pending) => {
-            let decoded = match pending {
-                Some(command) => decode_reply_to_with(dialect, frame, command),
-                None => decode_reply_with(dialect, frame),
-            };
-            match decoded {
-                Ok((_, reply)) => header("reply", reply.command().name())
-                    .checking_encoder_width()
-                    .dialect_reply(&reply),
-                // Identifier, DLC, command byte and pairing passed: one field is out of range.
-                Err(error @ ProtocolError::ValueOutOfRange { .. }) => {
-                    let command = frame
-                        .data()
-                        .first()
-                        .and_then(|&code| Command::from_code(code))
-                        .ok_or_else(|| error.to_string())?;
-                    let json = header("reply", command.name()).checking_encoder_width();
-                    fields::partial_reply(json, dialect, command, frame)
-                        .ok_or_else(|| error.to_string())?
-                }
-                Err(error) => return Err(error.to_string()),
-            }
-        }
-    };
-    let field_errors = json.errors().iter().map(|e| e.message.clone()).collect();
-    Ok(Decoded {
-        value: json.into_value(),
-        field_errors,
-    })
-}
-
-fn encoder_hint(err: rmd_protocol::ProtocolError, width: EncoderWidth) -> String {
-    format!(
-        "{err} for a {}-bit encoder (see --encoder-bits)",
-        width.bits()
-    )
+    match role {
+        Role::Request => rmd_frames::decode::request(line, width, dialect),
+        Role::Reply(pending) => rmd_frames::decode::reply(line, pending, width, dialect),
+    }
 }
 
 /// A line waiting for its turn on the output (input order), its role perhaps still undecided

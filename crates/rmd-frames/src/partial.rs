@@ -21,12 +21,12 @@ use rmd_protocol::{
     CanFrame, CircleAngle, Command, Dialect, EncoderValue, ScaledCurrent, Speed, Temperature,
 };
 
-use crate::output::json::{FieldError, FrameJson};
+use crate::json::{FieldError, FrameJson};
 
 /// Adds the fields of `frame`, a reply to `command` in `dialect` whose strict decoding failed
 /// with a value out of range, to `json`; `None` if the frame has no layout with such fields (the
 /// strict decoder's error then stands for the whole frame).
-pub(crate) fn partial_reply(
+pub fn partial_reply(
     json: FrameJson,
     dialect: Dialect,
     command: Command,

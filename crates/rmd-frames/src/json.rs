@@ -1,4 +1,5 @@
-//! The JSON object `rmd decode` prints for one frame.
+//! The JSON object `rmd decode` prints for one frame (and the Python package's `decode`
+//! returns as a dict).
 //!
 //! Keys, in order: `timestamp` (seconds, if the line had one), `interface` (if any), `id` (motor
 //! id; absent for 0x280), `can_id` (`"0x141"`), `direction` (`request` / `reply`), `command`
@@ -25,19 +26,19 @@ use serde_json::{Map, Value, json};
 /// A field of a frame that could not be read (a value outside its range): left out of the
 /// object and named under `errors`.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) struct FieldError {
+pub struct FieldError {
     /// The field's key (`iq`, `encoder_raw`, `circle_angle`).
-    pub(crate) key: String,
+    pub key: String,
     /// Its raw value on the wire.
-    pub(crate) raw: i64,
+    pub raw: i64,
     /// What is wrong, one line (`iq 2049 is out of range -2048..=2048`).
-    pub(crate) message: String,
+    pub message: String,
 }
 
 impl FieldError {
     /// The field of a [`ProtocolError::ValueOutOfRange`] (any other error names no field, and
     /// is returned as it is).
-    pub(crate) fn from_protocol(error: ProtocolError) -> Result<Self, ProtocolError> {
+    pub fn from_protocol(error: ProtocolError) -> Result<Self, ProtocolError> {
         match error {
             ProtocolError::ValueOutOfRange { field, value, .. } => Ok(Self {
                 key: field.name().to_owned(),
@@ -55,7 +56,7 @@ impl FieldError {
 
 /// The fields of a reply as `rmd decode` names them (raw values and physical values), without
 /// the frame header (`id`, `can_id`, `direction`, `command`).
-pub(crate) fn reply_fields(reply: &Reply, width: EncoderWidth) -> Map<String, Value> {
+pub fn reply_fields(reply: &Reply, width: EncoderWidth) -> Map<String, Value> {
     const HEADER: [&str; 4] = ["id", "can_id", "direction", "command"];
     let object = FrameJson::new(None, None, 0x141, "reply", "", width)
         .reply(reply)
@@ -70,7 +71,7 @@ pub(crate) fn reply_fields(reply: &Reply, width: EncoderWidth) -> Map<String, Va
 }
 
 /// Builder for one output object.
-pub(crate) struct FrameJson {
+pub struct FrameJson {
     map: Map<String, Value>,
     width: EncoderWidth,
     /// Whether encoder values are checked against the width (`rmd decode`).
@@ -80,7 +81,7 @@ pub(crate) struct FrameJson {
 
 impl FrameJson {
     /// The common header of a frame's object.
-    pub(crate) fn new(
+    pub fn new(
         timestamp: Option<Duration>,
         interface: Option<&str>,
         can_id: u16,
@@ -113,18 +114,18 @@ impl FrameJson {
 
     /// Checks every encoder value against the encoder width: one outside it is left out and
     /// named under `errors`.
-    pub(crate) fn checking_encoder_width(mut self) -> Self {
+    pub fn checking_encoder_width(mut self) -> Self {
         self.check_width = true;
         self
     }
 
     /// The fields that could not be read so far.
-    pub(crate) fn errors(&self) -> &[FieldError] {
+    pub fn errors(&self) -> &[FieldError] {
         &self.errors
     }
 
     /// The finished object (with `errors` last, if any field could not be read).
-    pub(crate) fn into_value(mut self) -> Value {
+    pub fn into_value(mut self) -> Value {
         if !self.errors.is_empty() {
             let errors = self.errors.iter().map(FieldError::to_value).collect();
             self.map.insert("errors".into(), Value::Array(errors));
@@ -201,7 +202,7 @@ impl FrameJson {
     }
 
     /// Status 2 with `iq` that may have failed its range check.
-    pub(crate) fn partial_status2(
+    pub fn partial_status2(
         &mut self,
         temperature: Temperature,
         iq: Result<ScaledCurrent, FieldError>,
@@ -239,7 +240,7 @@ impl FrameJson {
     }
 
     /// Adds the fields of a MyActuator V3 status 1 (0x9A on `0x240 + id`).
-    pub(crate) fn v3_status1(mut self, s: &V3Status1) -> Self {
+    pub fn v3_status1(mut self, s: &V3Status1) -> Self {
         self.temperature("temperature", s.temperature);
         self.temperature("mos_temperature", s.mos_temperature);
         self.put("brake_released", json!(s.brake_released));
@@ -250,7 +251,7 @@ impl FrameJson {
     }
 
     /// Adds the fields of a reply decoded in a dialect.
-    pub(crate) fn dialect_reply(mut self, reply: &DialectReply) -> Self {
+    pub fn dialect_reply(mut self, reply: &DialectReply) -> Self {
         match reply {
             DialectReply::Status1 {
                 status: DialectStatus1::V161(s),
@@ -271,7 +272,7 @@ impl FrameJson {
     }
 
     /// Adds the fields of a request decoded in a dialect.
-    pub(crate) fn dialect_request(mut self, request: &DialectRequest) -> Self {
+    pub fn dialect_request(mut self, request: &DialectRequest) -> Self {
         match request {
             DialectRequest::Torque { iq_control, .. } => {
                 self.current("iq_control", *iq_control);
@@ -294,7 +295,7 @@ impl FrameJson {
     }
 
     /// Adds the fields of a single-motor request.
-    pub(crate) fn request(mut self, request: &Request) -> Self {
+    pub fn request(mut self, request: &Request) -> Self {
         match request {
             Request::WritePidRam(p) | Request::WritePidRom(p) => self.pid(p),
             Request::WriteAccelRam { accel } => {
@@ -348,12 +349,12 @@ impl FrameJson {
     }
 
     /// Adds the fields of the 0x280 frame.
-    pub(crate) fn multi(self, m: &MultiTorque) -> Self {
+    pub fn multi(self, m: &MultiTorque) -> Self {
         self.scaled_multi(&ScaledMultiTorque::from(*m))
     }
 
     /// The single-turn angle of v1.61's 0x94 reply, which may have failed its range check.
-    pub(crate) fn circle_angle(&mut self, angle: Result<rmd_protocol::CircleAngle, FieldError>) {
+    pub fn circle_angle(&mut self, angle: Result<rmd_protocol::CircleAngle, FieldError>) {
         match angle {
             Ok(angle) => {
                 self.put("circle_angle", json!(angle.raw()));
@@ -364,7 +365,7 @@ impl FrameJson {
     }
 
     /// Adds the fields of a reply.
-    pub(crate) fn reply(mut self, reply: &Reply) -> Self {
+    pub fn reply(mut self, reply: &Reply) -> Self {
         match reply {
             Reply::ReadPid(p) | Reply::WritePidRam(p) | Reply::WritePidRom(p) => self.pid(p),
             Reply::ReadAccel { accel } | Reply::WriteAccelRam { accel } => {
