@@ -78,7 +78,6 @@ fn run(args: &Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let duration = args.run.duration.unwrap_or(DURATION);
     let mut description = args.robot.description(ROBOT)?;
     args.run.apply(&mut description);
-    support::keep_every_sample(&mut description, args.robot.virtual_time, Some(duration));
     let robot = Robot::try_from(description)?;
     let placement = args.robot.placement(&robot, PlacementDefault::Simulated)?;
 
@@ -110,6 +109,7 @@ fn run(args: &Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
 
     let csv = args
         .output
+        .telemetry
         .csv
         .clone()
         .unwrap_or_else(|| PathBuf::from("target/trajectory_follow.csv"));

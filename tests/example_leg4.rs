@@ -293,17 +293,24 @@ fn the_example_runs_end_to_end_and_writes_every_tick() {
         );
     }
     assert!(
-        ran.stderr.contains("telemetry: 2000 rows"),
+        ran.stderr.contains(&format!(
+            "telemetry: csv {}: 2000 written, 0 dropped, 0 errors",
+            csv.display()
+        )),
         "{}",
         ran.stderr
     );
 
     let csv = Csv::take(&csv);
-    // tick, time, eight columns per joint (named after it), the controller's signals.
-    assert_eq!(csv.header.len(), 2 + 8 * JOINTS + SIGNALS.len());
-    assert_eq!(csv.header[..2], ["tick", "time_s"]);
-    assert_eq!(csv.header[2], "hip_aa_angle_deg");
-    assert_eq!(csv.header[2 + 8 * JOINTS..], SIGNALS);
+    // time, tick, seven columns per joint (named after it), the controller's signals, four of
+    // loop timing.
+    assert_eq!(csv.header.len(), 2 + 7 * JOINTS + SIGNALS.len() + 4);
+    assert_eq!(csv.header[..2], ["time_s", "tick"]);
+    assert_eq!(csv.header[2], "hip_aa.position_rad");
+    assert_eq!(
+        csv.header[2 + 7 * JOINTS..2 + 7 * JOINTS + SIGNALS.len()],
+        SIGNALS
+    );
     assert_eq!(csv.rows.len(), 2000);
     assert!(csv.rows.iter().all(|r| r.len() == csv.header.len()));
     assert_eq!(
@@ -314,7 +321,11 @@ fn the_example_runs_end_to_end_and_writes_every_tick() {
     assert!(phases.iter().all(|p| Phase::from_code(*p).is_some()));
     assert!(phases.contains(&Phase::Stance.code()) && phases.contains(&Phase::Swing.code()));
     // The knee bends through the step: its angle column moves.
-    let knee = csv.values("knee_angle_deg");
+    let knee: Vec<f64> = csv
+        .values("knee.position_rad")
+        .into_iter()
+        .map(f64::to_degrees)
+        .collect();
     let (low, high) = knee
         .iter()
         .fold((f64::MAX, f64::MIN), |(l, h), k| (l.min(*k), h.max(*k)));

@@ -117,8 +117,12 @@ fn the_example_runs_end_to_end() {
     assert!((target + 20.0).abs() < 0.05, "{target}");
     let csv = Csv::take(&csv);
     assert_eq!(csv.rows.len(), 3000);
-    assert_eq!(csv.header.len(), 2 + 8);
-    let angle = csv.values("arm_angle_deg");
+    assert_eq!(csv.header.len(), 2 + 7 + 4);
+    let angle: Vec<f64> = csv
+        .values("arm.position_rad")
+        .into_iter()
+        .map(f64::to_degrees)
+        .collect();
     // It turned from 0 to about -20 degrees (short of it by gravity, see above).
     assert!(
         angle[0].abs() < 0.5 && (angle[2999] + 20.0).abs() < 1.5,
@@ -128,7 +132,7 @@ fn the_example_runs_end_to_end() {
     );
     // The commands stay within the description's 3 A limit (to the nearest iqControl step,
     // 32/2000 A: the loop rounds the limit to the nearest raw value).
-    let command = csv.column("arm_command_a");
+    let command = csv.column("arm.commanded_a");
     let largest = csv
         .rows
         .iter()

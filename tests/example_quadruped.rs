@@ -116,8 +116,8 @@ fn the_example_runs_end_to_end() {
     );
     let csv = Csv::take(&csv);
     assert_eq!(csv.rows.len(), 2500);
-    assert_eq!(csv.header.len(), 2 + 8 * LEGS * JOINTS + SIGNALS.len());
-    assert_eq!(csv.column("hr_ankle_angle_deg"), 2 + 8 * 15);
+    assert_eq!(csv.header.len(), 2 + 7 * LEGS * JOINTS + SIGNALS.len() + 4);
+    assert_eq!(csv.column("hr_ankle.position_rad"), 2 + 7 * 15);
     // The body rises from the crouch to the standing height.
     let body = csv.values("body_height_m");
     assert!(

@@ -13,6 +13,9 @@ fi
 cargo test --workspace --doc
 # The Python package: built and installed in a venv the script creates, then its pytest suite.
 ./tests/python/run.sh
+# Telemetry against independent readers (Python mcap + mcap-ros2-support, jsonschema, a
+# websockets client on loopback), installed by the script into a venv (see docs/telemetry.md).
+./tests/telemetry/run.sh
 # The tests that need a real Linux CAN stack: natively when this machine has a usable vcan0 and
 # root, otherwise in a small qemu VM on Debian's stock kernel (see docs/socketcan.md).
 ./tests/vcan/run.sh

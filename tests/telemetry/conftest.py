@@ -5,16 +5,26 @@ read by the `mcap` package, CDR decoded by `mcap-ros2-support`, JSON by the stan
 checked by `jsonschema`.
 """
 
+import asyncio
 import json
 import math
 import os
+import struct
 import subprocess
+import time
 from pathlib import Path
+
+import websockets
 
 import pytest
 from mcap.decoder import DecoderFactory as McapDecoderFactory
 from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory as Ros2DecoderFactory
+
+# The SDK's name for the Foxglove WebSocket protocol (identical to the former
+# "foxglove.websocket.v1").
+SUBPROTOCOL = "foxglove.sdk.v1"
+OP_MESSAGE_DATA = 0x01
 
 # A fixed start (2023-11-14T22:13:20Z) so that stamps are predictable.
 START_UNIX_NS = 1_700_000_000_000_000_000
@@ -25,6 +35,33 @@ def synth_path() -> str:
     if not path:
         pytest.fail("TELEMETRY_SYNTH is not set: run the tests through tests/telemetry/run.sh")
     return path
+
+
+def rmd_path() -> str:
+    path = os.environ.get("RMD_BIN")
+    if not path:
+        pytest.fail("RMD_BIN is not set: run the tests through tests/telemetry/run.sh")
+    return path
+
+
+def run_rmd(*args, timeout: float = 300):
+    """Runs `rmd ARGS...` to completion; returns the completed process (text output)."""
+    return subprocess.run(
+        [rmd_path(), *[str(a) for a in args]],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
+
+
+def free_port() -> int:
+    """A TCP port on loopback that nothing listens on now."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
 
 
 def synth_args(*args, truth: Path, start_unix_ns: int = START_UNIX_NS):
@@ -102,3 +139,37 @@ def check_joint_state(msg, truth, tick: int):
         # Effort: the joint torque where the torque constant is known, NaN where it is not.
         eff = rec["effort"][j] if replied and truth["torque_known"][j] else None
         assert same(msg.effort[j], eff), (tick, j, msg.effort[j], eff)
+
+
+async def collect(url, wanted, enough, timeout=30.0):
+    """Connects, subscribes to the `wanted` topics, and collects decoded-ready payloads per topic
+    until `enough(received)` holds."""
+    async with websockets.connect(url, subprotocols=[SUBPROTOCOL], max_size=None) as ws:
+        assert ws.subprotocol == SUBPROTOCOL
+        channels, subscriptions, received = {}, {}, {topic: [] for topic in wanted}
+        deadline = time.monotonic() + timeout
+        while not enough(received):
+            remaining = deadline - time.monotonic()
+            assert remaining > 0, f"timed out: {({t: len(v) for t, v in received.items()})}"
+            frame = await asyncio.wait_for(ws.recv(), remaining)
+            if isinstance(frame, str):
+                message = json.loads(frame)
+                if message["op"] == "advertise":
+                    new = []
+                    for channel in message["channels"]:
+                        if channel["topic"] in wanted and channel["topic"] not in channels.values():
+                            channels[channel["id"]] = channel
+                            new.append(channel)
+                    if new:
+                        subs = []
+                        for channel in new:
+                            sub_id = len(subscriptions) + 1
+                            subscriptions[sub_id] = channel
+                            subs.append({"id": sub_id, "channelId": channel["id"]})
+                        await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+                continue
+            assert frame[0] == OP_MESSAGE_DATA, f"unexpected binary opcode {frame[0]}"
+            sub_id, log_time = struct.unpack_from("<IQ", frame, 1)
+            channel = subscriptions[sub_id]
+            received[channel["topic"]].append((log_time, bytes(frame[13:]), channel))
+        return received

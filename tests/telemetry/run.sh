@@ -3,7 +3,8 @@
 # `mcap-ros2-support` readers (MCAP files, also truncated ones), `jsonschema` (the JSON channels),
 # `websockets` speaking the Foxglove WebSocket protocol (the live server). Installs them, pinned,
 # into a venv under target/, builds the synthetic writer (the `telemetry_synth` example of
-# rmd-telemetry) and runs pytest. Loopback only. Idempotent: the venv is rebuilt only when
+# rmd-telemetry) and the `rmd` tool (`rmd bench loop --mcap/--foxglove`, `rmd decode --mcap`,
+# `rmd torque --mcap`) and runs pytest. Loopback only. Idempotent: the venv is rebuilt only when
 # requirements.txt changes.
 # Usage: ./tests/telemetry/run.sh [pytest args...]
 set -euo pipefail
@@ -23,7 +24,10 @@ if ! [ -x "$venv/bin/python" ] || ! cmp -s "$requirements" "$venv/requirements.t
 fi
 
 cargo build --quiet -p rmd-telemetry --example telemetry_synth
+cargo build --quiet -p rmd-cli --bin rmd
 export TELEMETRY_SYNTH="$target_dir/debug/examples/telemetry_synth"
+export RMD_BIN="$target_dir/debug/rmd"
 test -x "$TELEMETRY_SYNTH"
+test -x "$RMD_BIN"
 
 exec "$venv/bin/python" -m pytest -p no:cacheprovider -q tests/telemetry "$@"

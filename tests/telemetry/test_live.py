@@ -4,18 +4,11 @@ mcap-ros2-support's CDR decoder and the standard JSON parser."""
 
 import asyncio
 import json
-import struct
 import subprocess
-import time
 
-import websockets
+from conftest import check_joint_state, collect, load_truth, ros2_decoder, stamp_ns, synth_args
 
-from conftest import check_joint_state, load_truth, ros2_decoder, stamp_ns, synth_args
-
-# The SDK's name for the protocol (identical to the former "foxglove.websocket.v1").
-SUBPROTOCOL = "foxglove.sdk.v1"
 LIVE_RATE_HZ = 50
-OP_MESSAGE_DATA = 0x01
 
 
 def start_server(tmp_path):
@@ -28,40 +21,6 @@ def start_server(tmp_path):
     line = process.stdout.readline().strip()
     assert line.startswith("foxglove ws://"), (line, process.stderr.read() if process.poll() else "")
     return process, line.removeprefix("foxglove "), truth
-
-
-async def collect(url, wanted, enough, timeout=30.0):
-    """Connects, subscribes to the `wanted` topics, and collects decoded-ready payloads per topic
-    until `enough(received)` holds."""
-    async with websockets.connect(url, subprotocols=[SUBPROTOCOL], max_size=None) as ws:
-        assert ws.subprotocol == SUBPROTOCOL
-        channels, subscriptions, received = {}, {}, {topic: [] for topic in wanted}
-        deadline = time.monotonic() + timeout
-        while not enough(received):
-            remaining = deadline - time.monotonic()
-            assert remaining > 0, f"timed out: {({t: len(v) for t, v in received.items()})}"
-            frame = await asyncio.wait_for(ws.recv(), remaining)
-            if isinstance(frame, str):
-                message = json.loads(frame)
-                if message["op"] == "advertise":
-                    new = []
-                    for channel in message["channels"]:
-                        if channel["topic"] in wanted and channel["topic"] not in channels.values():
-                            channels[channel["id"]] = channel
-                            new.append(channel)
-                    if new:
-                        subs = []
-                        for channel in new:
-                            sub_id = len(subscriptions) + 1
-                            subscriptions[sub_id] = channel
-                            subs.append({"id": sub_id, "channelId": channel["id"]})
-                        await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
-                continue
-            assert frame[0] == OP_MESSAGE_DATA, f"unexpected binary opcode {frame[0]}"
-            sub_id, log_time = struct.unpack_from("<IQ", frame, 1)
-            channel = subscriptions[sub_id]
-            received[channel["topic"]].append((log_time, bytes(frame[13:]), channel))
-        return received
 
 
 def test_a_websocket_client_receives_decoded_messages_from_subscribed_channels(tmp_path):

@@ -49,6 +49,14 @@ pub trait Clock: Send {
             self.spin_until(deadline);
         }
     }
+
+    /// Whether time moves only when someone waits on the clock (a virtual clock): a run on it
+    /// goes as fast as the CPU allows, and waiting in real time costs it no deadline (so its
+    /// telemetry may wait for a slow consumer rather than drop). `false` for real clocks (the
+    /// default).
+    fn is_virtual(&self) -> bool {
+        false
+    }
 }
 
 /// The system's monotonic clock (`CLOCK_MONOTONIC` on Linux), sleeping with
@@ -167,6 +175,10 @@ impl Clock for VirtualClock {
     fn spin_until(&self, deadline: Timestamp) {
         self.sleep_until(deadline);
     }
+
+    fn is_virtual(&self) -> bool {
+        true
+    }
 }
 
 impl<C: Clock + Sync + ?Sized> Clock for &C {
@@ -178,6 +190,9 @@ impl<C: Clock + Sync + ?Sized> Clock for &C {
     }
     fn spin_until(&self, deadline: Timestamp) {
         (**self).spin_until(deadline)
+    }
+    fn is_virtual(&self) -> bool {
+        (**self).is_virtual()
     }
 }
 
@@ -194,6 +209,8 @@ mod tests {
         assert_eq!(clock.now().as_nanos(), 900);
         clock.advance(Duration::from_nanos(100));
         assert_eq!(clock.now().as_nanos(), 1_000);
+        assert!(clock.is_virtual() && Clock::is_virtual(&&clock));
+        assert!(!MonotonicClock.is_virtual());
     }
 
     #[test]

@@ -348,3 +348,56 @@ fn bench_loop_refuses_firmware_it_cannot_drive_before_any_torque() {
         }
     }
 }
+
+#[test]
+fn telemetry_cost_alternates_rounds_and_reports_what_every_sink_got() {
+    let v = json("bench telemetry --motors 1 --rate 200 --duration 300ms --rounds 2 --json");
+    let rounds = v["rounds"].as_array().unwrap();
+    assert_eq!(rounds.len(), 4, "{v}");
+    for (i, round) in rounds.iter().enumerate() {
+        let on = i % 2 == 1;
+        assert_eq!(round["sinks"], on, "off, on, off, on: {v}");
+        assert_percentiles(round, "work_us");
+        let ticks = round["ticks"].as_u64().unwrap();
+        assert!(ticks > 0, "{round}");
+        if !on {
+            assert!(round["telemetry"].is_null(), "no sinks, no report: {round}");
+            continue;
+        }
+        let sinks = round["telemetry"].as_array().unwrap();
+        let names: Vec<&str> = sinks.iter().map(|s| s["name"].as_str().unwrap()).collect();
+        assert_eq!(names.len(), 3, "{names:?}");
+        assert!(names[0].starts_with("mcap ") && names[0].ends_with(".mcap"));
+        assert!(names[1].starts_with("foxglove ws://127.0.0.1:"));
+        assert!(names[2].starts_with("csv ") && names[2].ends_with(".csv"));
+        for sink in sinks {
+            // Every sample the loop published is accounted for, by every sink alike.
+            let offered = ["written", "dropped", "failed"]
+                .iter()
+                .map(|k| sink[*k].as_u64().unwrap())
+                .sum::<u64>();
+            assert!(offered > 0 && offered <= ticks, "{sink} of {ticks} ticks");
+            assert_eq!(sink["errors"], 0, "{sink}");
+        }
+        // The round's files are removed once it is over.
+        let mcap = names[0].trim_start_matches("mcap ");
+        assert!(!std::path::Path::new(mcap).exists(), "{mcap}");
+    }
+    // The ratio is of the medians of the rounds' p99s.
+    let median_p99 = |on: bool| {
+        let mut p99: Vec<f64> = rounds
+            .iter()
+            .filter(|r| r["sinks"] == on)
+            .map(|r| r["work_us"]["p99"].as_f64().unwrap())
+            .collect();
+        p99.sort_by(f64::total_cmp);
+        (p99[0] + p99[1]) / 2.0
+    };
+    let (off, on) = (median_p99(false), median_p99(true));
+    assert_eq!(v["work_p99_off_us"].as_f64().unwrap(), off, "{v}");
+    assert_eq!(v["work_p99_on_us"].as_f64().unwrap(), on, "{v}");
+    assert!(
+        (v["ratio"].as_f64().unwrap() - on / off).abs() < 1e-12,
+        "{v}"
+    );
+}

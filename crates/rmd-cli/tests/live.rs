@@ -631,6 +631,183 @@ fn monitor_prints_readings_as_json_lines() {
     );
 }
 
+/// Each motor's multi-turn angle, motor degrees, in every reading of `rmd monitor --json`.
+fn monitor_angles(readings: &[Value]) -> Vec<Vec<f64>> {
+    let motors = readings[0]["motors"].as_array().unwrap().len();
+    (0..motors)
+        .map(|m| {
+            readings
+                .iter()
+                .map(|r| r["motors"][m]["motor_angle_degrees"].as_f64().unwrap())
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn monitor_demo_moves_the_simulated_motors() {
+    let spread = |angles: &[f64]| {
+        let max = angles.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let min = angles.iter().copied().fold(f64::INFINITY, f64::min);
+        max - min
+    };
+    // Without --demo nothing moves.
+    let still = json_lines(&ok(&[
+        "monitor", "--sim", "--count", "6", "--rate", "10", "--json",
+    ]));
+    for angles in monitor_angles(&still) {
+        assert_eq!(spread(&angles), 0.0, "{angles:?}");
+    }
+    // With it, every motor turns (the JSON objects are the same as without).
+    let moving = json_lines(&ok(&[
+        "monitor", "--sim", "--demo", "--count", "8", "--rate", "10", "--json",
+    ]));
+    assert_eq!(moving.len(), 8);
+    let angles = monitor_angles(&moving);
+    assert_eq!(angles.len(), 4);
+    for (motor, angles) in angles.iter().enumerate() {
+        assert!(spread(angles) > 0.5, "motor {}: {angles:?}", motor + 1);
+        assert!(
+            angles.iter().all(|a| a.abs() < 100.0),
+            "a gentle motion: {angles:?}"
+        );
+    }
+    assert_eq!(
+        moving[0]["motors"][0]
+            .as_object()
+            .unwrap()
+            .keys()
+            .collect::<Vec<_>>(),
+        still[0]["motors"][0]
+            .as_object()
+            .unwrap()
+            .keys()
+            .collect::<Vec<_>>()
+    );
+    // Not on a terminal: the table, its angles no longer all zero.
+    let table = ok(&["monitor", "--sim", "--demo", "--count", "6", "--rate", "10"]);
+    let last: Vec<&str> = table
+        .lines()
+        .rev()
+        .filter(|l| !l.is_empty())
+        .take(4)
+        .collect();
+    assert!(
+        last.iter().any(|row| {
+            let angle = row.split_whitespace().nth(5).unwrap();
+            angle.parse::<f64>().unwrap() != 0.0
+        }),
+        "{table}"
+    );
+    // --demo only drives simulated motors.
+    let refused = fails(2, &["monitor", "--demo", "--ids", "1"]);
+    assert!(refused.contains("--sim"), "{refused}");
+}
+
+/// What a 100x40 terminal shows after `bytes` (the alternate screen while it is on).
+fn screen_after(bytes: &[u8]) -> String {
+    let mut terminal = vt100::Parser::new(40, 100, 0);
+    terminal.process(bytes);
+    terminal.screen().contents()
+}
+
+/// `rmd monitor --sim --demo ARGS` on a pseudo-terminal of 100x40 (util-linux `script`); `keys`
+/// are typed once the first plot is on the screen (and the pipe held open after them). Returns
+/// everything the terminal received, once the monitor ended (at most 60 s).
+fn monitor_on_a_terminal(args: &str, keys: &[u8]) -> String {
+    use std::io::Write;
+    let command = format!(
+        "stty cols 100 rows 40; exec '{}' monitor --sim --demo {args}",
+        env!("CARGO_BIN_EXE_rmd")
+    );
+    let mut child = StdCommand::new("script")
+        .args(["-qec", &command, "/dev/null"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("util-linux `script` runs (package bsdutils)");
+    let mut stdout = child.stdout.take().unwrap();
+    let (sender, received) = std::sync::mpsc::channel::<Vec<u8>>();
+    std::thread::spawn(move || {
+        let mut buffer = [0_u8; 4096];
+        while let Ok(n) = stdout.read(&mut buffer) {
+            if n == 0 || sender.send(buffer[..n].to_vec()).is_err() {
+                break;
+            }
+        }
+    });
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let mut screen = Vec::new();
+    let mut typed = keys.is_empty();
+    let mut stdin = child.stdin.take();
+    loop {
+        match received.recv_timeout(Duration::from_millis(100)) {
+            Ok(bytes) => screen.extend_from_slice(&bytes),
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => break,
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+        }
+        if !typed && screen_after(&screen).contains("motor 4: angle °  last") {
+            stdin.as_mut().unwrap().write_all(keys).unwrap();
+            stdin.as_mut().unwrap().flush().unwrap();
+            typed = true;
+        }
+        if Instant::now() > deadline {
+            child.kill().unwrap();
+            panic!("the monitor did not end: {}", text(&screen));
+        }
+    }
+    assert!(child.wait().unwrap().success(), "{}", text(&screen));
+    drop(stdin);
+    text(&screen)
+}
+
+/// Checks the live view was drawn, then the terminal restored and the last table printed.
+fn assert_drawn_and_restored(screen: &str, signal: &str) {
+    let entered = screen.find("\x1b[?1049h").expect("the alternate screen");
+    let left = screen
+        .rfind("\x1b[?1049l")
+        .expect("back to the normal screen");
+    assert!(entered < left, "{screen:?}");
+    let live = screen_after(&screen.as_bytes()[..left]);
+    for title in [
+        &format!("motor 1: {signal}  last"),
+        &format!("motor 4: {signal}  last"),
+        &format!("plotting: {signal}"),
+        "q quit",
+    ] {
+        assert!(live.contains(title), "{title}: {live:?}");
+    }
+    // Raw mode ended (the pseudo-terminal translates newlines again), the cursor shown, then
+    // the last reading's table.
+    let after = &screen[left..];
+    assert!(after.contains("\x1b[?25h"), "{after:?}");
+    assert!(
+        after.contains(" id  temp °C  volts    iq A  speed dps     angle °  errors\r\n"),
+        "{after:?}"
+    );
+}
+
+#[test]
+fn monitor_on_a_terminal_plots_and_restores_the_terminal_on_every_exit() {
+    // --count: the end of the readings.
+    let screen = monitor_on_a_terminal("--count 5 --rate 10", b"");
+    assert_drawn_and_restored(&screen, "angle °");
+    // `q`, and Ctrl-C (a key in raw mode), end a monitor that would run for ever.
+    assert_drawn_and_restored(&monitor_on_a_terminal("--rate 20", b"q"), "angle °");
+    assert_drawn_and_restored(&monitor_on_a_terminal("--rate 20", b"\x03"), "angle °");
+    // Keys switch the signal (the plots' titles follow).
+    let switched = monitor_on_a_terminal("--rate 20", b"c\tq");
+    assert_drawn_and_restored(&switched, "temperature °C");
+    let left = switched.rfind("\x1b[?1049l").unwrap();
+    let live = screen_after(&switched.as_bytes()[..left]);
+    assert!(live.contains("plotting: temperature °C"), "{live}");
+    assert!(
+        live.contains("motor 1: temperature °C  last 25.00  min 25.00  max 25.00"),
+        "{live}"
+    );
+}
+
 #[test]
 fn a_recorded_session_decodes_and_replays() {
     let log = log_path("session");

@@ -1,14 +1,12 @@
 //! What every example's `main` uses besides `rmd-rig`: a status-line part for the motors, the
-//! exit status of a run whose controller may have stopped it on purpose, a telemetry queue
-//! that keeps every sample of a virtual-time run, and printing that survives a closed pipe.
+//! exit status of a run whose controller may have stopped it on purpose, and printing that
+//! survives a closed pipe.
 
 use core::fmt;
-use core::time::Duration;
 use std::io::Write;
 use std::process::ExitCode;
 
 use rmd_loop::TelemetrySample;
-use rmd_loop::robot::RobotConfig;
 use rmd_rig::runner::{EXIT_FAULT, EXIT_OK, Finished};
 
 /// The largest torque current and temperature of any motor so far (a part of the examples'
@@ -53,24 +51,6 @@ pub fn exit_code<K>(finished: &Finished<K>, demo_ok: bool) -> ExitCode {
     }
 }
 
-/// Most telemetry samples [`keep_every_sample`] asks the loop to queue (3.3 KB each: about 54 MB).
-pub const MAX_QUEUED_SAMPLES: usize = 1 << 14;
-
-/// In virtual time the loop runs far faster than real time, and the runner, taking the
-/// telemetry in every few milliseconds, can fall behind on a busy machine: for a bounded run
-/// (`duration`), sizes the loop's telemetry queue to hold the whole run (up to
-/// [`MAX_QUEUED_SAMPLES`]), so that the CSV file gets every tick. Does nothing in real time.
-pub fn keep_every_sample(config: &mut RobotConfig, virtual_time: bool, duration: Option<Duration>) {
-    let l = &mut config.loop_config;
-    if let (true, Some(d)) = (virtual_time, duration) {
-        let ticks = (d.as_secs_f64() * l.rate_hz).ceil();
-        if ticks.is_finite() && ticks > 0.0 {
-            let wanted = (ticks as usize).saturating_add(16).min(MAX_QUEUED_SAMPLES);
-            l.telemetry_capacity = l.telemetry_capacity.max(wanted);
-        }
-    }
-}
-
 /// `ran 10.0 s of loop time in 0.6 s of wall time`.
 pub fn time_line<K>(finished: &Finished<K>) -> String {
     format!(
@@ -101,27 +81,5 @@ pub fn parse_finite(text: &str) -> Result<f64, String> {
         Ok(v) if v.is_finite() => Ok(v),
         Ok(_) => Err(format!("`{text}` is not a finite number")),
         Err(e) => Err(format!("`{text}` is not a number ({e})")),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_queue_grows_only_for_bounded_virtual_runs() {
-        let mut config = RobotConfig::new(1000.0);
-        let default = config.loop_config.telemetry_capacity;
-        keep_every_sample(&mut config, false, Some(Duration::from_secs(10)));
-        assert_eq!(config.loop_config.telemetry_capacity, default);
-        keep_every_sample(&mut config, true, None);
-        assert_eq!(config.loop_config.telemetry_capacity, default);
-        keep_every_sample(&mut config, true, Some(Duration::from_secs(10)));
-        assert_eq!(config.loop_config.telemetry_capacity, 10_016);
-        keep_every_sample(&mut config, true, Some(Duration::from_secs(1000)));
-        assert_eq!(config.loop_config.telemetry_capacity, MAX_QUEUED_SAMPLES);
-        // Never smaller than asked for in the description.
-        keep_every_sample(&mut config, true, Some(Duration::from_millis(1)));
-        assert_eq!(config.loop_config.telemetry_capacity, MAX_QUEUED_SAMPLES);
     }
 }

@@ -37,6 +37,6 @@ mod verdict;
 
 pub use error::DrillError;
 pub use fault::{DrillFault, FaultParseError, Probability};
-pub use run::run;
+pub use run::{run, run_with_telemetry};
 pub use spec::{DrillSpec, MAX_BUSES, MAX_SECONDS};
 pub use verdict::{Drill, SimMotorRef};

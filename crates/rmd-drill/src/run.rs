@@ -4,7 +4,8 @@ use std::sync::{Arc, OnceLock};
 
 use rmd_bus::{Clock, MonotonicClock, Timestamp};
 use rmd_loop::RunLimit;
-use rmd_rig::{AnyClock, Placement, Rig, SharedSim, SimTime};
+use rmd_rig::telemetry::{TelemetryOutputs, TelemetryReport, TelemetrySinks, spawn_feed};
+use rmd_rig::{AnyClock, Placement, Rig, RigError, SharedSim, SimTime};
 
 use crate::controller::{DrillController, Pace};
 use crate::fault::DrillFault;
@@ -31,6 +32,42 @@ use crate::{DrillError, robot};
 /// # Ok::<(), rmd_drill::DrillError>(())
 /// ```
 pub fn run(spec: &DrillSpec) -> Result<Drill, DrillError> {
+    run_with_telemetry(spec, &TelemetryOutputs::default()).map(|(drill, _)| drill)
+}
+
+/// [`run`], with the loop's telemetry written to the sinks `outputs` asks for (an MCAP file, a
+/// CSV file, the live Foxglove server: see `rmd_rig::telemetry`), fed from a thread of their
+/// own; the second value says what each sink got (`None` without sinks). On virtual time every
+/// tick reaches every sink.
+///
+/// ```
+/// use core::time::Duration;
+/// use rmd_drill::{DrillFault, DrillSpec};
+/// use rmd_rig::SimTime;
+/// use rmd_rig::telemetry::TelemetryOutputs;
+/// let dir = tempfile::tempdir()?;
+/// let outputs = TelemetryOutputs {
+///     mcap: Some(dir.path().join("drill.mcap")),
+///     ..TelemetryOutputs::default()
+/// };
+/// let (drill, telemetry) = rmd_drill::run_with_telemetry(
+///     &DrillSpec::new("bus-off:50".parse::<DrillFault>()?)
+///         .at(Duration::from_millis(100))
+///         .seconds(Duration::from_millis(300))
+///         .time(SimTime::Virtual),
+///     &outputs,
+/// )?;
+/// assert!(drill.passed());
+/// let telemetry = telemetry.expect("an MCAP file was asked for");
+/// // Every tick that ran to its end (the one the bus-off ended did not) is in the file.
+/// assert!(telemetry.complete() && telemetry.samples > 90);
+/// assert_eq!(telemetry.sinks()[0].written, telemetry.samples);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn run_with_telemetry(
+    spec: &DrillSpec,
+    outputs: &TelemetryOutputs,
+) -> Result<(Drill, Option<TelemetryReport>), DrillError> {
     spec.check()?;
     let robot = robot::robot(spec)?;
     let placement = Placement::simulated(&robot, spec.time);
@@ -48,10 +85,16 @@ pub fn run(spec: &DrillSpec) -> Result<Drill, DrillError> {
     let stopper = Arc::new(OnceLock::new());
     let faults = spec.faults.iter().map(|&(fault, at)| (fault, start + at));
     let controller = DrillController::new(&robot, faults, pace, Arc::clone(&stopper));
-    let rt = rig.into_loop(robot, controller)?;
+    let mut rt = rig.into_loop(robot, controller)?;
     // Only the drill sets it, once, here: it cannot be set already.
     let _ = stopper.set(rt.stopper());
+    let feed = TelemetrySinks::attach(&mut rt, outputs)
+        .map_err(RigError::from)?
+        .map(spawn_feed)
+        .transpose()
+        .map_err(RigError::from)?;
     let outcome = rt.run(RunLimit::Duration(spec.seconds));
+    let telemetry = feed.map(|feed| feed.finish(outcome.report.stats.telemetry_drops));
     let fault_at = spec
         .faults
         .iter()
@@ -62,5 +105,8 @@ pub fn run(spec: &DrillSpec) -> Result<Drill, DrillError> {
         .min()
         .unwrap_or(start);
     let written: Vec<String> = spec.faults.iter().map(|(f, _)| f.to_string()).collect();
-    Ok(judge(written.join(" + "), fault_at, &sims, outcome.report))
+    Ok((
+        judge(written.join(" + "), fault_at, &sims, outcome.report),
+        telemetry,
+    ))
 }

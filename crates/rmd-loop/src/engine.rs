@@ -42,8 +42,12 @@ use crate::startup;
 use crate::stats::LoopStats;
 use crate::stop::Stopper;
 use crate::supervisor::{SafetyPort, Supervisor};
-use crate::telemetry::TelemetrySample;
+use crate::telemetry::{TelemetryDelivery, TelemetrySample};
 use crate::watch::{Phase, Takeover};
+
+/// How long the loop sleeps between tries when it waits for room in the telemetry mailbox
+/// ([`TelemetryDelivery::Wait`], virtual time only).
+const TELEMETRY_WAIT: Duration = Duration::from_micros(50);
 
 /// How long a run lasts.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -102,7 +106,7 @@ pub(crate) struct Parts<B, C> {
     signals: [f64; MAX_SIGNALS],
     signal_count: usize,
     rejections: Rejections,
-    telemetry: Option<Sender<TelemetrySample>>,
+    telemetry: Option<(Sender<TelemetrySample>, TelemetryDelivery)>,
     sample: TelemetrySample,
 }
 
@@ -217,11 +221,19 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
     }
 
     /// A receiver of the per-tick telemetry (clone it freely; each sample is received once).
-    /// The loop publishes only once this was called.
+    /// The loop publishes only once this was called. When the receiver falls behind, the oldest
+    /// samples are overwritten and counted ([`TelemetryDelivery::Overwrite`]).
     pub fn telemetry(&mut self) -> Receiver<TelemetrySample> {
+        self.telemetry_with(TelemetryDelivery::Overwrite)
+    }
+
+    /// [`telemetry`](Self::telemetry) with the given behaviour when the mailbox is full:
+    /// [`TelemetryDelivery::Wait`] (virtual time only) makes the loop wait for room, so the
+    /// receiver gets every tick. Calling it again replaces the earlier receiver's mailbox.
+    pub fn telemetry_with(&mut self, delivery: TelemetryDelivery) -> Receiver<TelemetrySample> {
         let capacity = self.parts.robot.settings().telemetry_capacity.get();
         let (tx, rx) = mailbox(capacity);
-        self.parts.telemetry = Some(tx);
+        self.parts.telemetry = Some((tx, delivery));
         rx
     }
 
@@ -611,17 +623,22 @@ impl<B, C> Parts<B, C> {
             *staged = slots;
         }
     }
+}
 
+impl<B, C: Clock> Parts<B, C> {
     /// Publishes this tick's sample, if anything receives telemetry.
     fn publish(&mut self, timing: &TickTiming, start: Timestamp) {
-        let Some(tx) = &self.telemetry else {
+        let Some((tx, delivery)) = &self.telemetry else {
             return;
         };
         let sample = &mut self.sample;
         sample.tick = timing.index;
         sample.scheduled = timing.scheduled;
+        sample.start = start;
+        sample.taken_at = self.clock.now();
         sample.time_s = (timing.scheduled - start).as_secs_f64();
         sample.times.wake_latency_ns = timing.wake_latency().as_nanos() as u64;
+        sample.totals.ticks = self.stats.ticks;
         sample.totals.deadline_misses = self.stats.deadline_misses;
         sample.totals.missing_replies = self.stats.missing_replies();
         sample.totals.late_replies = self.stats.late_replies();
@@ -636,7 +653,30 @@ impl<B, C> Parts<B, C> {
         sample
             .signals_mut()
             .copy_from_slice(&self.signals[..self.signal_count]);
-        if tx.send_overwrite(*sample).is_some() {
+        let delivered = match delivery {
+            TelemetryDelivery::Overwrite => tx.send_overwrite(*sample).is_none(),
+            TelemetryDelivery::Wait => {
+                let mut pending = *sample;
+                loop {
+                    match tx.send(pending) {
+                        Ok(()) => break true,
+                        // Nobody will make room, or the run is to end: stop waiting.
+                        Err(_)
+                            if !tx.has_receivers()
+                                || self.shared.stop.pending().is_some()
+                                || self.shared.watch.phase() != Phase::Running =>
+                        {
+                            break false;
+                        }
+                        Err(back) => {
+                            pending = back;
+                            std::thread::sleep(TELEMETRY_WAIT);
+                        }
+                    }
+                }
+            }
+        };
+        if !delivered {
             self.stats.telemetry_drops += 1;
         }
     }

@@ -16,54 +16,80 @@
 //! ```
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crossbeam_queue::ArrayQueue;
 
+/// The queue and how many ends of each kind are alive.
+#[derive(Debug)]
+struct Inner<T> {
+    queue: ArrayQueue<T>,
+    senders: AtomicUsize,
+    receivers: AtomicUsize,
+}
+
 /// Creates a mailbox holding up to `capacity` values (at least 1).
 pub fn mailbox<T: Send>(capacity: usize) -> (Sender<T>, Receiver<T>) {
-    let queue = Arc::new(ArrayQueue::new(capacity.max(1)));
+    let inner = Arc::new(Inner {
+        queue: ArrayQueue::new(capacity.max(1)),
+        senders: AtomicUsize::new(1),
+        receivers: AtomicUsize::new(1),
+    });
     (
         Sender {
-            queue: Arc::clone(&queue),
+            inner: Arc::clone(&inner),
         },
-        Receiver { queue },
+        Receiver { inner },
     )
 }
 
 /// The sending end of a mailbox. Clone it to send from several threads.
 #[derive(Debug)]
 pub struct Sender<T> {
-    queue: Arc<ArrayQueue<T>>,
+    inner: Arc<Inner<T>>,
 }
 
 impl<T> Clone for Sender<T> {
     fn clone(&self) -> Self {
+        self.inner.senders.fetch_add(1, Ordering::Relaxed);
         Self {
-            queue: Arc::clone(&self.queue),
+            inner: Arc::clone(&self.inner),
         }
     }
 }
 
+impl<T> Drop for Sender<T> {
+    fn drop(&mut self) {
+        self.inner.senders.fetch_sub(1, Ordering::Release);
+    }
+}
+
 impl<T> Sender<T> {
+    /// Whether a [`Receiver`] of this mailbox still exists (someone may take what is sent).
+    /// One atomic load: no lock, no allocation.
+    pub fn has_receivers(&self) -> bool {
+        self.inner.receivers.load(Ordering::Acquire) > 0
+    }
+
     /// Queues `value`; if the mailbox is full, gives it back.
     pub fn send(&self, value: T) -> Result<(), T> {
-        self.queue.push(value)
+        self.inner.queue.push(value)
     }
 
     /// Queues `value`, discarding the oldest queued value if the mailbox is full; returns the
     /// discarded value.
     pub fn send_overwrite(&self, value: T) -> Option<T> {
-        self.queue.force_push(value)
+        self.inner.queue.force_push(value)
     }
 
     /// Number of queued values.
     pub fn len(&self) -> usize {
-        self.queue.len()
+        self.inner.queue.len()
     }
 
     /// Whether nothing is queued.
     pub fn is_empty(&self) -> bool {
-        self.queue.is_empty()
+        self.inner.queue.is_empty()
     }
 }
 
@@ -71,27 +97,40 @@ impl<T> Sender<T> {
 /// received once).
 #[derive(Debug)]
 pub struct Receiver<T> {
-    queue: Arc<ArrayQueue<T>>,
+    inner: Arc<Inner<T>>,
 }
 
 impl<T> Clone for Receiver<T> {
     fn clone(&self) -> Self {
+        self.inner.receivers.fetch_add(1, Ordering::Relaxed);
         Self {
-            queue: Arc::clone(&self.queue),
+            inner: Arc::clone(&self.inner),
         }
     }
 }
 
+impl<T> Drop for Receiver<T> {
+    fn drop(&mut self) {
+        self.inner.receivers.fetch_sub(1, Ordering::Release);
+    }
+}
+
 impl<T> Receiver<T> {
+    /// Whether a [`Sender`] of this mailbox still exists: once none does and the mailbox is
+    /// empty, nothing more will come (the loop that published into it has finished).
+    pub fn has_senders(&self) -> bool {
+        self.inner.senders.load(Ordering::Acquire) > 0
+    }
+
     /// The oldest queued value, if any.
     pub fn try_recv(&self) -> Option<T> {
-        self.queue.pop()
+        self.inner.queue.pop()
     }
 
     /// The newest queued value, discarding older ones; `None` if nothing was queued.
     pub fn latest(&self) -> Option<T> {
         let mut last = None;
-        while let Some(v) = self.queue.pop() {
+        while let Some(v) = self.inner.queue.pop() {
             last = Some(v);
         }
         last
@@ -99,22 +138,22 @@ impl<T> Receiver<T> {
 
     /// Takes every queued value, oldest first.
     pub fn drain(&self) -> impl Iterator<Item = T> + '_ {
-        std::iter::from_fn(|| self.queue.pop())
+        std::iter::from_fn(|| self.inner.queue.pop())
     }
 
     /// Number of queued values.
     pub fn len(&self) -> usize {
-        self.queue.len()
+        self.inner.queue.len()
     }
 
     /// Whether nothing is queued.
     pub fn is_empty(&self) -> bool {
-        self.queue.is_empty()
+        self.inner.queue.is_empty()
     }
 
     /// The mailbox's capacity.
     pub fn capacity(&self) -> usize {
-        self.queue.capacity()
+        self.inner.queue.capacity()
     }
 }
 
@@ -131,6 +170,25 @@ mod tests {
         assert_eq!(tx.send_overwrite(4), Some(1));
         assert_eq!(rx.drain().collect::<Vec<_>>(), vec![2, 4]);
         assert!(rx.is_empty());
+    }
+
+    #[test]
+    fn each_end_knows_whether_the_other_is_alive() {
+        let (tx, rx) = mailbox::<u8>(1);
+        let rx2 = rx.clone();
+        assert!(tx.has_receivers() && rx.has_senders());
+        drop(rx);
+        assert!(tx.has_receivers(), "a clone still receives");
+        drop(rx2);
+        assert!(!tx.has_receivers());
+        let (tx, rx) = mailbox::<u8>(1);
+        tx.send(7).unwrap();
+        let tx2 = tx.clone();
+        drop(tx);
+        assert!(rx.has_senders());
+        drop(tx2);
+        assert!(!rx.has_senders());
+        assert_eq!(rx.try_recv(), Some(7), "what was sent stays receivable");
     }
 
     #[test]

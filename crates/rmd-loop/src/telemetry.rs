@@ -1,8 +1,10 @@
 //! The loop's per-tick telemetry: a fixed-size sample pushed into a lock-free mailbox every tick,
 //! once something asked for it ([`RtLoop::telemetry`](crate::RtLoop::telemetry)).
 //!
-//! When the consumer falls behind, the oldest samples are overwritten (the newest state is what a
-//! live display wants) and each one overwritten is counted in `telemetry_drops`. Without a
+//! What happens when the consumer falls behind is the [`TelemetryDelivery`] asked for: by
+//! default the oldest samples are overwritten (the newest state is what a live display wants;
+//! the loop never waits) and each one overwritten is counted in `telemetry_drops`; on virtual
+//! time the loop may wait for room instead, so that every tick reaches the consumer. Without a
 //! consumer nothing is published and nothing is counted.
 
 use rmd_bus::Timestamp;
@@ -43,9 +45,26 @@ pub struct TickTimes {
     pub previous_work_ns: u64,
 }
 
+/// What the loop does with a sample when the telemetry mailbox is full.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub enum TelemetryDelivery {
+    /// Overwrite the oldest queued sample and count it in `telemetry_drops`: the loop never
+    /// waits. For real-time runs (the default).
+    #[default]
+    Overwrite,
+    /// Wait (sleeping 50 us at a time) until the consumer makes room, so that it gets every
+    /// sample. Only for runs on a virtual clock, where waiting costs no deadline: on a real-time
+    /// loop a slow consumer would make it miss its deadlines. The loop stops waiting (and counts
+    /// the sample dropped) when no receiver is left or a stop is requested.
+    Wait,
+}
+
 /// Running totals at the end of a tick.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
 pub struct Totals {
+    /// Ticks run so far, this one included (skipped ticks are not run): consecutive samples of
+    /// a run differ by exactly one, so a consumer sees which samples it did not get.
+    pub ticks: u64,
     /// Deadline misses so far.
     pub deadline_misses: u64,
     /// Missing replies so far, all joints.
@@ -61,6 +80,11 @@ pub struct TelemetrySample {
     pub tick: u64,
     /// When the tick was due (bus clock).
     pub scheduled: Timestamp,
+    /// When tick 0 was due (bus clock): `scheduled - start` is the tick's time in the run.
+    pub start: Timestamp,
+    /// When the sample was taken (bus clock): after the exchange and the controller, so the
+    /// age of a joint's last reply is `taken_at - feedback.received_at`.
+    pub taken_at: Timestamp,
     /// Seconds since tick 0 was due.
     pub time_s: f64,
     /// Timing of this tick.
@@ -75,10 +99,13 @@ pub struct TelemetrySample {
 
 impl TelemetrySample {
     /// An empty sample for `joints` joints and `signals` user signals (each at most its maximum).
-    pub(crate) fn new(joints: usize, signals: usize) -> Self {
+    /// The loop fills one per tick; consumers' tests build their own.
+    pub fn new(joints: usize, signals: usize) -> Self {
         Self {
             tick: 0,
             scheduled: Timestamp::ZERO,
+            start: Timestamp::ZERO,
+            taken_at: Timestamp::ZERO,
             time_s: 0.0,
             times: TickTimes::default(),
             totals: Totals::default(),
@@ -94,7 +121,8 @@ impl TelemetrySample {
         &self.joints[..self.joint_count]
     }
 
-    pub(crate) fn joints_mut(&mut self) -> &mut [JointSample] {
+    /// Every joint, to fill in.
+    pub fn joints_mut(&mut self) -> &mut [JointSample] {
         &mut self.joints[..self.joint_count]
     }
 
@@ -103,7 +131,8 @@ impl TelemetrySample {
         &self.signals[..self.signal_count]
     }
 
-    pub(crate) fn signals_mut(&mut self) -> &mut [f64] {
+    /// The user signals, to fill in.
+    pub fn signals_mut(&mut self) -> &mut [f64] {
         &mut self.signals[..self.signal_count]
     }
 }

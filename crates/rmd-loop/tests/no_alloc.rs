@@ -1,32 +1,55 @@
 //! The real-time path allocates nothing: a counting global allocator around steady-state ticks.
 //!
-//! One test per binary, so that no other test thread allocates while we count.
+//! One test per binary, so that no other test thread allocates while we count. It runs the loop
+//! twice: without sinks, counting every thread (the loop's and the supervisor's); then with every
+//! telemetry sink on (an MCAP file, the live Foxglove server on loopback, a CSV file, fed from
+//! their own threads as the programs run them), counting the loop's thread alone (the telemetry
+//! threads allocate as they like).
 
 mod common;
 
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use common::*;
 use std::sync::{Arc, Mutex};
 
 use rmd_bus::{BusError, CanBus, Received, Timestamp, VirtualClock};
-use rmd_loop::RtLoop;
+use rmd_loop::{RtLoop, StopReason};
 use rmd_protocol::CanFrame;
+use rmd_rig::telemetry::{TelemetryOutputs, TelemetrySinks, spawn_feed};
 use rmd_sim::{FaultKind, FaultRule, SimBus};
+use rmd_telemetry::LiveOptions;
 
 struct Counting;
 
 static COUNTING: AtomicBool = AtomicBool::new(false);
 static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
 
+thread_local! {
+    // Every allocation of this thread, counted or not: const-initialised, no destructor, so
+    // safe to touch from inside the allocator.
+    static HERE: Cell<u64> = const { Cell::new(0) };
+}
+
+fn count() {
+    HERE.with(|c| c.set(c.get() + 1));
+    if COUNTING.load(Ordering::Relaxed) {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// Allocations of the calling thread so far.
+fn here() -> u64 {
+    HERE.with(Cell::get)
+}
+
 // SAFETY: forwards every call to the system allocator unchanged; only counts.
 #[allow(unsafe_code)]
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if COUNTING.load(Ordering::Relaxed) {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
+        count();
         // SAFETY: same contract as the caller's.
         unsafe { System.alloc(layout) }
     }
@@ -35,9 +58,7 @@ unsafe impl GlobalAlloc for Counting {
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if COUNTING.load(Ordering::Relaxed) {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
+        count();
         // SAFETY: same contract as the caller's.
         unsafe { System.realloc(ptr, layout, new_size) }
     }
@@ -122,4 +143,76 @@ fn steady_state_ticks_allocate_nothing() {
         "faults happened: {stats}"
     );
     assert_eq!(allocations, 0, "allocations in 2000 steady-state ticks");
+    drop(rt);
+
+    every_sink_on();
+}
+
+/// The loop with every sink on: its own thread allocates nothing in steady ticks, and every
+/// sink gets every tick.
+fn every_sink_on() {
+    let probe = here();
+    drop(std::hint::black_box(Box::new(1_u8)));
+    assert_eq!(here(), probe + 1, "the per-thread counter counts");
+
+    let clock = VirtualClock::new();
+    let faults = [FaultRule::new(FaultKind::DropReply)
+        .multi_torque()
+        .with_probability(0.02)];
+    let bus0 = Shared::new(sim(&clock, 4, 31, &faults));
+    let bus1 = Shared::new(sim(&clock, 4, 32, &faults));
+    let mut config = robot_config(1000.0, 2, 4);
+    config.loop_config.missing_reply_fault_after = 1000;
+    // A small mailbox: the loop waits for the feed thread now and then (virtual time).
+    config.loop_config.telemetry_capacity = 64;
+    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let mut rt = RtLoop::new(
+        robot,
+        clock.clone(),
+        vec![bus0.clone(), bus1.clone()],
+        PdTo::new(&[10.0; 8]),
+    )
+    .unwrap()
+    .supervise(vec![Box::new(bus0), Box::new(bus1)])
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let outputs = TelemetryOutputs {
+        csv: Some(dir.path().join("run.csv")),
+        mcap: Some(dir.path().join("run.mcap")),
+        live: Some(LiveOptions {
+            addr: "127.0.0.1:0".parse().unwrap(),
+            ..LiveOptions::default()
+        }),
+    };
+    let sinks = TelemetrySinks::attach(&mut rt, &outputs)
+        .unwrap()
+        .expect("three sinks");
+    let feed = spawn_feed(sinks).unwrap();
+    let mut rt = rt.start().unwrap();
+    for _ in 0..100 {
+        assert!(rt.step().is_continue());
+    }
+    let before = here();
+    for _ in 0..2_000 {
+        assert!(rt.step().is_continue());
+    }
+    let allocations = here() - before;
+    let outcome = rt.finish(StopReason::TickLimit);
+    let stats = &outcome.report.stats;
+    assert_eq!(stats.ticks, 2100);
+    assert!(stats.missing_replies > 0, "faults happened: {stats}");
+    let telemetry = feed.finish(stats.telemetry_drops);
+    assert_eq!(telemetry.samples, 2100, "{telemetry}");
+    assert_eq!(telemetry.sinks().len(), 3);
+    for sink in telemetry.sinks() {
+        assert_eq!(
+            (sink.written, sink.dropped, sink.errors),
+            (2100, 0, 0),
+            "{sink:?}"
+        );
+    }
+    assert_eq!(
+        allocations, 0,
+        "allocations on the loop thread in 2000 steady-state ticks with every sink on"
+    );
 }

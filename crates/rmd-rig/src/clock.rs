@@ -49,4 +49,8 @@ impl Clock for AnyClock {
             AnyClock::Monotonic(c) => c.spin_until(deadline),
         }
     }
+
+    fn is_virtual(&self) -> bool {
+        AnyClock::is_virtual(self)
+    }
 }

@@ -111,6 +111,9 @@ pub enum RigError {
         /// Why.
         source: std::io::Error,
     },
+    /// The telemetry sinks could not start (a file, an address, a thread).
+    #[error(transparent)]
+    Telemetry(#[from] crate::telemetry::TelemetryError),
     /// A bad command-line value.
     #[error("{0}")]
     Usage(String),

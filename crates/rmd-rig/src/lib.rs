@@ -47,6 +47,7 @@ pub mod placement;
 pub mod runner;
 pub mod signals;
 pub mod sim;
+pub mod telemetry;
 
 pub use bus::{AnyBus, SharedSim};
 pub use clock::AnyClock;

@@ -1,5 +1,5 @@
 //! Opening a robot: simulated motors that match the description (read at their true angle inside
-//! the power-up window), typed errors naming the bus, and the runner's CSV and exit status.
+//! the power-up window), typed errors naming the bus, and the runner's telemetry and exit status.
 
 use rmd_bus::VirtualClock;
 use rmd_loop::mapping::centred_zero_offset_deg;
@@ -174,7 +174,7 @@ fn a_missing_interface_is_a_typed_error_naming_the_bus() {
 }
 
 #[test]
-fn the_runner_writes_every_tick_to_csv_with_joint_and_signal_columns() {
+fn the_runner_writes_every_tick_to_csv_and_mcap_with_joint_and_signal_columns() {
     let robot = leg([Direction::Normal; 2]);
     let placement = Placement::simulated(&robot, SimTime::Virtual);
     let rig = Rig::open(&robot, &placement, sim::sim_configs(&robot, 2)).unwrap();
@@ -183,37 +183,42 @@ fn the_runner_writes_every_tick_to_csv_with_joint_and_signal_columns() {
         robot: robot.clone(),
     };
     let rt = RtLoop::new(robot, rig.clock, rig.buses, hold).unwrap();
-    let dir = std::env::temp_dir().join(format!("rmd-rig-csv-{}", std::process::id()));
-    let path = dir.join("run.csv");
+    let dir = tempfile::tempdir().unwrap();
+    // A folder that does not exist yet: the runner creates it.
+    let path = dir.path().join("out").join("run.csv");
+    let mcap = dir.path().join("run.mcap");
     let finished = Runner::new()
         .csv(Some(&path))
+        .mcap(Some(&mcap))
         .run(rt, RunLimit::Ticks(3000))
         .unwrap();
     assert_eq!(finished.exit_status(), rmd_rig::runner::EXIT_OK);
     assert!(!finished.interrupted);
     assert_eq!(finished.outcome.report.stats.telemetry_drops, 0);
-    let rows = finished
-        .csv
-        .as_ref()
-        .unwrap()
-        .rows
-        .as_ref()
-        .copied()
-        .unwrap();
-    assert_eq!(rows, 3000);
+    let telemetry = finished.telemetry.as_ref().unwrap();
+    assert_eq!(telemetry.samples, 3000);
+    assert!(telemetry.complete(), "{telemetry}");
+    let names: Vec<&str> = telemetry.sinks().iter().map(|s| s.name.as_str()).collect();
+    assert!(
+        names[0].starts_with("mcap ") && names[1].starts_with("csv "),
+        "{names:?}"
+    );
+    assert!(telemetry.sinks().iter().all(|s| s.written == 3000));
+    assert!(std::fs::metadata(&mcap).unwrap().len() > 0);
     let text = std::fs::read_to_string(&path).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    assert_eq!(header[..3], ["tick", "time_s", "bus0_motor1_angle_deg"]);
-    assert_eq!(*header.last().unwrap(), "error_deg");
+    assert_eq!(header[..3], ["time_s", "tick", "bus0_motor1.position_rad"]);
+    let error_column = header.iter().position(|c| *c == "error_deg").unwrap();
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), 3000);
     assert!(rows.iter().all(|r| r.len() == header.len()));
-    // Tick numbers run 0..3000 in order; the hold error stays small.
+    // Tick numbers run 0..3000 in order, 1 ms apart; the hold error stays small.
     for (k, row) in rows.iter().enumerate() {
-        assert_eq!(row[0], k.to_string());
-        let error: f64 = row.last().unwrap().parse().unwrap();
+        assert_eq!(row[1], k.to_string());
+        let time: f64 = row[0].parse().unwrap();
+        assert!((time - k as f64 * 1e-3).abs() < 1e-9, "{time}");
+        let error: f64 = row[error_column].parse().unwrap();
         assert!(error.abs() < 1.0, "tick {k}: {error}");
     }
-    let _ = std::fs::remove_dir_all(dir);
 }

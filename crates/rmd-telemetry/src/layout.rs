@@ -252,6 +252,12 @@ impl RunLayoutBuilder {
         self
     }
 
+    /// Adds user signal names in order.
+    pub fn signals(mut self, names: impl IntoIterator<Item = impl Into<String>>) -> Self {
+        self.signals.extend(names.into_iter().map(Into::into));
+        self
+    }
+
     /// The wall-clock time of tick time 0 (default: the time [`RunLayoutBuilder::build`] runs).
     pub fn start_time(mut self, start: SystemTime) -> Self {
         self.start = Some(start);

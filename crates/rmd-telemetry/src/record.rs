@@ -166,9 +166,9 @@ impl TickRecord {
         }
     }
 
-    /// Time since the start (s).
+    /// Time since the start (s), correctly rounded.
     pub fn time_s(&self) -> f64 {
-        self.since_start_ns as f64 * 1e-9
+        self.since_start_ns as f64 / 1e9
     }
 }
 

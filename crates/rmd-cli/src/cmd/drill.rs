@@ -15,7 +15,9 @@ use clap::Args;
 use rmd_drill::chaos::{ChaosSpec, chaos};
 use rmd_drill::{Drill, DrillFault, DrillSpec};
 use rmd_rig::SimTime;
+use rmd_rig::args::TelemetryArgs;
 use rmd_rig::args::duration::{self, Bounds};
+use rmd_rig::telemetry::TelemetryReport;
 
 use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
@@ -32,8 +34,11 @@ use crate::output::{errln, outln};
     The verdict comes from the simulated firmware, not from the loop: a motor is safe when its \
     firmware applies and is commanded no torque. Exit status: 0 when every motor ended safe, 1 \
     when some motor is still energised (or a chaos drill failed), 2 on a usage error.\n\n\
+    Telemetry of one drill (--fault): --mcap FILE, --csv FILE, --foxglove [ADDR] (docs/telemetry.md); \
+    not with --all or --chaos.\n\n\
     Examples:\n  rmd drill --fault bus-off:50 --buses 2\n  rmd drill --all --virtual-time\n  \
-    rmd drill --chaos --seconds 60 --seed 7 --virtual-time --json"
+    rmd drill --chaos --seconds 60 --seed 7 --virtual-time --json\n  \
+    rmd drill --fault controller-hang:200 --virtual-time --mcap drill.mcap"
 )]
 pub(crate) struct DrillArgs {
     #[arg(long, help = "The fault to inject (KIND[:ARG]; see below), at --at or at its own time with @SECONDS (--fault controller-hang:3000@0.5 --fault estop@0.52); repeatable", value_name = "KIND[:ARG][@SECONDS]", value_parser = timed_fault, required_unless_present_any = ["all", "chaos"], conflicts_with_all = ["all", "chaos"])]
@@ -67,6 +72,8 @@ pub(crate) struct DrillArgs {
     /// One JSON object (with --all: one per line).
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    telemetry: TelemetryArgs,
 }
 
 fn at(text: &str) -> Result<Duration, String> {
@@ -102,7 +109,13 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
             .seed(args.seed)
             .time(time)
     };
-    let result = if args.chaos {
+    let result = if (args.chaos || args.all) && args.telemetry.any() {
+        Err(CliError::Usage(
+            "--mcap, --csv and --foxglove record one drill: use them with --fault, not with \
+             --all or --chaos"
+                .into(),
+        ))
+    } else if args.chaos {
         run_chaos(&args, time)
     } else if args.all {
         run_all(&args, spec)
@@ -111,7 +124,7 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
         for &(fault, when) in rest {
             one = one.and(fault, when.unwrap_or(args.at));
         }
-        run_one(&one, args.json)
+        run_one(&one, &args.telemetry, args.json)
     } else {
         Err(CliError::Usage(
             "give --fault KIND[:ARG], --all or --chaos".into(),
@@ -124,23 +137,39 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
     }
 }
 
-fn drill(spec: &DrillSpec, show: bool) -> Result<Drill, CliError> {
+fn drill(
+    spec: &DrillSpec,
+    telemetry: &TelemetryArgs,
+    show: bool,
+) -> Result<(Drill, Option<TelemetryReport>), CliError> {
     let progress = Progress::spinner(show);
     let faults: Vec<String> = spec.faults().iter().map(|(f, _)| f.to_string()).collect();
     progress.set_message(format!("drill {}", faults.join(" + ")));
-    let drill = rmd_drill::run(spec).map_err(|e| CliError::Usage(e.to_string()))?;
+    let ran = rmd_drill::run_with_telemetry(spec, &telemetry.outputs())
+        .map_err(|e| CliError::Usage(e.to_string()))?;
     drop(progress);
-    Ok(drill)
+    Ok(ran)
 }
 
-fn run_one(spec: &DrillSpec, json: bool) -> Result<bool, CliError> {
-    let drill = drill(spec, progress::shown(json))?;
+fn run_one(spec: &DrillSpec, telemetry: &TelemetryArgs, json: bool) -> Result<bool, CliError> {
+    let (drill, report) = drill(spec, telemetry, progress::shown(json))?;
     if json {
-        outln!("{}", drill.to_json())?;
+        let mut value: serde_json::Value = serde_json::from_str(&drill.to_json())
+            .map_err(|e| CliError::Failed(format!("the drill's report is not JSON: {e}")))?;
+        if let (Some(report), serde_json::Value::Object(map)) = (&report, &mut value) {
+            map.insert(
+                "telemetry".into(),
+                crate::output::telemetry::report_json(report),
+            );
+        }
+        outln!("{value}")?;
     } else {
         outln!("{}", drill.report)?;
         outln!()?;
         outln!("{}", verdict(&drill))?;
+    }
+    if let Some(report) = &report {
+        errln!("{report}");
     }
     Ok(drill.passed())
 }

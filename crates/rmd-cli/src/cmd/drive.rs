@@ -13,6 +13,7 @@ use crate::args::bus::BusArgs;
 use crate::args::parse;
 use crate::args::timing;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::live::frames_mcap::FramesTelemetryArgs;
 use crate::live::interrupt;
 use crate::live::recording;
 use crate::live::safe_stop;
@@ -55,6 +56,8 @@ pub(crate) struct TorqueArgs {
     #[command(flatten)]
     timing: Timing,
     #[command(flatten)]
+    telemetry: FramesTelemetryArgs,
+    #[command(flatten)]
     bus: BusArgs,
 }
 
@@ -74,6 +77,8 @@ pub(crate) struct SpeedArgs {
     #[command(flatten)]
     timing: Timing,
     #[command(flatten)]
+    telemetry: FramesTelemetryArgs,
+    #[command(flatten)]
     bus: BusArgs,
 }
 
@@ -83,14 +88,17 @@ pub(crate) fn run_torque(args: TorqueArgs) -> ExitCode {
         return report::usage_error("give --amps or --iq-control");
     };
     let what = format!("torque {:.3} A", iq_control.amps());
-    report::exit(drive(
-        &args.bus,
-        args.id,
-        Request::Torque { iq_control },
-        &what,
-        &args.timing,
-        args.max_speed,
-    ))
+    report::exit(args.telemetry.check("torque").and_then(|()| {
+        drive(
+            &args.bus,
+            &args.telemetry,
+            args.id,
+            Request::Torque { iq_control },
+            &what,
+            &args.timing,
+            args.max_speed,
+        )
+    }))
 }
 
 /// Runs `rmd speed`.
@@ -99,18 +107,22 @@ pub(crate) fn run_speed(args: SpeedArgs) -> ExitCode {
         return report::usage_error("give --dps or --speed-control");
     };
     let what = format!("speed {:.2} dps", speed_control.dps());
-    report::exit(drive(
-        &args.bus,
-        args.id,
-        Request::Speed { speed_control },
-        &what,
-        &args.timing,
-        None,
-    ))
+    report::exit(args.telemetry.check("speed").and_then(|()| {
+        drive(
+            &args.bus,
+            &args.telemetry,
+            args.id,
+            Request::Speed { speed_control },
+            &what,
+            &args.timing,
+            None,
+        )
+    }))
 }
 
 fn drive(
     bus_args: &BusArgs,
+    telemetry: &FramesTelemetryArgs,
     id: MotorId,
     request: Request,
     what: &str,
@@ -118,6 +130,7 @@ fn drive(
     max_speed: Option<f64>,
 ) -> Result<(), CliError> {
     let mut bus = Connection::open(bus_args, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
+    bus.record_mcap(telemetry.mcap.as_deref())?;
     interrupt::install_driving()?;
     let start = bus.clock().now();
     let mut schedule = Schedule::new(start, timing.duration, timing::period(timing.rate));

@@ -12,6 +12,7 @@ use rmd_protocol::{AngleControl, MaxSpeed, Reply, Request, SingleTurnAngle, Spin
 use crate::args::bus::BusArgs;
 use crate::args::parse;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::live::frames_mcap::FramesTelemetryArgs;
 use crate::live::interrupt;
 use crate::live::motors::{Motor, Motors};
 use crate::live::safe_stop;
@@ -70,6 +71,8 @@ pub(crate) struct MoveArgs {
     #[arg(long)]
     no_wait: bool,
     #[command(flatten)]
+    telemetry: FramesTelemetryArgs,
+    #[command(flatten)]
     bus: BusArgs,
 }
 
@@ -95,6 +98,7 @@ fn run_move(args: &MoveArgs) -> Result<(), CliError> {
         parse::motor_id(&args.target).map_err(CliError::Usage)?;
     }
     check_limits(args).map_err(CliError::Usage)?;
+    args.telemetry.check("move")?;
     let mut motors = Motors::open(
         &args.bus,
         std::slice::from_ref(&args.target),
@@ -103,6 +107,9 @@ fn run_move(args: &MoveArgs) -> Result<(), CliError> {
     )?;
     let motor = motors.motors()[0].clone();
     let request = position_request(args, &motor).map_err(CliError::Usage)?;
+    motors
+        .connection(&motor)
+        .record_mcap(args.telemetry.mcap.as_deref())?;
     let moved = move_to(args, &mut motors, &motor, request);
     // Whatever happened, the recording (--log) is flushed and reported.
     let finished = motors.finish();

@@ -12,6 +12,7 @@ use rmd_sim::{FirmwareFamily, MotorConfig, SimBus, SimConfig};
 use crate::args::bus::BusArgs;
 use crate::args::ids::IdList;
 use crate::live::exchange::{self, ExchangeError, Policy, Setup};
+use crate::live::frames_mcap::FramesMcap;
 use crate::live::recording::{LogSink, Recording};
 use crate::output::report::CliError;
 
@@ -27,6 +28,22 @@ pub(crate) struct Connection {
     policy: Policy,
     width: EncoderWidth,
     recording: Option<Recording>,
+    frames_mcap: Option<FramesMcap>,
+}
+
+/// The bus of a connection while its real one is being wrapped: sends and receives nothing.
+struct Detached;
+
+impl CanBus for Detached {
+    fn send(&mut self, _: &rmd_bus::CanFrame) -> Result<(), rmd_bus::BusError> {
+        Err(rmd_bus::BusError::InterfaceDown)
+    }
+    fn recv_until(
+        &mut self,
+        _: rmd_bus::Timestamp,
+    ) -> Result<Option<rmd_bus::Received>, rmd_bus::BusError> {
+        Ok(None)
+    }
 }
 
 impl Connection {
@@ -109,7 +126,26 @@ impl Connection {
             },
             width,
             recording,
+            frames_mcap: None,
         })
+    }
+
+    /// Records every frame from now on for `--mcap path`: the file is written, decoded, when
+    /// the connection [finishes](Self::finish).
+    pub(crate) fn record_mcap(&mut self, path: Option<&std::path::Path>) -> Result<(), CliError> {
+        let Some(path) = path else {
+            return Ok(());
+        };
+        let name = match &self.policy.setup {
+            Setup::Interface(iface) => iface.clone(),
+            Setup::Simulator(_) | Setup::Robot(_) => "sim".to_owned(),
+        };
+        let bus = std::mem::replace(&mut self.bus, Box::new(Detached));
+        let (bus, mcap) =
+            FramesMcap::start(bus, &name, path.to_owned(), self.policy.dialect, self.width)?;
+        self.bus = bus;
+        self.frames_mcap = Some(mcap);
+        Ok(())
     }
 
     /// Sends `request` to `motor` and returns its reply.
@@ -155,12 +191,19 @@ impl Connection {
     /// reader of the log is waited for at most [`FINISH_LIMIT`](crate::live::recording::FINISH_LIMIT)).
     /// Dropping a connection also flushes it, without the summary.
     pub(crate) fn finish(self) -> Result<(), CliError> {
-        let Self { bus, recording, .. } = self;
+        let Self {
+            bus,
+            recording,
+            frames_mcap,
+            ..
+        } = self;
         drop(bus);
-        match recording {
+        let logged = match recording {
             None => Ok(()),
             Some(recording) => recording.finish(),
-        }
+        };
+        let mcap = frames_mcap.map_or(Ok(()), FramesMcap::finish);
+        logged.and(mcap)
     }
 }
 

@@ -2,11 +2,13 @@
 //! [`motors`] (the motors of a command: ids on a bus, or a robot's joints by name),
 //! [`exchange`] (one request, one reply: timeout, retries, typed errors), [`interrupt`]
 //! (Ctrl-C), [`safe_stop`] (motors off when a motion ends), [`confirm`] (ROM writes),
-//! [`recording`] (`--log`, never held by its reader).
+//! [`recording`] (`--log`, never held by its reader), [`frames_mcap`] (`--mcap` of the commands
+//! that move motors).
 
 pub(crate) mod confirm;
 pub(crate) mod connect;
 pub(crate) mod exchange;
+pub(crate) mod frames_mcap;
 pub(crate) mod interrupt;
 pub(crate) mod motors;
 pub(crate) mod recording;

@@ -1,13 +1,15 @@
 //! What the commands print: stdout and stderr without panics ([`console`], with the
 //! [`outln!`] and [`errln!`] macros), errors and exit codes ([`report`]), frames and replies as
-//! JSON ([`json`], from `rmd-frames`, shared with the Python package), readings of motors as JSON objects or words ([`readings`]), tables
-//! ([`table`]), progress on a terminal ([`progress`]).
+//! JSON ([`json`], from `rmd-frames`, shared with the Python package), readings of motors as
+//! JSON objects or words ([`readings`]), tables ([`table`]), progress on a terminal
+//! ([`progress`]), what the telemetry sinks got ([`telemetry`]).
 
 pub(crate) mod console;
 pub(crate) mod progress;
 pub(crate) mod readings;
 pub(crate) mod report;
 pub(crate) mod table;
+pub(crate) mod telemetry;
 
 /// `println!` that returns `Err(WriteError::Closed)` instead of panicking when stdout's reader
 /// is gone (see [`console`]); use `?` in a command, which then ends quietly.

@@ -25,7 +25,10 @@
 //! ```
 
 pub mod duration;
+mod telemetry;
 pub mod values;
+
+pub use telemetry::{TelemetryArgs, live_addr, live_rate};
 
 use core::time::Duration;
 use std::io::{BufRead, IsTerminal, Write};
@@ -202,12 +205,13 @@ impl LoopArgs {
     }
 }
 
-/// What a run shows and writes.
-#[derive(clap::Args, Debug, Clone, Default, PartialEq, Eq)]
+/// What a run shows and writes: the display, the report's form, and the telemetry sinks
+/// (`--csv`, `--mcap`, `--foxglove`).
+#[derive(clap::Args, Debug, Clone, Default, PartialEq)]
 pub struct OutputArgs {
-    /// Write every tick's telemetry (joints, commands, user signals) to this CSV file.
-    #[arg(long, value_name = "FILE")]
-    pub csv: Option<PathBuf>,
+    /// The telemetry sinks.
+    #[command(flatten)]
+    pub telemetry: TelemetryArgs,
     /// No live display: only the final report.
     #[arg(long, short)]
     pub quiet: bool,

@@ -1,11 +1,12 @@
 //! Running a loop the way every program of rmd-rt does: on its own thread, stopped safely by
-//! the project's signal policy, with a live status line, every tick's telemetry in a CSV file,
-//! the report at the end, and the standard exit codes.
+//! the project's signal policy, with a live status line, every tick's telemetry in the sinks
+//! the flags ask for (CSV, MCAP, the Foxglove live server: see [`crate::telemetry`]), the report
+//! at the end, and the standard exit codes.
 //!
 //! ```no_run
 //! use rmd_rig::runner::Runner;
 //! # fn demo(rt: rmd_loop::RtLoop<rmd_rig::AnyBus, rmd_rig::AnyClock, impl rmd_loop::Controller + 'static>) -> std::process::ExitCode {
-//! let finished = match Runner::new().csv(Some("target/run.csv".as_ref())).run(rt, rmd_loop::RunLimit::Forever) {
+//! let finished = match Runner::new().csv(Some("target/run.csv".as_ref())).mcap(Some("target/run.mcap".as_ref())).run(rt, rmd_loop::RunLimit::Forever) {
 //!     Ok(finished) => finished,
 //!     Err(e) => return rmd_rig::runner::exit_with_error("my-robot", &e),
 //! };
@@ -14,23 +15,23 @@
 //! # }
 //! ```
 
-mod csv;
 mod progress;
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use rmd_bus::{CanBus, Clock};
-use rmd_loop::{Controller, LoopOutcome, RtLoop, RunLimit, TelemetrySample};
+use rmd_loop::{Controller, LoopOutcome, RtLoop, RunLimit, TelemetryDelivery, TelemetrySample};
+use rmd_telemetry::LiveOptions;
 
 pub use progress::Display;
 
 use crate::args::OutputArgs;
 use crate::error::RigError;
 use crate::signals::{self, EXIT_INTERRUPTED};
-use csv::CsvWriter;
+use crate::telemetry::{TelemetryOutputs, TelemetryReport, TelemetrySinks, run_layout};
 
 /// Exit status of a run that ended normally.
 pub const EXIT_OK: u8 = 0;
@@ -53,15 +54,6 @@ pub trait Status {
     fn line(&self) -> String;
 }
 
-/// What the CSV file got.
-#[derive(Debug)]
-pub struct CsvResult {
-    /// The file.
-    pub path: PathBuf,
-    /// Rows written, or the first error (the run went on regardless).
-    pub rows: Result<u64, std::io::Error>,
-}
-
 /// What a run produced.
 #[derive(Debug)]
 pub struct Finished<K> {
@@ -69,8 +61,8 @@ pub struct Finished<K> {
     pub outcome: LoopOutcome<K>,
     /// Whether a signal stopped it.
     pub interrupted: bool,
-    /// The CSV file, if one was asked for.
-    pub csv: Option<CsvResult>,
+    /// What each telemetry sink got, if any was asked for.
+    pub telemetry: Option<TelemetryReport>,
     /// How long it took on the wall clock.
     pub wall_time: Duration,
 }
@@ -93,8 +85,8 @@ impl<K> Finished<K> {
         }
     }
 
-    /// Prints the report on standard output (as one JSON object with `json`), then what the
-    /// CSV file got. A closed standard output is ignored.
+    /// Prints the report on standard output (as one JSON object with `json`), then what each
+    /// telemetry sink got on standard error. A closed standard output is ignored.
     pub fn print_report(&self, json: bool) {
         let mut out = std::io::stdout();
         if json {
@@ -102,12 +94,8 @@ impl<K> Finished<K> {
         } else {
             let _ = write!(out, "{}", self.outcome.report);
         }
-        if let Some(csv) = &self.csv {
-            let mut err = std::io::stderr();
-            let _ = match &csv.rows {
-                Ok(rows) => writeln!(err, "telemetry: {rows} rows in {}", csv.path.display()),
-                Err(e) => writeln!(err, "telemetry: writing {} failed: {e}", csv.path.display()),
-            };
+        if let Some(telemetry) = &self.telemetry {
+            let _ = writeln!(std::io::stderr(), "{telemetry}");
         }
     }
 }
@@ -118,11 +106,11 @@ pub fn exit_with_error(program: &str, error: &dyn std::fmt::Display) -> ExitCode
     ExitCode::from(EXIT_USAGE)
 }
 
-/// Runs loops: display, CSV, status, signals.
+/// Runs loops: display, telemetry sinks, status, signals.
 #[derive(Default)]
 pub struct Runner<'a> {
     display: Option<Display>,
-    csv: Option<PathBuf>,
+    telemetry: TelemetryOutputs,
     status: Option<&'a mut dyn Status>,
 }
 
@@ -130,23 +118,24 @@ impl std::fmt::Debug for Runner<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Runner")
             .field("display", &self.display)
-            .field("csv", &self.csv)
+            .field("telemetry", &self.telemetry)
             .field("status", &self.status.is_some())
             .finish()
     }
 }
 
 impl<'a> Runner<'a> {
-    /// A runner without display, CSV or status.
+    /// A runner without display, telemetry or status.
     pub fn new() -> Self {
         Self::default()
     }
 
-    /// A runner as the standard output flags say (`--csv`, `--quiet`, `--json`).
+    /// A runner as the standard output flags say (`--csv`, `--mcap`, `--foxglove`, `--quiet`,
+    /// `--json`).
     pub fn from_args(output: &OutputArgs) -> Self {
         Self::new()
             .display(output.display())
-            .csv(output.csv.as_deref())
+            .telemetry(output.telemetry.outputs())
     }
 
     /// How to show progress (default: nothing).
@@ -155,9 +144,27 @@ impl<'a> Runner<'a> {
         self
     }
 
-    /// Writes every tick to this CSV file.
+    /// The telemetry sinks (replacing any set before).
+    pub fn telemetry(mut self, outputs: TelemetryOutputs) -> Self {
+        self.telemetry = outputs;
+        self
+    }
+
+    /// Writes every tick to this CSV file (`None`: no CSV file).
     pub fn csv(mut self, path: Option<&Path>) -> Self {
-        self.csv = path.map(Path::to_path_buf);
+        self.telemetry.csv = path.map(Path::to_path_buf);
+        self
+    }
+
+    /// Records every tick to this MCAP file (`None`: no MCAP file).
+    pub fn mcap(mut self, path: Option<&Path>) -> Self {
+        self.telemetry.mcap = path.map(Path::to_path_buf);
+        self
+    }
+
+    /// Serves the telemetry live to Foxglove (`None`: no server).
+    pub fn foxglove(mut self, live: Option<LiveOptions>) -> Self {
+        self.telemetry.live = live;
         self
     }
 
@@ -184,16 +191,34 @@ impl<'a> Runner<'a> {
         let mut status = self.status;
         let robot = rt.robot().clone();
         let rate_hz = robot.settings().period.hz();
-        let joints: Vec<String> = robot.joints().iter().map(|j| j.name.clone()).collect();
-        let mut csv = match &self.csv {
-            Some(path) => Some(CsvWriter::create(
-                path,
-                &joints,
-                &rt.controller().signals(),
-            )?),
-            None => None,
+        // On virtual time nothing is lost: the loop and the sinks wait for each other.
+        let lossless = rt.clock().is_virtual();
+        let layout = run_layout(&robot, &rt.controller().signals())
+            .map_err(|e| RigError::Telemetry(e.into()))?;
+        let mut sinks = TelemetrySinks::start(&layout, &self.telemetry, lossless)?;
+        let delivery = if lossless {
+            TelemetryDelivery::Wait
+        } else {
+            TelemetryDelivery::Overwrite
         };
-        let telemetry = (csv.is_some() || status.is_some()).then(|| rt.telemetry());
+        // The loop publishes only if something takes its samples: the sinks or the status line.
+        let mut receiver = None;
+        if sinks.is_some() || status.is_some() {
+            let rx = rt.telemetry_with(delivery);
+            match sinks.take() {
+                Some(s) => sinks = Some(s.with_receiver(rx)),
+                None => receiver = Some(rx),
+            }
+        }
+        if let (Some(addr), true) = (
+            sinks.as_ref().and_then(TelemetrySinks::live_addr),
+            display != Display::Quiet,
+        ) {
+            let _ = writeln!(
+                std::io::stderr(),
+                "telemetry: live on ws://{addr} (Foxglove: Open connection, Foxglove WebSocket)"
+            );
+        }
         let total_ticks = match limit {
             RunLimit::Ticks(n) => Some(n),
             RunLimit::Duration(d) => Some((d.as_secs_f64() * rate_hz) as u64),
@@ -203,22 +228,24 @@ impl<'a> Runner<'a> {
         let started = Instant::now();
         let handle = rt.spawn(limit)?;
         let watch = signals.watch(handle.stopper());
-        let drain = |csv: &mut Option<CsvWriter>, status: &mut Option<&mut dyn Status>| {
-            if let Some(telemetry) = &telemetry {
-                for sample in telemetry.drain() {
-                    if let Some(csv) = csv.as_mut() {
-                        csv.write(&sample);
-                    }
-                    if let Some(status) = status.as_mut() {
-                        status.observe(&sample);
-                    }
+        let drain = |sinks: &mut Option<TelemetrySinks>, status: &mut Option<&mut dyn Status>| {
+            let mut observe = |sample: &TelemetrySample| {
+                if let Some(status) = status.as_mut() {
+                    status.observe(sample);
+                }
+            };
+            if let Some(sinks) = sinks.as_mut() {
+                sinks.pump(&mut observe);
+            } else if let Some(rx) = &receiver {
+                for sample in rx.drain() {
+                    observe(&sample);
                 }
             }
         };
         let mut last_show = Instant::now();
         while handle.is_running() {
             std::thread::sleep(DRAIN_EVERY);
-            drain(&mut csv, &mut status);
+            drain(&mut sinks, &mut status);
             if last_show.elapsed() >= SHOW_EVERY && progress.due() {
                 last_show = Instant::now();
                 if let Some(stats) = handle.snapshot(Duration::from_millis(50)) {
@@ -229,16 +256,13 @@ impl<'a> Runner<'a> {
         }
         let outcome = handle.join()?;
         drop(watch);
-        drain(&mut csv, &mut status);
+        drain(&mut sinks, &mut status);
         progress.finish();
-        let csv = csv.map(|csv| {
-            let (path, rows) = csv.finish();
-            CsvResult { path, rows }
-        });
+        let telemetry = sinks.map(|s| s.finish(outcome.report.stats.telemetry_drops));
         Ok(Finished {
             outcome,
             interrupted: signals.interrupted(),
-            csv,
+            telemetry,
             wall_time: started.elapsed(),
         })
     }

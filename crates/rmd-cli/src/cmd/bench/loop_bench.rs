@@ -6,7 +6,9 @@
 //! motors; the loop refuses a rate whose exchange does not fit the period (see docs/loop.md).
 //! Without `--virtual-time` everything runs in real time on the monotonic clock; with it, on a
 //! virtual clock (as fast as the CPU allows, deterministic). The loop runs on its own thread
-//! while this thread drains its telemetry, as an application would.
+//! while this thread drains its telemetry, as an application would, into the sinks of `--csv`,
+//! `--mcap` and `--foxglove` when asked (on virtual time without losing a tick: the loop waits
+//! for the sinks).
 
 use core::time::Duration;
 use std::process::ExitCode;
@@ -20,10 +22,12 @@ use super::flags;
 use super::pd::{self, MovingTargetPd};
 use super::robot;
 use crate::args::timing;
+use crate::output::errln;
 use crate::output::progress::{self, Progress};
 use crate::output::report;
-use rmd_rig::args::RealtimeArgs;
 use rmd_rig::args::duration::run_length;
+use rmd_rig::args::{RealtimeArgs, TelemetryArgs};
+use rmd_rig::telemetry::{TelemetryReport, TelemetrySinks};
 
 /// Arguments of `rmd bench loop`.
 #[derive(Args, Debug)]
@@ -35,8 +39,12 @@ use rmd_rig::args::duration::run_length;
     skipped_ticks, missing_replies, late_replies, telemetry_drops, and wake_latency_us, \
     round_trip_us, controller_us, work_us as {count, min, mean, p50, p90, p99, p999, max} in \
     microseconds, per-motor and per-bus counters, the safe stop and the real-time status; plus \
-    `bench` (the set-up and the controller's tracking error). Exit status 1 if the loop stopped \
-    on a fault."
+    `bench` (the set-up and the controller's tracking error) and, with a telemetry sink, \
+    `telemetry` (per sink: name, written, dropped, failed, errors, first_error). Exit status 1 \
+    if the loop stopped on a fault.\n\n\
+    Telemetry: --mcap FILE writes /joint_states (one message per tick; on --virtual-time none is \
+    lost), /motor_states, /loop_timing and /diagnostics; --foxglove [ADDR] serves the same \
+    channels live while it runs; --csv FILE one row per tick (docs/telemetry.md)."
 )]
 pub(crate) struct LoopArgs {
     /// Motors per bus, 1..=4 (ids 1..=N on every bus).
@@ -60,6 +68,8 @@ pub(crate) struct LoopArgs {
     sim_firmware: rmd_protocol::ProtocolFamily,
     #[command(flatten)]
     rt: RealtimeArgs,
+    #[command(flatten)]
+    telemetry: TelemetryArgs,
     /// Print the report as one JSON object.
     #[arg(long)]
     json: bool,
@@ -72,7 +82,7 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
     } else {
         run_on(MonotonicClock, &args)
     };
-    let outcome = match outcome {
+    let (outcome, telemetry) = match outcome {
         Ok(outcome) => outcome,
         Err(Failure::Usage(msg)) => return report::usage_error(msg),
         Err(Failure::Run(msg)) => return report::failure(msg),
@@ -86,6 +96,12 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
         };
         if let Value::Object(map) = &mut value {
             map.insert("bench".into(), bench_json(&args, controller));
+            if let Some(telemetry) = &telemetry {
+                map.insert(
+                    "telemetry".into(),
+                    crate::output::telemetry::report_json(telemetry),
+                );
+            }
         }
         if let Err(code) = super::emit(&format!("{value}\n")) {
             return code;
@@ -104,6 +120,9 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
         )) {
             return code;
         }
+    }
+    if let Some(telemetry) = &telemetry {
+        errln!("{telemetry}");
     }
     if report.normal_stop {
         ExitCode::SUCCESS
@@ -142,10 +161,9 @@ enum Failure {
     Run(String),
 }
 
-fn run_on<C: Clock + Clone + 'static>(
-    clock: C,
-    args: &LoopArgs,
-) -> Result<LoopOutcome<MovingTargetPd>, Failure> {
+type Ran = (LoopOutcome<MovingTargetPd>, Option<TelemetryReport>);
+
+fn run_on<C: Clock + Clone + 'static>(clock: C, args: &LoopArgs) -> Result<Ran, Failure> {
     let mut config = robot::robot(args.rate, args.buses, args.motors);
     args.rt.apply(&mut config);
     let robot = Robot::try_from(config).map_err(|e| Failure::Usage(e.to_string()))?;
@@ -162,7 +180,13 @@ fn run_on<C: Clock + Clone + 'static>(
         .map_err(|e| Failure::Run(format!("simulator: {e}")))?;
     let mut rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
         .map_err(|e| Failure::Usage(e.to_string()))?;
-    let telemetry = rt.telemetry();
+    // Before the loop thread exists: the sinks' threads must not inherit its CPU.
+    let mut sinks = TelemetrySinks::attach(&mut rt, &args.telemetry.outputs())
+        .map_err(|e| Failure::Usage(e.to_string()))?;
+    if let (Some(addr), false) = (sinks.as_ref().and_then(|s| s.live_addr()), args.json) {
+        errln!("telemetry: live on ws://{addr}");
+    }
+    let telemetry = sinks.is_none().then(|| rt.telemetry());
     let handle = rt
         .spawn(RunLimit::Duration(args.duration))
         .map_err(|e| Failure::Run(e.to_string()))?;
@@ -170,11 +194,21 @@ fn run_on<C: Clock + Clone + 'static>(
     progress.set_prefix("bench loop ");
     // Drain the telemetry as an application would, so that none is dropped.
     while handle.is_running() {
-        while let Some(sample) = telemetry.try_recv() {
-            progress.set_position(sample.tick + 1);
+        match (&mut sinks, &telemetry) {
+            (Some(sinks), _) => {
+                sinks.pump(|sample| progress.set_position(sample.tick + 1));
+            }
+            (None, Some(telemetry)) => {
+                while let Some(sample) = telemetry.try_recv() {
+                    progress.set_position(sample.tick + 1);
+                }
+            }
+            (None, None) => {}
         }
         std::thread::sleep(Duration::from_millis(2));
     }
     drop(progress);
-    handle.join().map_err(|e| Failure::Run(e.to_string()))
+    let outcome = handle.join().map_err(|e| Failure::Run(e.to_string()))?;
+    let report = sinks.map(|s| s.finish(outcome.report.stats.telemetry_drops));
+    Ok((outcome, report))
 }

@@ -3,7 +3,8 @@
 //! - `rmd bench loop`: the real-time loop with a PD controller on simulated motors, and its report;
 //! - `rmd bench jitter`: the loop's timer alone, measured as cyclictest measures the kernel's;
 //! - `rmd bench rate`: the highest rate the simulated bus sustains with zero deadline misses,
-//!   against the wire limit of the frames sent.
+//!   against the wire limit of the frames sent;
+//! - `rmd bench telemetry`: the loop's work with every telemetry sink on against all off.
 //!
 //! See docs/benchmarks.md for the figures and how they were produced.
 
@@ -14,6 +15,7 @@ mod loop_bench;
 mod pd;
 mod rate;
 mod robot;
+mod telemetry_cost;
 mod wire_limit;
 
 use std::process::ExitCode;
@@ -40,6 +42,9 @@ enum BenchCommand {
     /// Find the highest rate the simulated 1 Mbit/s bus sustains with zero deadline misses and
     /// compare it with the wire limit of the frames sent.
     Rate(rate::RateArgs),
+    /// Compare the loop's work per tick with every telemetry sink on (MCAP, CSV, live server)
+    /// and all off, in alternating rounds: the p99 ratio.
+    Telemetry(telemetry_cost::TelemetryCostArgs),
 }
 
 /// Runs `rmd bench`.
@@ -48,6 +53,7 @@ pub(crate) fn run(args: BenchArgs) -> ExitCode {
         BenchCommand::Loop(a) => loop_bench::run(a),
         BenchCommand::Jitter(a) => jitter::run(a),
         BenchCommand::Rate(a) => rate::run(a),
+        BenchCommand::Telemetry(a) => telemetry_cost::run(a),
     }
 }
 

@@ -7,6 +7,9 @@
 //! [`crate::output::json`]); each bad line prints `line N: <what is wrong>` on stderr and the run
 //! goes on; the exit status is 1 if any line failed. Blank lines are skipped.
 //!
+//! With `--mcap OUT` the objects go into an MCAP file instead, one channel per motor and
+//! direction ([`mcap`]); stdout stays empty and a summary goes to stderr.
+//!
 //! A reply with a field out of range (an `iq` beyond ±2048, an encoder value beyond the encoder
 //! width) still prints every other field: the bad one is left out, named under `errors` in the
 //! JSON and on stderr as `line N: ...`, and the exit status is 1 ([`rmd_frames::partial`]). Errors of the
@@ -14,6 +17,7 @@
 //! object.
 
 pub(crate) mod lines;
+pub(crate) mod mcap;
 pub(crate) mod pairing;
 
 use std::collections::VecDeque;
@@ -26,6 +30,7 @@ use clap::{Args, ValueEnum};
 use rmd_bus::candump::{self, CandumpLine};
 use rmd_frames::decode::Decoded;
 use rmd_protocol::{Dialect, EncoderWidth};
+use serde_json::Value;
 
 use crate::args::bus::ProtocolArgs;
 use crate::args::parse;
@@ -33,11 +38,12 @@ use crate::output::console::WriteError;
 use crate::output::errln;
 use crate::output::report;
 use lines::{Line, Lines};
+use mcap::McapFrames;
 use pairing::{HELD_LINES, LookAhead, Role, Ticket};
 
 /// How to read each frame.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-enum Mode {
+pub(crate) enum Mode {
     /// Every frame is a request (host to motor).
     Request,
     /// Every frame is a reply (motor to host).
@@ -69,6 +75,11 @@ pub(crate) struct DecodeArgs {
     encoder_bits: EncoderWidth,
     /// Input file; stdin if absent or `-`.
     file: Option<PathBuf>,
+    /// Write the decoded frames to this MCAP file (one channel per motor and direction, each
+    /// message the JSON object printed otherwise) instead of printing them; open it in Foxglove
+    /// or PlotJuggler.
+    #[arg(long, value_name = "OUT")]
+    mcap: Option<PathBuf>,
     #[command(flatten)]
     protocol: ProtocolArgs,
 }
@@ -106,9 +117,35 @@ enum Slot {
     Pending(Ticket),
 }
 
+/// Where decoded frames go.
+pub(crate) enum Output<'a> {
+    /// One JSON object per line on stdout.
+    Json(BufWriter<StdoutLock<'a>>),
+    /// An MCAP file.
+    Mcap(McapFrames),
+}
+
+impl Output<'_> {
+    fn write(&mut self, line: &CandumpLine, value: &Value) -> Result<(), WriteError> {
+        match self {
+            Output::Json(out) => writeln!(out, "{value}").map_err(WriteError::from_io),
+            Output::Mcap(mcap) => mcap
+                .write(line, value)
+                .map_err(|e| WriteError::Failed(io::Error::other(e))),
+        }
+    }
+
+    fn flush(&mut self) -> Result<(), WriteError> {
+        match self {
+            Output::Json(out) => out.flush().map_err(WriteError::from_io),
+            Output::Mcap(_) => Ok(()),
+        }
+    }
+}
+
 /// Prints decoded lines in input order as their roles are decided.
-struct Printer<'a> {
-    out: BufWriter<StdoutLock<'a>>,
+pub(crate) struct Printer<'a> {
+    out: Output<'a>,
     held: VecDeque<Held>,
     pairing: LookAhead,
     width: EncoderWidth,
@@ -171,7 +208,7 @@ impl Printer<'_> {
                 (Some(Held::Frame { number, line, .. }), Some(role)) => {
                     match decode_line(&line, role, self.width, self.dialect) {
                         Ok(decoded) => {
-                            writeln!(self.out, "{}", decoded.value).map_err(WriteError::from_io)?;
+                            self.out.write(&line, &decoded.value)?;
                             for message in &decoded.field_errors {
                                 self.fail(number, message);
                             }
@@ -193,25 +230,30 @@ impl Printer<'_> {
     }
 }
 
-/// Runs `rmd decode`.
-pub(crate) fn run(args: DecodeArgs) -> ExitCode {
-    let dialect = match args.protocol.dialect() {
-        Ok(dialect) => dialect,
-        Err(message) => return report::usage_error(message),
-    };
-    let input: Box<dyn BufRead> = match &args.file {
-        None => Box::new(BufReader::new(io::stdin().lock())),
-        Some(path) if path.as_os_str() == "-" => Box::new(BufReader::new(io::stdin().lock())),
-        Some(path) => match File::open(path) {
-            Ok(f) => Box::new(BufReader::new(f)),
-            Err(e) => return report::failure(format!("cannot read {}: {e}", path.display())),
-        },
-    };
+/// How reading and decoding a whole input ended.
+pub(crate) enum Ended<'a> {
+    /// Every line was read; `failed`: some line could not be decoded (reported on stderr).
+    Done { out: Output<'a>, failed: bool },
+    /// Writing stopped on an error; `failed` as above.
+    Write { error: WriteError, failed: bool },
+    /// Reading failed at a line (what was decoded before is written).
+    Read { out: Output<'a>, message: String },
+}
+
+/// Reads `input` line by line, decodes each frame as `mode` says, and writes the objects to
+/// `out` in input order; bad lines are reported on stderr as `line N: ...`.
+pub(crate) fn decode_all<'a>(
+    input: Box<dyn BufRead + '_>,
+    mode: Mode,
+    width: EncoderWidth,
+    dialect: Dialect,
+    out: Output<'a>,
+) -> Ended<'a> {
     let mut printer = Printer {
-        out: BufWriter::new(io::stdout().lock()),
+        out,
         held: VecDeque::new(),
         pairing: LookAhead::default(),
-        width: args.encoder_bits,
+        width,
         dialect,
         failed: false,
     };
@@ -232,34 +274,99 @@ pub(crate) fn run(args: DecodeArgs) -> ExitCode {
                 Err(_) => printer.error(number, "not valid UTF-8 text".to_owned()),
                 Ok(text) if text.trim().is_empty() => continue,
                 Ok(text) => match candump::parse_line(text) {
-                    Ok(line) => printer.frame(number, line, args.mode),
+                    Ok(line) => printer.frame(number, line, mode),
                     Err(e) => printer.error(number, e.to_string()),
                 },
             },
             Err(e) => {
-                let printed = printer
-                    .print_ready(true)
-                    .and_then(|()| printer.out.flush().map_err(WriteError::from_io));
-                if let Err(error) = printed {
-                    return written_until(error, printer.failed);
+                let failed = printer.failed;
+                if let Err(error) = printer.print_ready(true).and_then(|()| printer.out.flush()) {
+                    return Ended::Write { error, failed };
                 }
-                return report::failure(format!("line {number}: read error: {e}"));
+                return Ended::Read {
+                    out: printer.out,
+                    message: format!("line {number}: read error: {e}"),
+                };
             }
         }
         if let Err(error) = printer.print_ready(false) {
-            return written_until(error, printer.failed);
+            return Ended::Write {
+                error,
+                failed: printer.failed,
+            };
         }
     }
-    let printed = printer
-        .print_ready(true)
-        .and_then(|()| printer.out.flush().map_err(WriteError::from_io));
-    if let Err(error) = printed {
-        return written_until(error, printer.failed);
+    if let Err(error) = printer.print_ready(true).and_then(|()| printer.out.flush()) {
+        return Ended::Write {
+            error,
+            failed: printer.failed,
+        };
     }
-    if printer.failed {
-        ExitCode::from(report::FAILURE)
-    } else {
-        ExitCode::SUCCESS
+    Ended::Done {
+        failed: printer.failed,
+        out: printer.out,
+    }
+}
+
+/// Runs `rmd decode`.
+pub(crate) fn run(args: DecodeArgs) -> ExitCode {
+    let dialect = match args.protocol.dialect() {
+        Ok(dialect) => dialect,
+        Err(message) => return report::usage_error(message),
+    };
+    let input: Box<dyn BufRead> = match &args.file {
+        None => Box::new(BufReader::new(io::stdin().lock())),
+        Some(path) if path.as_os_str() == "-" => Box::new(BufReader::new(io::stdin().lock())),
+        Some(path) => match File::open(path) {
+            Ok(f) => Box::new(BufReader::new(f)),
+            Err(e) => return report::failure(format!("cannot read {}: {e}", path.display())),
+        },
+    };
+    let out = match &args.mcap {
+        None => Output::Json(BufWriter::new(io::stdout().lock())),
+        Some(path) => {
+            let source = args
+                .file
+                .as_ref()
+                .map_or_else(|| "-".to_owned(), |p| p.display().to_string());
+            match McapFrames::create(
+                path,
+                &[
+                    ("source", source),
+                    ("protocol", args.protocol.protocol.name().to_owned()),
+                    ("encoder_bits", args.encoder_bits.bits().to_string()),
+                ],
+            ) {
+                Ok(mcap) => Output::Mcap(mcap),
+                Err(message) => return report::failure(message),
+            }
+        }
+    };
+    match decode_all(input, args.mode, args.encoder_bits, dialect, out) {
+        Ended::Write { error, failed } => written_until(error, failed),
+        Ended::Read { out, message } => {
+            if let Err(e) = finish(out) {
+                errln!("{e}");
+            }
+            report::failure(message)
+        }
+        Ended::Done { out, failed } => match finish(out) {
+            Err(e) => report::failure(e),
+            Ok(()) if failed => ExitCode::from(report::FAILURE),
+            Ok(()) => ExitCode::SUCCESS,
+        },
+    }
+}
+
+/// Closes the output: an MCAP file gets its summary, and stderr says what it holds.
+fn finish(out: Output<'_>) -> Result<(), String> {
+    match out {
+        Output::Json(_) => Ok(()),
+        Output::Mcap(mcap) => {
+            let summary = mcap.finish()?;
+            errln!("{summary}");
+            Ok(())
+        }
     }
 }
 

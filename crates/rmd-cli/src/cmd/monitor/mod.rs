@@ -1,14 +1,22 @@
-//! `rmd monitor`: a live table of every motor's temperature, voltage, current, speed and angle
-//! (status 1, status 2 and the multi-turn angle, read at `--rate`), until Ctrl-C or `--count`.
+//! `rmd monitor`: every motor's temperature, voltage, current, speed and angle (status 1, status
+//! 2 and the multi-turn angle, read at `--rate`), until Ctrl-C, `q` or `--count`: on a terminal
+//! a live view with a plot per motor of the chosen signal above the table ([`view`], drawn with
+//! ratatui); elsewhere the table, one per reading; with `--json` one object per reading.
+//! `--sim --demo` moves the simulated motors gently ([`demo`]) so there is something to watch.
+
+mod demo;
+mod view;
 
 use std::io::IsTerminal;
 use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Args;
-use rmd_bus::{Clock, MonotonicClock};
+use ratatui::crossterm::event::{self, Event, KeyEventKind};
+use rmd_bus::{Clock, MonotonicClock, Timestamp};
 use rmd_protocol::{Reply, Request};
 use serde_json::{Value, json};
+use view::{Action, History, Sample, Screen, View};
 
 use crate::args::bus::BusArgs;
 use crate::args::timing;
@@ -24,7 +32,7 @@ use crate::output::{out, outln};
 /// Arguments of `rmd monitor`.
 #[derive(Args, Debug)]
 #[command(
-    after_help = "With --robot FILE: the robot's joints (--ids: joint names), labelled by name, the angle column in joint degrees; JSON objects carry `name`, `bus` and `joint`."
+    after_help = "On a terminal: a plot per motor of one signal (keys a angle, s speed, c current, t temperature, Tab next; arrows or 1-9 select a motor; q quits) above the table. Elsewhere (a pipe, a file): the table once per reading. With --robot FILE: the robot's joints (--ids: joint names), labelled by name, the angle column in joint degrees; JSON objects carry `name`, `bus` and `joint`."
 )]
 pub(crate) struct MonitorArgs {
     /// Motors to watch [default: the ones that answer a scan of 1..=32; with --robot, every
@@ -40,6 +48,10 @@ pub(crate) struct MonitorArgs {
     /// Print one JSON object per reading (`{"time_s":..,"motors":[..]}`), one per line.
     #[arg(long)]
     json: bool,
+    /// Drive the simulated motors (--sim) through a gentle motion (each a slow sine in position
+    /// mode), so that there is something to watch.
+    #[arg(long, requires = "sim")]
+    demo: bool,
     #[command(flatten)]
     bus: BusArgs,
 }
@@ -75,23 +87,93 @@ fn monitor(args: &MonitorArgs) -> Result<(), CliError> {
             progress::shown(args.json),
         )?;
     }
-    let period = timing::period(args.rate);
-    let redraw = !args.json && std::io::stdout().is_terminal();
-    let clock = MonotonicClock;
-    let start = clock.now();
-    let mut drawn_lines = 0;
-    let mut readings_done = 0u64;
-    while args.count.is_none_or(|n| readings_done < n) && !interrupt::requested() {
-        let at = start + period * u32::try_from(readings_done).unwrap_or(u32::MAX);
-        if !interrupt::sleep_until(&clock, at) {
-            break;
+    let terminal = !args.json && std::io::stdout().is_terminal();
+    let mut readings = Readings {
+        period: timing::period(args.rate),
+        clock: MonotonicClock,
+        start: MonotonicClock.now(),
+        done: 0,
+        demo: args.demo.then(Vec::new),
+    };
+    let shown = if terminal && std::io::stdin().is_terminal() {
+        live_view(args, &mut motors, &mut readings)
+    } else {
+        print_readings(args, &mut motors, &mut readings, terminal)
+    };
+    // Whatever happened, the motors are left as they were and the recording (--log) flushed.
+    let finished = motors.finish();
+    shown.and(finished)
+}
+
+/// One reading of every motor: each one's replies, or why it could not be read.
+type Rows = Vec<(Motor, Result<Vec<Reply>, String>)>;
+
+/// The schedule of the readings, and the demo's motion.
+struct Readings {
+    period: Duration,
+    clock: MonotonicClock,
+    start: Timestamp,
+    done: u64,
+    /// With `--demo`: each motor's angle at the start (motor degrees; `None` when it did not
+    /// answer, and it is not moved), read before the first reading.
+    demo: Option<Vec<Option<f64>>>,
+}
+
+impl Readings {
+    /// When the next reading is due.
+    fn next_at(&self) -> Timestamp {
+        self.start + self.period * u32::try_from(self.done).unwrap_or(u32::MAX)
+    }
+
+    /// Whether `--count` readings are done.
+    fn finished(&self, count: Option<u64>) -> bool {
+        count.is_some_and(|n| self.done >= n)
+    }
+
+    /// Reads every motor now (after the demo's commands, if on); returns the time and rows.
+    fn read(&mut self, motors: &mut Motors) -> Result<(f64, Rows), CliError> {
+        let time_s = (self.clock.now() - self.start).as_secs_f64();
+        if let Some(centres) = &mut self.demo {
+            let all = motors.motors().to_vec();
+            if centres.is_empty() {
+                for motor in &all {
+                    centres.push(start_angle(motors, motor)?);
+                }
+            }
+            for (index, (motor, centre)) in all.iter().zip(centres.iter()).enumerate() {
+                let Some(centre) = centre else { continue };
+                let command = demo::command(*centre, index, time_s).map_err(CliError::Failed)?;
+                // A motor that does not answer says so in its row of the reading.
+                if let Err(error) = motors.request(motor, &command)
+                    && error.is_bus_failure()
+                {
+                    return Err(error.into());
+                }
+            }
         }
-        let time_s = (clock.now() - start).as_secs_f64();
         let mut rows = Vec::with_capacity(motors.motors().len());
         for motor in motors.motors().to_vec() {
-            let reading = read(&mut motors, &motor)?;
+            let reading = read(motors, &motor)?;
             rows.push((motor, reading));
         }
+        self.done += 1;
+        Ok((time_s, rows))
+    }
+}
+
+/// The readings as text: the table (redrawn in place on a terminal) or JSON lines.
+fn print_readings(
+    args: &MonitorArgs,
+    motors: &mut Motors,
+    readings: &mut Readings,
+    redraw: bool,
+) -> Result<(), CliError> {
+    let mut drawn_lines = 0;
+    while !readings.finished(args.count) && !interrupt::requested() {
+        if !interrupt::sleep_until(&readings.clock, readings.next_at()) {
+            break;
+        }
+        let (time_s, rows) = readings.read(motors)?;
         let shown = if args.json {
             let list: Vec<Value> = rows
                 .iter()
@@ -112,15 +194,135 @@ fn monitor(args: &MonitorArgs) -> Result<(), CliError> {
             }
             out!("{text}")
         };
-        if let Err(error) = shown {
-            // Nobody reads any more (or the output failed): stop, keeping the recording.
-            motors.finish()?;
-            return Err(error.into());
-        }
-        readings_done += 1;
+        // Nobody reads any more (or the output failed): stop.
+        shown?;
     }
-    motors.finish()?;
     Ok(())
+}
+
+/// How long the live view waits for a key at most before looking at the clock again.
+const KEY_POLL: Duration = Duration::from_millis(50);
+
+/// The live view: plots and the table, redrawn at every reading and every key, until `q`,
+/// Ctrl-C or `--count`; then the last table is printed as text.
+fn live_view(
+    args: &MonitorArgs,
+    motors: &mut Motors,
+    readings: &mut Readings,
+) -> Result<(), CliError> {
+    // Raw mode and the alternate screen; a panic restores the terminal too (ratatui's hook).
+    let mut terminal = ratatui::try_init().map_err(|e| {
+        // Whatever part of the set-up succeeded is undone.
+        ratatui::restore();
+        CliError::Failed(format!("cannot set up the terminal: {e}"))
+    })?;
+    let labels: Vec<String> = motors.motors().iter().map(Motor::label).collect();
+    let mut histories = vec![History::default(); labels.len()];
+    let mut view = View::new(labels.len());
+    let mut last: Option<(f64, Rows)> = None;
+    let bus = match motors.motors().first().cloned() {
+        Some(first) => motors.connection(&first).setup().name(),
+        None => String::new(),
+    };
+    let result = (|| -> Result<(), CliError> {
+        let mut dirty = true;
+        loop {
+            if dirty {
+                let table_lines: Vec<String> = last
+                    .as_ref()
+                    .map(|(t, rows)| {
+                        table(*t, rows, "")
+                            .lines()
+                            .skip(1)
+                            .map(str::to_owned)
+                            .collect()
+                    })
+                    .unwrap_or_default();
+                let time = last.as_ref().map_or(0.0, |(t, _)| *t);
+                let screen = Screen {
+                    title: format!(
+                        "rmd monitor: {bus}  t {time:.2} s  {} reading(s){}",
+                        readings.done,
+                        if readings.demo.is_some() {
+                            "  (demo motion)"
+                        } else {
+                            ""
+                        }
+                    ),
+                    motors: labels.iter().cloned().zip(histories.iter()).collect(),
+                    table: table_lines,
+                };
+                terminal
+                    .draw(|frame| view::draw(frame, &view, &screen))
+                    .map_err(|e| CliError::Failed(format!("drawing: {e}")))?;
+                dirty = false;
+            }
+            if readings.finished(args.count) || interrupt::requested() {
+                return Ok(());
+            }
+            // The keys are looked at before every reading, even when the readings fall behind
+            // their schedule (slow replies, a high --rate): `q` always works.
+            let due = readings.next_at();
+            let wait = due
+                .checked_duration_since(readings.clock.now())
+                .unwrap_or(Duration::ZERO)
+                .min(KEY_POLL);
+            let keys = |e: std::io::Error| CliError::Failed(format!("reading the keys: {e}"));
+            if event::poll(wait).map_err(keys)? {
+                match event::read().map_err(keys)? {
+                    Event::Key(key) if key.kind == KeyEventKind::Press => {
+                        if view.key(key) == Action::Quit {
+                            return Ok(());
+                        }
+                        dirty = true;
+                    }
+                    Event::Resize(..) => dirty = true,
+                    _ => {}
+                }
+            }
+            if readings.clock.now() < due {
+                continue;
+            }
+            let (time_s, rows) = readings.read(motors)?;
+            for (history, (motor, row)) in histories.iter_mut().zip(&rows) {
+                if let Some(values) = row.as_ref().ok().and_then(|r| values(motor, r)) {
+                    history.push(Sample { time_s, values });
+                }
+            }
+            last = Some((time_s, rows));
+            dirty = true;
+        }
+    })();
+    ratatui::restore();
+    if let Some((time_s, rows)) = &last {
+        out!("{}", table(*time_s, rows, ""))?;
+    }
+    result
+}
+
+/// A motor's angle (joint degrees with a robot, as in the table), speed, current and
+/// temperature from one reading; `None` when a reply is missing.
+fn values(motor: &Motor, replies: &[Reply]) -> Option<[f64; 4]> {
+    let (mut status2, mut angle) = (None, None);
+    for reply in replies {
+        match reply {
+            Reply::ReadStatus2(s) => status2 = Some(*s),
+            Reply::ReadMultiTurnAngle { motor_angle } => {
+                angle = Some(match &motor.joint {
+                    Some(joint) => joint.map.joint_angle_deg(motor_angle.degrees()),
+                    None => motor_angle.degrees(),
+                });
+            }
+            _ => {}
+        }
+    }
+    let (s2, angle) = (status2?, angle?);
+    Some([
+        angle,
+        s2.speed.dps(),
+        s2.iq.amps(),
+        s2.temperature.celsius(),
+    ])
 }
 
 /// One motor's JSON object in a reading: its readings (with a robot: its joint's name, bus and
@@ -172,6 +374,16 @@ fn scan(motors: &mut Motors, quick: bool, show: bool) -> Result<(), CliError> {
     }
     motors.retain(|m| found.contains(&m.id));
     Ok(())
+}
+
+/// A motor's multi-turn angle before the demo moves it, motor degrees; `None` when it does not
+/// answer (the demo leaves it alone).
+fn start_angle(motors: &mut Motors, motor: &Motor) -> Result<Option<f64>, CliError> {
+    match motors.request(motor, &Request::ReadMultiTurnAngle) {
+        Ok(Reply::ReadMultiTurnAngle { motor_angle }) => Ok(Some(motor_angle.degrees())),
+        Err(error) if error.is_bus_failure() => Err(error.into()),
+        _ => Ok(None),
+    }
 }
 
 /// One reading of one motor, or why it failed (the monitor goes on).
