@@ -180,6 +180,22 @@ fn jitter_json_has_the_stable_keys_and_a_whole_microsecond_histogram() {
     assert_eq!(v["period_us"], 500.0);
     assert_eq!(v["spin_us"], 50.0);
     assert_eq!(v["cpu"], 0);
+    // Pinned: the CPU latency request is 0 us, held (or, without the device or the privilege,
+    // failed with the reason on the real-time line).
+    let realtime = v["realtime"].as_str().unwrap();
+    assert!(realtime.contains("cpu_dma_latency: 0 us "), "{realtime}");
+    assert_eq!(
+        v["cpu_dma_latency_us"].as_u64() == Some(0),
+        realtime.contains("0 us held"),
+        "{realtime}"
+    );
+    let v = json("bench jitter --seconds 0.05 --cpu 0 --cpu-dma-latency off --json");
+    assert!(v["cpu_dma_latency_us"].is_null());
+    let realtime = v["realtime"].as_str().unwrap();
+    assert!(
+        realtime.contains("cpu_dma_latency: not requested"),
+        "{realtime}"
+    );
 }
 
 #[test]
@@ -206,6 +222,7 @@ fn jitter_rejects_bad_values() {
     usage_error("bench jitter --seconds -1", "--duration");
     usage_error("bench jitter --fifo 120", "1..=99");
     usage_error("bench jitter --cpu 100000", "not available");
+    usage_error("bench jitter --cpu-dma-latency -3", "--cpu-dma-latency");
 }
 
 #[test]

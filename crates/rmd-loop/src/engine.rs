@@ -33,7 +33,7 @@ use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
 use crate::mailbox::{Receiver, Sender, mailbox};
 use crate::mapping::JointMap;
-use crate::os::RtStatus;
+use crate::os::{CpuLatencyHold, RtSetup, RtStatus};
 use crate::report::{Fault, StopReason};
 use crate::robot::{RejectedCommandPolicy, Robot};
 use crate::schedule::{Scheduler, TickTiming};
@@ -159,6 +159,8 @@ pub struct Running<B, C, K> {
     scheduler: Scheduler,
     start: Timestamp,
     realtime: RtStatus,
+    /// The CPU latency request, held until the run is finished.
+    cpu_latency: Option<CpuLatencyHold>,
     supervisor: Option<JoinHandle<()>>,
     identified: Vec<crate::report::IdentifiedMotor>,
 }
@@ -292,7 +294,11 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
         } = self;
         parts.shared.set_running(true);
         crate::panics::enter();
-        let realtime = startup::prepare_thread(parts.robot.settings());
+        // On every early return below the hold is dropped: the request ends with the start.
+        let RtSetup {
+            status: realtime,
+            cpu_latency,
+        } = startup::prepare_thread(parts.robot.settings());
         let identified = match startup::identify_motors(&mut parts) {
             Ok(identified) => identified,
             Err(reason) => {
@@ -367,6 +373,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
             scheduler: Scheduler::new(settings.period, settings.spin_margin, settings.overrun, t0),
             start: t0,
             realtime,
+            cpu_latency,
             parts,
             controller,
         })
@@ -538,7 +545,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         } else {
             wait_for_takeover(&self.parts.shared, self.supervisor)
         };
-        finish::finish(
+        let outcome = finish::finish(
             self.parts,
             self.controller,
             reason,
@@ -546,7 +553,10 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
             Some(self.start),
             takeover,
             self.identified,
-        )
+        );
+        // The motors are safe: the CPUs may sleep deeply again.
+        drop(self.cpu_latency);
+        outcome
     }
 }
 
