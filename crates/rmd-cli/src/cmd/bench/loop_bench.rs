@@ -4,15 +4,16 @@
 //! `--motors` counts motors PER BUS (1..=4: one 0x280 frame drives ids 1..=4), so the robot has
 //! `--motors x --buses` motors. The simulated buses run at 1 Mbit/s with the simulator's default
 //! motors; the loop refuses a rate whose exchange does not fit the period (see docs/loop.md).
-//! Without `--virtual-time` everything runs in real time on the monotonic clock; with it, on a
-//! virtual clock (as fast as the CPU allows, deterministic). The loop runs on its own thread
+//! Without `--virtual-time` everything runs in real time on the monotonic clock, each simulated
+//! bus on its own thread as real motors are (`--sim inline`: in the loop's thread); with it, on
+//! a virtual clock (as fast as the CPU allows, deterministic). The loop runs on its own thread
 //! while this thread drains its telemetry, as an application would.
 
 use core::time::Duration;
 use std::process::ExitCode;
 
 use clap::Args;
-use rmd_bus::{Clock, MonotonicClock, VirtualClock};
+use rmd_bus::{CanBus, Clock, MonotonicClock, VirtualClock};
 use rmd_loop::{LoopOutcome, Robot, RtLoop, RunLimit};
 use serde_json::{Value, json};
 
@@ -50,6 +51,14 @@ pub(crate) struct LoopArgs {
     /// Run on a virtual clock: deterministic, as fast as the CPU allows (latencies are then 0).
     #[arg(long)]
     virtual_time: bool,
+    /// Where the simulated buses run in real time: each on its own thread, or in the loop's.
+    #[arg(
+        long,
+        value_enum,
+        default_value = "thread",
+        conflicts_with = "virtual_time"
+    )]
+    sim: super::rate::SimPlace,
     #[command(flatten)]
     rt: RealtimeArgs,
     /// Print the report as one JSON object.
@@ -60,9 +69,23 @@ pub(crate) struct LoopArgs {
 /// Runs `rmd bench loop`.
 pub(crate) fn run(args: LoopArgs) -> ExitCode {
     let outcome = if args.virtual_time {
-        run_on(VirtualClock::new(), &args)
+        let clock = VirtualClock::new();
+        robot::sim_buses(&clock, args.buses, args.motors)
+            .map_err(|e| Failure::Run(format!("simulator: {e}")))
+            .and_then(|buses| run_on(clock, buses, &args))
+    } else if args.sim == super::rate::SimPlace::Inline {
+        robot::sim_buses(&MonotonicClock, args.buses, args.motors)
+            .map_err(|e| Failure::Run(format!("simulator: {e}")))
+            .and_then(|buses| run_on(MonotonicClock, buses, &args))
     } else {
-        run_on(MonotonicClock, &args)
+        robot::threaded_buses(args.buses, args.motors, &args.rt, Duration::ZERO, 0)
+            .map_err(Failure::Run)
+            .and_then(|mut sims| {
+                let ports = core::mem::take(&mut sims.ports);
+                let outcome = run_on(MonotonicClock, ports, &args);
+                sims.stop().map_err(Failure::Run)?;
+                outcome
+            })
     };
     let outcome = match outcome {
         Ok(outcome) => outcome,
@@ -116,6 +139,7 @@ fn bench_json(args: &LoopArgs, controller: &MovingTargetPd) -> Value {
         "motors_per_bus": args.motors,
         "buses": args.buses,
         "virtual_time": args.virtual_time,
+        "sim": if args.virtual_time { "virtual".to_string() } else { format!("{:?}", args.sim).to_lowercase() },
         "spin_us": args.rt.spin().as_micros() as u64,
         "cpu": args.rt.cpu,
         "fifo_priority": args.rt.fifo,
@@ -134,8 +158,9 @@ enum Failure {
     Run(String),
 }
 
-fn run_on<C: Clock + Clone + 'static>(
+fn run_on<C: Clock + Clone + 'static, B: CanBus + Send + 'static>(
     clock: C,
+    buses: Vec<B>,
     args: &LoopArgs,
 ) -> Result<LoopOutcome<MovingTargetPd>, Failure> {
     let mut config = robot::robot(args.rate, args.buses, args.motors);
@@ -143,8 +168,6 @@ fn run_on<C: Clock + Clone + 'static>(
     let robot = Robot::try_from(config).map_err(|e| Failure::Usage(e.to_string()))?;
     let period = robot.settings().period.get();
     let ticks = u64::try_from(args.duration.as_nanos() / period.as_nanos()).unwrap_or(u64::MAX);
-    let buses = robot::sim_buses(&clock, args.buses, args.motors)
-        .map_err(|e| Failure::Run(format!("simulator: {e}")))?;
     let mut rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
         .map_err(|e| Failure::Usage(e.to_string()))?;
     let telemetry = rt.telemetry();
