@@ -49,7 +49,7 @@
 
 use core::time::Duration;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 
 use crossbeam_queue::ArrayQueue;
@@ -111,6 +111,20 @@ struct Shared {
     /// Rung by a port when it put a frame in its `to_sim`, and to stop.
     bell: Doorbell,
     stop: AtomicBool,
+    /// Items handed over after their arrival time (the simulator thread was late).
+    late_items: AtomicU64,
+    /// The latest of them, nanoseconds after its arrival.
+    max_late_ns: AtomicU64,
+}
+
+/// How well the simulator thread kept up with the real clock.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct Lateness {
+    /// Items (replies, events) handed to the ports after their arrival on the wire: a receive
+    /// got them late because the simulator thread was (its CPU was busy), not the receiver.
+    pub late_items: u64,
+    /// How late the latest of them was.
+    pub max_late: Duration,
 }
 
 /// A simulated bus running on its own thread; [`stop`](Self::stop) (or drop) ends the thread.
@@ -138,6 +152,8 @@ impl ThreadedSim {
         let shared = Arc::new(Shared {
             bell: Doorbell::new()?,
             stop: AtomicBool::new(false),
+            late_items: AtomicU64::new(0),
+            max_late_ns: AtomicU64::new(0),
         });
         let queues = (0..options.ports.max(1))
             .map(|_| {
@@ -174,6 +190,14 @@ impl ThreadedSim {
             },
             ports,
         ))
+    }
+
+    /// How well the simulator thread has kept up so far.
+    pub fn lateness(&self) -> Lateness {
+        Lateness {
+            late_items: self.shared.late_items.load(Ordering::Relaxed),
+            max_late: Duration::from_nanos(self.shared.max_late_ns.load(Ordering::Relaxed)),
+        }
     }
 
     /// Stops the thread (frames sent after this are never simulated) and returns the bus, to
@@ -221,6 +245,13 @@ fn simulate(
         let now = clock.now();
         let mut handed = false;
         while let Some(item) = bus.next_received(now + LOOKAHEAD) {
+            let late = clock.now() - item.at;
+            if !late.is_zero() {
+                shared.late_items.fetch_add(1, Ordering::Relaxed);
+                shared
+                    .max_late_ns
+                    .fetch_max(late.as_nanos() as u64, Ordering::Relaxed);
+            }
             for q in queues {
                 if q.to_user.force_push(item).is_some() {
                     q.overflowed.store(true, Ordering::Release);

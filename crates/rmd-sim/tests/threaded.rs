@@ -205,3 +205,24 @@ fn a_full_queue_is_reported_as_an_overflow_before_the_next_item() {
     );
     sim.stop().unwrap();
 }
+
+#[test]
+fn a_simulator_thread_that_is_late_is_counted_and_its_replies_keep_their_times() {
+    // The thread starts 50 ms late: the frame sent meanwhile is simulated at its sending time,
+    // and its replies, computed after their arrival, are counted late.
+    let bus = SimBus::new(MonotonicClock, SimConfig::with_motors(2).seed(9)).unwrap();
+    let (sim, mut ports) = ThreadedSim::spawn(bus, &ThreadOptions::default(), || {
+        std::thread::sleep(Duration::from_millis(50))
+    })
+    .unwrap();
+    let sent = MonotonicClock.now();
+    ports[0].send(&frame(1)).unwrap();
+    let got = receive(&mut ports[0], 2);
+    assert_eq!(got.len(), 2);
+    // On the simulated wire the exchange began when the frame was sent.
+    assert!(got[1].at - sent < Duration::from_millis(2), "{got:?}");
+    let late = sim.lateness();
+    assert_eq!(late.late_items, 2);
+    assert!(late.max_late >= Duration::from_millis(45), "{late:?}");
+    sim.stop().unwrap();
+}

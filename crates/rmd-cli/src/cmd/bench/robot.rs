@@ -8,7 +8,7 @@ use rmd_bus::{Clock, MonotonicClock};
 use rmd_loop::os::RtRequest;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
 use rmd_rig::args::RealtimeArgs;
-use rmd_sim::threaded::{SimPort, ThreadOptions, ThreadedSim};
+use rmd_sim::threaded::{Lateness, SimPort, ThreadOptions, ThreadedSim};
 use rmd_sim::{SimBus, SimConfig};
 
 /// Gear ratio of the simulator's default motor.
@@ -66,6 +66,17 @@ pub(crate) struct ThreadedBuses {
 }
 
 impl ThreadedBuses {
+    /// How well the simulator threads kept up, all together.
+    pub(crate) fn lateness(&self) -> Lateness {
+        self.sims
+            .iter()
+            .map(ThreadedSim::lateness)
+            .fold(Lateness::default(), |a, b| Lateness {
+                late_items: a.late_items + b.late_items,
+                max_late: a.max_late.max(b.max_late),
+            })
+    }
+
     /// Stops every simulator and returns its bus.
     pub(crate) fn stop(self) -> Result<Vec<SimBus<MonotonicClock>>, String> {
         self.sims

@@ -14,6 +14,7 @@ use core::time::Duration;
 use rmd_bus::{CanBus, Clock, MonotonicClock, Timestamp, VirtualClock};
 use rmd_loop::stats::Percentiles;
 use rmd_loop::{LoopOutcome, RtLoop, RunLimit};
+use rmd_sim::threaded::Lateness;
 use rmd_sim::{SimBus, Transmission};
 use serde_json::{Value, json};
 
@@ -44,6 +45,9 @@ pub(super) struct Trial {
     pub(super) last_reply: Percentiles,
     pub(super) handoff: Percentiles,
     pub(super) wire: Option<WireLimit>,
+    /// With the simulators on their own threads: replies they handed over after their arrival
+    /// (their thread was late, not the loop), and the latest.
+    pub(super) sim_late: Option<Lateness>,
     pub(super) warnings: Vec<String>,
 }
 
@@ -98,13 +102,15 @@ impl Trial {
             "last_reply_after_start_us": self.last_reply,
             "reply_to_controller_us": self.handoff,
             "wire_limit": self.wire.map(WireLimit::to_json),
+            "sim_late_items": self.sim_late.map(|l| l.late_items),
+            "sim_max_late_us": self.sim_late.map(|l| us(l.max_late)),
         })
     }
 
     pub(super) fn line(&self, n: usize, budget: f64) -> String {
         format!(
             "trial {n:>2}: {} bus(es) {:>8.1} Hz ({}) missed {:.3}% {}  misses {} skipped {} missing {} late {}  \
-             loop added p50 {:.1} p99 {:.1}  wake p99 {:.1} max {:.1}  work max {:.1} us",
+             loop added p50 {:.1} p99 {:.1}  wake p99 {:.1} max {:.1}  work max {:.1} us{}",
             self.buses,
             self.rate_hz,
             self.wire_limit_hz()
@@ -127,6 +133,13 @@ impl Trial {
             self.wake.p99,
             self.wake.max,
             self.work.max,
+            self.sim_late
+                .filter(|l| l.late_items > 0)
+                .map_or(String::new(), |l| format!(
+                    "  (simulator late: {} item(s), up to {:.1} us)",
+                    l.late_items,
+                    us(l.max_late)
+                )),
         )
     }
 }
@@ -195,6 +208,7 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
     let trace = (expected_ticks as usize + 64) * frames_per_exchange + 64;
     let limit = RunLimit::Duration(args.duration);
     let controller = MovingTargetPd::new(args.sim != SimPlace::Virtual);
+    let mut sim_late = None;
     let (outcome, traces) = match args.sim {
         SimPlace::Virtual => {
             let clock = VirtualClock::new();
@@ -217,6 +231,7 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
             let mut threaded = robot::threaded_buses(buses, args.motors, &args.rt, spin, trace)?;
             let ports = core::mem::take(&mut threaded.ports);
             let outcome = run(robot, MonotonicClock, ports, controller, limit)?;
+            sim_late = Some(threaded.lateness());
             (outcome, traces_of(&threaded.stop()?))
         }
     };
@@ -253,6 +268,7 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
         last_reply: outcome.controller.last_reply.percentiles(),
         handoff: outcome.controller.handoff.percentiles(),
         wire: WireLimit::of(&exchanges),
+        sim_late,
         warnings: r.realtime_warnings.clone(),
     })
 }
