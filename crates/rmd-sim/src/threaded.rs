@@ -291,11 +291,10 @@ pub struct SimPort {
 }
 
 impl SimPort {
-    /// The next item, if the simulator handed one over (whatever its arrival).
+    /// The next item, if the simulator handed one over (whatever its arrival). No system call:
+    /// the doorbell is only cleared before a wait on it ([`Self::peek_before_wait`]).
     fn peek(&mut self) -> Option<Received> {
         if self.head.is_none() {
-            // Clear before looking: an item handed over after this rings again.
-            self.queues.bell.clear();
             let next = self.queues.to_user.pop();
             if self.queues.overflowed.swap(false, Ordering::AcqRel) {
                 self.stash = next;
@@ -306,6 +305,17 @@ impl SimPort {
             } else {
                 self.head = next;
             }
+        }
+        self.head
+    }
+
+    /// [`Self::peek`], clearing the doorbell first when nothing is there: when this returns
+    /// `None`, an item handed over later rings it (earlier rings, for items already taken,
+    /// are gone and cannot wake a wait for nothing).
+    fn peek_before_wait(&mut self) -> Option<Received> {
+        if self.peek().is_none() {
+            self.queues.bell.clear();
+            return self.peek();
         }
         self.head
     }
@@ -356,19 +366,23 @@ impl CanBus for SimPort {
                 }
                 // Later items arrive later still.
                 Some(_) => {
-                    clock.sleep_until(deadline);
+                    if deadline > now {
+                        clock.sleep_until(deadline);
+                    }
                     return Ok(None);
                 }
                 None if now >= deadline => return Ok(None),
                 None => {
-                    self.queues.bell.wait(deadline - now)?;
+                    if self.peek_before_wait().is_none() {
+                        self.queues.bell.wait(deadline - now)?;
+                    }
                 }
             }
         }
     }
 
     fn readiness(&mut self) -> Readiness<'_> {
-        match self.peek() {
+        match self.peek_before_wait() {
             Some(item) if item.at <= MonotonicClock.now() => Readiness::Ready,
             Some(item) => Readiness::Pending(WaitOn::arrival(item.at, self.spin)),
             None => Readiness::Pending(WaitOn::readable(self.queues.bell.as_fd())),
