@@ -45,7 +45,7 @@ impl<'a> Search<'a> {
         let n = self.offset + self.trials.len() + 1;
         self.progress.restart_timer(self.args.duration);
         self.progress.set_prefix(format!(
-            "trial {n}: {} bus(es) at {rate_hz:.1} Hz ",
+            "trial {n} at {rate_hz:.1} Hz, {} bus(es) ",
             self.buses
         ));
         let progress = self.progress;
