@@ -74,14 +74,24 @@ impl<B: CanBus> Exchange<B> {
                 return Ok(collected);
             }
             let mut waits: [Option<WaitOn<'_>>; MAX_BUSES] = [None; MAX_BUSES];
-            let mut ready = false;
+            let (mut ready, mut alone) = (false, false);
             for ((link, wait), waits_for) in self.links.iter_mut().zip(&mut waits).zip(waiting) {
                 if waits_for {
                     match link.bus.readiness() {
                         Readiness::Pending(on) => *wait = Some(on),
-                        Readiness::Ready | Readiness::Alone => ready = true,
+                        Readiness::Ready => ready = true,
+                        Readiness::Alone => alone = true,
                     }
                 }
+            }
+            if alone {
+                // A bus that said it could wait with others no longer can: bus after bus.
+                for (b, waits_for) in waiting.iter().enumerate().take(n) {
+                    if *waits_for {
+                        collected.add(self.collect(b, tick, deadline, max_age, stats)?);
+                    }
+                }
+                return Ok(collected);
             }
             if ready {
                 continue;
