@@ -48,7 +48,8 @@ const MAX_SINGLE_WAIT: Duration = Duration::from_secs(3600);
 ///
 /// The wait is one `ppoll` over every file descriptor, its timeout the earliest of `deadline`
 /// and each known arrival minus its spin margin; when the timeout was an arrival's, the rest
-/// is a busy-wait to that arrival on `clock`. Without any descriptor it only sleeps on `clock`
+/// is a busy-wait to that arrival on `clock` (the descriptors are not watched during that short
+/// spin: what they bring is taken right after it). Without any descriptor it only sleeps on `clock`
 /// (a virtual clock then simply moves). Descriptors imply the real time line: `clock` must be
 /// the [`MonotonicClock`](crate::MonotonicClock) (or one on the same time line) when any is
 /// given.
