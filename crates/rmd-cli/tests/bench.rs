@@ -32,6 +32,21 @@ fn json(args: &str) -> Value {
     serde_json::from_str(&run.stdout).unwrap_or_else(|e| panic!("{e}: {}", run.stdout))
 }
 
+/// Runs a real-time command that prints one JSON object: it may end in a fault on a loaded
+/// machine (exit 1, e.g. a motor silent for 20 ticks while the simulator's thread waited for a
+/// CPU), which a shape test accepts.
+fn json_real_time(args: &str) -> Value {
+    let run = rmd(args);
+    assert!(
+        matches!(run.code, Some(0 | 1)),
+        "rmd {args}: {:?} {}",
+        run.code,
+        run.stderr
+    );
+    assert_eq!(run.stdout.lines().count(), 1, "one line: {}", run.stdout);
+    serde_json::from_str(&run.stdout).unwrap_or_else(|e| panic!("{e}: {}", run.stdout))
+}
+
 /// Asserts a usage error: exit 2, nothing on stdout, one line on stderr containing `needle`.
 fn usage_error(args: &str, needle: &str) {
     let run = rmd(args);
@@ -127,7 +142,7 @@ fn loop_in_real_time_has_the_same_shape() {
             "inline",
         ),
     ] {
-        let v = json(args);
+        let v = json_real_time(args);
         for key in [
             "wake_latency_us",
             "round_trip_us",
@@ -141,9 +156,9 @@ fn loop_in_real_time_has_the_same_shape() {
         assert!(v["missed_ticks"].is_u64());
         assert_eq!(v["bench"]["virtual_time"], false);
         assert_eq!(v["bench"]["sim"], sim);
-        assert_eq!(v["normal_stop"], true, "{v}");
+        assert!(v["safe_stop"].is_object(), "{v}");
     }
-    let v = json("bench loop --seconds 0.3 --spin-us 20 --cpu 0 --json");
+    let v = json_real_time("bench loop --seconds 0.3 --spin-us 20 --cpu 0 --json");
     assert_eq!(v["bench"]["spin_us"], 20);
     assert_eq!(v["bench"]["cpu"], 0);
     // Pinned: the CPU latency request is on the real-time line (held, or why not).

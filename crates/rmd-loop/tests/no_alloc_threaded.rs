@@ -77,7 +77,12 @@ fn steady_state_ticks_on_threaded_simulators_allocate_nothing() {
         safety_ports.push(Box::new(ports.next().unwrap()));
         sims.push(sim);
     }
-    let robot = rmd_loop::Robot::try_from(robot_config(500.0, BUSES, 4)).unwrap();
+    // On a loaded machine this thread may be held up for a while: neither missing replies nor a
+    // stall may end the run (this test is about allocations, not timing).
+    let mut config = robot_config(500.0, BUSES, 4);
+    config.loop_config.missing_reply_fault_after = u32::MAX;
+    config.loop_config.stall_bound_ms = Some(60_000);
+    let robot = rmd_loop::Robot::try_from(config).unwrap();
     let mut rt = RtLoop::new(robot, MonotonicClock, loop_ports, PdTo::new(&[10.0; 12]))
         .unwrap()
         .supervise(safety_ports)
