@@ -5,12 +5,12 @@
 //!
 //! Three views, for 1 bus x 4 motors and 4 buses x 4 motors (targets: under 2 us and under 8 us):
 //!
-//! - `loop+sim`: `RtLoop::step` on the simulator in its instant configuration (no wire time, zero
+//! - `loop+sim`: `Running::step` on the simulator in its instant configuration (no wire time, zero
 //!   turnaround). The simulator runs inside the tick: the motors' firmware and 1 ms of physics
 //!   (20 substeps per motor) per tick, at 1 kHz;
 //! - `sim alone`: the same simulator work without the loop (advance 1 ms, send the 0x280 frame,
 //!   receive the replies), so that `loop+sim - sim alone` is the loop's share;
-//! - `loop alone`: `RtLoop::step` on a bus that answers every 0x280 frame at once with four
+//! - `loop alone`: `Running::step` on a bus that answers every 0x280 frame at once with four
 //!   pre-encoded replies (no simulator at all): the framework's own overhead. The bus can be
 //!   waited on with others (`CanBus::readiness`), so the loop collects from every bus at once,
 //!   as it does on SocketCAN and on threaded simulators.

@@ -41,7 +41,7 @@ use rmd_demos::support::{self, parse_finite, say};
 use rmd_rt::rig::args::{LoopArgs, OutputArgs, RobotArgs};
 use rmd_rt::rig::runner::{Runner, exit_with_error};
 use rmd_rt::rig::{PlacementDefault, Rig};
-use rmd_rt::{Robot, RtLoop, RunLimit};
+use rmd_rt::{Robot, RunLimit};
 
 /// The robot, unless `--robot FILE` replaces it.
 const ROBOT: &str = include_str!("robots/leg4.toml");
@@ -106,7 +106,7 @@ fn run(args: &Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         return Err(DemoError::NotConfirmed.into());
     }
     let rig = Rig::open(&robot, &placement, leg4::sims(&robot, args.robot.seed)?)?;
-    let rt = RtLoop::new(robot, rig.clock, rig.buses, controller)?;
+    let rt = rig.into_loop(robot, controller)?;
 
     let csv = args
         .output

@@ -43,7 +43,7 @@ use rmd_demos::support::{parse_finite, say};
 use rmd_rt::rig::args::{LoopArgs, OutputArgs, RobotArgs};
 use rmd_rt::rig::runner::{Runner, exit_with_error};
 use rmd_rt::rig::{PlacementDefault, Rig};
-use rmd_rt::{Robot, RtLoop, RunLimit};
+use rmd_rt::{Robot, RunLimit};
 
 /// The robot, unless `--robot FILE` replaces it.
 const ROBOT: &str = include_str!("robots/pd_hold.toml");
@@ -100,7 +100,7 @@ fn run(args: &Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     }
     let rig = Rig::open(&robot, &placement, pd_hold::sims(&robot, args.robot.seed))?;
     let hold = PdHold::new(&robot, args.move_deg);
-    let rt = RtLoop::new(robot.clone(), rig.clock, rig.buses, hold)?;
+    let rt = rig.into_loop(robot.clone(), hold)?;
 
     let mut status = HoldStatus::default();
     let finished = Runner::from_args(&args.output)

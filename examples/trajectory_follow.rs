@@ -27,12 +27,12 @@ use std::time::Duration;
 use clap::Parser;
 use rmd_demos::DemoError;
 use rmd_demos::leg::LegModel;
-use rmd_demos::support::{self, parse_finite, say};
+use rmd_demos::support::{self, say};
 use rmd_demos::trajectory_follow::{self, FollowStatus, Follower};
 use rmd_rt::rig::args::{LoopArgs, OutputArgs, RobotArgs};
 use rmd_rt::rig::runner::{Runner, exit_with_error};
 use rmd_rt::rig::{PlacementDefault, Rig};
-use rmd_rt::{Robot, RtLoop, RunLimit};
+use rmd_rt::{Robot, RunLimit};
 
 /// The robot (the leg of `leg4`), unless `--robot FILE` replaces it.
 const ROBOT: &str = include_str!("robots/leg4.toml");
@@ -58,9 +58,15 @@ struct Args {
         allow_hyphen_values = true
     )]
     waypoints: Vec<String>,
-    /// Pause at each waypoint, seconds.
-    #[arg(long, value_name = "SECONDS", default_value_t = 0.4, value_parser = parse_finite)]
-    pause: f64,
+    /// Pause at each waypoint (seconds, or 400ms, 1s, ...).
+    #[arg(long, value_name = "SECONDS", default_value = "0.4", value_parser = pause)]
+    pause: Duration,
+}
+
+/// `--pause`: 0 up to an hour.
+fn pause(text: &str) -> Result<Duration, String> {
+    use rmd_rt::rig::args::duration::{Bounds, parse};
+    parse(text, Bounds::up_to(Duration::from_secs(3600)))
 }
 
 fn main() -> ExitCode {
@@ -79,14 +85,14 @@ fn run(args: &Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     // Waypoints are checked against the joint limits before anything moves.
     let model = LegModel::new();
     let waypoints = trajectory_follow::parse_waypoints(&model, &args.waypoints)?;
-    let follower = Follower::new(&robot, model, waypoints, args.pause)?;
+    let follower = Follower::new(&robot, model, waypoints, args.pause.as_secs_f64())?;
     let tour = follower.waypoints().len();
     let chatty = !(args.output.quiet || args.output.json);
     if chatty {
         say(format_args!(
             "trajectory_follow: 4-motor leg on {placement}, {} Hz, {tour} waypoint(s), {:.1} s pause at each",
             robot.settings().period.hz(),
-            args.pause
+            args.pause.as_secs_f64()
         ));
     }
     if !args
@@ -100,7 +106,7 @@ fn run(args: &Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         &placement,
         trajectory_follow::sims(&robot, args.robot.seed)?,
     )?;
-    let rt = RtLoop::new(robot, rig.clock, rig.buses, follower)?;
+    let rt = rig.into_loop(robot, follower)?;
 
     let csv = args
         .output

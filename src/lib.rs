@@ -11,7 +11,10 @@
 //!   of this crate;
 //! - [`rig`]: opening a robot on its buses (SocketCAN or simulated motors matching the
 //!   description), the signal policy, the runner and the standard flags;
-//! - [`traj`]: time-optimal, jerk-limited multi-axis trajectories (`no_std`, allocation-free).
+//! - [`traj`]: time-optimal, jerk-limited multi-axis trajectories (`no_std`, allocation-free);
+//! - [`servo`]: a joint servo controller (position / velocity / effort setpoints, trajectories)
+//!   driven by joint name from ordinary threads;
+//! - [`drill`]: fault drills on simulated motors, judged by the simulated firmware (`rmd drill`).
 //!
 //! A controller by joint names, a robot from its description, simulated motors, a run:
 //!
@@ -60,9 +63,11 @@
 //! ```
 
 pub use rmd_bus as bus;
+pub use rmd_drill as drill;
 pub use rmd_loop as rt;
 pub use rmd_protocol as protocol;
 pub use rmd_rig as rig;
+pub use rmd_servo as servo;
 pub use rmd_sim as sim;
 pub use rmd_traj as traj;
 

@@ -11,6 +11,8 @@ else
 fi
 # nextest does not run doc tests.
 cargo test --workspace --doc
+# The Python package: built and installed in a venv the script creates, then its pytest suite.
+./tests/python/run.sh
 # The tests that need a real Linux CAN stack: natively when this machine has a usable vcan0 and
 # root, otherwise in a small qemu VM on Debian's stock kernel (see docs/socketcan.md).
 ./tests/vcan/run.sh

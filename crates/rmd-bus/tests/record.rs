@@ -3,7 +3,6 @@
 //! path allocates nothing. No assertion here depends on timing.
 
 #[allow(unreachable_pub)]
-#[path = "support/alloc_counter.rs"]
 mod alloc_counter;
 
 use core::time::Duration;

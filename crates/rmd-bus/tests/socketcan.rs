@@ -10,6 +10,8 @@
 //! bound times only from below ("not before the deadline") or generously from above.
 #![cfg(target_os = "linux")]
 
+#[allow(unreachable_pub)]
+mod alloc_counter;
 mod support;
 
 use core::time::Duration;
@@ -25,8 +27,7 @@ use support::slcan::Slcan;
 use support::{Peer, Vcan, eventually};
 
 #[global_allocator]
-static ALLOCATOR: support::alloc_counter::CountingAllocator =
-    support::alloc_counter::CountingAllocator;
+static ALLOCATOR: alloc_counter::CountingAllocator = alloc_counter::CountingAllocator;
 
 /// Long enough for anything that should happen to happen, even under emulation.
 const LONG: Duration = Duration::from_secs(5);
@@ -619,7 +620,7 @@ fn opening_a_missing_down_or_non_can_interface_says_what_to_do() {
 
 #[test]
 fn the_real_time_path_does_not_allocate() {
-    use support::alloc_counter::allocations;
+    use alloc_counter::allocations;
 
     let vcan = Vcan::up();
     let mut bus = open(&vcan.name);

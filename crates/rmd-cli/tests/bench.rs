@@ -425,3 +425,33 @@ fn run_flags_speak_the_examples_vocabulary_and_take_units() {
         usage_error(args, needle);
     }
 }
+
+/// Stable: `rmd bench loop --sim-firmware myactuator-v3` refuses to start (exit 1, the
+/// firmware named) before any torque frame is sent.
+#[test]
+fn bench_loop_refuses_firmware_it_cannot_drive_before_any_torque() {
+    for (firmware, named) in [("myactuator-v3", "MyActuator V3"), ("lk-v2.3x", "LK-TECH")] {
+        let out = assert_cmd::Command::cargo_bin("rmd")
+            .unwrap()
+            .args([
+                "bench",
+                "loop",
+                "--sim-firmware",
+                firmware,
+                "--virtual-time",
+                "--seconds",
+                "1",
+                "--json",
+            ])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1), "{firmware}");
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let stop = report["stop_reason"].as_str().unwrap();
+        assert!(stop.contains(named), "{stop}");
+        assert_eq!(report["ticks"], 0);
+        for motor in report["safe_stop"]["motors"].as_array().unwrap() {
+            assert_eq!(motor["commanded"], false, "{motor}");
+        }
+    }
+}

@@ -262,19 +262,338 @@ fn reply_values_out_of_range_and_encoder_width() {
     );
     assert_eq!(run.code, Some(1));
     assert_eq!(
-        run.stderr[0],
-        "line 1: iq 2049 is out of range -2048..=2048"
+        run.stderr,
+        [
+            "line 1: iq 2049 is out of range -2048..=2048",
+            "line 2: encoder 16384 is out of range 0..=16383 for a 14-bit encoder (see --encoder-bits)",
+        ]
     );
-    assert_eq!(
-        run.stderr[1],
-        "line 2: encoder value 16384 is out of range 0..=16383 for a 14-bit encoder (see --encoder-bits)"
-    );
+    // Both frames still print, without the bad field.
+    assert_eq!(run.objects.len(), 2);
+    assert!(run.objects[0].get("iq").is_none());
+    assert!(run.objects[1].get("encoder").is_none());
+    assert_eq!(run.objects[1]["iq"], 0);
     let out = ok(
         &["--as", "reply", "--encoder-bits", "16"],
         "141#9C00000000000040\n",
     );
     assert_eq!(out[0]["encoder"], 16384);
     assert_eq!(out[0]["encoder_degrees"], 90.0);
+}
+
+#[test]
+fn a_reply_with_a_field_out_of_range_keeps_every_other_field() {
+    // Query, then a 0x9C reply with iq = 0x0900 = 2304 (beyond ±2048): 30 °C, -10 dps,
+    // encoder 4096. Then a whole-frame error (unknown command byte) and a good reply.
+    let input = "\
+(1.000000) can0 141#9C00000000000000
+(1.000200) can0 141#9C1E0009F6FF0010
+(1.000400) can0 141#5500000000000000
+(1.000600) can0 142#A11E00000A000000
+";
+    let run = decode(&[], input);
+    assert_eq!(run.code, Some(1), "{:?}", run.stderr);
+    assert_eq!(
+        run.stderr,
+        [
+            "line 2: iq 2304 is out of range -2048..=2048",
+            "line 3: CAN ID 0x141: unknown command byte 0x55",
+        ]
+    );
+    assert_eq!(run.objects.len(), 3);
+    assert_eq!(
+        run.objects[1],
+        json!({"timestamp": 1.0002, "interface": "can0", "id": 1, "can_id": "0x141",
+               "direction": "reply", "command": "read-status-2",
+               "temperature": 30, "temperature_celsius": 30.0,
+               "speed": -10, "speed_dps": -10.0,
+               "encoder": 4096, "encoder_degrees": 90.0,
+               "errors": [{"field": "iq", "raw": 2304,
+                           "error": "iq 2304 is out of range -2048..=2048"}]})
+    );
+    // A good frame has no `errors` key; the frame after the bad one decodes as usual.
+    assert!(run.objects[0].get("errors").is_none());
+    assert_eq!(run.objects[2]["iq_control"], 10);
+    // v1.61's single-turn angle beyond 35999: the frame prints, the angle is named.
+    let run = decode(&["--as", "reply"], "143#940000000000A08C\n");
+    assert_eq!(run.code, Some(1));
+    assert_eq!(
+        run.stderr,
+        ["line 1: circle_angle 36000 is out of range 0..=35999"]
+    );
+    assert_eq!(run.objects[0]["command"], "read-single-turn-angle");
+    assert_eq!(
+        run.objects[0]["errors"][0],
+        json!({"field": "circle_angle", "raw": 36000,
+               "error": "circle_angle 36000 is out of range 0..=35999"})
+    );
+}
+
+fn directions(objects: &[Value]) -> Vec<&str> {
+    objects
+        .iter()
+        .map(|o| o["direction"].as_str().unwrap())
+        .collect()
+}
+
+#[test]
+fn a_repeated_query_is_another_request_not_its_reply() {
+    // Two programs query motor 1 on a shared bus; one reply comes back.
+    let input = "\
+(1.000000) can0 141#9C00000000000000 R
+(1.000050) can0 141#9C00000000000000 R
+(1.000200) can0 141#9C1E3E000A000010 R
+";
+    let out = ok(&[], input);
+    assert_eq!(directions(&out), ["request", "request", "reply"]);
+    assert_eq!(out[2]["temperature_celsius"], 30.0);
+    assert_eq!(out[2]["speed_dps"], 10.0);
+    // The same without markers, and for status 1.
+    let out = ok(
+        &[],
+        "141#9A00000000000000\n141#9A00000000000000\n141#9A1E00E001000000\n",
+    );
+    assert_eq!(directions(&out), ["request", "request", "reply"]);
+    assert_eq!(out[2]["voltage_volts"], 48.0);
+    // A control command's echo is its reply even when identical (0x80 answers with 0x80).
+    let out = ok(&[], "141#8000000000000000\n141#8000000000000000\n");
+    assert_eq!(directions(&out), ["request", "reply"]);
+}
+
+#[test]
+fn direction_markers_win_over_the_repeat_rule() {
+    // A log from the sending host: TX request, then an RX frame identical to it. The markers say
+    // it is the motor's reply, an all-zero one.
+    let input = "\
+(1.000000) can0 142#9D00000000000000 T
+(1.000200) can0 142#9D00000000000000 R
+(1.000300) can0 142#9D00000000000000 T
+(1.000500) can0 142#9D00400000000000 T
+";
+    let out = ok(&[], input);
+    assert_eq!(directions(&out), ["request", "reply", "request", "request"]);
+    assert_eq!(out[1]["i_a_amps"], 0.0);
+}
+
+#[test]
+fn all_zero_replies_of_a_motor_at_rest_pair_by_what_follows() {
+    // `rmd status` of a motor at rest, recorded by a listen-only logger: 0x9D, 0x90, 0x92 and
+    // 0x94 are answered with all zeros, frames identical to their requests. What follows each
+    // pair on the ID (another command) says the second frame was the reply.
+    let input = "\
+(1.000000) can0 141#9A00000000000000 R
+(1.000200) can0 141#9A1900E001000000 R
+(1.000400) can0 141#9D00000000000000 R
+(1.000500) can0 142#9C00000000000000 R
+(1.000600) can0 141#9D00000000000000 R
+(1.000700) can0 142#9C1E3E000A000010 R
+(1.000800) can0 141#9000000000000000 R
+(1.001000) can0 141#9000000000000000 R
+(1.001200) can0 141#9200000000000000 R
+(1.001400) can0 141#9200000000000000 R
+";
+    let out = ok(&[], input);
+    assert_eq!(
+        directions(&out),
+        [
+            "request", "reply", "request", "request", "reply", "reply", "request", "reply",
+            "request", "reply"
+        ]
+    );
+    // Input order is kept while the 0x9D pair waits for what follows it.
+    let lines: Vec<f64> = out
+        .iter()
+        .map(|o| o["timestamp"].as_f64().unwrap())
+        .collect();
+    assert!(lines.windows(2).all(|w| w[0] < w[1]), "{lines:?}");
+    assert_eq!(out[4]["command"], "read-status-3");
+    assert_eq!(out[4]["i_a_amps"], 0.0);
+    assert_eq!(out[9]["motor_angle_degrees"], 0.0);
+}
+
+#[test]
+fn the_ambiguity_left_reads_as_documented() {
+    // docs/cli.md: query, all-zero reply, query, reply with data on one ID reads as three
+    // requests and a reply (markers from the sending host tell them apart).
+    let input =
+        "142#9D00000000000000\n142#9D00000000000000\n142#9D00000000000000\n142#9D00400000000000\n";
+    let out = ok(&[], input);
+    assert_eq!(directions(&out), ["request", "request", "request", "reply"]);
+    let marked = "\
+(1.0) can0 142#9D00000000000000 T
+(1.1) can0 142#9D00000000000000 R
+(1.2) can0 142#9D00000000000000 T
+(1.3) can0 142#9D00400000000000 R
+";
+    assert_eq!(
+        directions(&ok(&[], marked)),
+        ["request", "reply", "request", "reply"]
+    );
+}
+
+#[test]
+fn a_pair_is_held_at_most_256_lines() {
+    // A query and its all-zero copy on 0x141, then 300 frames of motor 2: the pair is decided
+    // without its follower (request, reply) and every line still comes out, in order.
+    let mut input = String::from("141#9D00000000000000\n141#9D00000000000000\n");
+    for _ in 0..150 {
+        input.push_str("142#9C00000000000000\n142#9C1E3E000A000010\n");
+    }
+    input.push_str("141#9D00400000000000\n");
+    let out = ok(&[], &input);
+    assert_eq!(out.len(), 303);
+    assert_eq!(
+        directions(&out[..4]),
+        ["request", "reply", "request", "reply"]
+    );
+    // Nothing was pending on 0x141 any more: the last frame is a request.
+    assert_eq!(out[302]["direction"], "request");
+}
+
+#[test]
+fn lk_tech_frames_with_protocol_and_series() {
+    // Issue 14's capture: 48.7 V in DATA[2..=3] at 0.01 V.
+    let capture = "141#9A00000000000000\n141#9A1E061300000000\n";
+    let lk = ok(&["--protocol", "lk-v2.3x", "--lk-series", "mf"], capture);
+    assert_eq!(directions(&lk), ["request", "reply"]);
+    assert_eq!(
+        lk[1],
+        json!({"id": 1, "can_id": "0x141", "direction": "reply", "command": "read-status-1",
+               "temperature": 30, "temperature_celsius": 30.0,
+               "voltage": 4870, "voltage_volts": 48.7,
+               "bus_current": 0, "bus_current_amps": 0.0,
+               "motor_state": 0, "motor_state_name": "on",
+               "error_state": 0, "low_voltage": false, "over_temperature": false})
+    );
+    // The same frame read as v1.61: 1.9 V (the trap of issue 14).
+    assert_eq!(ok(&[], capture)[1]["voltage_volts"], 1.9);
+    // Torque: raw 1024 is 8.25 A on an MF motor, 16.5 A on an MG one, 16.384 A in v1.61; 2048
+    // is in LK's range only.
+    let torque = "141#A100000000040000\n";
+    let amps = |args: &[&str]| ok(args, torque)[0]["iq_control_amps"].as_f64().unwrap();
+    assert_eq!(amps(&["--protocol", "lk-v2.3x", "--lk-series", "mf"]), 8.25);
+    assert_eq!(amps(&["--protocol", "lk-v2.3x", "--lk-series", "mg"]), 16.5);
+    assert!((amps(&[]) - 16.384).abs() < 1e-12);
+    let full = "141#A100000000080000\n";
+    let out = ok(&["--protocol", "lk-v2.3x", "--lk-series", "mf"], full);
+    assert_eq!(out[0]["iq_control"], 2048);
+    assert_eq!(out[0]["iq_control_amps"], 16.5);
+    let run = decode(&[], full);
+    assert_eq!(run.code, Some(1));
+    assert_eq!(
+        run.stderr,
+        ["line 1: iq_control 2048 is out of range -2000..=2000"]
+    );
+    // The reply's iq in the series' scale, and LK's u32 single-turn angle (900° on a geared
+    // motor) that v1.61 would read as 0.
+    let input = "\
+141#A100000000040000
+141#A11E00FC00000000
+141#9400000000000000
+141#9400000090CA0100
+";
+    let out = ok(&["--protocol", "lk-v2.3x", "--lk-series", "mf"], input);
+    assert_eq!(out[1]["iq"], -1024);
+    assert_eq!(out[1]["iq_amps"], -8.25);
+    assert_eq!(out[3]["circle_angle"], 117_392);
+    assert_eq!(out[3]["circle_angle_degrees"], 1173.92);
+    // The 0x280 frame in the MG scale.
+    let out = ok(
+        &["--protocol", "lk-v2.3x", "--lk-series", "mg"],
+        "280#000800F800000004\n",
+    );
+    assert_eq!(out[0]["iq_control_amps"], json!([33.0, -33.0, 0.0, 16.5]));
+}
+
+#[test]
+fn protocol_options_are_checked() {
+    let run = decode(&["--protocol", "lk-v2.3x"], "");
+    assert_eq!(run.code, Some(2));
+    assert!(run.stderr[0].contains("--lk-series mf"), "{:?}", run.stderr);
+    let run = decode(&["--lk-series", "mg"], "");
+    assert_eq!(run.code, Some(2));
+    assert!(
+        run.stderr[0].contains("add --protocol lk-v2.3x"),
+        "{:?}",
+        run.stderr
+    );
+    let run = decode(&["--protocol", "myactuator-v3"], "");
+    assert_eq!(run.code, Some(2));
+    assert!(run.stderr[0].contains("does not speak myactuator-v3"));
+}
+
+/// The peak resident memory of a running process, from /proc (kB).
+fn peak_rss_kb(pid: u32) -> u64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    let line = status
+        .lines()
+        .find(|l| l.starts_with("VmHWM:"))
+        .unwrap_or_else(|| panic!("no VmHWM in {status}"));
+    line.split_whitespace().nth(1).unwrap().parse().unwrap()
+}
+
+#[test]
+fn an_endless_line_is_an_error_in_bounded_memory() {
+    use std::io::{Read, Write};
+    use std::process::{Command as Std, Stdio};
+    let mut child = Std::new(env!("CARGO_BIN_EXE_rmd"))
+        .arg("decode")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    // 100 MiB without a newline (what `rmd decode </dev/zero` reads), then a good line.
+    let chunk = vec![0u8; 1 << 20];
+    for _ in 0..100 {
+        stdin.write_all(&chunk).unwrap();
+    }
+    stdin.write_all(b"\n141#9C00000000000000\n").unwrap();
+    stdin.flush().unwrap();
+    // Still running (stdin open): its peak so far covers the whole long line.
+    let peak_kb = peak_rss_kb(child.id());
+    drop(stdin);
+    let mut stdout = String::new();
+    child
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_string(&mut stdout)
+        .unwrap();
+    let mut stderr = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut stderr)
+        .unwrap();
+    let status = child.wait().unwrap();
+    assert!(peak_kb < 64 * 1024, "peak RSS {peak_kb} kB");
+    assert_eq!(status.code(), Some(1));
+    assert_eq!(
+        stderr,
+        "line 1: longer than 4096 bytes, not a candump line (skipped to the next newline)\n"
+    );
+    let objects: Vec<Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(objects.len(), 1);
+    assert_eq!(objects[0]["command"], "read-status-2");
+}
+
+#[test]
+fn a_long_line_among_short_ones_is_that_lines_error() {
+    let long = format!("141#9C{}\n", "0".repeat(5000));
+    let input = format!("141#9C00000000000000\n{long}141#9C1E3E000A000010\n");
+    let run = decode(&[], &input);
+    assert_eq!(run.code, Some(1));
+    assert_eq!(
+        run.stderr,
+        ["line 2: longer than 4096 bytes, not a candump line (skipped to the next newline)"]
+    );
+    assert_eq!(directions(&run.objects), ["request", "reply"]);
 }
 
 #[test]

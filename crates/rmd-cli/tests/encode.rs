@@ -255,3 +255,113 @@ fn help_lists_every_command() {
     }
     assert!(help.contains("multi-torque"));
 }
+
+#[test]
+fn lk_tech_torque_frames() {
+    // LK-TECH V2.35, 0xA1: iqControl ±2048 is ±16.5 A on MF motors, ±33 A on MG motors.
+    let cases = [
+        // 8.25 A on an MF motor is raw 1024 = 0x0400; 16.5 A on an MG one too.
+        (
+            "--protocol lk-v2.3x --lk-series mf torque --id 1 --amps 8.25",
+            "141#A100000000040000",
+        ),
+        (
+            "--protocol lk-v2.3x --lk-series mg torque --id 1 --amps 16.5",
+            "141#A100000000040000",
+        ),
+        // 1 A on MF: 2048 / 16.5 = 124.12 -> 124 = 0x7C.
+        (
+            "--protocol lk-v2.3x --lk-series mf torque --id 1 --amps 1",
+            "141#A10000007C000000",
+        ),
+        // Full scale, raw and in amperes (-2048 = 0xF800).
+        (
+            "--protocol lk-v2.3x --lk-series mg torque --id 2 --amps -33",
+            "142#A100000000F80000",
+        ),
+        (
+            "--protocol lk-v2.3x --lk-series mf torque --id 3 --iq-control 2048",
+            "143#A100000000080000",
+        ),
+        // The options after the subcommand work too.
+        (
+            "torque --id 1 --amps 8.25 --protocol lk-v2.3x --lk-series mf",
+            "141#A100000000040000",
+        ),
+        // 0x280 with the MG scale: 33, -33, 0, 16.5 A.
+        (
+            "--protocol lk-v2.3x --lk-series mg multi-torque --amps 33,-33,0,16.5",
+            "280#000800F800000004",
+        ),
+        (
+            "--protocol lk-v2.3x --lk-series mf multi-torque --iq-control 2048,-2048,0,1",
+            "280#000800F800000100",
+        ),
+        // Frames whose layout LK shares are v1.61's.
+        (
+            "--protocol lk-v2.3x --lk-series mf read-status-1 --id 1",
+            "141#9A00000000000000",
+        ),
+        (
+            "--protocol v1.61 torque --id 1 --amps 1.6",
+            "141#A100000064000000",
+        ),
+    ];
+    for (args, frame) in cases {
+        assert_eq!(encode(args), format!("{frame}\n"), "rmd encode {args}");
+    }
+}
+
+#[test]
+fn lk_tech_ranges_and_options_are_checked() {
+    let cases = [
+        (
+            "--protocol lk-v2.3x --lk-series mf torque --id 1 --amps 20",
+            "--amps 20: lk-v2.3x (MF) takes -16.5..=16.5 A; iq_control 2482 is out of range -2048..=2048",
+        ),
+        (
+            "--protocol lk-v2.3x --lk-series mg torque --id 1 --iq-control 2049",
+            "iq_control 2049 is out of range -2048..=2048 in lk-v2.3x (MG)",
+        ),
+        (
+            "torque --id 1 --iq-control 2048",
+            "iq_control 2048 is out of range -2000..=2000",
+        ),
+        (
+            "--protocol lk-v2.3x torque --id 1 --amps 1",
+            "--lk-series mf or --lk-series mg",
+        ),
+        (
+            "--lk-series mf torque --id 1 --amps 1",
+            "add --protocol lk-v2.3x",
+        ),
+        (
+            "--protocol lk-v2.3x --lk-series ms torque --id 1 --amps 1",
+            "expected mf or mg",
+        ),
+        (
+            "--protocol myactuator-v3 torque --id 1 --amps 1",
+            "does not speak myactuator-v3",
+        ),
+    ];
+    for (args, needle) in cases {
+        let stderr = encode_error(args);
+        assert!(
+            stderr.contains(needle),
+            "{args}: {stderr:?} lacks {needle:?}"
+        );
+    }
+}
+
+#[test]
+fn help_says_which_scale_each_current_option_assumes() {
+    let out = rmd().args(["encode", "torque", "--help"]).output().unwrap();
+    let help = String::from_utf8(out.stdout).unwrap();
+    for needle in [
+        "32/2000 A per LSB in v1.61",
+        "16.5/2048 A (LK MF)",
+        "33/2048 A (LK MG)",
+    ] {
+        assert!(help.contains(needle), "{needle} missing from {help}");
+    }
+}

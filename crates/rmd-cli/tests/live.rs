@@ -642,8 +642,8 @@ fn a_recorded_session_decodes_and_replays() {
     assert_eq!(printed, original);
 
     // The host's frames of a scan sent again to simulated motors, which answer them again.
-    // (One request per motor: a burst of requests to one motor, as a stalled replay would send,
-    // can overflow its three transmit mailboxes, as on a real motor.)
+    // (Two requests per motor: a longer burst of requests to one motor, as a stalled replay
+    // would send, can overflow its three transmit mailboxes, as on a real motor.)
     let scan = log_path("scan-session");
     let scan_arg = scan.to_str().unwrap();
     ok(&["scan", "--sim", "--ids", "1-4", "--log", scan_arg]);
@@ -666,13 +666,18 @@ fn a_recorded_session_decodes_and_replays() {
             (motor.get(), reply)
         })
         .collect();
-    assert_eq!(sent, [0x141, 0x142, 0x143, 0x144]);
-    assert_eq!(replies.len(), 4);
+    // The scan's two probes per motor: 0x9A and 0x9C.
+    assert_eq!(
+        sent,
+        [0x141, 0x141, 0x142, 0x142, 0x143, 0x143, 0x144, 0x144]
+    );
+    assert_eq!(replies.len(), 8);
     for (i, (motor, reply)) in replies.iter().enumerate() {
-        assert_eq!(usize::from(*motor), i + 1);
-        assert_eq!(reply.command(), Cmd::ReadStatus1);
+        assert_eq!(usize::from(*motor), i / 2 + 1);
+        let probe = [Cmd::ReadStatus1, Cmd::ReadStatus2][i % 2];
+        assert_eq!(reply.command(), probe);
     }
-    assert!(text(&out.stderr).contains("replayed 4 frame(s) onto the simulated bus"));
+    assert!(text(&out.stderr).contains("replayed 8 frame(s) onto the simulated bus"));
 }
 
 #[test]
@@ -777,6 +782,9 @@ fn status_of_a_robot_speaks_joint_names_and_joint_units() {
         let joint_deg = o["joint"]["angle_deg"].as_f64().unwrap();
         let offset = [20.0, 50.0, -40.0, 50.0][id as usize - 1];
         assert!((joint_deg - (motor_deg / 9.0 - offset)).abs() < 1e-9, "{o}");
+        // The simulated joints power up in the middle of their power-up windows (40 degrees
+        // wide from -offset), where the description reads them right.
+        assert!((joint_deg - (20.0 - offset)).abs() < 0.05, "{o}");
         assert!(o["joint"]["velocity_dps"].is_f64(), "{o}");
         assert!(o["joint"]["torque_nm"].is_f64(), "{o}");
     }
@@ -814,12 +822,47 @@ fn move_by_joint_name_in_joint_degrees_and_monitor_by_joint() {
         .filter_map(|l| match decode_request(&l.frame) {
             Ok(DecodedRequest::Single {
                 motor,
-                request: rmd_protocol::Request::Position2 { angle_control, .. },
-            }) => Some((motor.get(), angle_control.degrees())),
+                request:
+                    rmd_protocol::Request::Position2 {
+                        angle_control,
+                        max_speed,
+                    },
+            }) => Some((motor.get(), angle_control.degrees(), max_speed.dps())),
             _ => None,
         })
         .collect();
-    assert_eq!(sent, [(3, 45.0)]);
+    // Without --max-speed, 360 dps at the motor, as without --robot.
+    assert_eq!(sent, [(3, 45.0, 360.0)]);
+    assert!(out.contains("`rmd off 3 --robot"), "{out}");
+    // With it, joint degrees per second: 10 at the joint is 90 at the motor.
+    let log = log_path("move-joint-speed");
+    ok(&[
+        "move",
+        "--robot",
+        &robot,
+        "--sim",
+        "knee",
+        "--deg",
+        "42",
+        "--max-speed",
+        "10",
+        "--wait-timeout",
+        "10s",
+        "--log",
+        log.to_str().unwrap(),
+    ]);
+    let speeds: Vec<f64> = read_log(&log)
+        .into_iter()
+        .filter(|l| l.direction == Direction::Tx)
+        .filter_map(|l| match decode_request(&l.frame) {
+            Ok(DecodedRequest::Single {
+                request: rmd_protocol::Request::Position2 { max_speed, .. },
+                ..
+            }) => Some(max_speed.dps()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(speeds, [90.0]);
     // Single-turn modes have no joint meaning.
     let err = fails(
         2,

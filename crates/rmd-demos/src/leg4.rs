@@ -281,12 +281,7 @@ impl StepController {
             cycles: self.cycles,
             gravity_compensation: self.gains.gravity_compensation,
             halt: self.halt,
-            clamped_commands: report
-                .stats
-                .motors
-                .iter()
-                .map(|m| m.counters.clamped_commands)
-                .sum(),
+            clamped_commands: report.stats.clamped_commands(),
         }
     }
 }

@@ -39,7 +39,7 @@
 //! let placement = Placement::simulated(&robot, SimTime::Virtual);
 //! let rig = Rig::open(&robot, &placement, pd_hold::sims(&robot, 1))?;
 //! let hold = PdHold::new(&robot, 30.0);
-//! let outcome = RtLoop::new(robot, rig.clock, rig.buses, hold)?.run(RunLimit::Ticks(1000));
+//! let outcome = rig.into_loop(robot, hold)?.run(RunLimit::Ticks(1000));
 //! assert!(outcome.report.normal_stop, "{}", outcome.report);
 //! assert!((outcome.controller.targets.as_slice()[0] - 30.0).abs() < 0.1);
 //! # Ok::<(), Box<dyn std::error::Error>>(())

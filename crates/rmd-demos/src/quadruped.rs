@@ -243,12 +243,7 @@ impl StandController {
             rise_s: self.rise_s,
             hold_error: self.hold_error,
             halt: self.halt,
-            clamped_commands: report
-                .stats
-                .motors
-                .iter()
-                .map(|m| m.counters.clamped_commands)
-                .sum(),
+            clamped_commands: report.stats.clamped_commands(),
         }
     }
 }

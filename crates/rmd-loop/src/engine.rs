@@ -52,7 +52,9 @@ pub enum RunLimit {
     Forever,
     /// At most this many ticks.
     Ticks(u64),
-    /// At most this long (in ticks: `duration / period`).
+    /// At most this long on the loop's clock: the ticks due within `duration` of tick 0
+    /// (`duration / period` of them, skipped ones included, so an overrunning loop still ends
+    /// on time).
     Duration(Duration),
 }
 
@@ -260,17 +262,30 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
             Ok(running) => running,
             Err(outcome) => return *outcome,
         };
-        let max_ticks = match limit {
-            RunLimit::Forever => u64::MAX,
-            RunLimit::Ticks(n) => n,
-            RunLimit::Duration(d) => (d.as_nanos() / running.scheduler.period().as_nanos())
-                .min(u128::from(u64::MAX)) as u64,
+        // Ticks(n) counts the ticks run; Duration(d) the ticks due within d of tick 0, so
+        // that ticks skipped after an overrun count too and the run lasts d, not longer.
+        let (max_ticks, due_before) = match limit {
+            RunLimit::Forever => (u64::MAX, u64::MAX),
+            RunLimit::Ticks(n) => (n, u64::MAX),
+            RunLimit::Duration(d) => (
+                u64::MAX,
+                (d.as_nanos() / running.scheduler.period().as_nanos()).min(u128::from(u64::MAX))
+                    as u64,
+            ),
         };
         let ran = catch_unwind(AssertUnwindSafe(|| {
-            for _ in 0..max_ticks {
+            let mut ran = 0;
+            // A tick past the end is never run: not the next one, and not one a skip after an
+            // overrun would land on (the clock already past the end).
+            let end = running.scheduler.scheduled(due_before);
+            while ran < max_ticks
+                && running.scheduler.next_index() < due_before
+                && (due_before == u64::MAX || running.parts.clock.now() < end)
+            {
                 if let ControlFlow::Break(reason) = running.step() {
                     return reason;
                 }
+                ran += 1;
             }
             StopReason::TickLimit
         }));

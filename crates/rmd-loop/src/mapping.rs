@@ -170,12 +170,21 @@ pub fn power_up_window(joint: &JointSpec) -> (f64, f64) {
     }
 }
 
-/// The `zero_offset_deg` that centres a joint's [`power_up_window`] on `joint_deg`, for a joint
-/// whose encoder reads zero at `encoder_zero_joint_deg` (on a simulated motor matching the
-/// description, the offset alone decides where the encoder reads zero, so any value works).
+/// The `zero_offset_deg` that centres a joint's [`power_up_window`] on `joint_deg`: the joint
+/// then reads its true angle when it powers up anywhere within `180 / gear_ratio` degrees of
+/// `joint_deg`.
 ///
-/// On a real motor, read the encoder (e.g. `rmd status ID`) with the joint at a known angle and
-/// compute the offset from that: see docs/getting-started.md.
+/// That is all a simulated motor matching the description needs (the rig mounts its encoder to
+/// agree with any offset). On a real motor the offset also decides where joint zero is: read the
+/// encoder (e.g. `rmd status ID`) with the joint at a known angle and compute the offset from
+/// that, as docs/getting-started.md shows.
+///
+/// ```
+/// use rmd_loop::mapping::centred_zero_offset_deg;
+/// use rmd_loop::robot::Direction;
+/// // A 1:9 joint powering up around 0 degrees: window -20..20.
+/// assert_eq!(centred_zero_offset_deg(9.0, Direction::Normal, 0.0), 20.0);
+/// ```
 pub fn centred_zero_offset_deg(gear_ratio: f64, direction: Direction, joint_deg: f64) -> f64 {
     let half = 180.0 / gear_ratio;
     match direction {

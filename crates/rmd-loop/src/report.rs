@@ -4,6 +4,7 @@ use core::fmt;
 use core::time::Duration;
 
 use rmd_bus::BusError;
+use rmd_protocol::identify::Finding;
 use rmd_protocol::{MotorId, ProtocolFamily};
 use serde::Serialize;
 
@@ -99,7 +100,7 @@ pub enum Fault {
     },
     /// A described motor's firmware is not what the loop can drive as described: MyActuator V3
     /// (its 0x280 frame is a command byte for every motor), another family than the described
-    /// dialect's (the current scales would be wrong), or conflicting answers.
+    /// dialect's (the current scales would be wrong), or answers that identify no family.
     Firmware {
         /// The motor.
         at: MotorRef,
@@ -107,6 +108,8 @@ pub enum Fault {
         family: ProtocolFamily,
         /// The described dialect's family.
         described: ProtocolFamily,
+        /// What its answers showed.
+        finding: Finding,
     },
     /// A tick did not complete within the stall bound (the controller or the bus I/O hung): the
     /// supervisor made every motor safe.
@@ -126,15 +129,17 @@ pub enum Fault {
     },
 }
 
-fn firmware_problem(family: ProtocolFamily, described: ProtocolFamily) -> String {
+fn firmware_problem(family: ProtocolFamily, described: ProtocolFamily, finding: Finding) -> String {
     match family {
         ProtocolFamily::MyActuatorV3 => "its firmware speaks MyActuator V3 (it answers on \
              0x240 + id): a 0x280 frame is a command byte executed by every motor on the bus, not \
              per-motor torque, so the loop cannot drive it; nothing was sent"
             .to_string(),
-        ProtocolFamily::Unknown => "it answers on both 0x140 + id and 0x240 + id (two devices \
-             on one id, or unknown firmware): nothing was sent"
-            .to_string(),
+        ProtocolFamily::Unknown => format!(
+            "its answers identify no firmware family ({finding}), so what a 0x280 frame would \
+             do to it is not known: nothing was sent (check its supply and wiring, and `rmd scan` \
+             it)"
+        ),
         other => format!(
             "its firmware speaks {other} but the description says {described} (the current \
              scales would be wrong): set protocol = \"{}\" (with lk_series for LK-TECH) or \
@@ -152,10 +157,11 @@ impl Fault {
                 at,
                 family,
                 described,
+                finding,
             } => format!(
                 "{}: {}",
                 at.describe(robot),
-                firmware_problem(*family, *described)
+                firmware_problem(*family, *described, *finding)
             ),
             Fault::NoFreshFeedback { at, ticks } => format!(
                 "{} gave no fresh feedback for {ticks} consecutive ticks: its replies were missing \
@@ -219,7 +225,12 @@ impl fmt::Display for Fault {
                 at,
                 family,
                 described,
-            } => write!(f, "{at}: {}", firmware_problem(*family, *described)),
+                finding,
+            } => write!(
+                f,
+                "{at}: {}",
+                firmware_problem(*family, *described, *finding)
+            ),
             Fault::Supervisor => f.write_str(
                 "the supervisor thread could not be started (out of threads or memory?)",
             ),

@@ -56,7 +56,7 @@ impl Period {
         let nanos = (1e9 / hz).round();
         if nanos > MAX_PERIOD.as_nanos() as f64 {
             return Err(RateError::TooSlow {
-                period: Duration::from_secs_f64(1.0 / hz),
+                period: Duration::try_from_secs_f64(1.0 / hz).unwrap_or(Duration::MAX),
             });
         }
         Self::new(Duration::from_nanos(nanos as u64))
@@ -189,6 +189,11 @@ impl Scheduler {
         self.period
     }
 
+    /// The index of the tick [`wait_next`](Self::wait_next) returns next, unless it skips.
+    pub fn next_index(&self) -> u64 {
+        self.next
+    }
+
     /// When tick `index` is due.
     pub fn scheduled(&self, index: u64) -> Timestamp {
         let nanos = u128::from(index) * self.period.as_nanos();
@@ -244,6 +249,26 @@ impl Scheduler {
 mod tests {
     use super::*;
     use rmd_bus::VirtualClock;
+
+    #[test]
+    fn absurd_rates_are_errors_not_panics() {
+        for hz in [
+            1e-300,
+            1e-30,
+            f64::MIN_POSITIVE,
+            0.0,
+            -1.0,
+            f64::NAN,
+            f64::INFINITY,
+            1e300,
+        ] {
+            assert!(Period::from_hz(hz).is_err(), "{hz}");
+        }
+        assert!(matches!(
+            Period::from_hz(1e-300),
+            Err(RateError::TooSlow { period }) if period == Duration::MAX
+        ));
+    }
 
     fn ms(n: u64) -> Duration {
         Duration::from_millis(n)

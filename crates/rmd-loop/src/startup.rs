@@ -35,9 +35,10 @@ pub(crate) fn prepare_thread(settings: &LoopSettings) -> RtSetup {
 /// How long the bus must be quiet after the last answer for the identification to stop waiting.
 const QUIET: Duration = Duration::from_millis(3);
 
-/// How long the identification waits for answers at most.
+/// How long the identification waits for a described motor's answers at most (a motor that
+/// does not answer then fails the start-up probe, which says so).
 fn probe_timeout(settings: &LoopSettings) -> Duration {
-    (settings.period.get() * 4).max(Duration::from_millis(20))
+    (settings.period.get() * 4).max(Duration::from_millis(250))
 }
 
 /// Identifies every motor that answers on ids 1..=4 of every bus (read-only requests 0x9A and
@@ -76,19 +77,45 @@ pub(crate) fn identify_motors<B: CanBus, C: Clock>(
                 }
             }
         }
-        // Answers come within a millisecond or so: wait until the bus has been quiet for a
-        // while after the last one (absent motors never answer), at most the timeout.
-        let give_up = clock.now() + timeout;
-        let mut quiet_until = (clock.now() + QUIET).min(give_up);
-        while let Ok(Some(received)) = link.bus.recv_until(quiet_until) {
+        // Wait until every described motor of the bus has answered both probes (or the
+        // timeout), then until the bus has been quiet for a while after the last answer, so an
+        // undescribed motor is heard too: at least QUIET, and as long as the slowest answer took
+        // (a loaded or emulated host answers in tens of milliseconds), so that no answer comes
+        // in after the identification and is mistaken for something else.
+        let spec = &robot.buses()[b];
+        let described: Vec<usize> = ids
+            .iter()
+            .enumerate()
+            .filter(|(_, id)| spec.joints().any(|j| robot.spec(j).motor == **id))
+            .map(|(i, _)| i)
+            .collect();
+        let sent_at = clock.now();
+        let give_up = sent_at + timeout;
+        let mut quiet = QUIET;
+        let mut last = sent_at;
+        loop {
+            let all_heard = described
+                .iter()
+                .all(|&i| answers[i].status1().is_some() && answers[i].status2().is_some());
+            let until = if all_heard {
+                (last + quiet).min(give_up)
+            } else {
+                give_up
+            };
+            let Ok(Some(received)) = link.bus.recv_until(until) else {
+                break;
+            };
             if let BusMessage::Frame(frame) = received.message {
+                let mut taken = false;
                 for (id, answer) in ids.iter().zip(&mut answers) {
-                    answer.offer(*id, &frame);
+                    taken |= answer.offer(*id, &frame);
+                }
+                if taken {
+                    quiet = quiet.max(received.at - sent_at);
                 }
             }
-            quiet_until = (received.at + QUIET).min(give_up);
+            last = received.at;
         }
-        let spec = &robot.buses()[b];
         for (id, answer) in ids.iter().zip(&answers) {
             let identification = identify(*id, answer);
             let joint = spec.joints().find(|&j| robot.spec(j).motor == *id);
@@ -150,7 +177,9 @@ fn check(
         // Its 0x280 frame is a command byte for every motor, or nothing is known (answers on both
         // reply ids): never drive it with 0x280 frames.
         ProtocolFamily::MyActuatorV3 => true,
-        ProtocolFamily::Unknown => identification.evidence.finding == Finding::AnsweredOnBothIds,
+        // Answers that identify no family: what 0x280 means to it is not known. (No answer at
+        // all is left to the start-up probe, which names a motor that never answers.)
+        ProtocolFamily::Unknown => identification.evidence.finding != Finding::NoAnswer,
         // Identified, and not the described one (the current scales would be wrong).
         known => known != described,
     };
@@ -159,6 +188,7 @@ fn check(
             at,
             family,
             described,
+            finding: identification.evidence.finding,
         }));
     }
     Ok(())

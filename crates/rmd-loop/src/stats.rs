@@ -373,6 +373,16 @@ pub struct StatsSummary {
     pub buses: Vec<BusCounters>,
 }
 
+impl StatsSummary {
+    /// Commands clamped to a joint's current limit, over every joint.
+    pub fn clamped_commands(&self) -> u64 {
+        self.motors
+            .iter()
+            .map(|m| m.counters.clamped_commands)
+            .sum()
+    }
+}
+
 impl core::fmt::Display for StatsSummary {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         writeln!(

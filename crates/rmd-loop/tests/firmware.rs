@@ -49,6 +49,47 @@ fn sent_multi_torque(bus: &SimBus<VirtualClock>) -> bool {
 }
 
 #[test]
+fn a_motor_whose_answers_identify_no_family_is_refused_before_any_torque() {
+    // Motor 2's supply has collapsed to 4 V: its status 1 is plausible in no family's layout
+    // (4 V in v1.61's, 102.4 V in LK-TECH's; at 3 V the LK reading would be a plausible 76.8 V,
+    // and the motor would be refused as LK-TECH).
+    let clock = VirtualClock::new();
+    let mut config = SimConfig::with_motors(2)
+        .seed(7)
+        .fault(rmd_sim::FaultRule::new(rmd_sim::FaultKind::LowVoltage { volts: 4.0 }).motor(id(2)));
+    config.motors[0].id = id(1);
+    let mut bus = SimBus::new(clock.clone(), config).unwrap();
+    bus.record_trace(1000);
+    let robot = robot_of(
+        BusConfig::new("can0")
+            .with_motor(MotorConfig::new(1))
+            .with_motor(MotorConfig::new(2)),
+    );
+    let out = RtLoop::new(robot, clock, vec![&mut bus], Constant(1.0))
+        .unwrap()
+        .run(RunLimit::Ticks(100));
+    let r = &out.report;
+    assert!(
+        matches!(
+            r.stop_reason,
+            StopReason::Fault(Fault::Firmware {
+                family: ProtocolFamily::Unknown,
+                ..
+            })
+        ),
+        "{}",
+        r.stop_description
+    );
+    assert!(
+        r.stop_description.contains("motor 2")
+            && r.stop_description.contains("identify no firmware family"),
+        "{}",
+        r.stop_description
+    );
+    assert!(!sent_multi_torque(&bus));
+}
+
+#[test]
 fn a_myactuator_v3_motor_is_refused_before_any_torque() {
     let clock = VirtualClock::new();
     let mut bus = sim_of(&clock, &[1, 2], FirmwareFamily::MyActuatorV3);

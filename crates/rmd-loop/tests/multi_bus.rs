@@ -105,11 +105,13 @@ fn every_reply_is_taken_when_it_arrives_on_whichever_bus() {
     let clock = VirtualClock::new();
     let log: Log = Arc::default();
     // Bus 0 answers late, bus 1 early, bus 2 in between: bus after bus, bus 1's and bus 2's
-    // replies would wait for bus 0's last one.
+    // replies would wait for bus 0's last one. Every first reply comes at least the shortest
+    // physical round trip (two frames on a 1 Mbit/s wire, 216 us) after the request, or the
+    // loop could not match it to that request.
     let buses = vec![
         TimedBus::new(0, &clock, 400, &log),
-        TimedBus::new(1, &clock, 100, &log),
-        TimedBus::new(2, &clock, 250, &log),
+        TimedBus::new(1, &clock, 250, &log),
+        TimedBus::new(2, &clock, 320, &log),
     ];
     let rt = RtLoop::new(robot(1000.0, 3, 4), clock, buses, PdTo::hold(12)).unwrap();
     let out = rt.run(RunLimit::Ticks(50));

@@ -560,3 +560,38 @@ fn deadline_misses_follow_the_overrun_policy() {
     );
     assert!(r.safe_stop.all_off_confirmed());
 }
+
+#[test]
+fn pipelined_replies_about_a_period_late_are_all_fresh_from_the_first_tick() {
+    // A slow host (an emulated VM answers in ~100 ms) at 10 Hz, pipelined: each tick is
+    // answered by the request before it; tick 0 by the start-up probe's replies.
+    for (turnaround_ms, jitter_ms) in [(95, 10), (100, 5), (150, 0), (1, 0)] {
+        let clock = VirtualClock::new();
+        let mut config = rmd_sim::SimConfig::with_motors(4).seed(3);
+        for m in &mut config.motors {
+            m.turnaround = Duration::from_millis(turnaround_ms);
+            m.turnaround_jitter = Duration::from_millis(jitter_ms);
+        }
+        let mut bus = rmd_sim::SimBus::new(clock.clone(), config).unwrap();
+        let mut robot = robot_config(10.0, 1, 4);
+        robot.loop_config.reply_mode = rmd_loop::robot::ReplyMode::Pipelined;
+        let robot = rmd_loop::Robot::try_from(robot).unwrap();
+        let rt = RtLoop::new(robot, clock.clone(), vec![&mut bus], PdTo::hold(4)).unwrap();
+        let out = rt.run(RunLimit::Ticks(200));
+        let r = &out.report;
+        assert_eq!(r.stop_reason, StopReason::TickLimit, "{r}");
+        for m in &r.stats.motors {
+            let c = &m.counters;
+            assert_eq!(
+                (
+                    c.missing_replies,
+                    c.late_replies,
+                    c.unexpected_replies,
+                    c.bad_frames
+                ),
+                (0, 0, 0, 0),
+                "{turnaround_ms} ms: {r}"
+            );
+        }
+    }
+}

@@ -83,3 +83,34 @@ pub fn sim_motor(joint: &JointSpec) -> rmd_sim::MotorConfig {
 pub fn sim_output_angle_deg(joint: &JointSpec, joint_deg: f64) -> f64 {
     joint.direction.sign() * joint_deg
 }
+
+/// Powers every simulated joint of `sims` (built by [`sim_configs`] for `robot`) up in the
+/// middle of its [`power_up_window`](rmd_loop::mapping::power_up_window), where the loop reads
+/// its true angle: for programs with no pose of their own to give the motors (`rmd status
+/// --robot FILE --sim`). A joint whose window is centred on 0 stays at 0.
+///
+/// ```
+/// use rmd_loop::Robot;
+/// let robot = Robot::from_toml(r#"
+///     [[bus]]
+///     interface = "sim"
+///     [[bus.motor]]
+///     id = 1
+///     gear_ratio = 9.0
+///     zero_offset_deg = -50.0
+/// "#)?;
+/// let mut sims = rmd_rig::sim::sim_configs(&robot, 1);
+/// rmd_rig::sim::power_up_centred(&robot, &mut sims);
+/// // Window 50..90 degrees of joint: powered up at 70.
+/// assert_eq!(sims[0].motors[0].initial_output_angle_deg, 70.0);
+/// # Ok::<(), rmd_loop::RobotError>(())
+/// ```
+pub fn power_up_centred(robot: &Robot, sims: &mut [SimConfig]) {
+    for (bus, sim) in robot.buses().iter().zip(sims) {
+        for (joint, motor) in bus.joints().zip(&mut sim.motors) {
+            let spec = robot.spec(joint);
+            let (low, high) = rmd_loop::mapping::power_up_window(spec);
+            motor.initial_output_angle_deg = sim_output_angle_deg(spec, (low + high) / 2.0);
+        }
+    }
+}

@@ -129,14 +129,33 @@ pub enum Window {
         /// End of the window (exclusive).
         until: Timestamp,
     },
+    /// The first `count` matching frames at or after `from` on the simulation's clock (one
+    /// bus-off at a given instant, whatever the frame rate).
+    FirstAfter {
+        /// Start of the window.
+        from: Timestamp,
+        /// Number of matching frames.
+        count: u64,
+    },
 }
 
 impl Window {
-    fn contains(self, frame_index: u64, at: Timestamp) -> bool {
+    /// Whether the window holds the `frame_index`-th matching frame, at `at`, when
+    /// `seen_after` matching frames were counted at or after a [`FirstAfter`](Window::FirstAfter)
+    /// window's start before this one.
+    fn contains(self, frame_index: u64, at: Timestamp, seen_after: u64) -> bool {
         match self {
             Window::Always => true,
             Window::Frames { from, count } => frame_index >= from && frame_index - from < count,
             Window::Time { from, until } => at >= from && at < until,
+            Window::FirstAfter { from, count } => at >= from && seen_after < count,
+        }
+    }
+
+    fn starts_by(self, at: Timestamp) -> bool {
+        match self {
+            Window::FirstAfter { from, .. } => at >= from,
+            _ => false,
         }
     }
 }
@@ -284,6 +303,12 @@ impl FaultRule {
         self
     }
 
+    /// Active for the first `count` matching frames at or after `from`.
+    pub fn first_after(mut self, from: Timestamp, count: u64) -> Self {
+        self.window = Window::FirstAfter { from, count };
+        self
+    }
+
     /// Active from `from` (inclusive) until `until` (exclusive).
     pub fn during(mut self, from: Timestamp, until: Timestamp) -> Self {
         self.window = Window::Time { from, until };
@@ -361,9 +386,22 @@ struct RuleState {
     counts: [u64; 33],
     /// Physical faults with a frame window: which motors have the cause on (bit id - 1).
     physical_on: u32,
+    /// Matching frames counted at or after a [`Window::FirstAfter`]'s start, indexed as `counts`.
+    after: [u64; 33],
 }
 
 impl RuleState {
+    /// Counts a matching frame of counter `slot` at `at`; whether the window holds it.
+    fn count(&mut self, slot: usize, at: Timestamp) -> bool {
+        let n = self.counts[slot];
+        self.counts[slot] = n.saturating_add(1);
+        let seen_after = self.after[slot];
+        if self.rule.window.starts_by(at) {
+            self.after[slot] = seen_after.saturating_add(1);
+        }
+        self.rule.window.contains(n, at, seen_after)
+    }
+
     fn draw(&mut self) -> bool {
         let p = self.rule.probability;
         if p >= 1.0 {
@@ -407,6 +445,7 @@ impl FaultEngine {
                 rng: stream(seed, index as u64),
                 counts: [0; 33],
                 physical_on: 0,
+                after: [0; 33],
             });
         }
         Ok(Self { rules: states })
@@ -434,11 +473,9 @@ impl FaultEngine {
             {
                 continue;
             }
-            let n = r.counts[m];
-            r.counts[m] = n.saturating_add(1);
-            let active = r.rule.window.contains(n, at);
+            let active = r.count(m, at);
             if r.rule.kind.is_physical() {
-                if let Window::Frames { .. } = r.rule.window {
+                if let Window::Frames { .. } | Window::FirstAfter { .. } = r.rule.window {
                     let bit = 1u32 << (m - 1);
                     if active {
                         r.physical_on |= bit;
@@ -484,9 +521,7 @@ impl FaultEngine {
             if !addressed {
                 continue;
             }
-            let n = r.counts[HOST];
-            r.counts[HOST] = n.saturating_add(1);
-            if !r.rule.window.contains(n, at) || !r.draw() {
+            if !r.count(HOST, at) || !r.draw() {
                 continue;
             }
             started = started.or(match r.rule.kind {
@@ -508,7 +543,9 @@ impl FaultEngine {
             let on = match r.rule.window {
                 Window::Always => true,
                 Window::Time { from, until } => at >= from && at < until,
-                Window::Frames { .. } => r.physical_on & (1 << (motor.get() - 1)) != 0,
+                Window::Frames { .. } | Window::FirstAfter { .. } => {
+                    r.physical_on & (1 << (motor.get() - 1)) != 0
+                }
             };
             if !on {
                 continue;
@@ -713,5 +750,28 @@ mod tests {
             e.on_motor_frame(m(1), FrameKind::Multi, Timestamp::ZERO),
             ReplyFaults::default()
         );
+    }
+
+    #[test]
+    fn a_first_after_window_takes_the_first_frames_at_or_after_its_start() {
+        let at = |ms: u64| Timestamp::from_nanos(ms * 1_000_000);
+        let rule = FaultRule::new(FaultKind::TxStall {
+            duration: Duration::from_millis(5),
+        })
+        .first_after(at(10), 2);
+        let mut e = FaultEngine::new(&[rule], 0).unwrap();
+        let got: Vec<bool> = [0, 9, 10, 11, 30, 40]
+            .into_iter()
+            .map(|ms| e.on_host_frame(FrameKind::Multi, None, at(ms)).is_some())
+            .collect();
+        assert_eq!(got, [false, false, true, true, false, false]);
+        // Per motor, each motor's own first frames.
+        let rule = FaultRule::new(FaultKind::DropReply).first_after(at(10), 1);
+        let mut e = FaultEngine::new(&[rule], 0).unwrap();
+        let drops: Vec<bool> = [(1, 5), (1, 12), (2, 13), (1, 14), (2, 15)]
+            .into_iter()
+            .map(|(id, ms)| e.on_motor_frame(m(id), FrameKind::Multi, at(ms)).drop)
+            .collect();
+        assert_eq!(drops, [false, true, true, false, false]);
     }
 }

@@ -3,7 +3,6 @@
 
 #![allow(unreachable_pub)]
 
-pub mod alloc_counter;
 pub mod slcan;
 
 use std::process::Command;

@@ -1,10 +1,12 @@
 //! Where the motors are, and how to talk to them: the bus options every live command flattens
-//! in (`--iface` or `--sim`, encoder width, timeout, retries, `--log`).
+//! in (`--iface` or `--sim`, encoder width, timeout, retries, `--log`), and the protocol options
+//! (`--protocol`, `--lk-series`) that `rmd encode` and `rmd decode` take too.
 
 use std::path::PathBuf;
 
 use clap::Args;
-use rmd_protocol::EncoderWidth;
+use rmd_protocol::{Dialect, EncoderWidth, LkSeries, ProtocolFamily};
+use rmd_sim::FirmwareFamily;
 
 use super::ids::{self, IdList};
 use super::parse;
@@ -31,7 +33,7 @@ pub(crate) struct BusArgs {
     #[arg(long, value_name = "BITS", value_parser = parse::encoder_width, default_value = "14")]
     pub(crate) encoder_bits: EncoderWidth,
     /// How long to wait for each reply, milliseconds [default: 50; scan: 20].
-    #[arg(long, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=60_000))]
+    #[arg(long, value_name = "MS", value_parser = super::timing::reply_timeout_ms, allow_hyphen_values = true)]
     pub(crate) timeout_ms: Option<u64>,
     /// How many times to send a request again after a timeout [default: 2; scan: 0].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=100))]
@@ -39,11 +41,89 @@ pub(crate) struct BusArgs {
     /// Also record every frame sent and received to this candump -L file.
     #[arg(long = "log", value_name = "FILE")]
     pub(crate) log: Option<PathBuf>,
+    /// The firmware the simulated motors of --sim run: v1.61, lk-v2.3x (an MG motor, or the
+    /// series of --lk-series) or myactuator-v3 (answers on 0x240 + id); one for every motor, or
+    /// a comma-separated list with one per --sim-ids motor, in id order (a mixed bus).
+    #[arg(long, value_name = "FIRMWARE", value_parser = parse::sim_firmware, value_delimiter = ',', requires = "sim", conflicts_with = "robot")]
+    pub(crate) sim_firmware: Vec<ProtocolFamily>,
+    #[command(flatten)]
+    pub(crate) protocol: ProtocolArgs,
+}
+
+/// The protocol the motors speak (`--protocol`, `--lk-series`), for `encode`, `decode` and every
+/// live command.
+#[derive(Args, Debug, Clone, Copy)]
+pub(crate) struct ProtocolArgs {
+    /// The motors' protocol: v1.61 (GYEMS / MyActuator RMD) or lk-v2.3x (LK-TECH MF / MG
+    /// motors, with --lk-series). It decides the layouts of 0x9A / 0x9B and 0x94 and the current
+    /// scale of 0xA1, 0x280 and every `iq`.
+    #[arg(long, value_name = "PROTOCOL", value_parser = parse::protocol, default_value = "v1.61", global = true)]
+    pub(crate) protocol: ProtocolFamily,
+    /// The LK-TECH motor series, on which the current scale depends (with --protocol
+    /// lk-v2.3x): mf (16.5/2048 A per LSB, ±16.5 A) or mg (33/2048 A per LSB, ±33 A).
+    #[arg(long, value_name = "SERIES", value_parser = parse::lk_series, global = true)]
+    pub(crate) lk_series: Option<LkSeries>,
+}
+
+impl ProtocolArgs {
+    /// The dialect named, or a usage message: `lk-v2.3x` needs `--lk-series`; `--lk-series`
+    /// alone is refused unless `series_used_elsewhere` (the simulated LK motors use it).
+    pub(crate) fn dialect_or(&self, series_used_elsewhere: bool) -> Result<Dialect, String> {
+        match (self.protocol, self.lk_series) {
+            (ProtocolFamily::LkV23x, Some(series)) => Ok(Dialect::LkV23x(series)),
+            (ProtocolFamily::LkV23x, None) => Err(
+                "--protocol lk-v2.3x needs the motors' series, --lk-series mf or --lk-series mg: \
+                 the current scale depends on it (MF ±16.5 A, MG ±33 A over ±2048)"
+                    .to_owned(),
+            ),
+            (_, Some(series)) if !series_used_elsewhere => Err(format!(
+                "--lk-series {} applies to LK-TECH motors: add --protocol lk-v2.3x",
+                series.name()
+            )),
+            _ => Ok(Dialect::V161),
+        }
+    }
+
+    /// The dialect named (see [`dialect_or`](Self::dialect_or)).
+    pub(crate) fn dialect(&self) -> Result<Dialect, String> {
+        self.dialect_or(false)
+    }
 }
 
 impl BusArgs {
     /// Whether a bus was named (`--iface`, `--sim` or `--robot`).
     pub(crate) fn has_target(&self) -> bool {
         self.sim || self.iface.is_some() || self.robot.is_some()
+    }
+
+    /// The firmware of each simulated motor of `--sim`, in the order of `--sim-ids` (v1.61
+    /// unless `--sim-firmware` says otherwise; LK-TECH motors of the `--lk-series`, MG by
+    /// default), or a usage message when the list does not fit the motors.
+    pub(crate) fn sim_families(&self) -> Result<Vec<FirmwareFamily>, String> {
+        let count = self.sim_ids.ids().len();
+        let one = |family: ProtocolFamily| match family {
+            ProtocolFamily::LkV23x => {
+                FirmwareFamily::LkV23x(self.protocol.lk_series.unwrap_or(LkSeries::Mg))
+            }
+            ProtocolFamily::MyActuatorV3 => FirmwareFamily::MyActuatorV3,
+            _ => FirmwareFamily::V161,
+        };
+        match self.sim_firmware.as_slice() {
+            [] => Ok(vec![FirmwareFamily::V161; count]),
+            [family] => Ok(vec![one(*family); count]),
+            list if list.len() == count => Ok(list.iter().copied().map(one).collect()),
+            list => Err(format!(
+                "--sim-firmware lists {} firmware families for {count} simulated motors \
+                 (--sim-ids {}): give one for all, or one per motor",
+                list.len(),
+                self.sim_ids
+            )),
+        }
+    }
+
+    /// The dialect the commands speak (`--protocol`, `--lk-series`), or a usage message.
+    pub(crate) fn dialect(&self) -> Result<Dialect, String> {
+        let series_for_sim = self.sim_firmware.contains(&ProtocolFamily::LkV23x);
+        self.protocol.dialect_or(series_for_sim)
     }
 }

@@ -2,7 +2,8 @@
 //! a validated value or the protocol's one-line error out.
 
 use rmd_protocol::{
-    AngleControl, EncoderWidth, IqControl, MotorId, ProtocolError, SingleTurnAngle, SpeedControl,
+    AngleControl, EncoderWidth, IqControl, LkSeries, MotorId, ProtocolError, ProtocolFamily,
+    SingleTurnAngle, SpeedControl,
 };
 
 fn int(text: &str) -> Result<i64, String> {
@@ -86,14 +87,59 @@ fn four<T: Copy + Default>(
     Ok(out)
 }
 
-/// `--iq-control A,B,C,D` of multi-torque.
-pub(crate) fn iq_control4(text: &str) -> Result<[IqControl; 4], String> {
-    four(text, iq_control)
+/// A raw integer, checked later against a range that depends on other options (`--protocol`).
+pub(crate) fn raw_int(text: &str) -> Result<i64, String> {
+    int(text)
 }
 
-/// `--amps A,B,C,D` of multi-torque.
-pub(crate) fn iq_amps4(text: &str) -> Result<[IqControl; 4], String> {
-    four(text, iq_amps)
+/// A number, checked later (NaN and infinities too) against a range that depends on other
+/// options (`--protocol`).
+pub(crate) fn number(text: &str) -> Result<f64, String> {
+    float(text)
+}
+
+/// `A,B,C,D` raw integers (motors 1..=4), checked later.
+pub(crate) fn raw_int4(text: &str) -> Result<[i64; 4], String> {
+    four(text, raw_int)
+}
+
+/// `A,B,C,D` numbers (motors 1..=4), checked later.
+pub(crate) fn number4(text: &str) -> Result<[f64; 4], String> {
+    four(text, number)
+}
+
+/// `--protocol`: a protocol rmd-rt speaks, `v1.61` or `lk-v2.3x`.
+pub(crate) fn protocol(text: &str) -> Result<ProtocolFamily, String> {
+    match text.trim().parse::<ProtocolFamily>() {
+        Ok(family @ (ProtocolFamily::V161 | ProtocolFamily::LkV23x)) => Ok(family),
+        Ok(ProtocolFamily::MyActuatorV3) => Err(
+            "rmd-rt does not speak myactuator-v3 (its 0x280 frame is a command to every motor, \
+             not torque): expected v1.61 or lk-v2.3x"
+                .to_owned(),
+        ),
+        _ => Err(format!(
+            "unknown protocol `{text}`: expected v1.61 or lk-v2.3x"
+        )),
+    }
+}
+
+/// `--lk-series`: `mf` or `mg`.
+pub(crate) fn lk_series(text: &str) -> Result<LkSeries, String> {
+    text.trim()
+        .to_ascii_lowercase()
+        .parse::<LkSeries>()
+        .map_err(|_| format!("unknown LK-TECH motor series `{text}`: expected mf or mg"))
+}
+
+/// `--sim-firmware`: a firmware family the simulator emulates, `v1.61`, `lk-v2.3x` or
+/// `myactuator-v3`.
+pub(crate) fn sim_firmware(text: &str) -> Result<ProtocolFamily, String> {
+    match text.trim().parse::<ProtocolFamily>() {
+        Ok(ProtocolFamily::Unknown) | Err(_) => Err(format!(
+            "unknown firmware `{text}`: expected v1.61, lk-v2.3x or myactuator-v3"
+        )),
+        Ok(family) => Ok(family),
+    }
 }
 
 /// A probability, 0..=1.
@@ -178,5 +224,30 @@ mod tests {
         assert!(gravity_link("-1,0.1").is_err());
         assert!(gravity_link("1").is_err());
         assert!(positive("0").is_err() && positive("inf").is_err());
+    }
+
+    #[test]
+    fn protocol_names() {
+        assert_eq!(protocol("v1.61"), Ok(ProtocolFamily::V161));
+        assert_eq!(protocol("lk-v2.3x"), Ok(ProtocolFamily::LkV23x));
+        assert!(
+            protocol("myactuator-v3")
+                .unwrap_err()
+                .contains("does not speak")
+        );
+        assert!(
+            protocol("unknown")
+                .unwrap_err()
+                .contains("expected v1.61 or lk-v2.3x")
+        );
+        assert_eq!(lk_series("MF"), Ok(LkSeries::Mf));
+        assert!(lk_series("ms").is_err());
+        assert_eq!(
+            sim_firmware("myactuator-v3"),
+            Ok(ProtocolFamily::MyActuatorV3)
+        );
+        assert!(sim_firmware("unknown").is_err());
+        assert_eq!(raw_int4("1,-2,3,4"), Ok([1, -2, 3, 4]));
+        assert!(number4("1,2").is_err());
     }
 }

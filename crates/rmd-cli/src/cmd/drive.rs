@@ -6,13 +6,15 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{ArgGroup, Args};
-use rmd_bus::Clock;
+use rmd_bus::{Clock, Timestamp};
 use rmd_protocol::{IqControl, MotorId, Request, SpeedControl, Status2};
 
 use crate::args::bus::BusArgs;
 use crate::args::parse;
+use crate::args::timing;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::interrupt;
+use crate::live::recording;
 use crate::live::safe_stop;
 use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
@@ -27,7 +29,9 @@ struct Timing {
     #[arg(long, visible_alias = "seconds", value_name = "DURATION", value_parser = duration::any, default_value = "1s", allow_hyphen_values = true)]
     duration: Duration,
     /// How often the command is sent again (and the motor's reply shown), Hz.
-    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = parse::positive, default_value = "50")]
+    /// A rate above what the motor answers is sent as fast as it answers (each command waits
+    /// for the reply to the previous one); the drive still ends after `--duration`.
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = timing::rate_hz, default_value = "50", allow_hyphen_values = true)]
     rate: f64,
 }
 
@@ -115,9 +119,8 @@ fn drive(
 ) -> Result<(), CliError> {
     let mut bus = Connection::open(bus_args, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     interrupt::install_driving()?;
-    let period = Duration::from_secs_f64(1.0 / timing.rate);
     let start = bus.clock().now();
-    let end = start + timing.duration;
+    let mut schedule = Schedule::new(start, timing.duration, timing::period(timing.rate));
     let mut sent: u32 = 0;
     let mut last: Option<Status2> = None;
     errln!(
@@ -134,10 +137,10 @@ fn drive(
             Ok(reply) => last = reply.status2().or(last),
             Err(error) => break Err(error.into()),
         }
-        sent += 1;
-        let elapsed = bus.clock().now() - start;
+        sent = sent.saturating_add(1);
+        let now = bus.clock().now();
         if let Some(status) = last {
-            progress.set_elapsed(elapsed);
+            progress.set_elapsed(now - start);
             progress.set_message(reading(&status));
             if let Some(limit) = max_speed
                 && status.speed.dps().abs() > limit
@@ -148,25 +151,85 @@ fn drive(
                 )));
             }
         }
-        let wake = (start + period * sent).min(end);
+        let Some(wake) = schedule.next(now) else {
+            break Ok(());
+        };
         if !interrupt::sleep_until(bus.clock(), wake) {
             break Err(CliError::Interrupted(format!("{what} on motor {id}")));
         }
-        if wake >= end {
+        if schedule.is_over(bus.clock().now()) {
             break Ok(());
         }
     };
     drop(progress);
     let elapsed = bus.clock().now() - start;
     let result = safe_stop::finish(&mut bus, &[id], outcome);
-    bus.finish()?;
-    result?;
+    // The motor is off: the log (a stalled reader is waited for a bounded time) comes after.
+    let finished = bus.finish();
+    if result.is_err() {
+        return recording::after(result, finished);
+    }
+    let achieved = f64::from(sent) / elapsed.as_secs_f64().max(1e-9);
     outln!(
-        "motor {id}: {what} for {:.2} s ({sent} commands), then turned off{}",
+        "motor {id}: {what} for {:.2} s ({sent} commands{}), then turned off{}",
         elapsed.as_secs_f64(),
+        shortfall(achieved, timing.rate),
         last.map_or(String::new(), |s| format!("; last reply: {}", reading(&s)))
     )?;
-    Ok(())
+    finished
+}
+
+/// Words for a rate below the one asked for: each command waits for the motor's reply, so a
+/// `--rate` above what the bus and motor answer is sent as fast as they answer.
+fn shortfall(achieved: f64, asked: f64) -> String {
+    if achieved < 0.9 * asked {
+        let asked = if asked < 1e9 {
+            format!("{asked}")
+        } else {
+            format!("{asked:e}")
+        };
+        format!(
+            ", {achieved:.0} per second: --rate {asked} is more than the motor answers, so \
+             each was sent as soon as the previous reply came"
+        )
+    } else {
+        String::new()
+    }
+}
+
+/// When to send the next command: every `period` from the start, never after the end, and
+/// without bursts to catch up when an exchange took longer than a period. The drive ends when
+/// the wall-clock duration is over, however many commands that took.
+#[derive(Copy, Clone, Debug)]
+struct Schedule {
+    next: Timestamp,
+    end: Timestamp,
+    period: Duration,
+}
+
+impl Schedule {
+    fn new(start: Timestamp, duration: Duration, period: Duration) -> Self {
+        Self {
+            next: start,
+            end: start + duration,
+            period,
+        }
+    }
+
+    /// After a command sent by `now`: the instant to wait for before the next one (at most
+    /// the end), or `None` once the duration is over.
+    fn next(&mut self, now: Timestamp) -> Option<Timestamp> {
+        if self.is_over(now) {
+            return None;
+        }
+        self.next = (self.next + self.period).max(now);
+        Some(self.next.min(self.end))
+    }
+
+    /// Whether the duration is over at `now`.
+    fn is_over(&self, now: Timestamp) -> bool {
+        now >= self.end
+    }
 }
 
 /// One status-2 reply in words.
@@ -177,4 +240,70 @@ pub(crate) fn reading(status: &Status2) -> String {
         status.speed.dps(),
         status.temperature.celsius()
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::args::timing::period;
+
+    fn at(ms: u64) -> Timestamp {
+        Timestamp::ZERO + Duration::from_millis(ms)
+    }
+
+    /// Runs a schedule where every exchange takes `exchange`: how many commands are sent,
+    /// and when the drive ends.
+    fn run(duration_ms: u64, rate: f64, exchange: Duration) -> (u32, Timestamp) {
+        let mut schedule = Schedule::new(at(0), Duration::from_millis(duration_ms), period(rate));
+        let mut now = at(0);
+        let mut sent = 0;
+        loop {
+            now += exchange;
+            sent += 1;
+            let Some(wake) = schedule.next(now) else {
+                return (sent, now);
+            };
+            now = now.max(wake);
+            if schedule.is_over(now) {
+                return (sent, now);
+            }
+        }
+    }
+
+    #[test]
+    fn the_duration_is_wall_clock_time_whatever_the_rate() {
+        // 20 kHz asked, 500 us per exchange: 1 s is about 2000 commands, not 20 000 (10 s).
+        let (sent, ended) = run(1000, 20_000.0, Duration::from_micros(500));
+        assert_eq!(ended, at(1000));
+        assert_eq!(sent, 2000);
+        // A rate the exchanges keep up with: one command per period.
+        let (sent, ended) = run(1000, 50.0, Duration::from_micros(500));
+        assert_eq!(ended, at(1000));
+        assert_eq!(sent, 50);
+        // A slow exchange ends the drive once it returns past the end, not later.
+        let (sent, ended) = run(100, 50.0, Duration::from_millis(150));
+        assert_eq!((sent, ended), (1, at(150)));
+    }
+
+    #[test]
+    fn no_bursts_after_a_slow_exchange_and_no_overflow_at_extreme_rates() {
+        let mut schedule = Schedule::new(at(0), Duration::from_secs(10), period(10.0));
+        // The first exchange took 350 ms (3.5 periods): the next waits a period from now.
+        assert_eq!(schedule.next(at(350)), Some(at(350)));
+        assert_eq!(schedule.next(at(351)), Some(at(450)));
+        // A period beyond the duration: one command, then the wait until the end.
+        let mut schedule = Schedule::new(at(0), Duration::from_secs(1), period(1e-9));
+        assert_eq!(schedule.next(at(1)), Some(at(1000)));
+        assert_eq!(schedule.next(at(1000)), None);
+        // A period of zero (1e300 Hz): as fast as the exchanges go.
+        let mut schedule = Schedule::new(at(0), Duration::from_secs(1), period(1e300));
+        assert_eq!(schedule.next(at(5)), Some(at(5)));
+    }
+
+    #[test]
+    fn a_shortfall_is_said_only_when_real() {
+        assert_eq!(shortfall(49.0, 50.0), "");
+        assert!(shortfall(2000.0, 20_000.0).contains("--rate 20000 is more than"));
+        assert!(shortfall(2000.0, 1e300).contains("--rate 1e300 is more than"));
+    }
 }

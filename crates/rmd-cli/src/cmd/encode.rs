@@ -4,15 +4,21 @@
 //! Field flags are the spec's variable names in kebab-case and take RAW integers; `--amps`,
 //! `--dps` and `--deg` are physical-unit alternatives. Out-of-range or missing values exit
 //! non-zero with one line on stderr and nothing on stdout.
+//!
+//! `--protocol lk-v2.3x --lk-series mf|mg` encodes for LK-TECH motors: only the torque current of
+//! `torque` (0xA1) and `multi-torque` (0x280) differs (±2048 raw, 16.5/2048 A per LSB on MF,
+//! 33/2048 A on MG, instead of v1.61's ±2000 at 32/2000 A); every other frame is the same.
 
 use std::process::ExitCode;
 
 use clap::{ArgGroup, Args, Subcommand, ValueEnum};
 use rmd_protocol::{
-    Accel, AngleControl, CanFrame, EncoderValue, EncoderWidth, IqControl, MaxSpeed, MotorId,
-    MultiTorque, PidParams, Request, SingleTurnAngle, SpeedControl, SpinDirection,
+    Accel, AngleControl, CanFrame, Dialect, DialectRequest, EncoderWidth, MaxSpeed, MotorId,
+    PidParams, Request, ScaledCurrent, ScaledMultiTorque, SingleTurnAngle, SpeedControl,
+    SpinDirection, encode_request_with,
 };
 
+use crate::args::bus::ProtocolArgs;
 use crate::args::parse;
 use crate::output::outln;
 use crate::output::report;
@@ -22,6 +28,8 @@ use crate::output::report;
 pub(crate) struct EncodeArgs {
     #[command(subcommand)]
     command: EncodeCommand,
+    #[command(flatten)]
+    protocol: ProtocolArgs,
 }
 
 /// The motor a single-motor command goes to.
@@ -95,12 +103,16 @@ struct EncoderOffsetArgs {
 struct TorqueArgs {
     #[command(flatten)]
     target: Target,
-    /// Torque current (iqControl), -2000..=2000 (= -32..=32 A).
-    #[arg(long, value_parser = parse::iq_control, allow_hyphen_values = true)]
-    iq_control: Option<IqControl>,
-    /// Torque current in amperes, -32..=32 (rounded to 0.016 A).
-    #[arg(long, value_parser = parse::iq_amps, allow_hyphen_values = true)]
-    amps: Option<IqControl>,
+    /// Torque current (iqControl), raw: -2000..=2000 at 32/2000 A per LSB in v1.61;
+    /// -2048..=2048 at 16.5/2048 A (LK MF) or 33/2048 A (LK MG) per LSB with --protocol
+    /// lk-v2.3x.
+    #[arg(long, value_parser = parse::raw_int, allow_hyphen_values = true)]
+    iq_control: Option<i64>,
+    /// Torque current in amperes, rounded to the protocol's step: -32..=32 A in steps of
+    /// 0.016 A (32/2000) in v1.61; ±16.5 A in steps of 16.5/2048 A (LK MF) or ±33 A in steps of
+    /// 33/2048 A (LK MG) with --protocol lk-v2.3x.
+    #[arg(long, value_parser = parse::number, allow_hyphen_values = true)]
+    amps: Option<f64>,
 }
 
 #[derive(Args, Debug)]
@@ -217,12 +229,15 @@ struct Position4Args {
 #[derive(Args, Debug)]
 #[command(group(ArgGroup::new("current").required(true).args(["iq_control", "amps"])))]
 struct MultiTorqueArgs {
-    /// Torque currents of motors 1..=4 (iqControl), four comma-separated values in -2000..=2000.
-    #[arg(long, value_parser = parse::iq_control4, allow_hyphen_values = true)]
-    iq_control: Option<[IqControl; 4]>,
-    /// Torque currents of motors 1..=4 in amperes, four comma-separated values in -32..=32.
-    #[arg(long, value_parser = parse::iq_amps4, allow_hyphen_values = true)]
-    amps: Option<[IqControl; 4]>,
+    /// Torque currents of motors 1..=4 (iqControl), four comma-separated raw values, in the
+    /// scale of `torque --iq-control` (v1.61: -2000..=2000 at 32/2000 A per LSB; LK MF / MG:
+    /// -2048..=2048 at 16.5/2048 / 33/2048 A per LSB).
+    #[arg(long, value_parser = parse::raw_int4, allow_hyphen_values = true)]
+    iq_control: Option<[i64; 4]>,
+    /// Torque currents of motors 1..=4 in amperes, four comma-separated values (v1.61: ±32 A;
+    /// LK MF: ±16.5 A; LK MG: ±33 A).
+    #[arg(long, value_parser = parse::number4, allow_hyphen_values = true)]
+    amps: Option<[f64; 4]>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -301,8 +316,13 @@ enum EncodeCommand {
     MultiTorque(MultiTorqueArgs),
 }
 
-/// Builds the frame the command line asks for.
-fn frame(command: EncodeCommand) -> Result<CanFrame, String> {
+/// The torque current of `--iq-control` (raw) or `--amps` in `dialect`'s `iqControl` scale.
+fn current(dialect: Dialect, raw: Option<i64>, amps: Option<f64>) -> Result<ScaledCurrent, String> {
+    rmd_frames::encode::torque_current(dialect, raw, amps)
+}
+
+/// Builds the frame the command line asks for, in `dialect`.
+fn frame(command: EncodeCommand, dialect: Dialect) -> Result<CanFrame, String> {
     use EncodeCommand as C;
     let single = |t: Target, r: Request| Ok(r.encode(t.id));
     match command {
@@ -314,12 +334,7 @@ fn frame(command: EncodeCommand) -> Result<CanFrame, String> {
         C::ReadEncoder(t) => single(t, Request::ReadEncoder),
         C::WriteEncoderOffset(a) => {
             let encoder_offset =
-                EncoderValue::new(a.encoder_offset, a.encoder_bits).map_err(|e| {
-                    format!(
-                        "--encoder-offset: {e} for a {}-bit encoder (see --encoder-bits)",
-                        a.encoder_bits.bits()
-                    )
-                })?;
+                rmd_frames::encode::encoder_offset(a.encoder_offset, a.encoder_bits)?;
             single(a.target, Request::WriteEncoderOffset { encoder_offset })
         }
         C::WriteZeroRom(t) => single(t, Request::WriteZeroRom),
@@ -333,11 +348,11 @@ fn frame(command: EncodeCommand) -> Result<CanFrame, String> {
         C::MotorStop(t) => single(t, Request::MotorStop),
         C::MotorRun(t) => single(t, Request::MotorRun),
         C::Torque(a) => {
-            let iq_control = a
-                .iq_control
-                .or(a.amps)
-                .ok_or("missing --iq-control or --amps")?;
-            single(a.target, Request::Torque { iq_control })
+            let request = DialectRequest::Torque {
+                motor: a.target.id,
+                iq_control: current(dialect, a.iq_control, a.amps)?,
+            };
+            encode_request_with(dialect, &request).map_err(|e| e.to_string())
         }
         C::Speed(a) => {
             let speed_control = a
@@ -375,18 +390,23 @@ fn frame(command: EncodeCommand) -> Result<CanFrame, String> {
             },
         ),
         C::MultiTorque(a) => {
-            let iq = a
-                .iq_control
-                .or(a.amps)
-                .ok_or("missing --iq-control or --amps")?;
-            Ok(MultiTorque::new(iq).encode())
+            let mut iq = [ScaledCurrent::saturating(0, dialect.iq_control_scale()); 4];
+            for (k, slot) in iq.iter_mut().enumerate() {
+                *slot = current(dialect, a.iq_control.map(|v| v[k]), a.amps.map(|v| v[k]))?;
+            }
+            let request = DialectRequest::MultiTorque(ScaledMultiTorque::new(iq));
+            encode_request_with(dialect, &request).map_err(|e| e.to_string())
         }
     }
 }
 
 /// Runs `rmd encode`: prints the frame, or one error line.
 pub(crate) fn run(args: EncodeArgs) -> ExitCode {
-    match frame(args.command) {
+    let dialect = match args.protocol.dialect() {
+        Ok(dialect) => dialect,
+        Err(message) => return report::usage_error(message),
+    };
+    match frame(args.command, dialect) {
         Ok(frame) => report::exit(outln!("{frame}").map_err(Into::into)),
         Err(message) => report::usage_error(message),
     }

@@ -1,19 +1,18 @@
 //! `rmd log --iface IFACE FILE`: record every frame on an interface to a candump -L file
 //! (through the non-blocking recorder), until Ctrl-C, `--duration` or `--count`.
 
-use std::fs::File;
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use clap::Args;
-use rmd_bus::record::{RecordOptions, record};
+use rmd_bus::record::RecordOptions;
 use rmd_bus::{BusError, BusMessage, CanBus, Clock, MonotonicClock};
 
-use crate::live::connect::{Filter, open_interface, report_recording};
+use crate::live::connect::{Filter, open_interface};
 use crate::live::interrupt;
+use crate::live::recording::{LogSink, Recording};
 use crate::output::console::WatchedSink;
 use crate::output::errln;
 use crate::output::progress::{self, Progress};
@@ -50,20 +49,28 @@ fn log(args: &LogArgs) -> Result<(), CliError> {
     let to_stdout = args.file.as_os_str() == "-";
     // Set when the reader of stdout goes away (`rmd log --iface can0 - | head`): the log ends.
     let mut reader_gone = None;
-    let sink: Box<dyn Write + Send> = if to_stdout {
-        let (sink, closed) = WatchedSink::new(std::io::stdout());
-        reader_gone = Some(closed);
-        Box::new(sink)
+    let sink = if to_stdout {
+        LogSink::stdout()?
     } else {
-        Box::new(
-            File::create(&args.file)
-                .map_err(|e| format!("cannot create {}: {e}", args.file.display()))?,
-        )
+        LogSink::create(&args.file)?
     };
     let bus = open_interface(&args.iface, Filter::Everything)?;
     let clock = MonotonicClock;
-    let (mut bus, writer) =
-        record(bus, clock, sink, RecordOptions::new(&args.iface)).map_err(|e| e.to_string())?;
+    let (mut bus, recording) = Recording::start(
+        bus,
+        clock,
+        sink,
+        |sink| {
+            if to_stdout {
+                let (sink, closed) = WatchedSink::new(sink);
+                reader_gone = Some(closed);
+                Box::new(sink)
+            } else {
+                Box::new(sink)
+            }
+        },
+        RecordOptions::new(&args.iface),
+    )?;
     interrupt::install()?;
     errln!(
         "recording {} to {} (Ctrl-C stops)",
@@ -124,16 +131,11 @@ fn log(args: &LogArgs) -> Result<(), CliError> {
     };
     drop(progress);
     drop(bus);
-    let path = if to_stdout {
-        PathBuf::from("stdout")
-    } else {
-        args.file.clone()
-    };
     if matches!(outcome, Err(CliError::OutputClosed)) {
         // The frames nobody could read are the reason, not news: end quietly.
-        drop(writer);
+        drop(recording);
         return outcome;
     }
-    report_recording(&path, writer)?;
-    outcome
+    let finished = recording.finish();
+    crate::live::recording::after(outcome, finished)
 }

@@ -6,6 +6,7 @@ mod accel;
 mod bench;
 mod completions;
 pub(crate) mod decode;
+mod drill;
 mod drive;
 mod encode;
 mod encoder;
@@ -66,6 +67,8 @@ pub(crate) enum Command {
     Replay(replay::ReplayArgs),
     /// Benchmarks: the loop on simulated motors, timer jitter, the bus-limited rate.
     Bench(bench::BenchArgs),
+    /// Fault drills on simulated motors, judged by the simulated firmware: is every motor safe?
+    Drill(drill::DrillArgs),
     /// Trajectory generator tools: `rmd traj check FILE` runs a test-vector file.
     Traj(traj::TrajArgs),
     /// Print the shell completion script (bash, zsh, fish, elvish, powershell).
@@ -77,6 +80,7 @@ impl Command {
     pub(crate) fn run(self) -> ExitCode {
         match self {
             Command::Encode(args) => encode::run(args),
+            Command::Drill(args) => drill::run(args),
             Command::Decode(args) => decode::run(args),
             Command::Sim(args) => sim::run(args),
             Command::Scan(args) => scan::run(args),

@@ -11,7 +11,7 @@ use rmd_protocol::{Reply, Request};
 use serde_json::{Value, json};
 
 use crate::args::bus::BusArgs;
-use crate::args::parse;
+use crate::args::timing;
 use crate::live::connect::DEFAULT_TIMEOUT;
 use crate::live::interrupt;
 use crate::live::motors::{Motor, Motors};
@@ -24,7 +24,7 @@ use crate::output::{out, outln};
 /// Arguments of `rmd monitor`.
 #[derive(Args, Debug)]
 #[command(
-    after_help = "With --robot FILE: the robot's joints (--ids: joint names), labelled by     name, the angle column in joint degrees; JSON objects carry `name`, `bus` and `joint`."
+    after_help = "With --robot FILE: the robot's joints (--ids: joint names), labelled by name, the angle column in joint degrees; JSON objects carry `name`, `bus` and `joint`."
 )]
 pub(crate) struct MonitorArgs {
     /// Motors to watch [default: the ones that answer a scan of 1..=32; with --robot, every
@@ -32,7 +32,7 @@ pub(crate) struct MonitorArgs {
     #[arg(long, value_name = "IDS|JOINTS")]
     ids: Option<String>,
     /// Readings per second.
-    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = parse::positive, default_value = "10")]
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = timing::rate_hz, default_value = "10", allow_hyphen_values = true)]
     rate: f64,
     /// Stop after this many readings [default: until Ctrl-C].
     #[arg(long, value_name = "N")]
@@ -75,7 +75,7 @@ fn monitor(args: &MonitorArgs) -> Result<(), CliError> {
             progress::shown(args.json),
         )?;
     }
-    let period = Duration::from_secs_f64(1.0 / args.rate);
+    let period = timing::period(args.rate);
     let redraw = !args.json && std::io::stdout().is_terminal();
     let clock = MonotonicClock;
     let start = clock.now();

@@ -32,7 +32,7 @@ enum Direction {
 /// Arguments of `rmd move`.
 #[derive(Args, Debug)]
 #[command(
-    after_help = "With --robot FILE, MOTOR is a joint name and every angle and speed is on     the joint side (gear ratio, direction and zero offset of the description applied); the     multi-turn modes 1 and 2 only."
+    after_help = "With --robot FILE, MOTOR is a joint name and every angle and speed is on the joint side (gear ratio, direction and zero offset of the description applied); the multi-turn modes 1 and 2 only."
 )]
 pub(crate) struct MoveArgs {
     /// Motor id, 1..=32; with --robot, a joint name.
@@ -46,8 +46,8 @@ pub(crate) struct MoveArgs {
     /// single-turn with --direction), 4 (0xA6, single-turn with --direction and --max-speed).
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=4))]
     mode: u8,
-    /// Speed limit of modes 2 and 4, dps (motor side) [default: 360]. Modes 1 and 3 use the
-    /// motor's own max-speed setting.
+    /// Speed limit of modes 2 and 4, dps (motor side; with --robot, joint side) [default: 360
+    /// dps at the motor]. Modes 1 and 3 use the motor's own max-speed setting.
     #[arg(long, value_name = "DPS", value_parser = parse::positive)]
     max_speed: Option<f64>,
     /// Turning direction of modes 3 and 4 [default: cw].
@@ -105,7 +105,7 @@ fn run_move(args: &MoveArgs) -> Result<(), CliError> {
     let request = position_request(args, &motor).map_err(CliError::Usage)?;
     let moved = move_to(args, &mut motors, &motor, request);
     // Whatever happened, the recording (--log) is flushed and reported.
-    let finished = motors.finish().map_err(CliError::Failed);
+    let finished = motors.finish();
     moved.and(finished)
 }
 
@@ -157,9 +157,12 @@ fn position_request(args: &MoveArgs, motor: &Motor) -> Result<Request, String> {
             args.mode
         ));
     }
-    let max_speed =
-        MaxSpeed::from_dps(args.max_speed.unwrap_or(DEFAULT_MAX_SPEED_DPS) * speed_factor)
-            .map_err(|e| format!("--max-speed: {e}"))?;
+    // Given: in the target's units (joint side with --robot). Default: 360 dps at the motor,
+    // whatever the gearbox, as without --robot.
+    let motor_dps = args
+        .max_speed
+        .map_or(DEFAULT_MAX_SPEED_DPS, |dps| dps * speed_factor);
+    let max_speed = MaxSpeed::from_dps(motor_dps).map_err(|e| format!("--max-speed: {e}"))?;
     let spin_direction = match args.direction.unwrap_or(Direction::Cw) {
         Direction::Cw => SpinDirection::Clockwise,
         Direction::Ccw => SpinDirection::CounterClockwise,
@@ -256,10 +259,11 @@ fn move_to(
         Ok(elapsed) => {
             outln!(
                 "{label}: at {:.2}° (target {}°) after {:.2} s; holding the position \
-                 (`rmd off {id}` releases it)",
+                 (`rmd off {id} {}` releases it)",
                 angle.unwrap_or(f64::NAN),
                 args.deg,
-                elapsed.as_secs_f64()
+                elapsed.as_secs_f64(),
+                bus.setup().option()
             )?;
             Ok(())
         }

@@ -3,8 +3,11 @@
 //! comes back printed as it arrives.
 //!
 //! Which frames: `host` (the requests, told apart from replies as `rmd decode` does), `motors`
-//! (the replies) or `all`. Sending motion commands onto a real interface asks first; motors
-//! that received motion commands are turned off at the end and on Ctrl-C.
+//! (the replies) or `all`. Sending motion commands onto a real interface asks first, and so does
+//! sending frames that write a motor's ROM ([`rom`]) anywhere; motors that received motion
+//! commands are turned off at the end and on Ctrl-C. Printing a log never asks.
+
+mod rom;
 
 use std::fs::File;
 use std::io::BufReader;
@@ -20,12 +23,13 @@ use rmd_bus::{BusMessage, Clock, Timestamp};
 use rmd_protocol::{DecodedRequest, MotorId, Request, decode_request};
 
 use crate::args::bus::BusArgs;
-use crate::args::parse;
+use crate::args::timing;
 use crate::cmd::decode::pairing::{Pairing, Role};
 use crate::live::confirm;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
 use crate::live::exchange::{self, Setup};
 use crate::live::interrupt;
+use crate::live::recording;
 use crate::live::safe_stop;
 use crate::output::console::WriteError;
 use crate::output::progress::{self, Progress};
@@ -50,7 +54,7 @@ pub(crate) struct ReplayArgs {
     #[arg(value_name = "FILE")]
     file: PathBuf,
     /// Play this many times faster than recorded (0.5: half speed).
-    #[arg(long, value_parser = parse::positive, default_value = "1")]
+    #[arg(long, value_parser = timing::replay_speed, default_value = "1", allow_hyphen_values = true)]
     speed: f64,
     /// Play every frame at once, without the recorded pauses.
     #[arg(long, conflicts_with = "speed")]
@@ -58,7 +62,8 @@ pub(crate) struct ReplayArgs {
     /// Which frames [default: host when sending to --iface/--sim, all when printing].
     #[arg(long, value_enum)]
     frames: Option<Frames>,
-    /// Do not ask before sending motion commands onto a (non-virtual) interface.
+    /// Do not ask before sending motion commands onto a (non-virtual) interface, or frames that
+    /// write motors' ROM (0x19, 0x32, ...) anywhere.
     #[arg(long)]
     yes: bool,
     #[command(flatten)]
@@ -181,22 +186,7 @@ fn print_in_time(records: &[LogRecord], pace: Pace) -> Result<(), CliError> {
 /// Sends the records onto the bus, each when it is due, printing what is sent and received.
 fn play_onto_bus(args: &ReplayArgs, records: &[LogRecord], pace: Pace) -> Result<(), CliError> {
     let moved = motors_moved(records);
-    if let Some(iface) = &args.bus.iface
-        && !moved.is_empty()
-        && !iface.starts_with("vcan")
-    {
-        let ids: Vec<String> = moved.iter().map(ToString::to_string).collect();
-        confirm::confirm(
-            &format!("replaying motion commands onto {iface}"),
-            &format!(
-                "{} holds motion commands for motor(s) {}: replaying it onto {iface} moves \
-                 them as recorded (they are turned off at the end and on Ctrl-C).",
-                args.file.display(),
-                ids.join(", ")
-            ),
-            args.yes,
-        )?;
-    }
+    confirm_replay(args, records, &moved)?;
     let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     interrupt::install()?;
     let name = match bus.setup() {
@@ -248,13 +238,68 @@ fn play_onto_bus(args: &ReplayArgs, records: &[LogRecord], pace: Pace) -> Result
         safe_stop::finish(&mut bus, &moved, outcome)
     };
     let target = bus.setup().name();
-    bus.finish()?;
+    let finished = bus.finish();
     errln!(
         "replayed {sent} frame(s) onto {target} in {:.3} s; {} frame(s) received",
         elapsed.as_secs_f64(),
         received
     );
-    result
+    recording::after(result, finished)
+}
+
+/// Asks before a replay that writes motors' ROM (whatever the target, as `rmd zero` does) or
+/// moves motors on a real interface; one question for both. Without a terminal and without
+/// `--yes`, refuses, naming the ROM-writing frames.
+fn confirm_replay(
+    args: &ReplayArgs,
+    records: &[LogRecord],
+    moved: &[MotorId],
+) -> Result<(), CliError> {
+    let target = args.bus.iface.clone().unwrap_or_else(|| {
+        if args.bus.robot.is_some() {
+            "the robot's buses".to_owned()
+        } else {
+            "the simulated motors".to_owned()
+        }
+    });
+    let rom = rom::rom_writes(records);
+    let real_motion = !moved.is_empty()
+        && args
+            .bus
+            .iface
+            .as_ref()
+            .is_some_and(|iface| !iface.starts_with("vcan"));
+    let mut whats = Vec::new();
+    let mut warnings = Vec::new();
+    if !rom.is_empty() {
+        whats.push(format!(
+            "replaying {} frame(s) that write motor ROM onto {target} ({})",
+            rom.len(),
+            rom::describe(&rom)
+        ));
+        warnings.push(format!(
+            "{} holds {} frame(s) that write the motors' ROM ({}). Every ROM write wears the \
+             motor's flash, and a zero written to ROM takes effect only after a power cycle.",
+            args.file.display(),
+            rom.len(),
+            rom::describe(&rom)
+        ));
+    }
+    if real_motion {
+        let ids: Vec<String> = moved.iter().map(ToString::to_string).collect();
+        whats.push(format!("replaying motion commands onto {target}"));
+        warnings.push(format!(
+            "{} holds motion commands for motor(s) {}: replaying it onto {target} moves \
+             them as recorded (they are turned off at the end and on Ctrl-C).",
+            args.file.display(),
+            ids.join(", ")
+        ));
+    }
+    if whats.is_empty() {
+        return Ok(());
+    }
+    confirm::confirm(&whats.join(", and "), &warnings.join("\n"), args.yes)?;
+    Ok(())
 }
 
 /// Prints frames as candump -L lines with direction markers, on the wall clock.

@@ -1,5 +1,6 @@
 //! `rmd sim --iface vcan0 --ids 1-4`: simulated motors answering on a real SocketCAN interface
-//! as their firmware would, in real time, until Ctrl-C (or SIGTERM).
+//! as their firmware would (v1.61, or `--firmware lk-v2.3x|myactuator-v3`), in real time, until
+//! Ctrl-C (or SIGTERM).
 //!
 //! Every request frame received (single-motor ids of the simulated motors, and 0x280) goes to
 //! [`SimMotors::handle`] with its kernel receive time; each reply is sent when it is due (the
@@ -13,17 +14,20 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Args;
-use rmd_bus::record::{LogWriter, RecordOptions, record};
+use rmd_bus::record::RecordOptions;
 use rmd_bus::{BusError, BusMessage, CanBus, Clock, MonotonicClock};
-use rmd_protocol::EncoderWidth;
+use rmd_protocol::{EncoderWidth, LkSeries, ProtocolFamily};
 use rmd_sim::{
-    FaultKind, FaultRule, GravityLink, MotorConfig, MotorSet, ScheduledFrame, SimConfig, SimMotors,
+    FaultKind, FaultRule, FirmwareFamily, GravityLink, MotorConfig, MotorSet, ScheduledFrame,
+    SimConfig, SimMotors,
 };
 
 use crate::args::ids::{self, IdList};
 use crate::args::parse;
-use crate::live::connect::{Filter, open_interface, report_recording};
+use crate::args::timing;
+use crate::live::connect::{Filter, open_interface};
 use crate::live::interrupt;
+use crate::live::recording::{self, LogSink, Recording};
 use crate::output::errln;
 use crate::output::progress::{self, Progress};
 use crate::output::report::{self, CliError};
@@ -57,11 +61,11 @@ struct MotorOptions {
     /// Gear ratio (motor turns per output turn).
     #[arg(long, value_parser = parse::positive, default_value = "9")]
     gear_ratio: f64,
-    /// Time from a request to its reply, microseconds.
-    #[arg(long, value_name = "US", default_value_t = 200)]
+    /// Time from a request to its reply, microseconds (0..=60000000).
+    #[arg(long, value_name = "US", value_parser = timing::sim_delay_us, default_value = "200", allow_hyphen_values = true)]
     turnaround_us: u64,
-    /// Random extra turnaround, 0..=this, microseconds.
-    #[arg(long, value_name = "US", default_value_t = 20)]
+    /// Random extra turnaround, 0..=this, microseconds (0..=60000000).
+    #[arg(long, value_name = "US", value_parser = timing::sim_delay_us, default_value = "20", allow_hyphen_values = true)]
     jitter_us: u64,
     /// Seed of every random draw (jitter, faults): the same seed and traffic give the same run.
     #[arg(long, default_value_t = 0)]
@@ -74,6 +78,35 @@ struct MotorOptions {
     /// Initial output angle of every motor, degrees.
     #[arg(long, value_name = "DEG", value_parser = parse::finite, allow_hyphen_values = true, default_value = "0")]
     initial_deg: f64,
+    /// The firmware the motors run: v1.61, lk-v2.3x (an MG motor, or the series of
+    /// --lk-series) or myactuator-v3 (answers on 0x240 + id); one for every motor, or a
+    /// comma-separated list with one per motor of --ids, in id order.
+    #[arg(long, value_name = "FIRMWARE", value_parser = parse::sim_firmware, value_delimiter = ',', default_value = "v1.61")]
+    firmware: Vec<ProtocolFamily>,
+    /// The series of the lk-v2.3x motors: mf (±16.5 A over ±2048) or mg (±33 A, the default).
+    #[arg(long, value_name = "SERIES", value_parser = parse::lk_series)]
+    lk_series: Option<LkSeries>,
+}
+
+impl MotorOptions {
+    /// The firmware of each of `count` motors, or what is wrong with `--firmware`.
+    fn families(&self, count: usize) -> Result<Vec<FirmwareFamily>, String> {
+        let series = self.lk_series.unwrap_or(LkSeries::Mg);
+        let one = |family: ProtocolFamily| match family {
+            ProtocolFamily::LkV23x => FirmwareFamily::LkV23x(series),
+            ProtocolFamily::MyActuatorV3 => FirmwareFamily::MyActuatorV3,
+            _ => FirmwareFamily::V161,
+        };
+        match self.firmware.as_slice() {
+            [family] => Ok(vec![one(*family); count]),
+            list if list.len() == count => Ok(list.iter().copied().map(one).collect()),
+            list => Err(format!(
+                "--firmware lists {} firmware families for {count} motors: give one for all, or \
+                 one per motor of --ids",
+                list.len()
+            )),
+        }
+    }
 }
 
 /// Fault injection (each per reply, drawn from the seeded stream).
@@ -123,13 +156,16 @@ impl FaultOptions {
 /// The simulation the arguments describe.
 fn config(args: &SimArgs) -> Result<SimConfig, String> {
     let m = &args.motor;
+    let families = m.families(args.ids.ids().len())?;
     let mut config = SimConfig::with_motors(0).seed(m.seed);
     config.motors = args
         .ids
         .ids()
         .iter()
-        .map(|&id| {
+        .zip(families)
+        .map(|(&id, family)| {
             let mut motor = MotorConfig::new(id);
+            motor.firmware.family = family;
             motor.firmware.encoder_width = m.encoder_bits;
             motor.motor.gear_ratio = m.gear_ratio;
             motor.turnaround = Duration::from_micros(m.turnaround_us);
@@ -173,22 +209,30 @@ fn serve(args: &SimArgs) -> Result<(), CliError> {
     let clock = MonotonicClock;
     let mut motors = SimMotors::new(&config, clock.now()).map_err(|e| e.to_string())?;
     let bus = open_interface(&args.iface, Filter::MotorsAndMulti)?;
-    let (mut bus, writer): (Box<dyn CanBus>, Option<LogWriter<std::fs::File>>) = match &args.log {
+    let (mut bus, recording): (Box<dyn CanBus>, Option<Recording>) = match &args.log {
         None => (bus, None),
         Some(path) => {
-            let file = std::fs::File::create(path)
-                .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+            let sink = LogSink::create(path)?;
             // No direction markers: seen from the motors, T would mark the replies, which
             // `rmd decode` would take for requests; without markers it pairs by content.
             let options = RecordOptions::new(&args.iface).directions(false);
-            let (bus, writer) = record(bus, clock, file, options).map_err(|e| e.to_string())?;
-            (Box::new(bus), Some(writer))
+            let (bus, recording) =
+                Recording::start(bus, clock, sink, |sink| Box::new(sink), options)?;
+            (Box::new(bus), Some(recording))
         }
     };
     interrupt::install()?;
+    let firmware: Vec<String> = config
+        .motors
+        .iter()
+        .map(|m| m.firmware.family.to_string())
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
     errln!(
-        "rmd sim: motors {} answering on {} (Ctrl-C stops)",
+        "rmd sim: motors {} ({}) answering on {} (Ctrl-C stops)",
         args.ids,
+        firmware.join(", "),
         args.iface
     );
     let mut pending: Vec<ScheduledFrame> = Vec::new();
@@ -214,10 +258,10 @@ fn serve(args: &SimArgs) -> Result<(), CliError> {
         counts.replies,
         counts.send_failures
     );
-    if let (Some(path), Some(writer)) = (&args.log, writer) {
-        report_recording(path, writer)?;
+    match recording {
+        Some(recording) => recording::after(outcome, recording.finish()),
+        None => outcome,
     }
-    outcome
 }
 
 fn run_loop(

@@ -18,7 +18,7 @@ use crate::output::{errln, out, outln};
 /// Arguments of `rmd status`.
 #[derive(Args, Debug)]
 #[command(
-    after_help = "With --robot FILE: the joints by name (all of them without JOINTS), each     on its bus, with its joint angle, velocity and torque in joint units; JSON objects then also     carry `name` (the joint), `bus` (the bus's name) and `joint` {angle_deg, velocity_dps,     torque_nm}."
+    after_help = "With --robot FILE: the joints by name (all of them without JOINTS), each on its bus, with its joint angle, velocity and torque in joint units; JSON objects then also carry `name` (the joint), `bus` (the bus's name) and `joint` {angle_deg, velocity_dps, torque_nm}."
 )]
 pub(crate) struct StatusArgs {
     /// Motor id(s): 1, 1-4, 1,3; with --robot, joint names (none: every joint).

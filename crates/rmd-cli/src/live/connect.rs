@@ -1,19 +1,18 @@
 //! Opening the bus every live command talks to: `--iface IFACE` (SocketCAN) or `--sim`
-//! (simulated motors in this process, in real time), optionally recorded with `--log FILE`.
+//! (simulated motors in this process, in real time, running the firmware of `--sim-firmware`),
+//! optionally recorded with `--log FILE`, speaking the protocol of `--protocol`.
 
-use std::fs::File;
-use std::path::PathBuf;
 use std::time::Duration;
 
-use rmd_bus::record::{LogWriter, RecordOptions, record};
+use rmd_bus::record::RecordOptions;
 use rmd_bus::{CanBus, MonotonicClock};
 use rmd_protocol::{EncoderWidth, MotorId, Reply, Request};
-use rmd_sim::{MotorConfig, SimBus, SimConfig};
+use rmd_sim::{FirmwareFamily, MotorConfig, SimBus, SimConfig};
 
 use crate::args::bus::BusArgs;
 use crate::args::ids::IdList;
 use crate::live::exchange::{self, ExchangeError, Policy, Setup};
-use crate::output::errln;
+use crate::live::recording::{LogSink, Recording};
 use crate::output::report::CliError;
 
 /// Default reply timeout of a request.
@@ -30,11 +29,6 @@ pub(crate) struct Connection {
     recording: Option<Recording>,
 }
 
-struct Recording {
-    path: PathBuf,
-    writer: LogWriter<File>,
-}
-
 impl Connection {
     /// Opens what `args` names, with the given default timeout and retries (the command line
     /// overrides them).
@@ -45,10 +39,20 @@ impl Connection {
     ) -> Result<Self, CliError> {
         let (bus, setup): (Box<dyn CanBus>, Setup) = if args.sim {
             (
-                Box::new(simulated_bus(&args.sim_ids, args.encoder_bits)?),
+                Box::new(simulated_bus(
+                    &args.sim_ids,
+                    args.encoder_bits,
+                    &args.sim_families().map_err(CliError::Usage)?,
+                )?),
                 Setup::Simulator(args.sim_ids.clone()),
             )
         } else if let Some(iface) = &args.iface {
+            if !args.sim_firmware.is_empty() {
+                return Err(CliError::Usage(format!(
+                    "--sim-firmware chooses the firmware of the simulated motors of --sim; the \
+                     motors on {iface} run their own"
+                )));
+            }
             (
                 open_interface(iface, Filter::Motors)?,
                 Setup::Interface(iface.clone()),
@@ -80,6 +84,7 @@ impl Connection {
         default_timeout: Duration,
         default_retries: u32,
     ) -> Result<Self, CliError> {
+        let dialect = args.dialect().map_err(CliError::Usage)?;
         let (bus, recording) = match &args.log {
             None => (bus, None),
             Some(path) => {
@@ -87,14 +92,8 @@ impl Connection {
                     Setup::Interface(iface) => iface.as_str(),
                     Setup::Simulator(_) | Setup::Robot(_) => "sim",
                 };
-                let (bus, writer) = record_to(bus, path, name)?;
-                (
-                    bus,
-                    Some(Recording {
-                        path: path.clone(),
-                        writer,
-                    }),
-                )
+                let (bus, recording) = record_to(bus, path, name)?;
+                (bus, Some(recording))
             }
         };
         Ok(Self {
@@ -106,6 +105,7 @@ impl Connection {
                     .map_or(default_timeout, Duration::from_millis),
                 retries: args.retries.unwrap_or(default_retries),
                 setup,
+                dialect,
             },
             width,
             recording,
@@ -151,42 +151,16 @@ impl Connection {
         self.width
     }
 
-    /// Ends the connection: flushes the recording, if any, and says where it went. Dropping a
-    /// connection also flushes it, without the summary.
-    pub(crate) fn finish(self) -> Result<(), String> {
+    /// Ends the connection: flushes the recording, if any, and says where it went (a stalled
+    /// reader of the log is waited for at most [`FINISH_LIMIT`](crate::live::recording::FINISH_LIMIT)).
+    /// Dropping a connection also flushes it, without the summary.
+    pub(crate) fn finish(self) -> Result<(), CliError> {
         let Self { bus, recording, .. } = self;
         drop(bus);
         match recording {
             None => Ok(()),
-            Some(Recording { path, writer }) => report_recording(&path, writer),
+            Some(recording) => recording.finish(),
         }
-    }
-}
-
-/// Prints what a recording wrote (and dropped) on stderr.
-pub(crate) fn report_recording<W>(
-    path: &std::path::Path,
-    writer: LogWriter<W>,
-) -> Result<(), String> {
-    match writer.finish() {
-        Ok(stats) => {
-            errln!(
-                "recorded {} frames to {}{}",
-                stats.written,
-                path.display(),
-                if stats.dropped > 0 {
-                    format!(
-                        " ({} dropped: the disk could not keep up; record to a faster disk or \
-                         tmpfs)",
-                        stats.dropped
-                    )
-                } else {
-                    String::new()
-                }
-            );
-            Ok(())
-        }
-        Err(error) => Err(format!("{}: {error}", path.display())),
     }
 }
 
@@ -195,25 +169,34 @@ fn record_to(
     bus: Box<dyn CanBus>,
     path: &std::path::Path,
     interface: &str,
-) -> Result<(Box<dyn CanBus>, LogWriter<File>), String> {
-    let file = File::create(path).map_err(|e| format!("cannot create {}: {e}", path.display()))?;
-    let (bus, writer) = record(bus, MonotonicClock, file, RecordOptions::new(interface))
-        .map_err(|e| e.to_string())?;
-    Ok((Box::new(bus), writer))
+) -> Result<(Box<dyn CanBus>, Recording), String> {
+    let sink = LogSink::create(path)?;
+    let (bus, recording) = Recording::start(
+        bus,
+        MonotonicClock,
+        sink,
+        |sink| Box::new(sink),
+        RecordOptions::new(interface),
+    )?;
+    Ok((Box::new(bus), recording))
 }
 
-/// Simulated motors `ids` on a simulated 1 Mbit/s bus, in real time.
+/// Simulated motors `ids`, each running the firmware of `families` at the same position (v1.61
+/// past its end), on a simulated 1 Mbit/s bus, in real time.
 pub(crate) fn simulated_bus(
     ids: &IdList,
     width: EncoderWidth,
+    families: &[FirmwareFamily],
 ) -> Result<SimBus<MonotonicClock>, String> {
     let mut config = SimConfig::with_motors(0);
     config.motors = ids
         .ids()
         .iter()
-        .map(|&id| {
+        .enumerate()
+        .map(|(k, &id)| {
             let mut motor = MotorConfig::new(id);
             motor.firmware.encoder_width = width;
+            motor.firmware.family = families.get(k).copied().unwrap_or_default();
             motor
         })
         .collect();
@@ -223,7 +206,8 @@ pub(crate) fn simulated_bus(
 /// Which frames an interface delivers.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub(crate) enum Filter {
-    /// The motors' ids, 0x141..=0x160 (a host talking to motors).
+    /// The motors' ids, 0x141..=0x160, and the reply ids of MyActuator V3 firmware,
+    /// 0x241..=0x260 (a host talking to motors, recognising V3 motors by their answers).
     Motors,
     /// Those and the 0x280 multi-motor frame (simulated motors answering a host).
     MotorsAndMulti,
@@ -236,7 +220,10 @@ pub(crate) enum Filter {
 pub(crate) fn open_interface(iface: &str, filter: Filter) -> Result<Box<dyn CanBus>, String> {
     use rmd_bus::socketcan::{SocketCanBus, SocketCanOptions};
     let options = match filter {
-        Filter::Motors => SocketCanOptions::new(),
+        Filter::Motors => SocketCanOptions::new().accept_ids(
+            rmd_protocol::v3::REPLY_BASE_ID + 1
+                ..=rmd_protocol::v3::REPLY_BASE_ID + u16::from(MotorId::MAX),
+        ),
         Filter::MotorsAndMulti => {
             SocketCanOptions::new().accept_id(rmd_protocol::MULTI_TORQUE_CAN_ID)
         }

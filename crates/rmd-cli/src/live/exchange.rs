@@ -7,12 +7,23 @@
 //! malformed one, is remembered and reported if no good reply comes. Bus events seen meanwhile
 //! (no acknowledgement, error-passive) sharpen the advice of a timeout; bus-off ends the
 //! exchange at once.
+//!
+//! Requests and replies are encoded and decoded in the connection's [`Dialect`] (`--protocol`):
+//! a torque request carries its current in amperes into the dialect's `iqControl` scale, and a
+//! reply is decoded with the dialect's layouts and scales, then handed to the commands in the
+//! v1.61 shape they print (see [`as_v161`]: an LK-TECH voltage to 0.1 V, an MF current to
+//! v1.61's 33/2048 A steps, the LK single-turn angle within one motor turn). A motor answering
+//! on `0x240 + id` runs MyActuator V3 firmware, which rmd-rt does not drive: that is its own
+//! error.
 
 use std::fmt;
 use std::time::Duration;
 
 use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock, Timestamp};
-use rmd_protocol::{Command, MotorId, ProtocolError, Reply, Request, decode_reply_to};
+use rmd_protocol::{
+    CircleAngle, Command, CurrentScale, Dialect, DialectReply, DialectRequest, DialectStatus1, Iq,
+    MotorId, ProtocolError, Reply, Request, Status1, Status2, Voltage, decode_reply_to_with, v3,
+};
 
 use crate::args::ids::IdList;
 use crate::output::report::CliError;
@@ -26,6 +37,8 @@ pub(crate) struct Policy {
     pub(crate) retries: u32,
     /// What the motors are on.
     pub(crate) setup: Setup,
+    /// The protocol the motors speak (`--protocol`).
+    pub(crate) dialect: Dialect,
 }
 
 /// What the motors are on, for advice in error messages.
@@ -64,7 +77,7 @@ impl Setup {
                 "check that motor {motor} is powered and wired to {iface}, that its CAN id is \
                  {motor}, and that {iface} runs at the motor's bit rate (1 Mbit/s by default; \
                  `ip -details link show {iface}`); `rmd scan --iface {iface}` lists the motors \
-                 that answer"
+                 that answer and their firmware"
             ),
             Setup::Simulator(ids) => {
                 format!("the simulated motors are {ids} (choose them with --sim-ids)")
@@ -152,8 +165,8 @@ pub(crate) enum ExchangeError {
     /// A reply that cannot be decoded.
     #[error(
         "motor {motor} sent an invalid reply to {command}: {error}; try again, and if it \
-         persists check the wiring (corrupted frames) and the motor's firmware version \
-         (protocol v1.61 expected)"
+         persists check the wiring (corrupted frames) and the motor's firmware (protocol \
+         {dialect} expected: `rmd scan` identifies each motor's firmware, --protocol chooses)"
     )]
     BadReply {
         /// The motor asked.
@@ -161,6 +174,34 @@ pub(crate) enum ExchangeError {
         /// The request's command.
         command: Command,
         /// What is wrong with the reply.
+        error: ProtocolError,
+        /// The protocol spoken.
+        dialect: Dialect,
+    },
+    /// The motor answered on `0x240 + id`: MyActuator V3 firmware.
+    #[error(
+        "motor {motor} answered {command} on 0x{can_id:03X} (0x240 + id), as MyActuator V3 \
+         firmware does: rmd-rt does not drive V3 motors (their 0x280 frame is a command to every \
+         motor, not torque); `rmd scan` identifies each motor's firmware"
+    )]
+    OtherFirmware {
+        /// The motor asked.
+        motor: MotorId,
+        /// The request's command.
+        command: Command,
+        /// The identifier it answered on.
+        can_id: u16,
+    },
+    /// The request cannot be expressed in the protocol spoken (a current beyond its range).
+    #[error("cannot send {command} to motor {motor} in protocol {dialect}: {error}")]
+    Unencodable {
+        /// The motor.
+        motor: MotorId,
+        /// The request's command.
+        command: Command,
+        /// The protocol spoken.
+        dialect: Dialect,
+        /// What does not fit.
         error: ProtocolError,
     },
     /// The request could not be sent.
@@ -186,11 +227,6 @@ pub(crate) enum ExchangeError {
 }
 
 impl ExchangeError {
-    /// Whether the motor simply did not answer (as opposed to a bus failure or a bad reply).
-    pub(crate) fn is_no_reply(&self) -> bool {
-        matches!(self, ExchangeError::NoReply { .. })
-    }
-
     /// Whether the bus itself failed (nothing else will work on it either).
     pub(crate) fn is_bus_failure(&self) -> bool {
         matches!(
@@ -218,11 +254,18 @@ pub(crate) fn request(
     request: &Request,
 ) -> Result<Reply, ExchangeError> {
     let command = request.command();
-    let frame = request.encode(motor);
+    let frame =
+        encode(policy.dialect, motor, request).map_err(|error| ExchangeError::Unencodable {
+            motor,
+            command,
+            dialect: policy.dialect,
+            error,
+        })?;
     let attempts = policy.retries.saturating_add(1);
     let mut signs = BusSigns::default();
     let mut mismatch = None;
     let mut bad = None;
+    let mut v3_answer = None;
     let receive_error = |error| ExchangeError::Receive {
         motor,
         command,
@@ -243,11 +286,16 @@ pub(crate) fn request(
                 }
                 BusMessage::Event(event) => signs.note(event),
                 BusMessage::Frame(reply) if reply.id() == motor.can_id() => {
-                    match decode_reply_to(&reply, command) {
-                        Ok((_, reply)) => return Ok(reply),
+                    match decode_reply_to_with(policy.dialect, &reply, command)
+                        .and_then(|(_, reply)| as_v161(reply))
+                    {
+                        Ok(reply) => return Ok(reply),
                         Err(ProtocolError::ReplyMismatch { got, .. }) => mismatch = Some(got),
                         Err(error) => bad = Some(error),
                     }
+                }
+                BusMessage::Frame(reply) if reply.id() == v3::reply_can_id(motor) => {
+                    v3_answer = Some(reply.id());
                 }
                 // Another motor's frame: not ours.
                 BusMessage::Frame(_) => {}
@@ -259,6 +307,13 @@ pub(crate) fn request(
             motor,
             command,
             error,
+            dialect: policy.dialect,
+        }
+    } else if let Some(can_id) = v3_answer {
+        ExchangeError::OtherFirmware {
+            motor,
+            command,
+            can_id,
         }
     } else if let Some(got) = mismatch {
         ExchangeError::Mismatch {
@@ -278,8 +333,76 @@ pub(crate) fn request(
     })
 }
 
+/// The frame of `request` to `motor` in `dialect`. Only the torque request differs: its current,
+/// in amperes, goes into the dialect's `iqControl` scale (rounded to the nearest step; an error
+/// beyond the dialect's range). Every other request has the same layout in every dialect.
+pub(crate) fn encode(
+    dialect: Dialect,
+    motor: MotorId,
+    request: &Request,
+) -> Result<CanFrame, ProtocolError> {
+    match (dialect, request) {
+        (Dialect::LkV23x(_), Request::Torque { iq_control }) => {
+            DialectRequest::torque(dialect, motor, iq_control.amps()).map(|r| r.encode())
+        }
+        _ => Ok(request.encode(motor)),
+    }
+}
+
+/// A reply decoded in a dialect, in the v1.61 shape the commands print. Exact for v1.61 and for
+/// every reply whose layout and scale LK-TECH shares; otherwise the nearest v1.61 value: an LK
+/// status 1's voltage to 0.1 V (its bus current and motor state are dropped), an MF motor's `iq`
+/// to v1.61's 33/2048 A steps (MG's scale is v1.61's), and LK's single-turn angle (0.01° over
+/// one output turn of a geared motor, up to 36000 × ratio - 1) within one motor turn, as v1.61's
+/// `circleAngle` is.
+pub(crate) fn as_v161(reply: DialectReply) -> Result<Reply, ProtocolError> {
+    Ok(match reply {
+        DialectReply::Common(reply) => reply,
+        DialectReply::Status1 { command, status } => {
+            let s = match status {
+                DialectStatus1::V161(s) => s,
+                DialectStatus1::Lk(s) => Status1 {
+                    temperature: s.temperature,
+                    voltage: Voltage::from_volts_saturating(s.voltage.volts()),
+                    error_state: s.error_state,
+                },
+            };
+            if command == Command::ClearError {
+                Reply::ClearError(s)
+            } else {
+                Reply::ReadStatus1(s)
+            }
+        }
+        DialectReply::Status2 { command, status } => {
+            let iq = if status.iq.scale() == CurrentScale::V161_IQ {
+                Iq::try_from(status.iq)?
+            } else {
+                Iq::from_amps_saturating(status.iq.amps())
+            };
+            let s = Status2 {
+                temperature: status.temperature,
+                iq,
+                speed: status.speed,
+                encoder: status.encoder,
+            };
+            match command {
+                Command::Torque => Reply::Torque(s),
+                Command::Speed => Reply::Speed(s),
+                Command::Position1 => Reply::Position1(s),
+                Command::Position2 => Reply::Position2(s),
+                Command::Position3 => Reply::Position3(s),
+                Command::Position4 => Reply::Position4(s),
+                _ => Reply::ReadStatus2(s),
+            }
+        }
+        DialectReply::LkSingleTurnAngle { circle_angle } => Reply::ReadSingleTurnAngle {
+            circle_angle: CircleAngle::new(i64::from(circle_angle.raw() % 36_000))?,
+        },
+    })
+}
+
 /// Discards what is already received (stale replies), keeping note of bus events.
-fn drain(bus: &mut dyn CanBus, signs: &mut BusSigns) -> Result<(), BusError> {
+pub(crate) fn drain(bus: &mut dyn CanBus, signs: &mut BusSigns) -> Result<(), BusError> {
     while let Some(received) = bus.recv_until(Timestamp::ZERO)? {
         match received.message {
             BusMessage::Event(BusEvent::BusOff) => return Err(BusError::BusOff),
@@ -323,6 +446,7 @@ mod tests {
             timeout: Duration::from_millis(10),
             retries,
             setup: Setup::Simulator(crate::args::ids::parse("1-4").unwrap()),
+            dialect: Dialect::V161,
         }
     }
 
@@ -356,7 +480,7 @@ mod tests {
 
         let (clock, mut bus) = sim(&[drop_two]);
         let error = request(&mut bus, &clock, &policy(1), id(1), &Request::ReadPid).unwrap_err();
-        assert!(error.is_no_reply(), "{error}");
+        assert!(matches!(error, ExchangeError::NoReply { .. }), "{error}");
         assert_eq!(
             error.to_string(),
             "motor 1 did not answer read-pid within 10 ms (2 attempts): the simulated motors \

@@ -1,11 +1,13 @@
 //! Talking to motors on a live bus: [`connect`] (`--iface`/`--sim` to a bus, `--log`),
 //! [`motors`] (the motors of a command: ids on a bus, or a robot's joints by name),
 //! [`exchange`] (one request, one reply: timeout, retries, typed errors), [`interrupt`]
-//! (Ctrl-C), [`safe_stop`] (motors off when a motion ends), [`confirm`] (ROM writes).
+//! (Ctrl-C), [`safe_stop`] (motors off when a motion ends), [`confirm`] (ROM writes),
+//! [`recording`] (`--log`, never held by its reader).
 
 pub(crate) mod confirm;
 pub(crate) mod connect;
 pub(crate) mod exchange;
 pub(crate) mod interrupt;
 pub(crate) mod motors;
+pub(crate) mod recording;
 pub(crate) mod safe_stop;

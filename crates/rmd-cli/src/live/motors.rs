@@ -120,7 +120,9 @@ impl Motors {
                 robot.buses().len()
             )));
         }
-        let sims = rmd_rig::sim::sim_configs(&robot, 1);
+        // Each simulated joint powered up where the description reads it right.
+        let mut sims = rmd_rig::sim::sim_configs(&robot, 1);
+        rmd_rig::sim::power_up_centred(&robot, &mut sims);
         let mut buses = Vec::new();
         for ((spec, target), sim) in robot.buses().iter().zip(placement.buses()).zip(sims) {
             let (bus, setup): (Box<dyn rmd_bus::CanBus>, Setup) = match target {
@@ -205,7 +207,7 @@ impl Motors {
     }
 
     /// Ends every connection (flushing a recording).
-    pub(crate) fn finish(self) -> Result<(), String> {
+    pub(crate) fn finish(self) -> Result<(), CliError> {
         for bus in self.buses {
             bus.finish()?;
         }

@@ -1,10 +1,9 @@
 //! What the commands print: stdout and stderr without panics ([`console`], with the
 //! [`outln!`] and [`errln!`] macros), errors and exit codes ([`report`]), frames and replies as
-//! JSON ([`json`]), readings of motors as JSON objects or words ([`readings`]), tables
+//! JSON ([`json`], from `rmd-frames`, shared with the Python package), readings of motors as JSON objects or words ([`readings`]), tables
 //! ([`table`]), progress on a terminal ([`progress`]).
 
 pub(crate) mod console;
-pub(crate) mod json;
 pub(crate) mod progress;
 pub(crate) mod readings;
 pub(crate) mod report;
@@ -39,3 +38,6 @@ macro_rules! errln {
 }
 
 pub(crate) use {errln, out, outln};
+
+/// Frames and replies as JSON objects: `rmd-frames`' builder, shared with the Python package.
+pub(crate) use rmd_frames::json;

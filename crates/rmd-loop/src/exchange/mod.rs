@@ -30,6 +30,9 @@ pub(crate) struct Exchange<B> {
     pub(crate) staged: Vec<TorqueSlots>,
     /// How many ticks old a reply may be and still count as this tick's (0, or 1 pipelined).
     pub(crate) max_age: u64,
+    /// Pipelined: the first tick's feedback is the start-up probe's replies (the request
+    /// before it), not missing.
+    carry_probe: bool,
 }
 
 impl<B> Exchange<B> {
@@ -52,18 +55,23 @@ impl<B> Exchange<B> {
                 .joints()
                 .iter()
                 .enumerate()
-                .map(|(i, j)| MotorLink::new(i, j))
+                .map(|(i, j)| MotorLink::new(i, j, robot.buses()[j.bus].bitrate))
                 .collect(),
             feedback: vec![JointFeedback::UNSET; robot.joint_count()],
             max_age: match robot.settings().reply_mode {
                 ReplyMode::SameTick => 0,
                 ReplyMode::Pipelined => 1,
             },
+            carry_probe: false,
         }
     }
 
-    /// Starts a tick (or the probe): every joint's feedback is missing until a reply comes.
+    /// Starts a tick (or the probe): every joint's feedback is missing until a reply comes
+    /// (except, pipelined, in the first tick: its answers are the probe's).
     pub(crate) fn begin_tick(&mut self) {
+        if core::mem::take(&mut self.carry_probe) {
+            return;
+        }
         for (motor, feedback) in self.motors.iter_mut().zip(&mut self.feedback) {
             motor.begin_tick(feedback);
         }
@@ -77,9 +85,12 @@ impl<B> Exchange<B> {
     }
 
     /// Forgets every outstanding request (after the probe, whose replies were waited for).
+    /// Pipelined, the probe's replies then stand as the first tick's feedback: in that mode a
+    /// tick is answered by the request before it, and the probe's was the one before tick 0.
     pub(crate) fn forget_pending(&mut self) {
         for m in &mut self.motors {
             m.pending.clear();
         }
+        self.carry_probe = self.max_age > 0;
     }
 }

@@ -5,7 +5,7 @@ use core::time::Duration;
 use rmd_bus::Timestamp;
 use rmd_protocol::{CurrentScale, Dialect, EncoderWidth, MotorId, ScaledStatus2};
 
-use super::pending::{PendingRequests, RESYNC_AFTER};
+use super::pending::{PendingRequests, RESYNC_AFTER, min_round_trip};
 use crate::feedback::{Freshness, JointFeedback, JointState, MotorState, RawStatus};
 use crate::joint::JointId;
 use crate::mapping::{EncoderUnwrapper, JointMap};
@@ -51,10 +51,13 @@ pub(crate) struct MotorLink {
     late_streak: u32,
     /// Estimated round trip (request sent to reply received); `None` until the first reply.
     pub(crate) round_trip: Option<Duration>,
+    /// The shortest physical round trip on its bus (see [`min_round_trip`]).
+    min_round_trip: Duration,
 }
 
 impl MotorLink {
-    pub(crate) fn new(index: usize, joint: &JointSpec) -> Self {
+    /// The link of joint `index`, `joint`, on a bus at `bitrate` bit/s.
+    pub(crate) fn new(index: usize, joint: &JointSpec, bitrate: u32) -> Self {
         Self {
             at: MotorRef {
                 joint: JointId::from_index(index),
@@ -77,6 +80,7 @@ impl MotorLink {
             late_fits_next: None,
             late_streak: 0,
             round_trip: None,
+            min_round_trip: min_round_trip(bitrate),
         }
     }
 
@@ -132,7 +136,7 @@ impl MotorLink {
             counters.bad_frames += 1;
             return ReplyClass::Unexpected;
         }
-        let Some((sent_tick, sent_at)) = self.pending.answer(at, self.round_trip) else {
+        let Some((sent_tick, sent_at)) = self.pending.answer(at, self.min_round_trip) else {
             counters.unexpected_replies += 1;
             return ReplyClass::Unexpected;
         };
@@ -219,7 +223,7 @@ mod tests {
                 .with_bus(BusConfig::new("can0").with_motor(MotorConfig::new(2).gear_ratio(2.0))),
         )
         .unwrap();
-        let m = MotorLink::new(0, &robot.joints()[0]);
+        let m = MotorLink::new(0, &robot.joints()[0], 1_000_000);
         let c = MotorCounters::new(0, m.id);
         (m, JointFeedback::UNSET, c)
     }
@@ -234,25 +238,27 @@ mod tests {
         p.push(1, t(1000));
         p.push(2, t(2000));
         p.push(3, t(3000));
+        // At 1 Mbit/s no reply comes sooner than 216 us after its request.
+        let shortest = super::super::pending::min_round_trip(1_000_000);
+        assert_eq!(shortest, Duration::from_micros(216));
         // Sent after the reply arrived: it answers none of them.
-        assert_eq!(p.answer(t(500), None), None);
-        // Round trip 0.3 ms: a reply at 3.3 ms answers the oldest, request 1 (first in, first
-        // out), whatever its timing says about request 3.
-        let rtt = Some(Duration::from_micros(300));
-        assert_eq!(p.answer(t(3300), rtt).map(|e| e.0), Some(1));
+        assert_eq!(p.answer(t(500), shortest), None);
+        // A reply at 3.3 ms answers the oldest, request 1 (first in, first out), whatever its
+        // timing says about request 3.
+        assert_eq!(p.answer(t(3300), shortest).map(|e| e.0), Some(1));
         assert_eq!(p.len(), 2);
         // Too early for the oldest outstanding request (a duplicate right after the original):
         // unexpected, and nothing is taken.
         let mut q = PendingRequests::new();
         q.push(7, t(7000));
-        assert_eq!(q.answer(t(7050), rtt), None);
+        assert_eq!(q.answer(t(7050), shortest), None);
         assert_eq!(q.len(), 1);
         // A full ring gives up its oldest entries.
         for k in 0..20 {
             p.push(k, t(k * 1000));
         }
         assert_eq!(p.len(), PENDING_CAPACITY);
-        assert_eq!(p.answer(t(100_000), rtt).map(|e| e.0), Some(12));
+        assert_eq!(p.answer(t(100_000), shortest).map(|e| e.0), Some(12));
         p.drop_oldest();
         assert_eq!(p.oldest().map(|e| e.0), Some(14));
     }
@@ -395,17 +401,17 @@ mod tests {
     fn duplicates_and_out_of_range_encoders_are_counted_not_used() {
         let (mut m, mut fb, mut c) = motor();
         m.pending.push(1, t(1000));
-        m.on_reply(&status(10), t(1200), 1, 0, &mut fb, &mut c);
+        m.on_reply(&status(10), t(1300), 1, 0, &mut fb, &mut c);
         let before = fb;
         assert_eq!(
-            m.on_reply(&status(20), t(1250), 1, 0, &mut fb, &mut c),
+            m.on_reply(&status(20), t(1350), 1, 0, &mut fb, &mut c),
             ReplyClass::Unexpected
         );
         assert_eq!(c.unexpected_replies, 1);
         m.pending.push(2, t(2000));
         // 14-bit encoder: 20000 is impossible.
         assert_eq!(
-            m.on_reply(&status(20_000), t(2200), 2, 0, &mut fb, &mut c),
+            m.on_reply(&status(20_000), t(2300), 2, 0, &mut fb, &mut c),
             ReplyClass::Unexpected
         );
         assert_eq!(c.bad_frames, 1);

@@ -3,12 +3,14 @@
 //! Every 0x280 frame asks each motor on its bus for one 0xA1 reply, and all replies look alike.
 //! The firmware answers a motor's requests in the order they came (first in, first out), so a
 //! reply answers the motor's **oldest** outstanding request, as long as it could be that
-//! request's reply: it arrived at least about a round trip after the request was sent (the round
-//! trip is measured in the start-up probe, when one request is outstanding, then tracked from
-//! fresh replies). The reply's age (this tick minus that request's tick) is its true age: a
-//! reply held up behind a late one is counted late, never taken for this tick's. A reply that
-//! could answer no outstanding request (too early for the oldest: a duplicate, or an answer to
-//! somebody else's request) is unexpected.
+//! request's reply: it arrived at least the shortest physical round trip after the request was
+//! sent (the request and the reply each on the wire: two 8-byte frames at the bus's bit rate).
+//! The reply's age (this tick minus that request's tick) is its true age: a reply held up
+//! behind a late one is counted late, never taken for this tick's. A reply that could answer no
+//! outstanding request (none outstanding, or too early for the oldest: a duplicate right after
+//! the original, or an answer to somebody else's request) is unexpected. The bound is physical,
+//! not statistical: on a host whose round trips vary widely (a loaded or emulated machine, a
+//! USB adapter that delivers frames in batches) a genuinely fast reply is still taken.
 //!
 //! A reply lost on the way leaves one request outstanding that no reply will answer, so every
 //! later reply would seem one tick old. The motor's link notices: when the newest reply of
@@ -28,8 +30,19 @@ pub(crate) const PENDING_CAPACITY: usize = 8;
 /// which the oldest outstanding request is declared lost.
 pub(crate) const RESYNC_AFTER: u32 = 2;
 
-/// How much earlier than its tracked round trip a reply may arrive: a quarter of the round trip
-/// plus 20 us (turnaround jitter, arbitration behind other motors).
+/// Bit times of an 8-byte standard data frame without stuff bits (SOF, identifier, control, data,
+/// CRC, delimiters, ACK, EOF): the least one can take on the wire.
+const MIN_FRAME_BITS: u32 = 108;
+
+/// The shortest time in which a motor can answer a request on a bus at `bitrate`: the request
+/// and the reply each on the wire, nothing else.
+pub(crate) fn min_round_trip(bitrate: u32) -> Duration {
+    rmd_bus::wire::bits_to_duration(2 * MIN_FRAME_BITS, bitrate)
+}
+
+/// How far from its tracked round trip a reply may come and still count as on time for a
+/// request (when resynchronising after lost replies): a quarter of the round trip plus 20 us
+/// (turnaround jitter, arbitration behind other motors).
 fn early_tolerance(round_trip: Duration) -> Duration {
     round_trip / 4 + Duration::from_micros(20)
 }
@@ -66,28 +79,25 @@ impl PendingRequests {
     }
 
     /// Whether a reply received at `received` could answer a request sent at `sent`: it came
-    /// at least the round trip (less a tolerance) later (or just later, before the round trip is
-    /// known).
+    /// at least `min_round_trip` later.
     pub(crate) fn could_answer(
         sent: Timestamp,
         received: Timestamp,
-        round_trip: Option<Duration>,
+        min_round_trip: Duration,
     ) -> bool {
-        match round_trip {
-            None => received >= sent,
-            Some(rtt) => received >= (sent + rtt).saturating_sub(early_tolerance(rtt)),
-        }
+        received >= sent + min_round_trip
     }
 
     /// Takes the request that a reply received at `received` answers: the oldest outstanding,
-    /// if the reply could be its reply; `None` (an unexpected reply) otherwise.
+    /// if the reply could be its reply (at least `min_round_trip` after it was sent); `None` (an
+    /// unexpected reply) otherwise.
     pub(crate) fn answer(
         &mut self,
         received: Timestamp,
-        round_trip: Option<Duration>,
+        min_round_trip: Duration,
     ) -> Option<(u64, Timestamp)> {
         let (tick, sent) = self.oldest()?;
-        if !Self::could_answer(sent, received, round_trip) {
+        if !Self::could_answer(sent, received, min_round_trip) {
             return None;
         }
         self.drop_oldest();

@@ -134,7 +134,7 @@ pub struct RealtimeArgs {
     #[arg(long)]
     pub lock_memory: bool,
     /// Sleep until this many microseconds before each deadline, then busy-wait (0: sleep only).
-    #[arg(long, value_name = "US")]
+    #[arg(long, value_name = "US", allow_hyphen_values = true, value_parser = values::spin_us)]
     pub spin_us: Option<u64>,
     /// Hold this CPU wake-up latency (/dev/cpu_dma_latency, microseconds) while the loop runs,
     /// or `off`. Default: 0 with --cpu or --fifo (as cyclictest), else the description's.

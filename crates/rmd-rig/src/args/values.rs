@@ -66,9 +66,28 @@ pub fn cpu_latency(text: &str) -> Result<rmd_loop::robot::CpuLatencySetting, Str
     Ok(CpuLatencySetting::Us(us))
 }
 
+/// `--spin-us`: microseconds of busy-waiting before each deadline, 0..=1 s (a negative or
+/// fractional value is a usage error naming the flag, not an unknown argument).
+pub fn spin_us(text: &str) -> Result<u64, String> {
+    match text.trim().parse::<u64>() {
+        Ok(us) if us <= 1_000_000 => Ok(us),
+        _ => Err(format!(
+            "`{text}` is not a whole number of microseconds from 0 to 1000000 (1 s)"
+        )),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn spin_margins_are_checked() {
+        assert_eq!(spin_us("200"), Ok(200));
+        for bad in ["-1", "1.5", "1000001", "inf", ""] {
+            assert!(spin_us(bad).unwrap_err().contains("whole number"), "{bad}");
+        }
+    }
 
     #[test]
     fn values_are_checked() {

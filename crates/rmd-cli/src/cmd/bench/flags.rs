@@ -1,7 +1,26 @@
-//! Value parsers of the flags only the benchmarks have (`--motors`, `--buses`). The run flags
-//! they share with other commands are in `rmd_rig::args`.
+//! Value parsers of the flags only the benchmarks have (`--motors`, `--buses`), and the guard of
+//! their loop `--rate`. The run flags they share with other commands are in `rmd_rig::args`.
 
 use rmd_loop::robot::{MAX_BUSES, MAX_MOTORS_PER_BUS};
+use rmd_loop::schedule::MAX_PERIOD;
+use rmd_rig::args::values;
+
+/// `--rate` of a benchmark's loop: `rmd_rig::args::values::rate`, after refusing a rate whose
+/// period is longer than the loop's longest ([`MAX_PERIOD`]) itself, since the loop's own check
+/// cannot represent the period of a rate like 1e-300 Hz.
+pub(crate) fn loop_rate(text: &str) -> Result<f64, String> {
+    if let Ok(hz) = text.trim().parse::<f64>()
+        && hz.is_finite()
+        && hz > 0.0
+        && 1.0 / hz > MAX_PERIOD.as_secs_f64()
+    {
+        return Err(format!(
+            "{text} Hz is too slow: the loop period must be at most {MAX_PERIOD:?} (at least {} Hz)",
+            1.0 / MAX_PERIOD.as_secs_f64()
+        ));
+    }
+    values::rate(text)
+}
 
 /// `--motors`: motors per bus, 1..=4.
 pub(crate) fn motors(text: &str) -> Result<u8, String> {
@@ -41,5 +60,10 @@ mod tests {
         assert!(motors("0").is_err());
         assert_eq!(buses("8").unwrap(), 8);
         assert!(buses("9").is_err());
+        assert_eq!(loop_rate("1000").unwrap(), 1000.0);
+        for bad in ["1e-300", "0.01", "0", "-5", "inf", "NaN", "1e300"] {
+            assert!(loop_rate(bad).is_err(), "{bad}");
+        }
+        assert!(loop_rate("1e-300").unwrap_err().contains("too slow"));
     }
 }

@@ -13,6 +13,7 @@ use rmd_loop::schedule::Period;
 use serde_json::{Value, json};
 
 use super::histogram;
+use crate::args::timing;
 use rmd_rig::args::RealtimeArgs;
 use rmd_rig::args::duration::run_length;
 
@@ -24,6 +25,9 @@ use crate::output::report;
 
 /// Arguments of `rmd bench jitter`.
 #[derive(Args, Debug)]
+// `--spin-us` of `rmd_rig::args::RealtimeArgs`, with the CLI's parser: `-1` or `1e300` is a
+// usage error naming the flag.
+#[command(mut_arg("spin_us", |arg| arg.allow_hyphen_values(true).value_parser(timing::spin_us)))]
 #[command(after_help = "Output: a cyclictest-like summary line \
     (T: 0 (pid) P:prio I:period_us C:ticks Min: Avg: Max:, whole microseconds truncated as \
     cyclictest does) and the percentiles. JSON (--json): {ticks, deadline_misses, \
@@ -34,7 +38,7 @@ use crate::output::report;
     (as cyclictest does) unless --cpu-dma-latency says otherwise.")]
 pub(crate) struct JitterArgs {
     /// Tick period in microseconds (10..=10000000).
-    #[arg(long, value_name = "P", default_value = "1000", value_parser = period_us)]
+    #[arg(long, value_name = "P", default_value = "1000", value_parser = period_us, allow_hyphen_values = true)]
     period_us: Period,
     /// How long to measure (e.g. 10s, 2m; a bare number is seconds).
     #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "10s", value_parser = run_length, allow_hyphen_values = true)]

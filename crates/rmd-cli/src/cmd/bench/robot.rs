@@ -9,7 +9,7 @@ use rmd_loop::os::RtRequest;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
 use rmd_rig::args::RealtimeArgs;
 use rmd_sim::threaded::{Lateness, SimPort, ThreadOptions, ThreadedSim};
-use rmd_sim::{SimBus, SimConfig};
+use rmd_sim::{FirmwareFamily, SimBus, SimConfig};
 
 /// Gear ratio of the simulator's default motor.
 const GEAR_RATIO: f64 = 9.0;
@@ -46,11 +46,23 @@ pub(crate) fn sim_buses<C: Clock + Clone>(
     buses: usize,
     motors: u8,
 ) -> Result<Vec<SimBus<C>>, rmd_sim::ConfigError> {
+    sim_buses_of(clock, buses, motors, FirmwareFamily::V161)
+}
+
+/// [`sim_buses`] whose motors run `family`'s firmware (`rmd bench loop --sim-firmware`).
+pub(crate) fn sim_buses_of<C: Clock + Clone>(
+    clock: &C,
+    buses: usize,
+    motors: u8,
+    family: FirmwareFamily,
+) -> Result<Vec<SimBus<C>>, rmd_sim::ConfigError> {
     (0..buses)
         .map(|b| {
             SimBus::new(
                 clock.clone(),
-                SimConfig::with_motors(motors).seed(SEED + b as u64),
+                SimConfig::with_motors(motors)
+                    .seed(SEED + b as u64)
+                    .firmware_family(family),
             )
         })
         .collect()
@@ -86,14 +98,15 @@ impl ThreadedBuses {
     }
 }
 
-/// `buses` threaded simulated buses with motors 1..=`motors`, each recording up to
-/// `trace_capacity` transmissions (0: none). Their threads run off the loop's CPU when it is
+/// `buses` threaded simulated buses with motors 1..=`motors` running `family`'s firmware, each
+/// recording up to `trace_capacity` transmissions (0: none). Their threads run off the loop's CPU when it is
 /// pinned and another CPU exists, at the loop's SCHED_FIFO priority when it has one (the motors
 /// are hardware: they must not wait behind other programs); the loop's receive sleeps until
 /// `receive_spin` before each reply's arrival, then busy-waits.
 pub(crate) fn threaded_buses(
     buses: usize,
     motors: u8,
+    family: FirmwareFamily,
     rt: &RealtimeArgs,
     receive_spin: Duration,
     trace_capacity: usize,
@@ -107,7 +120,9 @@ pub(crate) fn threaded_buses(
     for b in 0..buses {
         let mut bus = SimBus::new(
             MonotonicClock,
-            SimConfig::with_motors(motors).seed(SEED + b as u64),
+            SimConfig::with_motors(motors)
+                .seed(SEED + b as u64)
+                .firmware_family(family),
         )
         .map_err(|e| format!("simulator: {e}"))?;
         if trace_capacity > 0 {

@@ -1,28 +1,39 @@
-//! `rmd decode [--as request|reply|auto] [FILE]`: frames in, one JSON object per frame out.
+//! `rmd decode [--as request|reply|auto] [--protocol P] [FILE]`: frames in, one JSON object per
+//! frame out.
 //!
 //! Reads FILE (or stdin, also with `-`) line by line in any of candump's text formats (see
-//! [`rmd_bus::candump`]). Each valid frame prints one JSON object on stdout, in input order (see
-//! [`crate::output::json`]); each bad line prints `line N: <what is wrong>` on stderr and the run goes
-//! on; the exit status is 1 if any line failed. Blank lines are skipped.
+//! [`rmd_bus::candump`]), in bounded memory: a line longer than [`lines::MAX_LINE`] bytes is that
+//! line's error. Each valid frame prints one JSON object on stdout, in input order (see
+//! [`crate::output::json`]); each bad line prints `line N: <what is wrong>` on stderr and the run
+//! goes on; the exit status is 1 if any line failed. Blank lines are skipped.
+//!
+//! A reply with a field out of range (an `iq` beyond ±2048, an encoder value beyond the encoder
+//! width) still prints every other field: the bad one is left out, named under `errors` in the
+//! JSON and on stderr as `line N: ...`, and the exit status is 1 ([`rmd_frames::partial`]). Errors of the
+//! whole frame (identifier, DLC, unknown command byte, a reply to another command) print no
+//! object.
 
+pub(crate) mod lines;
 pub(crate) mod pairing;
 
+use std::collections::VecDeque;
 use std::fs::File;
-use std::io::{self, BufRead, BufReader, BufWriter, Write};
+use std::io::{self, BufRead, BufReader, BufWriter, StdoutLock, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Args, ValueEnum};
 use rmd_bus::candump::{self, CandumpLine};
-use rmd_protocol::{DecodedRequest, EncoderWidth, decode_reply, decode_reply_to, decode_request};
-use serde_json::Value;
+use rmd_frames::decode::Decoded;
+use rmd_protocol::{Dialect, EncoderWidth};
 
+use crate::args::bus::ProtocolArgs;
 use crate::args::parse;
 use crate::output::console::WriteError;
 use crate::output::errln;
-use crate::output::json::FrameJson;
 use crate::output::report;
-use pairing::{Pairing, Role};
+use lines::{Line, Lines};
+use pairing::{HELD_LINES, LookAhead, Role, Ticket};
 
 /// How to read each frame.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -41,8 +52,12 @@ enum Mode {
 #[command(
     after_help = "Output: one JSON object per frame: `id` (motor id, absent for 0x280), \
     `can_id` (\"0x141\"), `direction` (request|reply), `command`, then each field under its \
-    snake_case spec name with its raw value and physical values under `<field>_<unit>` names. \
-    Bad lines are reported on stderr as `line N: ...`; the exit status is 1 if any line failed."
+    snake_case spec name with its raw value and physical values under `<field>_<unit>` names, \
+    and `errors` ({field, raw, error} objects) for fields out of range, which are left out. Bad \
+    lines and bad fields are reported on stderr as `line N: ...`; the exit status is 1 if any \
+    line failed. Lines longer than 4096 bytes are errors. Pairing (--as auto): frames repeating \
+    the pending request of a read command are more requests when its reply follows, else \
+    all-zero replies; TX/RX markers decide when the log has TX frames (docs/cli.md)."
 )]
 pub(crate) struct DecodeArgs {
     /// Read frames as requests, replies, or decide per frame.
@@ -54,65 +69,136 @@ pub(crate) struct DecodeArgs {
     encoder_bits: EncoderWidth,
     /// Input file; stdin if absent or `-`.
     file: Option<PathBuf>,
+    #[command(flatten)]
+    protocol: ProtocolArgs,
 }
 
-/// Decodes one parsed line into its JSON object.
+/// Decodes one parsed line, a frame of `role`, into its JSON object (`rmd-frames`, shared with
+/// the Python package's `decode`).
 fn decode_line(
     line: &CandumpLine,
-    mode: Mode,
-    pairing: &mut Pairing,
+    role: Role,
     width: EncoderWidth,
-) -> Result<Value, String> {
-    let frame = &line.frame;
-    let role = match mode {
-        Mode::Request => Role::Request,
-        Mode::Reply => Role::Reply(None),
-        Mode::Auto => pairing.classify(frame.id(), frame.data(), line.direction),
-    };
-    let header = |direction: &str, command: &str| {
-        FrameJson::new(
-            line.timestamp,
-            line.interface.as_deref(),
-            frame.id(),
-            direction,
-            command,
-            width,
-        )
-    };
-    let value = match role {
-        Role::Request => match decode_request(frame).map_err(|e| e.to_string())? {
-            DecodedRequest::Single { request, .. } => {
-                request
-                    .check_encoder_width(width)
-                    .map_err(|e| encoder_hint(e, width))?;
-                header("request", request.command().name()).request(&request)
-            }
-            DecodedRequest::Multi(m) => header("request", "multi-torque").multi(&m),
-        },
-        Role::Reply(pending) => {
-            let (_, reply) = match pending {
-                Some(command) => decode_reply_to(frame, command),
-                None => decode_reply(frame),
-            }
-            .map_err(|e| e.to_string())?;
-            reply
-                .check_encoder_width(width)
-                .map_err(|e| encoder_hint(e, width))?;
-            header("reply", reply.command().name()).reply(&reply)
-        }
-    };
-    Ok(value.into_value())
+    dialect: Dialect,
+) -> Result<Decoded, String> {
+    match role {
+        Role::Request => rmd_frames::decode::request(line, width, dialect),
+        Role::Reply(pending) => rmd_frames::decode::reply(line, pending, width, dialect),
+    }
 }
 
-fn encoder_hint(err: rmd_protocol::ProtocolError, width: EncoderWidth) -> String {
-    format!(
-        "{err} for a {}-bit encoder (see --encoder-bits)",
-        width.bits()
-    )
+/// A line waiting for its turn on the output (input order), its role perhaps still undecided
+/// (a run of repeated queries, see [`pairing::LookAhead`]).
+enum Held {
+    /// A frame.
+    Frame {
+        number: usize,
+        line: CandumpLine,
+        role: Slot,
+    },
+    /// A line that is not a frame: its error message.
+    Error { number: usize, message: String },
+}
+
+/// A frame's role: known, or to be taken from the look-ahead.
+enum Slot {
+    Known(Role),
+    Pending(Ticket),
+}
+
+/// Prints decoded lines in input order as their roles are decided.
+struct Printer<'a> {
+    out: BufWriter<StdoutLock<'a>>,
+    held: VecDeque<Held>,
+    pairing: LookAhead,
+    width: EncoderWidth,
+    dialect: Dialect,
+    failed: bool,
+}
+
+impl Printer<'_> {
+    /// Queues a line that is not a frame.
+    fn error(&mut self, number: usize, message: String) {
+        self.held.push_back(Held::Error { number, message });
+    }
+
+    /// Queues a frame, classified as `mode` says.
+    fn frame(&mut self, number: usize, line: CandumpLine, mode: Mode) {
+        let role = match mode {
+            Mode::Request => Slot::Known(Role::Request),
+            Mode::Reply => Slot::Known(Role::Reply(None)),
+            Mode::Auto => Slot::Pending(self.pairing.push(
+                line.frame.id(),
+                line.frame.data(),
+                line.direction,
+            )),
+        };
+        self.held.push_back(Held::Frame { number, line, role });
+    }
+
+    /// Prints every line whose turn has come; a run held for [`HELD_LINES`] lines is decided
+    /// without its follower. `end`: decide everything.
+    fn print_ready(&mut self, end: bool) -> Result<(), WriteError> {
+        if end {
+            self.pairing.finish();
+        } else if self.held.len() > HELD_LINES
+            && let Some(Held::Frame {
+                role: Slot::Pending(ticket),
+                ..
+            }) = self.held.front()
+        {
+            self.pairing.decide(*ticket);
+        }
+        loop {
+            // The front line's role, if it is a frame whose role is decided.
+            let role = match self.held.front() {
+                None => return Ok(()),
+                Some(Held::Frame {
+                    role: Slot::Pending(ticket),
+                    ..
+                }) => match self.pairing.take(*ticket) {
+                    Some(role) => Some(role),
+                    None => return Ok(()),
+                },
+                Some(Held::Frame {
+                    role: Slot::Known(role),
+                    ..
+                }) => Some(*role),
+                Some(Held::Error { .. }) => None,
+            };
+            match (self.held.pop_front(), role) {
+                (Some(Held::Error { number, message }), _) => self.fail(number, &message),
+                (Some(Held::Frame { number, line, .. }), Some(role)) => {
+                    match decode_line(&line, role, self.width, self.dialect) {
+                        Ok(decoded) => {
+                            writeln!(self.out, "{}", decoded.value).map_err(WriteError::from_io)?;
+                            for message in &decoded.field_errors {
+                                self.fail(number, message);
+                            }
+                        }
+                        Err(message) => self.fail(number, &message),
+                    }
+                }
+                _ => return Ok(()),
+            }
+        }
+    }
+
+    /// Reports `line N: message` on stderr (stdout flushed first, to keep input order on a
+    /// terminal) and marks the run failed.
+    fn fail(&mut self, number: usize, message: &str) {
+        self.failed = true;
+        let _ = self.out.flush();
+        errln!("line {number}: {message}");
+    }
 }
 
 /// Runs `rmd decode`.
 pub(crate) fn run(args: DecodeArgs) -> ExitCode {
+    let dialect = match args.protocol.dialect() {
+        Ok(dialect) => dialect,
+        Err(message) => return report::usage_error(message),
+    };
     let input: Box<dyn BufRead> = match &args.file {
         None => Box::new(BufReader::new(io::stdin().lock())),
         Some(path) if path.as_os_str() == "-" => Box::new(BufReader::new(io::stdin().lock())),
@@ -121,48 +207,56 @@ pub(crate) fn run(args: DecodeArgs) -> ExitCode {
             Err(e) => return report::failure(format!("cannot read {}: {e}", path.display())),
         },
     };
-    let mut out = BufWriter::new(io::stdout().lock());
-    let mut pairing = Pairing::default();
-    let mut failed = false;
-    for (index, line) in input.split(b'\n').enumerate() {
-        let number = index + 1;
-        let bytes = match line {
-            Ok(bytes) => bytes,
+    let mut printer = Printer {
+        out: BufWriter::new(io::stdout().lock()),
+        held: VecDeque::new(),
+        pairing: LookAhead::default(),
+        width: args.encoder_bits,
+        dialect,
+        failed: false,
+    };
+    let mut input = Lines::new(input, lines::MAX_LINE);
+    let mut number = 0usize;
+    loop {
+        number += 1;
+        match input.next_line() {
+            Ok(None) => break,
+            Ok(Some(Line::TooLong)) => printer.error(
+                number,
+                format!(
+                    "longer than {} bytes, not a candump line (skipped to the next newline)",
+                    lines::MAX_LINE
+                ),
+            ),
+            Ok(Some(Line::Text(bytes))) => match std::str::from_utf8(bytes) {
+                Err(_) => printer.error(number, "not valid UTF-8 text".to_owned()),
+                Ok(text) if text.trim().is_empty() => continue,
+                Ok(text) => match candump::parse_line(text) {
+                    Ok(line) => printer.frame(number, line, args.mode),
+                    Err(e) => printer.error(number, e.to_string()),
+                },
+            },
             Err(e) => {
-                let _ = out.flush();
+                let printed = printer
+                    .print_ready(true)
+                    .and_then(|()| printer.out.flush().map_err(WriteError::from_io));
+                if let Err(error) = printed {
+                    return written_until(error, printer.failed);
+                }
                 return report::failure(format!("line {number}: read error: {e}"));
             }
-        };
-        let Ok(text) = std::str::from_utf8(&bytes) else {
-            failed = true;
-            let _ = out.flush();
-            errln!("line {number}: not valid UTF-8 text");
-            continue;
-        };
-        if text.trim().is_empty() {
-            continue;
         }
-        let result = candump::parse_line(text)
-            .map_err(|e| e.to_string())
-            .and_then(|parsed| decode_line(&parsed, args.mode, &mut pairing, args.encoder_bits));
-        match result {
-            Ok(value) => {
-                if let Err(error) = writeln!(out, "{value}") {
-                    return written_until(WriteError::from_io(error), failed);
-                }
-            }
-            Err(message) => {
-                failed = true;
-                // Keep stdout and stderr in input order when both go to a terminal.
-                let _ = out.flush();
-                errln!("line {number}: {message}");
-            }
+        if let Err(error) = printer.print_ready(false) {
+            return written_until(error, printer.failed);
         }
     }
-    if let Err(error) = out.flush() {
-        return written_until(WriteError::from_io(error), failed);
+    let printed = printer
+        .print_ready(true)
+        .and_then(|()| printer.out.flush().map_err(WriteError::from_io));
+    if let Err(error) = printed {
+        return written_until(error, printer.failed);
     }
-    if failed {
+    if printer.failed {
         ExitCode::from(report::FAILURE)
     } else {
         ExitCode::SUCCESS

@@ -29,12 +29,13 @@ use serde_json::{Value, json};
 
 use super::flags;
 use super::wire_limit::{self, us};
+use crate::args::timing;
 use crate::output::errln;
 use crate::output::progress::{self, Progress};
 use crate::output::report;
 use crate::output::table::{Align, TextTable};
+use rmd_rig::args::RealtimeArgs;
 use rmd_rig::args::duration::run_length;
-use rmd_rig::args::{RealtimeArgs, values};
 use search::Search;
 use trial::Trial;
 
@@ -60,6 +61,9 @@ pub(crate) enum SimPlace {
 
 /// Arguments of `rmd bench rate`.
 #[derive(Args, Debug, Clone)]
+// `--spin-us` of `rmd_rig::args::RealtimeArgs`, with the CLI's parser: `-1` or `1e300` is a
+// usage error naming the flag.
+#[command(mut_arg("spin_us", |arg| arg.allow_hyphen_values(true).value_parser(timing::spin_us)))]
 #[command(
     after_help = "Output: one line per trial, then per bus count the headline rate \
     (at most --miss-budget-pct of the ticks missed) and the zero-miss rate, each as a share of \
@@ -84,7 +88,7 @@ pub(crate) struct RateArgs {
     rt: RealtimeArgs,
     /// Receive each reply by sleeping until US microseconds before its arrival, then
     /// busy-waiting (a polling receive); 0 sleeps all the way (a blocking receive).
-    #[arg(long, value_name = "US", default_value_t = 0)]
+    #[arg(long, value_name = "US", value_parser = timing::spin_us, default_value = "0", allow_hyphen_values = true)]
     rx_spin_us: u64,
     /// Where the simulated buses run (real time: `thread` or `inline`).
     #[arg(
@@ -104,7 +108,7 @@ pub(crate) struct RateArgs {
     #[arg(long, value_name = "N", default_value_t = 1)]
     confirm: u32,
     /// Run one trial per bus count at this rate instead of searching.
-    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = values::rate, allow_hyphen_values = true)]
+    #[arg(long, visible_alias = "rate-hz", value_name = "HZ", value_parser = flags::loop_rate, allow_hyphen_values = true)]
     rate: Option<f64>,
     /// Run on a virtual clock (the loop then costs no time: the search finds the wire limit).
     #[arg(long)]
@@ -252,7 +256,7 @@ fn summary_json(args: &RateArgs, r: &ByBusCount<'_>) -> Value {
         "motors_per_bus": args.motors,
         "bitrate": BITRATE,
         "seconds_per_trial": args.duration.as_secs_f64(),
-        "spin_us": args.rt.spin_us,
+        "spin_us": args.rt.spin().as_micros() as u64,
         "cpu": args.rt.cpu,
         "fifo_priority": args.rt.fifo,
         "rx_spin_us": args.rx_spin_us,

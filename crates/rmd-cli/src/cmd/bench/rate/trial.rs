@@ -228,7 +228,14 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
         }
         SimPlace::Thread => {
             let spin = Duration::from_micros(args.rx_spin_us);
-            let mut threaded = robot::threaded_buses(buses, args.motors, &args.rt, spin, trace)?;
+            let mut threaded = robot::threaded_buses(
+                buses,
+                args.motors,
+                rmd_sim::FirmwareFamily::V161,
+                &args.rt,
+                spin,
+                trace,
+            )?;
             let ports = core::mem::take(&mut threaded.ports);
             let outcome = run(robot, MonotonicClock, ports, controller, limit)?;
             sim_late = Some(threaded.lateness());

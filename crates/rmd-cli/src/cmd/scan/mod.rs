@@ -1,0 +1,351 @@
+//! `rmd scan`: which motor ids answer on the bus, and the protocol family each one speaks.
+//!
+//! Every id is probed with 0x9A and 0x9C on `0x140 + id`, listening on `0x140 + id` and
+//! `0x240 + id` ([`probe()`]); `rmd_protocol::identify` names the family from the answers
+//! (`v1.61`, `lk-v2.3x`, `myactuator-v3` or `unknown`), and a V3 motor is asked its model. The
+//! status 1 of each motor is shown in its family's layout.
+
+mod probe;
+
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::Args;
+use rmd_protocol::identify::{Finding, Identification, ProbeAnswers, identify};
+use rmd_protocol::v3::{V3ErrorState, V3Reply, V3Status1};
+use rmd_protocol::{
+    Command, Dialect, DialectReply, LkSeries, MotorId, ProtocolFamily, decode_reply_to_with,
+};
+use serde_json::{Map, Value, json};
+
+use crate::args::bus::BusArgs;
+use crate::args::ids::{self, IdList};
+use crate::live::connect::Connection;
+use crate::output::json::FrameJson;
+use crate::output::progress::{self, Progress};
+use crate::output::readings;
+use crate::output::report::{self, CliError};
+use crate::output::table::{Align, TextTable};
+use crate::output::{errln, out, outln};
+use probe::{ProbeTiming, probe};
+
+/// Arguments of `rmd scan`.
+#[derive(Args, Debug)]
+#[command(
+    after_help = "Each id is probed with 0x9A and 0x9C (read-only in every family) on 0x140 + id; \
+    answers are collected on 0x140 + id and 0x240 + id. The firmware column names the protocol \
+    family: v1.61, lk-v2.3x (0x9A with LK-TECH's layout), myactuator-v3 (answers on 0x240 + id; \
+    its model is read with 0xB5) or unknown. --json: one array, an object per motor that \
+    answered: id, firmware, model (V3), ambiguous, evidence {reply_id, answered_status1, \
+    answered_status2, finding, v161_volts, lk_volts}, then its status 1 under rmd decode's names."
+)]
+pub(crate) struct ScanArgs {
+    /// Ids to try.
+    #[arg(long, value_name = "IDS", value_parser = ids::parse, default_value = "1-32")]
+    ids: IdList,
+    /// Print one JSON array of the motors that answered (firmware, evidence, status 1).
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    bus: BusArgs,
+}
+
+/// A scan waits this long per id by default (absent ids cost the whole timeout).
+const SCAN_TIMEOUT: Duration = Duration::from_millis(20);
+
+/// A motor that answered: its identification and status 1, if it could be read.
+struct Found {
+    identification: Identification,
+    status1: Option<Status1>,
+}
+
+/// Status 1 in the layout of the motor's family.
+enum Status1 {
+    /// v1.61 or LK-TECH (decoded in the dialect of the family).
+    Dialect(DialectReply),
+    /// MyActuator V3.
+    V3(V3Status1),
+}
+
+/// Runs `rmd scan`.
+pub(crate) fn run(args: ScanArgs) -> ExitCode {
+    report::exit(scan(&args))
+}
+
+fn scan(args: &ScanArgs) -> Result<(), CliError> {
+    let mut bus = Connection::open(&args.bus, SCAN_TIMEOUT, 0)?;
+    let timing = ProbeTiming {
+        timeout: bus.policy().timeout,
+        retries: bus.policy().retries,
+    };
+    let mut found = Vec::new();
+    let progress = Progress::counter(
+        args.ids.ids().len() as u64,
+        "ids",
+        progress::shown(args.json),
+    );
+    progress.set_prefix("scan ");
+    for (done, &motor) in args.ids.ids().iter().enumerate() {
+        progress.set_position(done as u64);
+        progress.set_message(format!("found {}", found.len()));
+        let clock = *bus.clock();
+        let answers = probe(bus.bus(), &clock, timing, motor)?;
+        let identification = identify(motor, &answers);
+        if identification.evidence.reply_id.is_some() {
+            found.push(Found {
+                identification,
+                status1: status1(&identification, &answers),
+            });
+        }
+    }
+    drop(progress);
+    let setup = bus.setup().clone();
+    bus.finish()?;
+    for motor in &found {
+        let id = &motor.identification;
+        if id.family == ProtocolFamily::Unknown || ambiguous(id) {
+            errln!("warning: {id}");
+        }
+    }
+    if args.json {
+        let list = found.iter().map(json_object).collect();
+        outln!("{}", Value::Array(list))?;
+    } else if !found.is_empty() {
+        out!("{}", table(&found).render())?;
+    }
+    if found.is_empty() {
+        return Err(CliError::Failed(format!(
+            "no motor answered on {} (ids {}): check that the motors are powered and wired, \
+             and that the interface runs at their bit rate (1 Mbit/s by default); raise \
+             --timeout-ms if the adapter is slow",
+            setup.name(),
+            args.ids
+        )));
+    }
+    let ids: Vec<String> = found
+        .iter()
+        .map(|m| m.identification.motor.to_string())
+        .collect();
+    errln!(
+        "{} motor{} answered on {}: {}",
+        found.len(),
+        if found.len() == 1 { "" } else { "s" },
+        setup.name(),
+        ids.join(", ")
+    );
+    Ok(())
+}
+
+/// Whether both readings of 0x9A were plausible (the family was chosen by DATA\[2\]).
+fn ambiguous(id: &Identification) -> bool {
+    matches!(id.evidence.finding, Finding::BothReadingsPlausible { .. })
+}
+
+/// The 0x9A answer decoded in the identified family's layout, if it decodes.
+fn status1(id: &Identification, answers: &ProbeAnswers) -> Option<Status1> {
+    let frame = answers.status1()?;
+    let dialect = match id.family {
+        ProtocolFamily::V161 => Dialect::V161,
+        // The series changes only current scales, which status 1 does not carry.
+        ProtocolFamily::LkV23x => Dialect::LkV23x(LkSeries::Mg),
+        ProtocolFamily::MyActuatorV3 => {
+            return match V3Reply::decode(&frame) {
+                Ok((_, V3Reply::Status1(s))) => Some(Status1::V3(s)),
+                _ => None,
+            };
+        }
+        ProtocolFamily::Unknown => return None,
+    };
+    decode_reply_to_with(dialect, &frame, Command::ReadStatus1)
+        .ok()
+        .map(|(_, reply)| Status1::Dialect(reply))
+}
+
+/// One motor's JSON object: id, firmware, model, ambiguous, evidence, then status 1.
+fn json_object(motor: &Found) -> Value {
+    let id = &motor.identification;
+    let evidence = &id.evidence;
+    let mut map = Map::new();
+    map.insert("id".into(), json!(id.motor.get()));
+    map.insert("firmware".into(), json!(id.family.name()));
+    if let Some(model) = evidence.model_str() {
+        map.insert("model".into(), json!(model));
+    }
+    map.insert("ambiguous".into(), json!(ambiguous(id)));
+    let mut facts = Map::new();
+    if let Some(reply_id) = evidence.reply_id {
+        facts.insert("reply_id".into(), json!(format!("0x{reply_id:03X}")));
+    }
+    facts.insert("answered_status1".into(), json!(evidence.answered_status1));
+    facts.insert("answered_status2".into(), json!(evidence.answered_status2));
+    facts.insert("finding".into(), json!(evidence.finding.to_string()));
+    if let Some(readings) = evidence.status1 {
+        facts.insert("v161_volts".into(), json!(readings.v161_volts));
+        facts.insert("lk_volts".into(), json!(readings.lk_volts));
+    }
+    map.insert("evidence".into(), Value::Object(facts));
+    if let Some(status) = &motor.status1 {
+        map.extend(status_fields(id.motor, status));
+    }
+    Value::Object(map)
+}
+
+/// The fields of status 1 under `rmd decode`'s names (without the frame header).
+fn status_fields(motor: MotorId, status: &Status1) -> Map<String, Value> {
+    const HEADER: [&str; 4] = ["id", "can_id", "direction", "command"];
+    let header = FrameJson::new(
+        None,
+        None,
+        motor.can_id(),
+        "reply",
+        "",
+        rmd_protocol::EncoderWidth::DEFAULT,
+    );
+    let value = match status {
+        Status1::Dialect(reply) => header.dialect_reply(reply),
+        Status1::V3(s) => header.v3_status1(s),
+    }
+    .into_value();
+    match value {
+        Value::Object(map) => map
+            .into_iter()
+            .filter(|(key, _)| !HEADER.contains(&key.as_str()))
+            .collect(),
+        _ => Map::new(),
+    }
+}
+
+/// The table of the motors found.
+fn table(found: &[Found]) -> TextTable {
+    let mut table = TextTable::new(&[
+        ("id", Align::Right),
+        ("firmware", Align::Left),
+        ("temperature", Align::Right),
+        ("voltage", Align::Right),
+        ("errors", Align::Left),
+        ("note", Align::Left),
+    ]);
+    for motor in found {
+        let id = &motor.identification;
+        let (temperature, voltage, errors) = match &motor.status1 {
+            Some(Status1::Dialect(reply)) => match reply.status1() {
+                Some(s) => (
+                    format!("{} °C", s.temperature().celsius()),
+                    format!("{:.1} V", s.volts()),
+                    readings::errors_text(s.error_state()),
+                ),
+                None => dashes(),
+            },
+            Some(Status1::V3(s)) => (
+                format!("{} °C", s.temperature.celsius()),
+                format!("{:.1} V", s.voltage.volts()),
+                v3_errors_text(s.error_state),
+            ),
+            None => dashes(),
+        };
+        let note = match id.family {
+            ProtocolFamily::MyActuatorV3 => match id.evidence.model_str() {
+                Some(model) => format!("model {model}; not driven by rmd-rt"),
+                None => "not driven by rmd-rt".to_owned(),
+            },
+            ProtocolFamily::Unknown => id.evidence.finding.to_string(),
+            _ if ambiguous(id) => id.evidence.finding.to_string(),
+            _ => String::new(),
+        };
+        table.row([
+            id.motor.get().to_string(),
+            id.family.name().to_owned(),
+            temperature,
+            voltage,
+            errors,
+            note,
+        ]);
+    }
+    table
+}
+
+fn dashes() -> (String, String, String) {
+    ("-".to_owned(), "-".to_owned(), "-".to_owned())
+}
+
+/// A V3 error code in words (MyActuator Servo Motor Control Protocol V4.3, §2.14).
+fn v3_errors_text(state: V3ErrorState) -> String {
+    const NAMES: [(V3ErrorState, &str); 5] = [
+        (V3ErrorState::STALL, "stall"),
+        (V3ErrorState::LOW_VOLTAGE, "low voltage"),
+        (V3ErrorState::OVER_VOLTAGE, "over voltage"),
+        (V3ErrorState::OVER_CURRENT, "over current"),
+        (V3ErrorState::MOTOR_OVER_TEMPERATURE, "over temperature"),
+    ];
+    if state.raw() == 0 {
+        return "none".to_owned();
+    }
+    let mut parts: Vec<String> = NAMES
+        .iter()
+        .filter(|(flag, _)| state.contains(*flag))
+        .map(|(_, name)| (*name).to_owned())
+        .collect();
+    let known = NAMES.iter().fold(0u16, |bits, (flag, _)| bits | flag.raw());
+    if state.raw() & !known != 0 {
+        parts.push(format!("code 0x{:04X}", state.raw() & !known));
+    }
+    parts.join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rmd_protocol::CanFrame;
+
+    fn found(frames: &[[u8; 8]]) -> Found {
+        let motor = MotorId::new(3).unwrap();
+        let mut answers = ProbeAnswers::new();
+        for data in frames {
+            answers.offer(motor, &CanFrame::new(0x143, data).unwrap());
+        }
+        let identification = identify(motor, &answers);
+        Found {
+            status1: status1(&identification, &answers),
+            identification,
+        }
+    }
+
+    #[test]
+    fn an_unknown_motor_is_listed_with_its_evidence_and_no_status() {
+        // Answered 0x9C only: it is there, its family cannot be told.
+        let motor = found(&[[0x9C, 30, 0, 0, 0, 0, 0, 0x10]]);
+        let value = json_object(&motor);
+        assert_eq!(value["firmware"], "unknown");
+        assert_eq!(value["evidence"]["answered_status1"], false);
+        assert_eq!(
+            value["evidence"]["finding"],
+            "no answer to 0x9A, which tells v1.61 from LK-TECH"
+        );
+        assert!(value.get("voltage_volts").is_none());
+        let rendered = table(&[motor]).render();
+        assert!(rendered.contains("unknown"), "{rendered}");
+        assert!(rendered.contains("no answer to 0x9A"), "{rendered}");
+    }
+
+    #[test]
+    fn an_ambiguous_answer_is_marked() {
+        // v1.61 at 26.0 V (0x0104 in DATA[3..=4]) also reads as LK at 10.24 V; DATA[2] = 0
+        // chose v1.61.
+        let motor = found(&[[0x9A, 30, 0, 0x04, 0x01, 0, 0, 0]]);
+        let value = json_object(&motor);
+        assert_eq!(value["firmware"], "v1.61");
+        assert_eq!(value["ambiguous"], true);
+        assert_eq!(value["voltage_volts"], 26.0);
+        assert_eq!(value["evidence"]["lk_volts"], 10.24);
+        assert!(table(&[motor]).render().contains("ambiguous"));
+    }
+
+    #[test]
+    fn v3_error_codes_in_words() {
+        assert_eq!(v3_errors_text(V3ErrorState::from_raw(0)), "none");
+        assert_eq!(
+            v3_errors_text(V3ErrorState::from_raw(0x0004 | 0x1000 | 0x0100)),
+            "low voltage, over temperature, code 0x0100"
+        );
+    }
+}

@@ -1,0 +1,193 @@
+//! `rmd drill`: the stable interface scripts and CI run (JSON fields, exit status), on the
+//! simulator's ground truth.
+
+use assert_cmd::Command;
+use serde_json::Value;
+
+fn rmd(args: &[&str]) -> (i32, String, String) {
+    let out = Command::cargo_bin("rmd")
+        .unwrap()
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn one_drill_prints_one_json_object_with_the_stable_fields() {
+    let (code, stdout, stderr) = rmd(&[
+        "drill",
+        "--fault",
+        "estop",
+        "--buses",
+        "2",
+        "--at",
+        "0.2",
+        "--seconds",
+        "0.5",
+        "--virtual-time",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(stdout.lines().count(), 1);
+    let json: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(json["fault"], "estop");
+    assert_eq!(json["stop_reason"], "EMERGENCY STOP");
+    assert_eq!(json["motors"], 8);
+    assert_eq!(json["motors_energised_after"], 0);
+    assert_eq!(json["confirmed_off"], 8);
+    assert!(json["time_to_safe_ms"].as_f64().unwrap() < 5.0, "{json}");
+    assert!(json["report"]["ticks"].as_u64().unwrap() > 150, "{json}");
+}
+
+#[test]
+fn an_emergency_stop_acts_while_the_controller_hangs() {
+    // The controller hangs at 0.3 s; the estop comes 20 ms later, before the stall bound (50 ms):
+    // the supervisor acts on it at once.
+    for time in [&["--virtual-time"][..], &[]] {
+        let mut args = vec![
+            "drill",
+            "--fault",
+            "controller-hang:3000@0.3",
+            "--fault",
+            "estop@0.32",
+            "--seconds",
+            "0.6",
+            "--json",
+        ];
+        args.extend_from_slice(time);
+        let (code, stdout, stderr) = rmd(&args);
+        assert_eq!(code, 0, "{stderr}");
+        let json: Value = serde_json::from_str(&stdout).unwrap();
+        assert_eq!(json["fault"], "controller-hang:3000 + estop");
+        assert_eq!(json["stop_reason"], "EMERGENCY STOP", "{json}");
+        assert_eq!(json["report"]["safe_stop"]["by"], "supervisor", "{json}");
+        // From the hang: the estop 20 ms later, then the supervisor's safe stop. In real time,
+        // a wide bound (a loaded machine); what matters is that it is well before the hang ends.
+        let tts = json["time_to_safe_ms"].as_f64().unwrap();
+        assert!((20.0..1000.0).contains(&tts), "{tts}");
+    }
+}
+
+#[test]
+fn motors_left_energised_exit_1_and_are_named() {
+    // A bus-off longer than the safe stop waits for a restart.
+    let (code, stdout, _) = rmd(&[
+        "drill",
+        "--fault",
+        "bus-off:1500",
+        "--at",
+        "0.1",
+        "--seconds",
+        "0.3",
+        "--virtual-time",
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        stdout.contains("drill bus-off:1500: MOTORS LEFT ENERGISED"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("energised after the run (simulated firmware): 4 of 4 (motor 1 on bus 0"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("time to safe: never"), "{stdout}");
+    assert!(stdout.contains("may still be energised"), "{stdout}");
+}
+
+#[test]
+fn all_runs_every_kind_once() {
+    let (code, stdout, stderr) = rmd(&[
+        "drill",
+        "--all",
+        "--virtual-time",
+        "--json",
+        "--seconds",
+        "0.6",
+        "--at",
+        "0.2",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let drills: Vec<Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(drills.len(), 17);
+    for d in &drills {
+        assert_eq!(d["motors_energised_after"], 0, "{d}");
+    }
+    let (code, table, _) = rmd(&[
+        "drill",
+        "--all",
+        "--virtual-time",
+        "--seconds",
+        "0.6",
+        "--at",
+        "0.2",
+    ]);
+    assert_eq!(code, 0);
+    assert!(table.starts_with("fault "), "{table}");
+    assert!(table.contains("controller-hang:3000"), "{table}");
+    assert!(
+        table
+            .trim_end()
+            .ends_with("every drill ended with every motor safe")
+    );
+}
+
+#[test]
+fn a_short_chaos_run_passes() {
+    let (code, stdout, stderr) = rmd(&[
+        "drill",
+        "--chaos",
+        "--seconds",
+        "8",
+        "--seed",
+        "11",
+        "--virtual-time",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let report: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(report["failures"].as_array().unwrap().len(), 0);
+    assert!(report["drills"].as_array().unwrap().len() >= 17);
+}
+
+#[test]
+fn bad_input_is_a_usage_error_naming_what_to_change() {
+    for (args, says) in [
+        (
+            &["drill", "--fault", "melt"][..],
+            "unknown fault kind `melt`",
+        ),
+        (
+            &["drill", "--fault", "drop:2"],
+            "not a probability from 0 to 1",
+        ),
+        (
+            &["drill", "--fault", "stop", "--buses", "9"],
+            "--buses 9: a drill runs on 1 to 8 buses",
+        ),
+        (
+            &["drill", "--fault", "stop", "--at", "5"],
+            "--at 5 s is not before the end of the run",
+        ),
+        (
+            &["drill", "--fault", "stop", "--seconds", "inf"],
+            "--seconds",
+        ),
+        (&["drill"], "--fault"),
+        (
+            &["drill", "--fault", "stop", "--all"],
+            "cannot be used with",
+        ),
+    ] {
+        let (code, _, stderr) = rmd(args);
+        assert_eq!(code, 2, "{args:?}: {stderr}");
+        assert!(stderr.contains(says), "{args:?}: {stderr}");
+    }
+}

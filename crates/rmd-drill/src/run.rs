@@ -1,0 +1,66 @@
+//! Running one drill.
+
+use std::sync::{Arc, OnceLock};
+
+use rmd_bus::{Clock, MonotonicClock, Timestamp};
+use rmd_loop::RunLimit;
+use rmd_rig::{AnyClock, Placement, Rig, SharedSim, SimTime};
+
+use crate::controller::{DrillController, Pace};
+use crate::fault::DrillFault;
+use crate::spec::DrillSpec;
+use crate::verdict::{Drill, judge};
+use crate::{DrillError, robot};
+
+/// Runs the drill `spec` describes: the PD hold on simulated motors (supervised, as every
+/// program runs the loop), its faults at their times, then the verdict from the simulated
+/// firmware.
+///
+/// ```
+/// use core::time::Duration;
+/// use rmd_drill::{DrillFault, DrillSpec};
+/// use rmd_rig::SimTime;
+/// let drill = rmd_drill::run(
+///     &DrillSpec::new(DrillFault::ControllerPanic)
+///         .at(Duration::from_millis(100))
+///         .seconds(Duration::from_millis(300))
+///         .time(SimTime::Virtual),
+/// )?;
+/// assert!(drill.stop_reason.contains("panicked"));
+/// assert_eq!(drill.motors_energised_after, 0);
+/// # Ok::<(), rmd_drill::DrillError>(())
+/// ```
+pub fn run(spec: &DrillSpec) -> Result<Drill, DrillError> {
+    spec.check()?;
+    let robot = robot::robot(spec)?;
+    let placement = Placement::simulated(&robot, spec.time);
+    // The instant the drill's times count from: the run's clock before anything is opened.
+    let start = match spec.time {
+        SimTime::Real => MonotonicClock.now(),
+        SimTime::Virtual => Timestamp::ZERO,
+    };
+    let rig = Rig::open(&robot, &placement, robot::sims(&robot, spec, start))?;
+    let sims: Vec<SharedSim> = rig.buses.iter().filter_map(|b| b.sim().cloned()).collect();
+    let pace = match &rig.clock {
+        AnyClock::Virtual(clock) => Pace::Virtual(clock.clone()),
+        AnyClock::Monotonic(_) => Pace::Real,
+    };
+    let stopper = Arc::new(OnceLock::new());
+    let faults = spec.faults.iter().map(|&(fault, at)| (fault, start + at));
+    let controller = DrillController::new(&robot, faults, pace, Arc::clone(&stopper));
+    let rt = rig.into_loop(robot, controller)?;
+    // Only the drill sets it, once, here: it cannot be set already.
+    let _ = stopper.set(rt.stopper());
+    let outcome = rt.run(RunLimit::Duration(spec.seconds));
+    let fault_at = spec
+        .faults
+        .iter()
+        .map(|&(fault, at)| match fault {
+            DrillFault::UnknownMotor(_) => start,
+            _ => start + at,
+        })
+        .min()
+        .unwrap_or(start);
+    let written: Vec<String> = spec.faults.iter().map(|(f, _)| f.to_string()).collect();
+    Ok(judge(written.join(" + "), fault_at, &sims, outcome.report))
+}

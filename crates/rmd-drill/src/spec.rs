@@ -1,0 +1,136 @@
+//! What one drill runs: the faults and when, the robot's size, the run's length and time.
+
+use core::time::Duration;
+
+use rmd_rig::SimTime;
+
+use crate::fault::DrillFault;
+
+/// The most buses a drill simulates.
+pub const MAX_BUSES: u8 = 8;
+/// The longest drill, seconds.
+pub const MAX_SECONDS: u64 = 3600;
+
+/// One drill: a PD position hold on `buses` x `motors` simulated motors for `seconds`, with
+/// each fault injected at its time after the start.
+///
+/// ```
+/// use core::time::Duration;
+/// use rmd_drill::{DrillFault, DrillSpec};
+/// let spec = DrillSpec::new("bus-off:50".parse::<DrillFault>()?)
+///     .buses(2)
+///     .at(Duration::from_millis(300))
+///     .seconds(Duration::from_secs(1));
+/// assert_eq!(spec.faults()[0].1, Duration::from_millis(300));
+/// # Ok::<(), rmd_drill::FaultParseError>(())
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct DrillSpec {
+    pub(crate) faults: Vec<(DrillFault, Duration)>,
+    pub(crate) buses: u8,
+    pub(crate) motors: u8,
+    pub(crate) seconds: Duration,
+    pub(crate) seed: u64,
+    pub(crate) time: SimTime,
+}
+
+impl DrillSpec {
+    /// `fault` at 0.5 s of a 2 s run, one bus of four motors, real time, seed 1: the defaults
+    /// of `rmd drill`.
+    pub fn new(fault: DrillFault) -> Self {
+        Self {
+            faults: vec![(fault, Duration::from_millis(500))],
+            buses: 1,
+            motors: 4,
+            seconds: Duration::from_secs(2),
+            seed: 1,
+            time: SimTime::Real,
+        }
+    }
+
+    /// Injects the (first) fault `at` after the start instead.
+    pub fn at(mut self, at: Duration) -> Self {
+        if let Some(first) = self.faults.first_mut() {
+            first.1 = at;
+        }
+        self
+    }
+
+    /// Injects another fault too, `at` after the start.
+    pub fn and(mut self, fault: DrillFault, at: Duration) -> Self {
+        self.faults.push((fault, at));
+        self
+    }
+
+    /// Runs on `buses` buses (1..=8).
+    pub fn buses(mut self, buses: u8) -> Self {
+        self.buses = buses;
+        self
+    }
+
+    /// Simulates `motors` motors per bus (1..=4).
+    pub fn motors(mut self, motors: u8) -> Self {
+        self.motors = motors;
+        self
+    }
+
+    /// Runs for `seconds` at most (the loop may stop earlier).
+    pub fn seconds(mut self, seconds: Duration) -> Self {
+        self.seconds = seconds;
+        self
+    }
+
+    /// Seeds the simulated motors' and faults' random draws.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
+    /// Runs in real or virtual time.
+    pub fn time(mut self, time: SimTime) -> Self {
+        self.time = time;
+        self
+    }
+
+    /// The faults and when each is injected.
+    pub fn faults(&self) -> &[(DrillFault, Duration)] {
+        &self.faults
+    }
+
+    /// Checks the numbers before anything is built.
+    pub(crate) fn check(&self) -> Result<(), crate::DrillError> {
+        use crate::DrillError;
+        if !(1..=MAX_BUSES).contains(&self.buses) {
+            return Err(DrillError::Buses(self.buses));
+        }
+        if !(1..=4).contains(&self.motors) {
+            return Err(DrillError::Motors(self.motors));
+        }
+        if self.seconds.is_zero() || self.seconds > Duration::from_secs(MAX_SECONDS) {
+            return Err(DrillError::Seconds);
+        }
+        for &(fault, at) in &self.faults {
+            if at >= self.seconds && !matches!(fault, DrillFault::UnknownMotor(_)) {
+                return Err(DrillError::AtAfterEnd {
+                    at: at.as_secs_f64(),
+                    seconds: self.seconds.as_secs_f64(),
+                });
+            }
+            match fault {
+                DrillFault::SilentMotor(id) if id.get() > self.motors => {
+                    return Err(DrillError::NoSuchMotor {
+                        fault: fault.to_string(),
+                        motors: self.motors,
+                    });
+                }
+                DrillFault::UnknownMotor(id) if id.get() <= self.motors && self.motors == 1 => {
+                    return Err(DrillError::NothingDescribed {
+                        fault: fault.to_string(),
+                    });
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,67 @@
+"""rmd_rt: GYEMS / MyActuator RMD servo motors over CAN, from Python, with the real-time loop
+in Rust.
+
+- :func:`encode` / :func:`decode`: frames in candump's form, exactly as ``rmd encode`` and
+  ``rmd decode`` make and read them;
+- :class:`Bus` / :class:`AsyncBus`: every command of the protocol to one motor at a time, on
+  SocketCAN or simulated motors, from several threads or from asyncio;
+- :class:`Robot`: a robot description (TOML); :meth:`Robot.start` runs its loop with the joint
+  servo on a Rust thread and returns a :class:`RobotLoop` to drive by joint name;
+- :func:`plan`: time-optimal, jerk-limited trajectories sampled into NumPy arrays.
+
+Every running loop is stopped, and its motors made safe, when its object is dropped or the
+interpreter exits (an ``atexit`` hook registered on import). See docs/python.md.
+"""
+
+from __future__ import annotations
+
+import atexit
+
+from . import _native
+from ._bus import AsyncBus, Bus, Reply
+from ._native import (
+    BusError,
+    ConfigError,
+    LoopError,
+    NoReplyError,
+    ProtocolError,
+    RmdError,
+    Robot,
+    RobotLoop,
+    RomWriteNotConfirmed,
+    ServoError,
+    Simulator,
+    TelemetryError,
+    Trajectory,
+    TrajectoryError,
+    decode,
+    encode,
+    plan,
+)
+
+__all__ = [
+    "AsyncBus",
+    "Bus",
+    "BusError",
+    "ConfigError",
+    "LoopError",
+    "NoReplyError",
+    "ProtocolError",
+    "Reply",
+    "RmdError",
+    "Robot",
+    "RobotLoop",
+    "RomWriteNotConfirmed",
+    "ServoError",
+    "Simulator",
+    "TelemetryError",
+    "Trajectory",
+    "TrajectoryError",
+    "decode",
+    "encode",
+    "plan",
+]
+
+# The motors are made safe before the interpreter exits, even if the program never stopped its
+# loops (a loop whose object is dropped earlier stops then).
+atexit.register(_native.stop_all_loops)

@@ -1,0 +1,53 @@
+//! Keyword arguments shared by several functions: the protocol dialect and the encoder width,
+//! checked into rmd-protocol's types with messages that name the Python arguments.
+
+use rmd_protocol::{Dialect, EncoderWidth, LkSeries, ProtocolFamily};
+
+/// The dialect of `protocol` (`"v1.61"` or `"lk-v2.3x"`) and `lk_series` (`"mf"` / `"mg"`,
+/// required with `"lk-v2.3x"` only).
+pub(crate) fn dialect(protocol: &str, lk_series: Option<&str>) -> Result<Dialect, String> {
+    let family = match protocol.trim().parse::<ProtocolFamily>() {
+        Ok(family @ (ProtocolFamily::V161 | ProtocolFamily::LkV23x)) => family,
+        Ok(ProtocolFamily::MyActuatorV3) => {
+            return Err(
+                "rmd-rt does not speak myactuator-v3 (its 0x280 frame is a command to every \
+                 motor, not torque): expected v1.61 or lk-v2.3x"
+                    .to_owned(),
+            );
+        }
+        _ => {
+            return Err(format!(
+                "unknown protocol `{protocol}`: expected v1.61 or lk-v2.3x"
+            ));
+        }
+    };
+    let series = match lk_series {
+        None => None,
+        Some(text) => Some(
+            text.trim()
+                .to_ascii_lowercase()
+                .parse::<LkSeries>()
+                .map_err(|_| format!("unknown LK-TECH motor series `{text}`: expected mf or mg"))?,
+        ),
+    };
+    match (family, series) {
+        (ProtocolFamily::LkV23x, Some(series)) => Ok(Dialect::LkV23x(series)),
+        (ProtocolFamily::LkV23x, None) => Err(
+            "protocol=\"lk-v2.3x\" needs the motors' series, lk_series=\"mf\" or \"mg\": the \
+             current scale depends on it (MF ±16.5 A, MG ±33 A over ±2048)"
+                .to_owned(),
+        ),
+        (_, Some(series)) => Err(format!(
+            "lk_series=\"{}\" applies to LK-TECH motors: add protocol=\"lk-v2.3x\"",
+            series.name()
+        )),
+        (_, None) => Ok(Dialect::V161),
+    }
+}
+
+/// The encoder width of `encoder_bits` (12..=18).
+pub(crate) fn encoder_width(bits: i64) -> Result<EncoderWidth, String> {
+    let bits =
+        u8::try_from(bits).map_err(|_| format!("encoder width {bits} bits: must be 12..=18"))?;
+    EncoderWidth::new(bits).map_err(|e| e.to_string())
+}

@@ -1,0 +1,269 @@
+//! `Bus`'s native side: a SocketCAN interface or simulated motors behind a mutex, one
+//! request and its reply at a time, with the GIL released while waiting.
+
+use std::sync::{Mutex, PoisonError};
+use std::time::Duration;
+
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use rmd_bus::{CanFrame, Clock};
+use rmd_frames::json::FrameJson;
+use rmd_protocol::{DialectReply, EncoderWidth, FIRST_MOTOR_CAN_ID, MotorId};
+use rmd_rig::{AnyBus, AnyClock, SharedSim, SimTime};
+use rmd_sim::{FirmwareFamily, MotorConfig, SimBus, SimConfig};
+
+use crate::args;
+use crate::errors::{BusError, ConfigError, NoReplyError, ProtocolError, RomWriteNotConfirmed};
+use crate::exchange::{ExchangeError, Policy, Replies, exchange};
+use crate::protocol::{ROM_WRITES, build_frame, command_name};
+use crate::sim::{SimBusView, Simulator};
+
+/// The bus and its clock: what the mutex guards.
+struct Link {
+    bus: AnyBus,
+    clock: AnyClock,
+}
+
+/// One bus of motors, for one request and its reply at a time from any number of threads.
+/// Build it with `Bus.socketcan(...)` or `Bus.simulated(...)` (the Python class wraps this).
+#[pyclass(module = "rmd_rt._native", frozen)]
+pub(crate) struct NativeBus {
+    link: Mutex<Link>,
+    policy: Policy,
+    width: EncoderWidth,
+    sim: Option<SharedSim>,
+    /// What to check when a motor does not answer.
+    advice: String,
+    name: String,
+}
+
+fn policy(
+    protocol: &str,
+    lk_series: Option<&str>,
+    timeout_s: f64,
+    retries: u32,
+) -> PyResult<Policy> {
+    let dialect = args::dialect(protocol, lk_series).map_err(ConfigError::new_err)?;
+    if !(timeout_s.is_finite() && timeout_s > 0.0 && timeout_s <= 60.0) {
+        return Err(ConfigError::new_err(format!(
+            "timeout {timeout_s} s must be within 0..=60 s (above 0)"
+        )));
+    }
+    Ok(Policy {
+        timeout: Duration::from_secs_f64(timeout_s),
+        retries,
+        dialect,
+    })
+}
+
+/// The reply of `command` from `can_id` as `decode` shows it.
+fn reply_dict<'py>(
+    py: Python<'py>,
+    can_id: u16,
+    reply: &DialectReply,
+    width: EncoderWidth,
+) -> PyResult<Bound<'py, PyAny>> {
+    let value = FrameJson::new(None, None, can_id, "reply", reply.command().name(), width)
+        .checking_encoder_width()
+        .dialect_reply(reply)
+        .into_value();
+    Ok(pythonize::pythonize(py, &value)?)
+}
+
+fn exchange_error(error: ExchangeError) -> PyErr {
+    match error {
+        ExchangeError::NoReply { .. } => NoReplyError::new_err(error.to_string()),
+        other => BusError::new_err(other.to_string()),
+    }
+}
+
+#[pymethods]
+impl NativeBus {
+    /// Opens the SocketCAN interface `iface` (up, at the motors' bit rate).
+    #[staticmethod]
+    #[pyo3(signature = (iface, protocol="v1.61", lk_series=None, encoder_bits=14, timeout_s=0.05, retries=2))]
+    fn socketcan(
+        iface: &str,
+        protocol: &str,
+        lk_series: Option<&str>,
+        encoder_bits: i64,
+        timeout_s: f64,
+        retries: u32,
+    ) -> PyResult<Self> {
+        let policy = policy(protocol, lk_series, timeout_s, retries)?;
+        let width = args::encoder_width(encoder_bits).map_err(ConfigError::new_err)?;
+        let bus = open_socketcan(iface)?;
+        Ok(Self {
+            link: Mutex::new(Link {
+                bus,
+                clock: AnyClock::new(SimTime::Real),
+            }),
+            policy,
+            width,
+            sim: None,
+            advice: format!(
+                "check that the motor is powered and wired to {iface}, that its CAN id is the \
+                 one asked, and that {iface} runs at the motor's bit rate (1 Mbit/s by default; \
+                 `ip -details link show {iface}`)"
+            ),
+            name: iface.to_owned(),
+        })
+    }
+
+    /// Simulated motors `ids` (1..=32) of the firmware `protocol` speaks, in real time or in
+    /// virtual time (each wait advances the simulator's clock at once).
+    #[staticmethod]
+    #[pyo3(signature = (ids, virtual_time=false, seed=1, protocol="v1.61", lk_series=None, encoder_bits=14, timeout_s=0.05, retries=2))]
+    #[allow(clippy::too_many_arguments)]
+    fn simulated(
+        ids: Vec<i64>,
+        virtual_time: bool,
+        seed: u64,
+        protocol: &str,
+        lk_series: Option<&str>,
+        encoder_bits: i64,
+        timeout_s: f64,
+        retries: u32,
+    ) -> PyResult<Self> {
+        let policy = policy(protocol, lk_series, timeout_s, retries)?;
+        let width = args::encoder_width(encoder_bits).map_err(ConfigError::new_err)?;
+        let family = match policy.dialect {
+            rmd_protocol::Dialect::V161 => FirmwareFamily::V161,
+            rmd_protocol::Dialect::LkV23x(series) => FirmwareFamily::LkV23x(series),
+        };
+        let mut config = SimConfig::with_motors(0).seed(seed);
+        for id in &ids {
+            let motor = u8::try_from(*id)
+                .ok()
+                .and_then(|id| MotorId::new(id).ok())
+                .ok_or_else(|| {
+                    ConfigError::new_err(format!("invalid motor id {id}: must be 1..=32"))
+                })?;
+            let mut sim = MotorConfig::new(motor);
+            sim.firmware.encoder_width = width;
+            sim.firmware.family = family;
+            config.motors.push(sim);
+        }
+        let time = if virtual_time {
+            SimTime::Virtual
+        } else {
+            SimTime::Real
+        };
+        let clock = AnyClock::new(time);
+        let sim = SharedSim::new(
+            SimBus::new(clock.clone(), config)
+                .map_err(|e| ConfigError::new_err(format!("simulator: {e}")))?,
+        );
+        let list = ids
+            .iter()
+            .map(i64::to_string)
+            .collect::<Vec<_>>()
+            .join(", ");
+        Ok(Self {
+            link: Mutex::new(Link {
+                bus: AnyBus::Sim(sim.clone()),
+                clock,
+            }),
+            policy,
+            width,
+            sim: Some(sim),
+            advice: format!("the simulated motors are {list}"),
+            name: "simulated".to_owned(),
+        })
+    }
+
+    /// Sends `command` (an `rmd encode` command name) to motor `id` with `fields` and returns
+    /// the reply as `decode` shows it (a dict); for `"multi-torque"` a list of the replies of
+    /// motors 1..=4 (None where a motor did not answer). ROM writes need
+    /// `confirm_rom_write=True`.
+    #[pyo3(signature = (command, id=None, fields=None, confirm_rom_write=false))]
+    fn request<'py>(
+        &self,
+        py: Python<'py>,
+        command: &str,
+        id: Option<i64>,
+        fields: Option<&Bound<'py, PyDict>>,
+        confirm_rom_write: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let command = command_name(command).map_err(ProtocolError::new_err)?;
+        let frame = build_frame(command, id, fields, self.policy.dialect)
+            .map_err(ProtocolError::new_err)?;
+        if ROM_WRITES.contains(&command) && !confirm_rom_write {
+            return Err(RomWriteNotConfirmed::new_err(format!(
+                "{command} writes the motor's ROM (flash, which wears out{}): nothing was sent; \
+                 pass confirm_rom_write=True to do it",
+                if command == "write-zero-rom" {
+                    "; the new zero takes effect after a power cycle"
+                } else {
+                    ""
+                }
+            )));
+        }
+        let replies = py
+            .detach(|| self.exchange(&frame))
+            .map_err(exchange_error)?;
+        match replies {
+            Replies::One(motor, reply) => reply_dict(py, motor.can_id(), &reply, self.width),
+            Replies::Multi(replies) => {
+                let list = PyList::empty(py);
+                for (k, reply) in replies.iter().enumerate() {
+                    match reply {
+                        Some(reply) => {
+                            let can_id = FIRST_MOTOR_CAN_ID + k as u16;
+                            list.append(reply_dict(py, can_id, reply, self.width)?)?;
+                        }
+                        None => list.append(py.None())?,
+                    }
+                }
+                Ok(list.into_any())
+            }
+        }
+    }
+
+    /// The simulated motors (ground truth), or None on SocketCAN.
+    fn simulator(&self) -> Option<Simulator> {
+        self.sim.as_ref().map(|bus| {
+            Simulator::new(vec![SimBusView {
+                bus: bus.clone(),
+                joints: Vec::new(),
+            }])
+        })
+    }
+
+    /// The clock of the bus, seconds (the simulator's in virtual time).
+    fn now_s(&self) -> f64 {
+        let link = self.link.lock().unwrap_or_else(PoisonError::into_inner);
+        link.clock.now().as_nanos() as f64 * 1e-9
+    }
+
+    fn __repr__(&self) -> String {
+        format!("<rmd_rt.Bus {} ({})>", self.name, self.policy.dialect)
+    }
+}
+
+impl NativeBus {
+    fn exchange(&self, frame: &CanFrame) -> Result<Replies, ExchangeError> {
+        let mut link = self.link.lock().unwrap_or_else(PoisonError::into_inner);
+        let Link { bus, clock } = &mut *link;
+        exchange(bus, &*clock, frame, &self.policy, &self.advice)
+    }
+}
+
+#[cfg(target_os = "linux")]
+fn open_socketcan(iface: &str) -> PyResult<AnyBus> {
+    use rmd_bus::socketcan::{SocketCanBus, SocketCanOptions};
+    let options = SocketCanOptions::new().accept_ids(
+        rmd_protocol::v3::REPLY_BASE_ID + u16::from(MotorId::MIN)
+            ..=rmd_protocol::v3::REPLY_BASE_ID + u16::from(MotorId::MAX),
+    );
+    SocketCanBus::open(iface, &options)
+        .map(|bus| AnyBus::SocketCan(Box::new(bus)))
+        .map_err(|e| BusError::new_err(format!("cannot open {iface}: {e}")))
+}
+
+#[cfg(not(target_os = "linux"))]
+fn open_socketcan(iface: &str) -> PyResult<AnyBus> {
+    Err(BusError::new_err(format!(
+        "cannot open {iface}: SocketCAN exists on Linux only"
+    )))
+}

@@ -1,0 +1,206 @@
+//! One request, its reply: the waiting of `Bus.request`, without Python.
+//!
+//! Whatever is queued is dropped first (stale replies), the request is sent, and replies are
+//! awaited until the timeout: a reply of the motor to that command ends the wait; frames of
+//! other motors are ignored; a reply to another command, or a malformed one, is remembered and
+//! reported if no good reply comes; an answer on `0x240 + id` (MyActuator V3 firmware, which
+//! rmd-rt does not drive) is its own error. After a timeout the request is sent again, up to
+//! `retries` times. Bus-off ends the exchange at once.
+
+use std::time::Duration;
+
+use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock};
+use rmd_protocol::{
+    Command, Dialect, DialectReply, FIRST_MOTOR_CAN_ID, MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS,
+    MotorId, decode_reply_to_with, v3,
+};
+
+/// How long to wait, how often to try, which dialect to read.
+#[derive(Copy, Clone, Debug)]
+pub(crate) struct Policy {
+    /// Wait for the reply after each send.
+    pub(crate) timeout: Duration,
+    /// Sends after the first one.
+    pub(crate) retries: u32,
+    /// The motors' protocol.
+    pub(crate) dialect: Dialect,
+}
+
+/// Why an exchange failed.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum ExchangeError {
+    /// The bus refused the frame or failed.
+    #[error("{0}")]
+    Bus(#[from] BusError),
+    /// The bus went bus-off.
+    #[error(
+        "the CAN controller went bus-off while waiting for motor {motor}: check the wiring, \
+         the 120 ohm termination and the bit rate"
+    )]
+    BusOff {
+        /// The motor asked.
+        motor: String,
+    },
+    /// No reply within the timeout, after every attempt.
+    #[error(
+        "motor {motor} did not answer {command} within {} ms ({attempts} attempt{}): {advice}{}",
+        timeout.as_millis(),
+        if *attempts == 1 { "" } else { "s" },
+        last.as_ref().map(|l| format!(" (the last frame it sent could not be read: {l})")).unwrap_or_default()
+    )]
+    NoReply {
+        /// The motor(s) asked.
+        motor: String,
+        /// The request's command.
+        command: &'static str,
+        /// The timeout of each attempt.
+        timeout: Duration,
+        /// How many times the request was sent.
+        attempts: u32,
+        /// What to check.
+        advice: String,
+        /// The last unreadable answer, if any.
+        last: Option<String>,
+    },
+    /// A MyActuator V3 motor answered.
+    #[error(
+        "motor {motor} answered on 0x{can_id:03X}: it runs MyActuator V3 firmware, which rmd-rt \
+         does not drive (its 0x280 frame is not a torque command)"
+    )]
+    V3 {
+        /// The motor.
+        motor: MotorId,
+        /// Where it answered.
+        can_id: u16,
+    },
+    /// The frame is not a request to a motor.
+    #[error("0x{0:03X} is not a request to a motor (0x141..=0x160 or 0x280)")]
+    NotARequest(u16),
+}
+
+/// The replies of one exchange: one motor's, or motors 1..=4 of a 0x280 frame (`None` for a
+/// motor that did not answer).
+#[derive(Debug)]
+pub(crate) enum Replies {
+    /// The motor's reply.
+    One(MotorId, DialectReply),
+    /// Replies of motors 1..=4, in order.
+    Multi([Option<DialectReply>; MULTI_TORQUE_MOTORS]),
+}
+
+/// Drops whatever is queued.
+fn drain(bus: &mut impl CanBus, clock: &impl Clock) -> Result<(), BusError> {
+    let now = clock.now();
+    while bus.recv_until(now)?.is_some() {}
+    Ok(())
+}
+
+/// Sends `frame` and waits for its reply (or, for a 0x280 frame, for motors 1..=4) as the
+/// module docs say. `advice` says what to check when nobody answers.
+pub(crate) fn exchange(
+    bus: &mut impl CanBus,
+    clock: &impl Clock,
+    frame: &CanFrame,
+    policy: &Policy,
+    advice: &str,
+) -> Result<Replies, ExchangeError> {
+    let attempts = policy.retries.saturating_add(1);
+    if frame.id() == MULTI_TORQUE_CAN_ID {
+        return exchange_multi(bus, clock, frame, policy, advice, attempts);
+    }
+    let motor =
+        MotorId::from_can_id(frame.id()).map_err(|_| ExchangeError::NotARequest(frame.id()))?;
+    let command = frame
+        .data()
+        .first()
+        .and_then(|&code| Command::from_code(code))
+        .ok_or(ExchangeError::NotARequest(frame.id()))?;
+    let mut last = None;
+    for _ in 0..attempts {
+        drain(bus, clock)?;
+        bus.send(frame)?;
+        let deadline = clock.now() + policy.timeout;
+        while let Some(received) = bus.recv_until(deadline)? {
+            let reply = match received.message {
+                BusMessage::Frame(reply) => reply,
+                BusMessage::Event(BusEvent::BusOff) => {
+                    return Err(ExchangeError::BusOff {
+                        motor: motor.to_string(),
+                    });
+                }
+                BusMessage::Event(_) => continue,
+            };
+            if reply.id() == v3::REPLY_BASE_ID + u16::from(motor.get()) {
+                return Err(ExchangeError::V3 {
+                    motor,
+                    can_id: reply.id(),
+                });
+            }
+            if reply.id() != frame.id() {
+                continue;
+            }
+            match decode_reply_to_with(policy.dialect, &reply, command) {
+                Ok((_, decoded)) => return Ok(Replies::One(motor, decoded)),
+                Err(error) => last = Some(error.to_string()),
+            }
+        }
+    }
+    Err(ExchangeError::NoReply {
+        motor: motor.to_string(),
+        command: command.name(),
+        timeout: policy.timeout,
+        attempts,
+        advice: advice.to_owned(),
+        last,
+    })
+}
+
+fn exchange_multi(
+    bus: &mut impl CanBus,
+    clock: &impl Clock,
+    frame: &CanFrame,
+    policy: &Policy,
+    advice: &str,
+    attempts: u32,
+) -> Result<Replies, ExchangeError> {
+    let mut last = None;
+    for _ in 0..attempts {
+        let mut replies: [Option<DialectReply>; MULTI_TORQUE_MOTORS] = Default::default();
+        drain(bus, clock)?;
+        bus.send(frame)?;
+        let deadline = clock.now() + policy.timeout;
+        while replies.iter().any(Option::is_none) {
+            let Some(received) = bus.recv_until(deadline)? else {
+                break;
+            };
+            let reply = match received.message {
+                BusMessage::Frame(reply) => reply,
+                BusMessage::Event(BusEvent::BusOff) => {
+                    return Err(ExchangeError::BusOff {
+                        motor: "1..=4".to_owned(),
+                    });
+                }
+                BusMessage::Event(_) => continue,
+            };
+            let slot = usize::from(reply.id().wrapping_sub(FIRST_MOTOR_CAN_ID));
+            let Some(entry) = replies.get_mut(slot) else {
+                continue;
+            };
+            match decode_reply_to_with(policy.dialect, &reply, Command::Torque) {
+                Ok((_, decoded)) => *entry = Some(decoded),
+                Err(error) => last = Some(error.to_string()),
+            }
+        }
+        if replies.iter().any(Option::is_some) {
+            return Ok(Replies::Multi(replies));
+        }
+    }
+    Err(ExchangeError::NoReply {
+        motor: "1..=4".to_owned(),
+        command: "multi-torque",
+        timeout: policy.timeout,
+        attempts,
+        advice: advice.to_owned(),
+        last,
+    })
+}

@@ -1,0 +1,256 @@
+//! The node's configuration: names, domain, rates, networks, and how commands are read.
+
+use std::net::IpAddr;
+use std::time::Duration;
+
+use crate::validate::CommandMode;
+
+/// The topics of the node. A name without a leading `/` is relative to the node's namespace
+/// (ROS 2 name resolution); one with a leading `/` is absolute.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TopicNames {
+    /// Published `sensor_msgs/JointState` samples (default `joint_states`).
+    pub joint_states: String,
+    /// Published `diagnostic_msgs/DiagnosticArray` (default `/diagnostics`, where ROS 2's
+    /// `diagnostic_aggregator` and `rqt_robot_monitor` look).
+    pub diagnostics: String,
+    /// Subscribed `sensor_msgs/JointState` commands (default `joint_commands`).
+    pub joint_commands: String,
+    /// Subscribed `trajectory_msgs/JointTrajectory` (default `joint_trajectory`).
+    pub joint_trajectory: String,
+    /// Subscribed `std_msgs/Bool`: `true` enables, `false` is an emergency stop (default
+    /// `enable`).
+    pub enable: String,
+}
+
+impl Default for TopicNames {
+    fn default() -> Self {
+        TopicNames {
+            joint_states: "joint_states".into(),
+            diagnostics: "/diagnostics".into(),
+            joint_commands: "joint_commands".into(),
+            joint_trajectory: "joint_trajectory".into(),
+            enable: "enable".into(),
+        }
+    }
+}
+
+/// Everything the node can be told.
+///
+/// ```
+/// use rmd_ros2::NodeConfig;
+/// let config = NodeConfig {
+///     namespace: "/leg".into(),
+///     domain_id: 7,
+///     joint_state_rate_hz: 250.0,
+///     ..NodeConfig::default()
+/// };
+/// assert_eq!(config.joint_state_period().unwrap().as_micros(), 4000);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeConfig {
+    /// The ROS 2 node name (default `rmd_rt`).
+    pub node_name: String,
+    /// The node's namespace: `/` (the default) or `/a/b`.
+    pub namespace: String,
+    /// The DDS domain (`ROS_DOMAIN_ID`), 0..=232 (default 0).
+    pub domain_id: u16,
+    /// How often `joint_states` is published, Hz (default 500).
+    pub joint_state_rate_hz: f64,
+    /// How often `diagnostics` is published (default 1 s).
+    pub diagnostics_period: Duration,
+    /// How `joint_commands` messages become setpoints.
+    pub command_mode: CommandMode,
+    /// Topic names.
+    pub topics: TopicNames,
+    /// Restrict DDS to the interfaces with these addresses (empty: all interfaces), e.g.
+    /// `127.0.0.1` to stay on loopback.
+    pub networks: Vec<IpAddr>,
+}
+
+impl Default for NodeConfig {
+    fn default() -> Self {
+        NodeConfig {
+            node_name: "rmd_rt".into(),
+            namespace: "/".into(),
+            domain_id: 0,
+            joint_state_rate_hz: 500.0,
+            diagnostics_period: Duration::from_secs(1),
+            command_mode: CommandMode::Auto,
+            topics: TopicNames::default(),
+            networks: Vec::new(),
+        }
+    }
+}
+
+/// A configuration the node cannot run with.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConfigError {
+    /// Not a valid ROS 2 namespace.
+    #[error("namespace {0:?} is not a ROS 2 namespace: use \"/\" or \"/a/b\" (letters, digits, _)")]
+    BadNamespace(String),
+    /// Not a valid ROS 2 node name.
+    #[error("node name {0:?} is not a ROS 2 node name: use letters, digits and _")]
+    BadNodeName(String),
+    /// Not a valid ROS 2 topic name.
+    #[error("topic name {0:?} is not a ROS 2 topic name: use \"name\", \"a/name\" or \"/a/name\"")]
+    BadTopic(String),
+    /// A domain id DDS cannot map to ports.
+    #[error("domain id {0} is out of range: use 0..=232")]
+    BadDomain(u16),
+    /// A rate that is not a positive number up to 10 kHz.
+    #[error("joint_states rate {0} Hz is invalid: use a rate in (0, 10000] Hz")]
+    BadRate(f64),
+    /// A zero diagnostics period.
+    #[error("the diagnostics period must be positive")]
+    BadDiagnosticsPeriod,
+}
+
+impl NodeConfig {
+    /// The `joint_states` period, or why the rate is invalid.
+    pub fn joint_state_period(&self) -> Result<Duration, ConfigError> {
+        let hz = self.joint_state_rate_hz;
+        if hz.is_finite() && hz > 0.0 && hz <= 10_000.0 {
+            Ok(Duration::from_secs_f64(1.0 / hz))
+        } else {
+            Err(ConfigError::BadRate(hz))
+        }
+    }
+
+    /// Checks everything that can be checked without DDS.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        self.joint_state_period()?;
+        if self.domain_id > 232 {
+            return Err(ConfigError::BadDomain(self.domain_id));
+        }
+        if self.diagnostics_period.is_zero() {
+            return Err(ConfigError::BadDiagnosticsPeriod);
+        }
+        self.node_name()?;
+        let t = &self.topics;
+        for topic in [
+            &t.joint_states,
+            &t.diagnostics,
+            &t.joint_commands,
+            &t.joint_trajectory,
+            &t.enable,
+        ] {
+            self.resolve_topic(topic)?;
+        }
+        Ok(())
+    }
+
+    pub(crate) fn node_name(&self) -> Result<ros2_client::NodeName, ConfigError> {
+        let ns_ok = self.namespace == "/"
+            || (self.namespace.starts_with('/')
+                && self.namespace[1..].split('/').all(is_name_token));
+        if !ns_ok {
+            return Err(ConfigError::BadNamespace(self.namespace.clone()));
+        }
+        if !is_name_token(&self.node_name) {
+            return Err(ConfigError::BadNodeName(self.node_name.clone()));
+        }
+        ros2_client::NodeName::new(&self.namespace, &self.node_name)
+            .map_err(|_| ConfigError::BadNodeName(self.node_name.clone()))
+    }
+
+    /// The absolute name of a topic (ROS 2 resolution against the namespace), e.g.
+    /// `joint_states` in `/leg` is `/leg/joint_states`. The DDS topic is this with `rt`
+    /// in front: `rt/leg/joint_states`.
+    pub fn resolve_topic(&self, topic: &str) -> Result<String, ConfigError> {
+        let absolute = if topic.starts_with('/') {
+            topic.to_owned()
+        } else if self.namespace == "/" {
+            format!("/{topic}")
+        } else {
+            format!("{}/{topic}", self.namespace)
+        };
+        if absolute[1..].split('/').all(is_name_token) {
+            Ok(absolute)
+        } else {
+            Err(ConfigError::BadTopic(topic.to_owned()))
+        }
+    }
+}
+
+/// One component of a ROS 2 name: a letter or `_` first, then letters, digits, single `_`s.
+fn is_name_token(s: &str) -> bool {
+    let mut chars = s.chars();
+    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+        && !s.contains("__")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn topics_resolve_against_the_namespace() {
+        let root = NodeConfig::default();
+        assert_eq!(root.resolve_topic("joint_states").unwrap(), "/joint_states");
+        assert_eq!(root.resolve_topic("/diagnostics").unwrap(), "/diagnostics");
+        let leg = NodeConfig {
+            namespace: "/robot/leg".into(),
+            ..NodeConfig::default()
+        };
+        assert_eq!(
+            leg.resolve_topic("joint_states").unwrap(),
+            "/robot/leg/joint_states"
+        );
+        assert_eq!(leg.resolve_topic("a/b").unwrap(), "/robot/leg/a/b");
+        assert_eq!(
+            leg.resolve_topic("/robot_joint_states").unwrap(),
+            "/robot_joint_states"
+        );
+        for bad in ["", "/", "a//b", "1abc", "a b", "a__b", "x/"] {
+            assert_eq!(
+                leg.resolve_topic(bad),
+                Err(ConfigError::BadTopic(bad.into())),
+                "{bad:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn bad_configurations_are_refused_with_their_reason() {
+        let ok = NodeConfig::default();
+        assert_eq!(ok.check(), Ok(()));
+        assert_eq!(ok.joint_state_period().unwrap(), Duration::from_millis(2));
+        let with = |f: &dyn Fn(&mut NodeConfig)| {
+            let mut c = NodeConfig::default();
+            f(&mut c);
+            c.check()
+        };
+        assert_eq!(
+            with(&|c| c.namespace = "leg".into()),
+            Err(ConfigError::BadNamespace("leg".into()))
+        );
+        assert_eq!(
+            with(&|c| c.namespace = "/leg/".into()),
+            Err(ConfigError::BadNamespace("/leg/".into()))
+        );
+        assert!(with(&|c| c.namespace = "/leg/front_1".into()).is_ok());
+        assert_eq!(
+            with(&|c| c.node_name = "my-node".into()),
+            Err(ConfigError::BadNodeName("my-node".into()))
+        );
+        assert_eq!(
+            with(&|c| c.domain_id = 233),
+            Err(ConfigError::BadDomain(233))
+        );
+        assert_eq!(
+            with(&|c| c.joint_state_rate_hz = 0.0),
+            Err(ConfigError::BadRate(0.0))
+        );
+        assert!(with(&|c| c.joint_state_rate_hz = f64::NAN).is_err());
+        assert_eq!(
+            with(&|c| c.diagnostics_period = Duration::ZERO),
+            Err(ConfigError::BadDiagnosticsPeriod)
+        );
+        assert_eq!(
+            with(&|c| c.topics.enable = "e-stop".into()),
+            Err(ConfigError::BadTopic("e-stop".into()))
+        );
+    }
+}

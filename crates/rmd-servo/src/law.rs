@@ -1,0 +1,104 @@
+//! The control law of one joint, as pure functions: PD on the reference, the velocity mode's
+//! moving reference, the effort clamp.
+
+use crate::config::JointServo;
+
+/// τ = kp·(reference − position) + kd·(reference velocity − velocity), N·m.
+pub(crate) fn pd(
+    joint: &JointServo,
+    reference_rad: f64,
+    reference_rad_s: f64,
+    position_rad: f64,
+    velocity_rad_s: f64,
+) -> f64 {
+    joint.gains.kp_nm_per_rad * (reference_rad - position_rad)
+        + joint.gains.kd_nm_s_per_rad * (reference_rad_s - velocity_rad_s)
+}
+
+/// `effort` within ±`max`; whether it had to be clamped. A value that is not a number is 0.
+pub(crate) fn clamp_effort(effort_nm: f64, max_nm: f64) -> (f64, bool) {
+    if effort_nm.is_nan() {
+        return (0.0, true);
+    }
+    let clamped = effort_nm.clamp(-max_nm, max_nm);
+    (clamped, clamped != effort_nm)
+}
+
+/// Advances the velocity mode's position reference by `velocity·dt`, keeping it within
+/// max_effort/kp of the measured position (beyond that the P term is saturated anyway: no
+/// wind-up when the joint is held back) and within the position limits. Returns the new
+/// reference and the velocity the D term aims at (zero while the reference rests on a limit).
+pub(crate) fn advance_velocity_reference(
+    joint: &JointServo,
+    reference_rad: f64,
+    velocity_rad_s: f64,
+    dt_s: f64,
+    position_rad: f64,
+) -> (f64, f64) {
+    let mut r = reference_rad + velocity_rad_s * dt_s;
+    let kp = joint.gains.kp_nm_per_rad;
+    if kp > 0.0 {
+        let window = joint.limits.max_effort_nm / kp;
+        r = r.clamp(position_rad - window, position_rad + window);
+    } else {
+        r = position_rad;
+    }
+    let l = &joint.limits;
+    let r = r.clamp(l.position_min_rad, l.position_max_rad);
+    let at_limit = (r <= l.position_min_rad && velocity_rad_s < 0.0)
+        || (r >= l.position_max_rad && velocity_rad_s > 0.0);
+    (r, if at_limit { 0.0 } else { velocity_rad_s })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{Gains, JointLimits, StalePolicy, StaleRule};
+
+    fn joint() -> JointServo {
+        JointServo {
+            name: "j".into(),
+            gains: Gains {
+                kp_nm_per_rad: 10.0,
+                kd_nm_s_per_rad: 0.5,
+            },
+            limits: JointLimits {
+                position_min_rad: -1.0,
+                position_max_rad: 1.0,
+                max_velocity_rad_s: 2.0,
+                max_acceleration_rad_s2: 10.0,
+                max_jerk_rad_s3: 100.0,
+                max_effort_nm: 2.0,
+            },
+            stale: StaleRule {
+                after: core::time::Duration::from_millis(100),
+                policy: StalePolicy::Hold,
+            },
+        }
+    }
+
+    #[test]
+    fn pd_and_clamp() {
+        let j = joint();
+        assert!((pd(&j, 0.5, 1.0, 0.25, 0.0) - 3.0).abs() < 1e-12);
+        assert_eq!(clamp_effort(3.0, 2.0), (2.0, true));
+        assert_eq!(clamp_effort(-1.5, 2.0), (-1.5, false));
+        assert_eq!(clamp_effort(f64::NAN, 2.0), (0.0, true));
+    }
+
+    #[test]
+    fn the_velocity_reference_moves_stays_near_the_joint_and_stops_at_limits() {
+        let j = joint();
+        let (r, v) = advance_velocity_reference(&j, 0.0, 1.0, 0.01, 0.0);
+        assert!((r - 0.01).abs() < 1e-12 && v == 1.0);
+        // Held back: the reference waits within max_effort / kp = 0.2 rad of the joint.
+        let (r, _) = advance_velocity_reference(&j, 0.5, 1.0, 0.01, 0.1);
+        assert!((r - 0.3).abs() < 1e-12, "{r}");
+        // At the upper limit going up: the reference stops there and so does the D term's aim.
+        let (r, v) = advance_velocity_reference(&j, 0.995, 1.0, 0.01, 0.99);
+        assert_eq!((r, v), (1.0, 0.0));
+        // Going down from the limit is allowed.
+        let (r, v) = advance_velocity_reference(&j, 1.0, -1.0, 0.01, 1.0);
+        assert!((r - 0.99).abs() < 1e-12 && v == -1.0);
+    }
+}
