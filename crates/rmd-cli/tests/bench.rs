@@ -324,18 +324,22 @@ fn one_rate_trial_per_bus_count_passes_below_and_fails_above_the_wire_limit() {
 
     // Several bus counts: one JSON object per line, in order. In virtual time the buses run in
     // parallel: the same limit as one.
-    let run = rmd("bench rate --virtual-time --buses 1,2,4 --rate 1000 --seconds 0.2 --json");
+    let run = rmd("bench rate --virtual-time --buses 1,2,4,8 --rate 1000 --seconds 0.2 --json");
     assert_eq!(run.code, Some(0), "{}", run.stderr);
     let lines: Vec<Value> = run
         .stdout
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();
-    assert_eq!(lines.len(), 3);
-    for (v, buses) in lines.iter().zip([1, 2, 4]) {
+    assert_eq!(lines.len(), 4);
+    for (v, buses) in lines.iter().zip([1, 2, 4, 8]) {
         assert_eq!(v["buses"], buses);
         assert_eq!(v["trials"][0]["buses"], buses);
         assert_eq!(v["trials"][0]["zero_misses"], true, "{v}");
+        assert_eq!(v["rate_hz"], 1000.0, "{v}");
+        assert_eq!(v["zero_miss_rate_hz"], 1000.0, "{v}");
+        assert!(v["wire_limit_hz"].as_f64().unwrap() > 1000.0, "{v}");
+        assert!(v["loop_added_us"]["p99"].is_number(), "{v}");
     }
 
     // 1400 Hz is a 714 us period: shorter than any 4-motor exchange at 1 Mbit/s.
