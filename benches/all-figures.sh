@@ -119,39 +119,42 @@ figures=target/release/examples/bench_figures
 } > "$out/machine.md"
 cat "$out/machine.md"
 
-# From here on a figure that fails (e.g. no rate within the budget) must not stop the others.
+# From here on a figure that fails (e.g. no rate within the budget) must not stop the others;
+# each failure is noted (in the machine block too) and the script exits 1 at the end.
 set +e
+failed=()
+check() { local status=$1 what=$2; [[ $status -eq 0 ]] || { failed+=("$what (exit $status)"); echo "FAILED: $what (exit $status)" | tee -a "$out/notes.txt" >&2; }; }
 
 wait_quiet; stamp "tick overhead"
-cargo bench --bench tick -- "${tick_args[@]}" 2>&1 | tee "$out/tick.txt"
+cargo bench --bench tick -- "${tick_args[@]}" 2>&1 | tee "$out/tick.txt"; check $? "cargo bench --bench tick"
 "$figures" tick target/criterion "$out/tick.txt" > "$out/tick.md"
 
 wait_quiet; stamp "wake latency vs cyclictest"
 benches/jitter-vs-cyclictest.sh --rounds "$jitter_rounds" --seconds "$jitter_seconds" --period-us 1000 \
   --prio "$prio" --cpu "$cpu" --spin-us 100 --out "$out/jitter" --svg "$img/jitter-histograms.svg" \
-  --markdown "$out/jitter.md" --json "$out/jitter.json" --note "$tag" 2>&1 | tee "$out/jitter.txt"
+  --markdown "$out/jitter.md" --json "$out/jitter.json" --note "$tag" 2>&1 | tee "$out/jitter.txt"; check $? "jitter-vs-cyclictest.sh"
 
 rate_flags=(--duration "$rate_duration" --cpu "$cpu" --fifo "$prio" --spin-us 100
   --resolution-pct "$rate_resolution" --confirm "$rate_confirm" --json)
 wait_quiet; stamp "rate by bus count, polling receive (50 us)"
-"$rmd" bench rate --buses 1,2,4,8 --rx-spin-us 50 "${rate_flags[@]}" > "$out/rate.jsonl" 2> "$out/rate.log"
+"$rmd" bench rate --buses 1,2,4,8 --rx-spin-us 50 "${rate_flags[@]}" > "$out/rate.jsonl" 2> "$out/rate.log"; check $? "rmd bench rate (polling)"
 "$figures" rate "$out/rate.jsonl" --svg "$img/rate-vs-wire-limit.svg" \
   --caption "highest rate vs the wire limit, 4 motors per bus, polling receive$tag" > "$out/rate.md"
 wait_quiet; stamp "rate by bus count, blocking receive"
-"$rmd" bench rate --buses 1,4 --rx-spin-us 0 "${rate_flags[@]}" > "$out/rate-blocking.jsonl" 2> "$out/rate-blocking.log"
+"$rmd" bench rate --buses 1,4 --rx-spin-us 0 "${rate_flags[@]}" > "$out/rate-blocking.jsonl" 2> "$out/rate-blocking.log"; check $? "rmd bench rate (blocking)"
 "$figures" rate "$out/rate-blocking.jsonl" > "$out/rate-blocking.md"
 
 for buses in 1 4; do
   wait_quiet; stamp "loop report, 4 motors x $buses bus(es)"
   "$rmd" bench loop --motors 4 --buses "$buses" --rate 1000 --duration "$loop_duration" --cpu "$cpu" \
-    --fifo "$prio" --spin-us 100 --json > "$out/loop-$buses.json"
+    --fifo "$prio" --spin-us 100 --json > "$out/loop-$buses.json"; check $? "rmd bench loop --buses $buses"
 done
 "$figures" loop "$out/loop-1.json" "$out/loop-4.json" > "$out/loop.md"
 
 wait_quiet; stamp "protocol, trajectory and simulator costs"
 for bench in "--bench protocol" "--bench trajectory" "-p rmd-sim --bench exchange"; do
   # shellcheck disable=SC2086 # two words each, on purpose
-  cargo bench $bench -- "${tick_args[@]}" 2>&1 | tee -a "$out/other.txt"
+  cargo bench $bench -- "${tick_args[@]}" 2>&1 | tee -a "$out/other.txt"; check $? "cargo bench $bench"
 done
 "$figures" criterion target/criterion "encode" "decode" "calculate" "sample" "simbus" "simmotors" \
   > "$out/other.md"
@@ -182,3 +185,7 @@ put_block rate-blocking "$out/rate-blocking.md"
 put_block loop "$out/loop.md"
 put_block other "$out/other.md"
 echo "wrote $doc, $img/jitter-histograms.svg and $img/rate-vs-wire-limit.svg (raw outputs in $out/)"
+if [[ ${#failed[@]} -gt 0 ]]; then
+  echo "error: ${#failed[@]} figure(s) failed (noted in the machine block): ${failed[*]}" >&2
+  exit 1
+fi
