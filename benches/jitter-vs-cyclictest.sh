@@ -11,12 +11,17 @@
 #
 # Usage: benches/jitter-vs-cyclictest.sh [--rounds N] [--seconds S] [--period-us P] [--prio PRIO]
 #                                        [--cpu C] [--spin-us U] [--out DIR] [--svg FILE]
+#                                        [--markdown FILE] [--json FILE] [--note TEXT]
 # Defaults: 3 rounds of 30 s per tool, 1000 us, priority 80, CPU 1, spin 50 us,
-#           results in target/jitter-vs-cyclictest/, plot in DIR/jitter-histograms.svg.
+#           results in target/jitter-vs-cyclictest/, plot in DIR/jitter-histograms.svg;
+#           --markdown / --json: the table as Markdown / the ratios as JSON, too;
+#           --note: appended to the plot's caption.
 #
 # Needs root (SCHED_FIFO, mlockall, /dev/cpu_dma_latency, and apt-get to install Debian's
-# rt-tests when cyclictest is missing). cyclictest holds /dev/cpu_dma_latency at 0 while it runs;
-# this script holds it at 0 for the whole session, so that all three run in the same power state.
+# rt-tests when cyclictest is missing). Each tool holds /dev/cpu_dma_latency at 0 itself while
+# it runs, with its defaults: cyclictest always, rmd bench jitter because --cpu / --fifo are
+# given (the loop's own setting; its real-time line, logged in DIR/machine.txt, says whether it
+# was held). The script does not hold it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -28,6 +33,9 @@ cpu=1
 spin_us=50
 out=target/jitter-vs-cyclictest
 svg=
+markdown=
+json=
+note=
 hist_us=10000
 
 die() { echo "error: $*" >&2; exit 2; }
@@ -43,7 +51,10 @@ while [[ $# -gt 0 ]]; do
     --spin-us) int "$1" "${2-}"; spin_us=$2; shift 2 ;;
     --out) out=${2-}; shift 2 ;;
     --svg) svg=${2-}; shift 2 ;;
-    -h|--help) sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --markdown) markdown=${2-}; shift 2 ;;
+    --json) json=${2-}; shift 2 ;;
+    --note) note=${2-}; shift 2 ;;
+    -h|--help) awk 'NR > 1 { if (!/^#/) exit; sub(/^# ?/, ""); print }' "$0"; exit 0 ;;
     *) die "unknown argument '$1' (see --help)" ;;
   esac
 done
@@ -70,15 +81,6 @@ compare=target/release/examples/jitter_compare
 mkdir -p "$out"
 rm -f "$out"/round-*
 
-# Hold the CPU latency request at 0 us (a 32-bit zero) for the whole session.
-if [[ -w /dev/cpu_dma_latency ]]; then
-  exec 3>/dev/cpu_dma_latency
-  printf '\x00\x00\x00\x00' >&3
-  dma="held at 0 us by this script for all runs"
-else
-  dma="not writable: left as the system has it"
-fi
-
 {
   echo "date: $(date -u +%Y-%m-%dT%H:%M:%SZ)"
   echo "kernel: $(uname -srv)"
@@ -86,7 +88,7 @@ fi
     | sed 's/  */ /g'
   echo "clocksource: $(cat /sys/devices/system/clocksource/clocksource0/current_clocksource 2>/dev/null || echo unknown)"
   echo "cpuidle driver: $(cat /sys/devices/system/cpu/cpuidle/current_driver 2>/dev/null || echo none)"
-  echo "cpu_dma_latency: $dma"
+  echo "cpu_dma_latency: held at 0 us by each tool while it runs (not by this script)"
   echo "rt-tests: $(dpkg-query -W -f '${Version}' rt-tests 2>/dev/null || echo unknown)"
   echo "rmd: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)$(git diff --quiet 2>/dev/null || echo ' (modified)')"
   echo "set-up: period ${period_us} us, SCHED_FIFO ${prio}, CPU ${cpu}, ${rounds} round(s) x ${seconds} s per tool, spin margin ${spin_us} us"
@@ -117,5 +119,11 @@ for ((r = 1; r <= rounds; r++)); do
 done
 echo "load after: $(cat /proc/loadavg)" | tee -a "$out/machine.txt"
 
-caption="wake latency, ${period_us} us period, SCHED_FIFO ${prio}, CPU ${cpu}, ${rounds} x ${seconds} s each (spin ${spin_us} us)"
-"$compare" "$out" --svg "$svg" --caption "$caption" | tee "$out/summary.txt"
+echo "rmd real-time setup (round 1, sleep only): $(sed -n 's/.*"realtime":"\([^"]*\)".*/\1/p' "$out/round-1-rmd-sleep.json")" \
+  | tee -a "$out/machine.txt"
+
+caption="wake latency, ${period_us} us period, SCHED_FIFO ${prio}, CPU ${cpu}, ${rounds} x ${seconds} s each (spin ${spin_us} us)${note}"
+extra=()
+[[ -n $markdown ]] && extra+=(--markdown "$markdown")
+[[ -n $json ]] && extra+=(--json "$json")
+"$compare" "$out" --svg "$svg" --caption "$caption" "${extra[@]}" | tee "$out/summary.txt"

@@ -5,13 +5,19 @@
 //!
 //! Three views, for 1 bus x 4 motors and 4 buses x 4 motors (targets: under 2 us and under 8 us):
 //!
-//! - `loop+sim`: `Running::step` on the simulator in its instant configuration (no wire time, zero
-//!   turnaround). The simulator runs inside the tick: the motors' firmware and 1 ms of physics
-//!   (20 substeps per motor) per tick, at 1 kHz;
-//! - `sim alone`: the same simulator work without the loop (advance 1 ms, send the 0x280 frame,
-//!   receive the replies), so that `loop+sim - sim alone` is the loop's share;
-//! - `loop alone`: `Running::step` on a bus that answers every 0x280 frame at once with four
-//!   pre-encoded replies (no simulator at all): the framework's own overhead.
+//! - `loop+sim`: `Running::step` on the simulator in its instant configuration (no wire time)
+//!   but for a fixed turnaround of [`TURNAROUND`]: the loop pairs a reply with its request only
+//!   when it comes at least the shortest physical round trip after it (two frames on the wire,
+//!   216 us at 1 Mbit/s), so replies at the instant of the request would all be unexpected. The
+//!   simulator runs inside the tick: the motors' firmware and 1 ms of physics (20 substeps per
+//!   motor) per tick, at 1 kHz;
+//! - `sim alone`: the same simulator work without the loop (send the 0x280 frame, receive the
+//!   replies, on to the next period), so that `loop+sim - sim alone` is the loop's share;
+//! - `loop alone`: `Running::step` on a bus that answers every 0x280 frame with four pre-encoded
+//!   replies, [`TURNAROUND`] later and then one every [`REPLY_GAP`] (no simulator at all): the
+//!   framework's own overhead. The bus can be waited on with others (`CanBus::readiness`), so
+//!   the loop collects from every bus at once, as it does on SocketCAN and on threaded
+//!   simulators.
 //!
 //! Before measuring, each loop runs 10 000 ticks under a counting allocator and prints the
 //! allocations per tick (zero: the real-time path never allocates).
@@ -24,7 +30,9 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use rmd_rt::bus::{BusError, BusMessage, CanBus, Clock, Received, Timestamp, VirtualClock};
+use rmd_rt::bus::{
+    BusError, BusMessage, CanBus, Clock, Readiness, Received, Timestamp, VirtualClock, WaitOn,
+};
 use rmd_rt::protocol::{
     CanFrame, EncoderValue, Iq, IqControl, MotorId, MultiTorque, Reply, Speed, Status2, Temperature,
 };
@@ -38,6 +46,11 @@ const RATE_HZ: f64 = 1000.0;
 const MOTORS: u8 = 4;
 /// Ticks run under the counting allocator.
 const COUNTED_TICKS: u64 = 10_000;
+/// When the first reply comes after the request (virtual time): longer than the shortest
+/// physical round trip at 1 Mbit/s (216 us), which the loop's reply matching requires.
+const TURNAROUND: Duration = Duration::from_micros(250);
+/// Between the canned bus's replies (about one 8-byte frame at 1 Mbit/s).
+const REPLY_GAP: Duration = Duration::from_micros(120);
 
 /// The controller is excluded: it does nothing (every command stays zero).
 struct NoOp;
@@ -60,8 +73,9 @@ fn robot(buses: usize) -> rmd_rt::Robot {
     rmd_rt::Robot::try_from(robot).expect("valid robot")
 }
 
-/// A bus that answers each 0x280 frame at once with the pre-encoded 0xA1 replies of motors
-/// 1..=4, stamped with the clock's now. No allocation: a fixed ring of pending replies.
+/// A bus that answers each 0x280 frame with the pre-encoded 0xA1 replies of motors 1..=4, the
+/// first [`TURNAROUND`] after it and then one every [`REPLY_GAP`] (virtual time: the receive
+/// moves the clock to each arrival). No allocation: a fixed ring of pending replies.
 struct CannedBus {
     clock: VirtualClock,
     replies: [CanFrame; MOTORS as usize],
@@ -90,12 +104,20 @@ impl CannedBus {
             len: 0,
         }
     }
+
+    /// When the oldest pending reply arrives.
+    fn first_arrival(&self) -> Option<Timestamp> {
+        if self.len == 0 {
+            return None;
+        }
+        self.pending[self.head].as_ref().map(|r| r.at)
+    }
 }
 
 impl CanBus for CannedBus {
     fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
         if frame.id() == rmd_rt::protocol::MULTI_TORQUE_CAN_ID {
-            let at = self.clock.now();
+            let mut at = self.clock.now() + TURNAROUND;
             for reply in self.replies {
                 if self.len == self.pending.len() {
                     return Err(BusError::TxQueueFull);
@@ -106,19 +128,39 @@ impl CanBus for CannedBus {
                     message: BusMessage::Frame(reply),
                 });
                 self.len += 1;
+                at += REPLY_GAP;
             }
         }
         Ok(())
     }
 
-    fn recv_until(&mut self, _deadline: Timestamp) -> Result<Option<Received>, BusError> {
-        if self.len == 0 {
+    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
+        let Some(at) = self.first_arrival() else {
+            self.clock.sleep_until(deadline);
             return Ok(None);
+        };
+        if at > self.clock.now() {
+            // Not arrived yet: wait for it, up to the deadline.
+            if at > deadline {
+                self.clock.sleep_until(deadline);
+                return Ok(None);
+            }
+            self.clock.sleep_until(at);
         }
         let item = self.pending[self.head].take();
         self.head = (self.head + 1) % self.pending.len();
         self.len -= 1;
         Ok(item)
+    }
+
+    /// Like a SocketCAN socket or a threaded simulator, it can be waited on with other buses:
+    /// the loop collects from all of them at once (the path real runs take).
+    fn readiness(&mut self) -> Readiness<'_> {
+        match self.first_arrival() {
+            Some(at) if at <= self.clock.now() => Readiness::Ready,
+            Some(at) => Readiness::Pending(WaitOn::arrival(at, Duration::ZERO)),
+            None => Readiness::Pending(WaitOn::default()),
+        }
     }
 }
 
@@ -153,10 +195,13 @@ fn started<B: CanBus>(
 fn sim_buses(clock: &VirtualClock, n: usize) -> Vec<SimBus<VirtualClock>> {
     (0..n)
         .map(|b| {
-            SimBus::new(
-                clock.clone(),
-                SimConfig::with_motors(MOTORS).seed(b as u64).instant(),
-            )
+            SimBus::new(clock.clone(), {
+                let mut config = SimConfig::with_motors(MOTORS).seed(b as u64).instant();
+                for motor in &mut config.motors {
+                    motor.turnaround = TURNAROUND;
+                }
+                config
+            })
             .expect("valid simulator")
         })
         .collect()
@@ -183,19 +228,20 @@ fn tick(c: &mut Criterion) {
         let period = Duration::from_secs_f64(1.0 / RATE_HZ);
         group.bench_function(format!("sim alone {label}"), |b| {
             b.iter(|| {
-                clock.advance(period);
+                let start = clock.now();
                 for sim in &mut sims {
                     sim.send(black_box(&frame)).expect("sent");
                 }
-                let now = clock.now();
+                let replies_by = start + TURNAROUND;
                 let mut replies = 0;
                 for sim in &mut sims {
-                    while let Some(rx) = sim.recv_until(now).expect("received") {
+                    while let Some(rx) = sim.recv_until(replies_by).expect("received") {
                         black_box(rx);
                         replies += 1;
                     }
                 }
                 assert_eq!(replies, buses * usize::from(MOTORS));
+                clock.sleep_until(start + period);
             })
         });
 

@@ -200,3 +200,51 @@ fn ctrl_c_stops_the_example_safely_with_status_130() {
     );
     assert!(ran.stderr.contains("interrupted"), "{}", ran.stderr);
 }
+
+/// The examples take the loop's CPU latency request (`--cpu-dma-latency US|off`, default 0 us
+/// with `--cpu` or `--fifo`) and the report's real-time line says whether it was held (as root,
+/// with the device) or why not; a bad value is a usage error naming the flag.
+#[test]
+fn the_example_takes_the_cpu_latency_request() {
+    let realtime = |args: &[&str]| {
+        let mut all = vec!["--virtual-time", "--duration", "0.1"];
+        all.extend_from_slice(args);
+        let ran = run("pd_hold", &all);
+        assert_eq!(
+            ran.code,
+            Some(0),
+            "{args:?}: {}\n{}",
+            ran.stdout,
+            ran.stderr
+        );
+        ran.stdout
+            .lines()
+            .find(|l| l.starts_with("real-time:"))
+            .unwrap_or_else(|| panic!("{args:?}: no real-time line in:\n{}", ran.stdout))
+            .to_string()
+    };
+    for (args, said) in [
+        (&["--cpu", "0"][..], "cpu_dma_latency: 0 us "),
+        (
+            &["--cpu", "0", "--cpu-dma-latency", "5"][..],
+            "cpu_dma_latency: 5 us ",
+        ),
+        (
+            &["--cpu", "0", "--cpu-dma-latency", "off"][..],
+            "cpu_dma_latency: not requested",
+        ),
+        (&[][..], "cpu_dma_latency: not requested"),
+    ] {
+        let line = realtime(args);
+        assert!(line.contains(said), "{args:?}: {line}");
+        if said.ends_with("us ") {
+            assert!(
+                line.contains(&format!("{said}held")) || line.contains(&format!("{said}FAILED (")),
+                "{args:?}: {line}"
+            );
+        }
+    }
+    let ran = run("pd_hold", &["--virtual-time", "--cpu-dma-latency", "soon"]);
+    assert_eq!(ran.code, Some(2));
+    assert!(ran.stderr.contains("--cpu-dma-latency"), "{}", ran.stderr);
+}

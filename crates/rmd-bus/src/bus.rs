@@ -1,5 +1,10 @@
 //! The `CanBus` trait: what the loop needs from a CAN interface, and nothing more.
 
+use core::marker::PhantomData;
+use core::time::Duration;
+#[cfg(target_os = "linux")]
+use std::os::fd::BorrowedFd;
+
 use rmd_protocol::CanFrame;
 
 use crate::Timestamp;
@@ -20,6 +25,16 @@ pub trait CanBus {
     /// (an absolute time on the bus's clock). `Ok(None)` means the deadline passed with nothing
     /// received. A deadline in the past polls: anything already received is returned, else `None`.
     fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError>;
+
+    /// Whether something can be received now, and if not, what a wait on several buses at once
+    /// ([`ready::wait_any`](crate::ready::wait_any)) watches for this one. Never waits; called
+    /// from the real-time thread.
+    ///
+    /// The default, [`Readiness::Alone`], says the bus can only be waited on by its own
+    /// `recv_until` (a simulator that advances its time while it waits).
+    fn readiness(&mut self) -> Readiness<'_> {
+        Readiness::Alone
+    }
 }
 
 impl<B: CanBus + ?Sized> CanBus for &mut B {
@@ -29,6 +44,9 @@ impl<B: CanBus + ?Sized> CanBus for &mut B {
     fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
         (**self).recv_until(deadline)
     }
+    fn readiness(&mut self) -> Readiness<'_> {
+        (**self).readiness()
+    }
 }
 
 impl<B: CanBus + ?Sized> CanBus for Box<B> {
@@ -37,6 +55,79 @@ impl<B: CanBus + ?Sized> CanBus for Box<B> {
     }
     fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
         (**self).recv_until(deadline)
+    }
+    fn readiness(&mut self) -> Readiness<'_> {
+        (**self).readiness()
+    }
+}
+
+/// What [`CanBus::readiness`] says.
+#[derive(Copy, Clone, Debug)]
+pub enum Readiness<'a> {
+    /// Something can be received now: `recv_until` with a past deadline returns it.
+    Ready,
+    /// Nothing yet; a wait for this bus together with others watches this.
+    Pending(WaitOn<'a>),
+    /// The bus cannot be waited on together with others: wait on it alone, with `recv_until`.
+    Alone,
+}
+
+/// What a wait on several buses at once watches for one bus: a file descriptor that becomes
+/// readable when something may be received (a SocketCAN socket, a simulator's doorbell), and
+/// the time the next item is known to arrive, if the bus knows it (a simulated bus computes its
+/// replies ahead of their time on the wire).
+///
+/// ```
+/// use core::time::Duration;
+/// use rmd_bus::{Timestamp, WaitOn};
+/// let at = Timestamp::from_nanos(5_000);
+/// let wait = WaitOn::arrival(at, Duration::from_micros(2));
+/// assert_eq!(wait.next_arrival(), Some((at, Duration::from_micros(2))));
+/// ```
+#[derive(Copy, Clone, Debug, Default)]
+pub struct WaitOn<'a> {
+    arrival: Option<(Timestamp, Duration)>,
+    #[cfg(target_os = "linux")]
+    fd: Option<BorrowedFd<'a>>,
+    _fd: PhantomData<&'a ()>,
+}
+
+impl<'a> WaitOn<'a> {
+    /// The next item arrives at `at`; the wait sleeps until `spin` before it, then busy-waits
+    /// (zero: sleeps all the way).
+    pub fn arrival(at: Timestamp, spin: Duration) -> Self {
+        Self {
+            arrival: Some((at, spin)),
+            ..Self::default()
+        }
+    }
+
+    /// The same, and the next item arrives at `at` (see [`arrival`](Self::arrival)).
+    pub fn with_arrival(self, at: Timestamp, spin: Duration) -> Self {
+        Self {
+            arrival: Some((at, spin)),
+            ..self
+        }
+    }
+
+    /// Something may be received when `fd` becomes readable.
+    #[cfg(target_os = "linux")]
+    pub fn readable(fd: BorrowedFd<'a>) -> Self {
+        Self {
+            fd: Some(fd),
+            ..Self::default()
+        }
+    }
+
+    /// The next item's arrival and spin margin, if known.
+    pub fn next_arrival(&self) -> Option<(Timestamp, Duration)> {
+        self.arrival
+    }
+
+    /// The file descriptor to watch, if any.
+    #[cfg(target_os = "linux")]
+    pub fn fd(&self) -> Option<BorrowedFd<'a>> {
+        self.fd
     }
 }
 

@@ -262,6 +262,51 @@ fn a_frame_arriving_during_the_wait_ends_it() {
 }
 
 #[test]
+fn one_ppoll_over_several_sockets_wakes_for_the_one_that_receives() {
+    use rmd_bus::Readiness;
+    use rmd_bus::ready::wait_any;
+    let (va, vb) = (Vcan::up(), Vcan::up());
+    let (mut a, mut b) = (open(&va.name), open(&vb.name));
+    let peer = Peer::open(&vb.name);
+    // Nothing queued: each gives its socket to watch, no arrival known.
+    for bus in [&mut a, &mut b] {
+        match bus.readiness() {
+            Readiness::Pending(wait) => {
+                assert!(wait.fd().is_some());
+                assert_eq!(wait.next_arrival(), None);
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+    let deadline = now() + Duration::from_secs(30);
+    let sender = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(50));
+        peer.send(0x142, &[2; 8]);
+    });
+    let waits = [a.readiness(), b.readiness()].map(|r| match r {
+        Readiness::Pending(wait) => wait,
+        other => panic!("{other:?}"),
+    });
+    wait_any(&MonotonicClock, waits, deadline).unwrap();
+    assert!(now() < deadline, "woken by the frame, not the deadline");
+    // The frame is on b, taken without waiting; a has nothing.
+    assert_eq!(
+        b.recv_until(Timestamp::ZERO).unwrap().map(|r| r.message),
+        Some(BusMessage::Frame(frame(0x142, &[2; 8])))
+    );
+    assert_eq!(a.recv_until(Timestamp::ZERO).unwrap(), None);
+    sender.join().unwrap();
+    // Nothing arrives: the wait ends at its deadline, never before.
+    let waits = [a.readiness(), b.readiness()].map(|r| match r {
+        Readiness::Pending(wait) => wait,
+        other => panic!("{other:?}"),
+    });
+    let deadline = now() + Duration::from_millis(20);
+    wait_any(&MonotonicClock, waits, deadline).unwrap();
+    assert!(now() >= deadline);
+}
+
+#[test]
 fn drain_discards_what_is_queued() {
     let vcan = Vcan::up();
     let mut bus = open(&vcan.name);

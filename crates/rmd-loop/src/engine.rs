@@ -33,7 +33,7 @@ use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
 use crate::mailbox::{Receiver, Sender, mailbox};
 use crate::mapping::JointMap;
-use crate::os::RtStatus;
+use crate::os::{CpuLatencyHold, RtSetup, RtStatus};
 use crate::report::{Fault, StopReason};
 use crate::robot::{RejectedCommandPolicy, Robot};
 use crate::schedule::{Scheduler, TickTiming};
@@ -165,6 +165,8 @@ pub struct Running<B, C, K> {
     scheduler: Scheduler,
     start: Timestamp,
     realtime: RtStatus,
+    /// The CPU latency request, held until the run is finished.
+    cpu_latency: Option<CpuLatencyHold>,
     supervisor: Option<JoinHandle<()>>,
     identified: Vec<crate::report::IdentifiedMotor>,
 }
@@ -319,7 +321,11 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
         } = self;
         parts.shared.set_running(true);
         crate::panics::enter();
-        let realtime = startup::prepare_thread(parts.robot.settings());
+        // On every early return below the hold is dropped: the request ends with the start.
+        let RtSetup {
+            status: realtime,
+            cpu_latency,
+        } = startup::prepare_thread(parts.robot.settings());
         let identified = match startup::identify_motors(&mut parts) {
             Ok(identified) => identified,
             Err(reason) => {
@@ -394,6 +400,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
             scheduler: Scheduler::new(settings.period, settings.spin_margin, settings.overrun, t0),
             start: t0,
             realtime,
+            cpu_latency,
             parts,
             controller,
         })
@@ -432,9 +439,10 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         stats.ticks += 1;
         stats.skipped_ticks += timing.skipped;
         stats.wake_latency.record(timing.wake_latency());
-        if let Err(reason) = self.exchange(&timing) {
-            return ControlFlow::Break(reason);
-        }
+        let last_reply = match self.exchange(&timing) {
+            Ok(last_reply) => last_reply,
+            Err(reason) => return ControlFlow::Break(reason),
+        };
         self.run_controller(&timing)?;
         self.parts.stage_commands();
         self.parts.publish(&timing, self.start);
@@ -442,11 +450,19 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         let end = self.parts.clock.now();
         self.parts.shared.watch.progress(end, timing.index);
         let work = end - timing.woke;
-        self.parts.stats.work.record(work);
+        let stats = &mut self.parts.stats;
+        stats.work.record(work);
+        // The loop is ready for the next frame: what it added after the last reply.
+        if let Some(last) = last_reply {
+            stats.loop_added.record(end - last);
+        }
         self.parts.sample.times.previous_work_ns = work.as_nanos() as u64;
         let tick_end = self.scheduler.end_tick(end);
         if tick_end.missed_deadline {
-            self.parts.stats.deadline_misses += 1;
+            stats.deadline_misses += 1;
+        }
+        if tick_end.missed_deadline || last_reply.is_none() {
+            stats.missed_ticks += 1;
         }
         if tick_end.fault {
             return ControlFlow::Break(StopReason::Fault(Fault::DeadlineMisses {
@@ -456,8 +472,9 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         ControlFlow::Continue(())
     }
 
-    /// Send on every bus, then collect from every bus, then account for missing replies.
-    fn exchange(&mut self, timing: &TickTiming) -> Result<(), StopReason> {
+    /// Send on every bus, then collect from every bus, then account for missing replies. Returns
+    /// when the tick's last reply came, if every motor's did.
+    fn exchange(&mut self, timing: &TickTiming) -> Result<Option<Timestamp>, StopReason> {
         let Parts {
             exchange,
             stats,
@@ -481,34 +498,29 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         }
         let deadline = timing.scheduled + robot.settings().reply_deadline;
         let max_age = exchange.max_age;
-        let mut last_reply: Option<Timestamp> = None;
-        let mut rtt_max = Duration::ZERO;
-        for b in 0..exchange.links.len() {
-            if let Some((at, rtt)) = exchange
-                .collect(b, timing.index, deadline, max_age, stats)
-                .map_err(StopReason::Fault)?
-            {
-                last_reply = Some(last_reply.map_or(at, |l| l.max(at)));
-                rtt_max = rtt_max.max(rtt);
-            }
-        }
+        let collected = exchange
+            .collect_all(clock, timing.index, deadline, max_age, stats)
+            .map_err(StopReason::Fault)?;
         let fault_after = robot.settings().missing_reply_fault_after.get();
         let all_fresh = exchange
             .account(fault_after, stats)
             .map_err(StopReason::Fault)?;
         sample.times.round_trip_ns = None;
-        if all_fresh && let Some(last) = last_reply {
+        if !all_fresh {
+            return Ok(None);
+        }
+        if let Some(last) = collected.last_reply {
             // Same tick: from this tick's send to the last reply. Pipelined: the replies answer
             // the previous tick, so use the tracked round trip of the slowest motor.
             let rtt = if max_age == 0 {
                 last - sent_at
             } else {
-                rtt_max
+                collected.rtt_max
             };
             stats.round_trip.record(rtt);
             sample.times.round_trip_ns = Some(rtt.as_nanos() as u64);
         }
-        Ok(())
+        Ok(collected.last_reply)
     }
 
     fn run_controller(&mut self, timing: &TickTiming) -> ControlFlow<StopReason> {
@@ -565,7 +577,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         } else {
             wait_for_takeover(&self.parts.shared, self.supervisor)
         };
-        finish::finish(
+        let outcome = finish::finish(
             self.parts,
             self.controller,
             reason,
@@ -573,7 +585,10 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
             Some(self.start),
             takeover,
             self.identified,
-        )
+        );
+        // The motors are safe: the CPUs may sleep deeply again.
+        drop(self.cpu_latency);
+        outcome
     }
 }
 

@@ -20,7 +20,8 @@ pub struct JitterConfig {
     pub duration: Duration,
     /// Sleep until this long before each deadline, then spin (zero: sleep only).
     pub spin_margin: Duration,
-    /// CPU pinning, `SCHED_FIFO` priority and memory locking of the measuring thread.
+    /// CPU pinning, `SCHED_FIFO` priority, memory locking and the CPU latency request of the
+    /// measuring thread (the request is held for the measurement, as the loop holds it).
     pub rt: RtRequest,
 }
 
@@ -47,7 +48,7 @@ pub struct JitterReport {
 
 /// Measures on the calling thread (which it pins and prioritises as asked) with `clock`.
 pub fn measure<C: Clock + ?Sized>(clock: &C, config: &JitterConfig) -> JitterReport {
-    let rt = os::apply_to_current_thread(&config.rt);
+    let setup = os::apply_to_current_thread(&config.rt);
     let ticks = (config.duration.as_nanos() / config.period.get().as_nanos()).max(1) as u64;
     let mut histogram = LatencyHistogram::new();
     let mut deadline_misses = 0;
@@ -71,7 +72,8 @@ pub fn measure<C: Clock + ?Sized>(clock: &C, config: &JitterConfig) -> JitterRep
         wake_latency_us: histogram.percentiles(),
         period_us: config.period.get().as_secs_f64() * 1e6,
         spin_us: config.spin_margin.as_secs_f64() * 1e6,
-        rt,
+        // The measurement is over: the CPU latency request is withdrawn here.
+        rt: setup.status,
         histogram,
     }
 }

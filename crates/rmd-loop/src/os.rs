@@ -1,12 +1,47 @@
 //! The small operating-system layer of the loop thread: CPU pinning, `SCHED_FIFO` priority,
-//! memory locking, stack pre-faulting and the timer slack. The only place in rmd-rt with `unsafe` code.
+//! memory locking, stack pre-faulting, the timer slack, and the CPU wake-up latency request
+//! (`/dev/cpu_dma_latency`). The only place in rmd-loop with `unsafe` code.
 //!
 //! Each step is best effort: when a privilege is missing (no `CAP_SYS_NICE` / rtprio limit for
-//! `SCHED_FIFO`, no `CAP_IPC_LOCK` / memlock limit for `mlockall`) the loop runs anyway and the
-//! [`RtStatus`] says what was not applied and how to fix it.
+//! `SCHED_FIFO`, no `CAP_IPC_LOCK` / memlock limit for `mlockall`, no write access to
+//! `/dev/cpu_dma_latency`) the loop runs anyway and the [`RtStatus`] says what was not applied
+//! and how to fix it.
 #![allow(unsafe_code)]
 
+use core::time::Duration;
 use std::fmt;
+use std::fs::File;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The kernel's CPU latency request device (PM QoS): while a process holds it open with a value
+/// written, no CPU enters an idle state whose exit latency exceeds that value.
+pub const CPU_DMA_LATENCY_DEVICE: &str = "/dev/cpu_dma_latency";
+
+/// Longest latency request the loop writes (the kernel's own default, "no constraint", is
+/// 2000 s; anything above a second is no constraint in practice).
+pub const MAX_CPU_LATENCY: Duration = Duration::from_secs(1);
+
+/// A CPU wake-up latency request: what to write into which device.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CpuLatencyRequest {
+    /// The largest acceptable CPU wake-up latency, whole microseconds (0: keep every CPU in
+    /// its shallowest idle state, as `cyclictest` does while it measures). At most
+    /// [`MAX_CPU_LATENCY`].
+    pub max_latency: Duration,
+    /// The device: [`CPU_DMA_LATENCY_DEVICE`] (tests give another path).
+    pub device: PathBuf,
+}
+
+impl CpuLatencyRequest {
+    /// A request of `max_latency` on [`CPU_DMA_LATENCY_DEVICE`].
+    pub fn new(max_latency: Duration) -> Self {
+        Self {
+            max_latency,
+            device: PathBuf::from(CPU_DMA_LATENCY_DEVICE),
+        }
+    }
+}
 
 /// What to ask of the operating system for the real-time thread.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -20,6 +55,8 @@ pub struct RtRequest {
     pub lock_memory: bool,
     /// Touch this many bytes of the thread's stack up front so that its pages are resident.
     pub prefault_stack_bytes: usize,
+    /// Hold a CPU wake-up latency request while the returned [`RtSetup`] lives.
+    pub cpu_latency: Option<CpuLatencyRequest>,
 }
 
 /// The outcome of one setup step.
@@ -40,6 +77,27 @@ impl StepStatus {
     }
 }
 
+/// What became of the CPU wake-up latency request.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum CpuLatencyStatus {
+    /// Not requested (`cpu_dma_latency_us = "off"`, or no real-time setting asked for).
+    NotRequested,
+    /// Written and held open: no CPU enters an idle state slower to leave than this.
+    Held {
+        /// The latency written, microseconds.
+        us: u32,
+    },
+    /// Requested but not held.
+    Failed {
+        /// The latency asked for, microseconds.
+        us: u32,
+        /// Why, in a few words (for the report's `real-time:` line).
+        why: String,
+        /// Why, and how to fix it (the report's warning).
+        warning: String,
+    },
+}
+
 /// What the operating system granted the real-time thread.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RtStatus {
@@ -49,6 +107,8 @@ pub struct RtStatus {
     pub fifo: StepStatus,
     /// `mlockall`.
     pub memory_lock: StepStatus,
+    /// The CPU wake-up latency request (`/dev/cpu_dma_latency`).
+    pub cpu_latency: CpuLatencyStatus,
     /// Bytes of stack pre-faulted.
     pub prefaulted_stack_bytes: usize,
     /// The thread's timer slack after setup, in nanoseconds, when the OS reports one. Without
@@ -61,12 +121,17 @@ pub struct RtStatus {
 impl RtStatus {
     /// Human-readable warnings, one per step that was requested and not applied.
     pub fn warnings(&self) -> impl Iterator<Item = &str> {
+        let latency = match &self.cpu_latency {
+            CpuLatencyStatus::Failed { warning, .. } => Some(warning.as_str()),
+            _ => None,
+        };
         [&self.affinity, &self.fifo, &self.memory_lock]
             .into_iter()
             .filter_map(|s| match s {
                 StepStatus::Failed(why) => Some(why.as_str()),
                 _ => None,
             })
+            .chain(latency)
     }
 
     /// Whether every requested step was applied.
@@ -86,10 +151,21 @@ impl fmt::Display for RtStatus {
         }
         write!(
             f,
-            "cpu pinning: {}, SCHED_FIFO: {}, mlockall: {}, stack pre-faulted: {} KiB",
+            "cpu pinning: {}, SCHED_FIFO: {}, mlockall: {}, ",
             show(&self.affinity),
             show(&self.fifo),
             show(&self.memory_lock),
+        )?;
+        match &self.cpu_latency {
+            CpuLatencyStatus::NotRequested => write!(f, "cpu_dma_latency: not requested")?,
+            CpuLatencyStatus::Held { us } => write!(f, "cpu_dma_latency: {us} us held")?,
+            CpuLatencyStatus::Failed { us, why, .. } => {
+                write!(f, "cpu_dma_latency: {us} us FAILED ({why})")?
+            }
+        }
+        write!(
+            f,
+            ", stack pre-faulted: {} KiB",
             self.prefaulted_stack_bytes / 1024
         )?;
         if let Some(ns) = self.timer_slack_ns {
@@ -99,9 +175,150 @@ impl fmt::Display for RtStatus {
     }
 }
 
+/// A CPU wake-up latency request held open: the kernel honours it until this is dropped (the
+/// device file is then closed and the request withdrawn).
+#[derive(Debug)]
+pub struct CpuLatencyHold {
+    /// Kept open: closing it withdraws the request.
+    _device: File,
+    us: u32,
+}
+
+impl CpuLatencyHold {
+    /// The latency held, microseconds.
+    pub fn us(&self) -> u32 {
+        self.us
+    }
+}
+
+/// Why a CPU wake-up latency request could not be held.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum CpuLatencyError {
+    /// The device file does not exist (a kernel without PM QoS, or a container without `/dev`).
+    #[error(
+        "could not hold the CPU latency request: {device} does not exist (a kernel without \
+         CONFIG_CPU_IDLE / PM QoS, or a container without the device); deep CPU idle states may \
+         add tens of microseconds to wake-ups. Fix: expose the device, or limit idle states on the \
+         kernel command line (`processor.max_cstate=1 intel_idle.max_cstate=1`)"
+    )]
+    Missing {
+        /// The device.
+        device: String,
+    },
+    /// Opening it for writing was refused.
+    #[error(
+        "could not hold the CPU latency request: permission denied on {device}; deep CPU idle \
+         states may add tens of microseconds to wake-ups. Fix: run as root, or give the user \
+         write access to {device} (a udev rule such as `KERNEL==\"cpu_dma_latency\", \
+         GROUP=\"realtime\", MODE=\"0660\"`)"
+    )]
+    PermissionDenied {
+        /// The device.
+        device: String,
+    },
+    /// The latency does not fit the device's 32-bit microsecond value.
+    #[error(
+        "could not hold the CPU latency request: {us} us is more than the {max} us allowed; use \
+         a smaller cpu_dma_latency_us"
+    )]
+    OutOfRange {
+        /// The latency asked for, microseconds.
+        us: u128,
+        /// The largest allowed, microseconds.
+        max: u128,
+    },
+    /// Any other failure to open or write it.
+    #[error("could not hold the CPU latency request: {action} {device} failed ({error})")]
+    Io {
+        /// The device.
+        device: String,
+        /// What was being done.
+        action: &'static str,
+        /// The operating system's error.
+        error: String,
+    },
+}
+
+impl CpuLatencyError {
+    /// The reason in a few words.
+    pub fn reason(&self) -> String {
+        match self {
+            CpuLatencyError::Missing { device } => format!("{device} does not exist"),
+            CpuLatencyError::PermissionDenied { device } => {
+                format!("permission denied on {device}")
+            }
+            CpuLatencyError::OutOfRange { us, .. } => format!("{us} us is out of range"),
+            CpuLatencyError::Io {
+                device,
+                action,
+                error,
+            } => format!("{action} {device}: {error}"),
+        }
+    }
+}
+
+/// Writes `request.max_latency` (whole microseconds, as the native-endian 32-bit integer the
+/// device expects) into `request.device` and keeps it open. Not real-time: call it before the
+/// loop's first tick.
+///
+/// ```no_run
+/// use core::time::Duration;
+/// use rmd_loop::os::{CpuLatencyRequest, hold_cpu_latency};
+/// let hold = hold_cpu_latency(&CpuLatencyRequest::new(Duration::ZERO))?;
+/// // ... while `hold` lives, the CPUs stay out of deep idle states ...
+/// drop(hold); // withdrawn
+/// # Ok::<(), rmd_loop::os::CpuLatencyError>(())
+/// ```
+pub fn hold_cpu_latency(request: &CpuLatencyRequest) -> Result<CpuLatencyHold, CpuLatencyError> {
+    let us = request.max_latency.as_micros();
+    if request.max_latency > MAX_CPU_LATENCY {
+        return Err(CpuLatencyError::OutOfRange {
+            us,
+            max: MAX_CPU_LATENCY.as_micros(),
+        });
+    }
+    let us = us as u32; // at most 1_000_000
+    let device = &request.device;
+    let mut file = std::fs::OpenOptions::new()
+        .write(true)
+        .open(device)
+        .map_err(|error| latency_io_error(device, "opening", &error))?;
+    file.write_all(&(us as i32).to_ne_bytes())
+        .map_err(|error| latency_io_error(device, "writing to", &error))?;
+    Ok(CpuLatencyHold { _device: file, us })
+}
+
+fn latency_io_error(
+    device: &Path,
+    action: &'static str,
+    error: &std::io::Error,
+) -> CpuLatencyError {
+    let device = device.display().to_string();
+    match error.kind() {
+        std::io::ErrorKind::NotFound => CpuLatencyError::Missing { device },
+        std::io::ErrorKind::PermissionDenied => CpuLatencyError::PermissionDenied { device },
+        _ => CpuLatencyError::Io {
+            device,
+            action,
+            error: error.to_string(),
+        },
+    }
+}
+
+/// What [`apply_to_current_thread`] set up: the status, and the CPU latency request, held while
+/// this lives.
+#[derive(Debug)]
+pub struct RtSetup {
+    /// What was granted.
+    pub status: RtStatus,
+    /// The CPU latency request, if it was asked for and granted: drop it to withdraw it.
+    pub cpu_latency: Option<CpuLatencyHold>,
+}
+
 /// Applies `request` to the calling thread and reports what was granted. Never fails: a step
-/// that cannot be applied is reported in the returned status.
-pub fn apply_to_current_thread(request: &RtRequest) -> RtStatus {
+/// that cannot be applied is reported in the returned status. The CPU latency request is held
+/// until the returned [`RtSetup`] (its `cpu_latency`) is dropped.
+pub fn apply_to_current_thread(request: &RtRequest) -> RtSetup {
     let affinity = match request.cpu {
         None => StepStatus::NotRequested,
         Some(cpu) => pin_to_cpu(cpu),
@@ -115,13 +332,31 @@ pub fn apply_to_current_thread(request: &RtRequest) -> RtStatus {
     } else {
         StepStatus::NotRequested
     };
+    let (cpu_latency, hold) = match &request.cpu_latency {
+        None => (CpuLatencyStatus::NotRequested, None),
+        Some(latency) => match hold_cpu_latency(latency) {
+            Ok(hold) => (CpuLatencyStatus::Held { us: hold.us() }, Some(hold)),
+            Err(error) => (
+                CpuLatencyStatus::Failed {
+                    us: latency.max_latency.as_micros().min(u128::from(u32::MAX)) as u32,
+                    why: error.reason(),
+                    warning: error.to_string(),
+                },
+                None,
+            ),
+        },
+    };
     prefault_stack(request.prefault_stack_bytes);
-    RtStatus {
-        affinity,
-        fifo,
-        memory_lock,
-        prefaulted_stack_bytes: request.prefault_stack_bytes.min(MAX_PREFAULT),
-        timer_slack_ns: minimise_timer_slack(),
+    RtSetup {
+        status: RtStatus {
+            affinity,
+            fifo,
+            memory_lock,
+            cpu_latency,
+            prefaulted_stack_bytes: request.prefault_stack_bytes.min(MAX_PREFAULT),
+            timer_slack_ns: minimise_timer_slack(),
+        },
+        cpu_latency: hold,
     }
 }
 
@@ -243,27 +478,37 @@ fn prefault_stack(bytes: usize) {
 mod tests {
     use super::*;
 
+    fn apply_on_new_thread(request: RtRequest) -> RtStatus {
+        std::thread::spawn(move || apply_to_current_thread(&request).status)
+            .join()
+            .unwrap()
+    }
+
     #[test]
     fn nothing_requested_is_fully_applied() {
-        let status = apply_to_current_thread(&RtRequest::default());
+        let setup = apply_to_current_thread(&RtRequest::default());
+        let status = &setup.status;
         assert_eq!(status.affinity, StepStatus::NotRequested);
         assert_eq!(status.fifo, StepStatus::NotRequested);
         assert_eq!(status.memory_lock, StepStatus::NotRequested);
+        assert_eq!(status.cpu_latency, CpuLatencyStatus::NotRequested);
+        assert!(setup.cpu_latency.is_none());
         assert!(status.fully_applied());
+        assert!(
+            status
+                .to_string()
+                .contains("cpu_dma_latency: not requested")
+        );
     }
 
     #[test]
     fn an_impossible_cpu_or_priority_is_reported_not_fatal() {
-        let status = std::thread::spawn(|| {
-            apply_to_current_thread(&RtRequest {
-                cpu: Some(100_000),
-                fifo_priority: Some(0),
-                lock_memory: false,
-                prefault_stack_bytes: 128 * 1024,
-            })
-        })
-        .join()
-        .unwrap();
+        let status = apply_on_new_thread(RtRequest {
+            cpu: Some(100_000),
+            fifo_priority: Some(0),
+            prefault_stack_bytes: 128 * 1024,
+            ..RtRequest::default()
+        });
         assert!(status.affinity.failed());
         assert!(status.fifo.failed());
         assert_eq!(status.warnings().count(), 2);
@@ -275,8 +520,8 @@ mod tests {
     #[test]
     fn the_timer_slack_is_minimised_and_reported() {
         let (status, slack_in_thread) = std::thread::spawn(|| {
-            let status = apply_to_current_thread(&RtRequest::default());
-            (status, nix::sys::prctl::get_timerslack().unwrap())
+            let setup = apply_to_current_thread(&RtRequest::default());
+            (setup.status, nix::sys::prctl::get_timerslack().unwrap())
         })
         .join()
         .unwrap();
@@ -287,14 +532,128 @@ mod tests {
 
     #[test]
     fn pinning_to_an_existing_cpu_is_applied() {
-        let status = std::thread::spawn(|| {
-            apply_to_current_thread(&RtRequest {
-                cpu: Some(0),
-                ..RtRequest::default()
-            })
-        })
-        .join()
-        .unwrap();
+        let status = apply_on_new_thread(RtRequest {
+            cpu: Some(0),
+            ..RtRequest::default()
+        });
         assert_eq!(status.affinity, StepStatus::Applied);
+    }
+
+    /// A fresh directory for one test's files.
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!(
+            "rmd-loop-os-{name}-{}-{:?}",
+            std::process::id(),
+            std::thread::current().id()
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// Whether this process has `path` open (a link in /proc/self/fd points at it).
+    #[cfg(target_os = "linux")]
+    fn is_open(path: &Path) -> bool {
+        std::fs::read_dir("/proc/self/fd")
+            .unwrap()
+            .filter_map(|e| std::fs::read_link(e.ok()?.path()).ok())
+            .any(|target| target == path)
+    }
+
+    #[test]
+    fn a_missing_device_is_reported_with_its_reason_and_the_loop_goes_on() {
+        let device = scratch("missing").join("cpu_dma_latency");
+        let status = apply_on_new_thread(RtRequest {
+            cpu_latency: Some(CpuLatencyRequest {
+                max_latency: Duration::ZERO,
+                device: device.clone(),
+            }),
+            ..RtRequest::default()
+        });
+        let CpuLatencyStatus::Failed { us, why, warning } = &status.cpu_latency else {
+            panic!("{status:?}");
+        };
+        assert_eq!(*us, 0);
+        assert!(why.contains("does not exist"), "{why}");
+        assert!(warning.contains(&device.display().to_string()), "{warning}");
+        assert!(warning.contains("Fix:"), "{warning}");
+        // The real-time line says it failed and why; the warnings carry the fix.
+        let line = status.to_string();
+        assert!(
+            line.contains(&format!(
+                "cpu_dma_latency: 0 us FAILED ({} does not exist)",
+                device.display()
+            )),
+            "{line}"
+        );
+        assert_eq!(status.warnings().collect::<Vec<_>>(), [warning.as_str()]);
+        assert!(!status.fully_applied());
+    }
+
+    #[test]
+    fn other_failures_say_what_was_done() {
+        // A directory cannot be opened for writing.
+        let device = scratch("dir");
+        let error = hold_cpu_latency(&CpuLatencyRequest {
+            max_latency: Duration::from_micros(5),
+            device: device.clone(),
+        })
+        .unwrap_err();
+        assert!(
+            matches!(
+                error,
+                CpuLatencyError::Io {
+                    action: "opening",
+                    ..
+                }
+            ),
+            "{error:?}"
+        );
+        assert!(error.to_string().contains(&device.display().to_string()));
+        let too_long = CpuLatencyRequest {
+            max_latency: MAX_CPU_LATENCY + Duration::from_micros(1),
+            device: device.join("x"),
+        };
+        assert!(matches!(
+            hold_cpu_latency(&too_long),
+            Err(CpuLatencyError::OutOfRange { us: 1_000_001, .. })
+        ));
+        // Permission errors name the fix.
+        let denied = latency_io_error(
+            Path::new("/dev/cpu_dma_latency"),
+            "opening",
+            &std::io::Error::from_raw_os_error(13),
+        );
+        assert!(matches!(denied, CpuLatencyError::PermissionDenied { .. }));
+        assert!(denied.to_string().contains("run as root"), "{denied}");
+        assert_eq!(denied.reason(), "permission denied on /dev/cpu_dma_latency");
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn the_request_is_written_held_while_the_setup_lives_and_released_after() {
+        let device = scratch("held").join("cpu_dma_latency");
+        std::fs::write(&device, []).unwrap();
+        let request = RtRequest {
+            cpu_latency: Some(CpuLatencyRequest {
+                max_latency: Duration::from_micros(7),
+                device: device.clone(),
+            }),
+            ..RtRequest::default()
+        };
+        let setup = apply_to_current_thread(&request);
+        assert_eq!(setup.status.cpu_latency, CpuLatencyStatus::Held { us: 7 });
+        assert!(
+            setup
+                .status
+                .to_string()
+                .contains("cpu_dma_latency: 7 us held")
+        );
+        assert_eq!(setup.cpu_latency.as_ref().map(CpuLatencyHold::us), Some(7));
+        // The device's format: one native-endian 32-bit integer, microseconds.
+        assert_eq!(std::fs::read(&device).unwrap(), 7i32.to_ne_bytes());
+        assert!(is_open(&device));
+        drop(setup);
+        assert!(!is_open(&device));
     }
 }

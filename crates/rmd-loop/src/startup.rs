@@ -11,7 +11,7 @@ use rmd_protocol::{MULTI_TORQUE_MOTORS, MotorId, ProtocolFamily};
 
 use crate::engine::Parts;
 use crate::exchange::frames::ZERO_TORQUE;
-use crate::os::{self, RtRequest, RtStatus};
+use crate::os::{self, CpuLatencyRequest, RtRequest, RtSetup};
 use crate::report::{Fault, IdentifiedMotor, MotorRef, StopReason};
 use crate::robot::LoopSettings;
 
@@ -19,14 +19,16 @@ use crate::robot::LoopSettings;
 const PREFAULT_STACK_BYTES: usize = 512 * 1024;
 
 /// Applies the real-time settings to the calling thread; what was not granted is in the status
-/// (and the final report), never printed.
-pub(crate) fn prepare_thread(settings: &LoopSettings) -> RtStatus {
+/// (and the final report), never printed. The CPU latency request is held until the returned
+/// setup's hold is dropped (after the loop's safe stop).
+pub(crate) fn prepare_thread(settings: &LoopSettings) -> RtSetup {
     let rt = settings.realtime;
     os::apply_to_current_thread(&RtRequest {
         cpu: rt.cpu,
         fifo_priority: rt.fifo_priority.map(|p| p.get()),
         lock_memory: rt.lock_memory,
         prefault_stack_bytes: PREFAULT_STACK_BYTES,
+        cpu_latency: rt.cpu_dma_latency.map(CpuLatencyRequest::new),
     })
 }
 

@@ -207,6 +207,9 @@ pub struct LoopStats {
     pub deadline_misses: u64,
     /// Ticks skipped by the `skip` overrun policy.
     pub skipped_ticks: u64,
+    /// Ticks that missed their deadline or ended without fresh feedback from every motor
+    /// (counted once each; skipped ticks are not among them).
+    pub missed_ticks: u64,
     /// Telemetry samples dropped because the telemetry queue was full (only when something
     /// receives the telemetry).
     pub telemetry_drops: u64,
@@ -222,6 +225,10 @@ pub struct LoopStats {
     pub controller: LatencyHistogram,
     /// Total work of a tick: wake to end of the tick's work.
     pub work: LatencyHistogram,
+    /// What the loop adds to each exchange: from the tick's last reply (its receive time) to the
+    /// end of the tick's work, when the loop is ready to send the next frame. Ticks with every
+    /// reply only.
+    pub loop_added: LatencyHistogram,
     /// Per motor, in robot-description order.
     pub motors: Vec<MotorCounters>,
     /// Per bus, in robot-description order.
@@ -237,6 +244,7 @@ impl LoopStats {
             ticks: 0,
             deadline_misses: 0,
             skipped_ticks: 0,
+            missed_ticks: 0,
             telemetry_drops: 0,
             unknown_joint_commands: 0,
             unknown_signals: 0,
@@ -244,6 +252,7 @@ impl LoopStats {
             round_trip: LatencyHistogram::new(),
             controller: LatencyHistogram::new(),
             work: LatencyHistogram::new(),
+            loop_added: LatencyHistogram::new(),
             motors: robot
                 .joints()
                 .iter()
@@ -259,6 +268,7 @@ impl LoopStats {
         self.ticks = other.ticks;
         self.deadline_misses = other.deadline_misses;
         self.skipped_ticks = other.skipped_ticks;
+        self.missed_ticks = other.missed_ticks;
         self.telemetry_drops = other.telemetry_drops;
         self.unknown_joint_commands = other.unknown_joint_commands;
         self.unknown_signals = other.unknown_signals;
@@ -266,6 +276,7 @@ impl LoopStats {
         self.round_trip.copy_from(&other.round_trip);
         self.controller.copy_from(&other.controller);
         self.work.copy_from(&other.work);
+        self.loop_added.copy_from(&other.loop_added);
         if self.motors.len() == other.motors.len() {
             self.motors.copy_from_slice(&other.motors);
         }
@@ -290,6 +301,7 @@ impl LoopStats {
             ticks: self.ticks,
             deadline_misses: self.deadline_misses,
             skipped_ticks: self.skipped_ticks,
+            missed_ticks: self.missed_ticks,
             missing_replies: self.missing_replies(),
             late_replies: self.late_replies(),
             telemetry_drops: self.telemetry_drops,
@@ -299,6 +311,7 @@ impl LoopStats {
             round_trip_us: self.round_trip.percentiles(),
             controller_us: self.controller.percentiles(),
             work_us: self.work.percentiles(),
+            loop_added_us: self.loop_added.percentiles(),
             motors: self
                 .motors
                 .iter()
@@ -332,6 +345,8 @@ pub struct StatsSummary {
     pub deadline_misses: u64,
     /// Ticks skipped by the `skip` overrun policy.
     pub skipped_ticks: u64,
+    /// Ticks that missed their deadline or a motor's fresh feedback.
+    pub missed_ticks: u64,
     /// Missing replies, all motors.
     pub missing_replies: u64,
     /// Late replies, all motors.
@@ -350,6 +365,8 @@ pub struct StatsSummary {
     pub controller_us: Percentiles,
     /// Work per tick percentiles, microseconds.
     pub work_us: Percentiles,
+    /// What the loop adds per exchange (last reply to ready for the next frame), microseconds.
+    pub loop_added_us: Percentiles,
     /// Per-joint counters.
     pub motors: Vec<JointCounters>,
     /// Per-bus counters.
@@ -388,6 +405,7 @@ impl core::fmt::Display for StatsSummary {
             ("round trip", &self.round_trip_us),
             ("controller", &self.controller_us),
             ("work/tick", &self.work_us),
+            ("loop added", &self.loop_added_us),
         ] {
             writeln!(
                 f,
@@ -482,8 +500,10 @@ mod tests {
         a.ticks = 7;
         a.motors[0].missing_replies = 3;
         a.buses[0].tx_errors = 2;
+        a.missed_ticks = 4;
         for i in 0..100 {
             a.work.record(us(i));
+            a.loop_added.record(us(i / 2));
         }
         let mut b = LoopStats::new(&robot);
         b.work.record(us(12345));

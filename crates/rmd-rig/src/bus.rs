@@ -3,7 +3,7 @@
 
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 
-use rmd_bus::{BusError, CanBus, Received, Timestamp};
+use rmd_bus::{BusError, CanBus, Readiness, Received, Timestamp};
 use rmd_loop::supervisor::SafetyPort;
 use rmd_protocol::CanFrame;
 use rmd_sim::SimBus;
@@ -91,6 +91,14 @@ impl CanBus for AnyBus {
             AnyBus::Sim(bus) => bus.recv_until(deadline),
             #[cfg(target_os = "linux")]
             AnyBus::SocketCan(bus) => bus.recv_until(deadline),
+        }
+    }
+
+    fn readiness(&mut self) -> Readiness<'_> {
+        match self {
+            AnyBus::Sim(bus) => bus.readiness(),
+            #[cfg(target_os = "linux")]
+            AnyBus::SocketCan(bus) => bus.readiness(),
         }
     }
 }

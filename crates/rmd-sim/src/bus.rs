@@ -86,6 +86,9 @@ pub struct SimBus<C: Clock> {
     trace: Vec<Transmission>,
     trace_capacity: usize,
     stats: BusStats,
+    /// The time of the latest event simulated: a frame sent later from another thread cannot
+    /// be queued before it.
+    simulated_to: Timestamp,
 }
 
 impl<C: Clock> SimBus<C> {
@@ -114,6 +117,7 @@ impl<C: Clock> SimBus<C> {
             trace: Vec::new(),
             trace_capacity: 0,
             stats: BusStats::default(),
+            simulated_to: start,
         })
     }
 
@@ -192,6 +196,7 @@ impl<C: Clock> SimBus<C> {
             if next > t {
                 return;
             }
+            self.simulated_to = self.simulated_to.max(next);
             if restart == Some(next) {
                 self.bus_off_until = None;
                 self.push_rx(next, BusMessage::Event(BusEvent::Restarted));
@@ -263,9 +268,13 @@ impl<C: Clock> SimBus<C> {
     }
 }
 
-impl<C: Clock> CanBus for SimBus<C> {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
-        let now = self.clock.now();
+impl<C: Clock> SimBus<C> {
+    /// Queues `frame` as sent by the host at `at`, or at the latest event already simulated if
+    /// that is later (a frame cannot go back in the simulation's time). [`CanBus::send`] is
+    /// `send_at(frame, clock.now())`; a thread that drives the simulation for another one (see
+    /// [`threaded`](crate::threaded)) passes the time the frame was sent there.
+    pub fn send_at(&mut self, frame: &CanFrame, at: Timestamp) -> Result<(), BusError> {
+        let now = at.max(self.simulated_to);
         self.run_until(now, false);
         if self.bus_off_until.is_some() {
             self.stats.tx_bus_off += 1;
@@ -292,6 +301,30 @@ impl<C: Clock> CanBus for SimBus<C> {
             self.stats.tx_queue_full += 1;
             BusError::TxQueueFull
         })
+    }
+
+    /// Simulates ahead, up to `horizon` and without waiting on the clock, until something is
+    /// for the client; returns it, stamped with its time on the wire (which may be after the
+    /// clock's now). `None`: nothing for the client until `horizon`.
+    pub fn next_received(&mut self, horizon: Timestamp) -> Option<Received> {
+        self.run_until(horizon, true);
+        self.rx.pop_front()
+    }
+
+    /// The time of the simulation's next event (a frame starting, or reaching its receivers,
+    /// a controller restart), if any is pending.
+    pub fn next_event(&self) -> Option<Timestamp> {
+        match (self.wire.next_event(), self.bus_off_until) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+}
+
+impl<C: Clock> CanBus for SimBus<C> {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        let now = self.clock.now();
+        self.send_at(frame, now)
     }
 
     fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {

@@ -16,7 +16,8 @@
 //! - [`fault`]: fault-injection rules;
 //! - [`SimMotors`]: the motors of a bus as firmware (frames in, timed replies out), usable on a
 //!   real CAN interface too;
-//! - [`SimBus`]: motors behind the simulated wire, implementing [`rmd_bus::CanBus`].
+//! - [`SimBus`]: motors behind the simulated wire, implementing [`rmd_bus::CanBus`];
+//! - [`threaded`]: a `SimBus` on a thread of its own, used through lock-free queues (Linux).
 //!
 //! See `docs/simulator.md` in the repository for what is and is not modelled.
 //!
@@ -54,6 +55,8 @@ pub mod motors;
 pub mod params;
 pub mod physics;
 mod request;
+#[cfg(target_os = "linux")]
+pub mod threaded;
 pub mod wire;
 
 pub use bus::{BusStats, SimBus};

@@ -24,6 +24,9 @@
 //!   scheduler ticks). The deadline is absolute on [`MonotonicClock`]; it is never returned
 //!   before it (the only lateness is the thread's timer slack, 50 µs by default and 0 for
 //!   real-time threads, plus scheduling latency).
+//! - **Waiting with other buses**: [`CanBus::readiness`] gives the socket to watch, so that a
+//!   loop driving several interfaces waits for all of them in one `ppoll`
+//!   ([`ready::wait_any`](crate::ready::wait_any)).
 //! - **Kernel receive timestamps** (`SO_TIMESTAMPNS`) on every frame, converted to the
 //!   [`MonotonicClock`] time line: see [Receive timestamps](self#receive-timestamps) below.
 //! - **Error frames as events**: with [`SocketCanOptions::error_events`] (default on), the
@@ -90,7 +93,10 @@ use nix::sys::socket::{setsockopt, sockopt};
 use socketcan::{CanSocket, Socket, SocketOptions};
 
 use crate::Timestamp;
-use crate::{BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock, MonotonicClock, Received};
+use crate::{
+    BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock, MonotonicClock, Readiness, Received,
+    WaitOn,
+};
 
 pub use error_frame::{ErrorFrameEvents, decode_error_frame};
 pub use open_error::OpenError;
@@ -333,6 +339,14 @@ impl CanBus for SocketCanBus {
                 return Ok(None);
             }
             io::wait_readable(self.socket.as_fd(), deadline - now).map_err(rx_error)?;
+        }
+    }
+
+    fn readiness(&mut self) -> Readiness<'_> {
+        if self.pending.is_empty() {
+            Readiness::Pending(WaitOn::readable(self.socket.as_fd()))
+        } else {
+            Readiness::Ready
         }
     }
 }

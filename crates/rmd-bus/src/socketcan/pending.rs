@@ -33,6 +33,11 @@ impl Pending {
         true
     }
 
+    /// Whether nothing waits.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
     /// Removes the oldest item.
     pub(crate) fn pop(&mut self) -> Option<Received> {
         if self.len == 0 {
@@ -61,6 +66,7 @@ mod tests {
     fn items_come_out_in_order_and_a_full_queue_refuses_more() {
         let mut pending = Pending::new();
         assert_eq!(pending.pop(), None);
+        assert!(pending.is_empty());
         for round in 0..3u64 {
             for n in 0..CAPACITY as u64 {
                 assert!(pending.push(event(round * 100 + n)));

@@ -8,6 +8,7 @@
 //! cpu = 1
 //! fifo_priority = 80
 //! spin_margin_us = 50
+//! cpu_dma_latency_us = 0   # the default with cpu or fifo_priority; "off" to leave it alone
 //!
 //! [[bus]]
 //! name = "leg"
@@ -66,6 +67,10 @@ pub struct LoopConfig {
     pub lock_memory: bool,
     /// Busy-wait this long before each deadline for a precise wake (0: sleep only).
     pub spin_margin_us: u64,
+    /// The CPU wake-up latency the loop holds (`/dev/cpu_dma_latency`) while it runs: a number
+    /// of microseconds, `"off"`, or `"auto"` (the default: 0 when `cpu` or `fifo_priority` is
+    /// set, off otherwise).
+    pub cpu_dma_latency_us: CpuLatencySetting,
     /// Replies are collected until this long after the tick's scheduled start; the rest of the
     /// period is left for the controller. Default: the period minus 10% (at least 50 us).
     pub reply_deadline_us: Option<u64>,
@@ -100,6 +105,7 @@ impl Default for LoopConfig {
             fifo_priority: None,
             lock_memory: false,
             spin_margin_us: 0,
+            cpu_dma_latency_us: CpuLatencySetting::Auto,
             reply_deadline_us: None,
             reply_mode: ReplyMode::SameTick,
             overrun: OverrunPolicy::Skip,
@@ -110,6 +116,68 @@ impl Default for LoopConfig {
             stall_bound_ms: None,
             rejected_command: RejectedCommandPolicy::Fault,
         }
+    }
+}
+
+/// `cpu_dma_latency_us` as written: a number of microseconds, `"off"`, or `"auto"`.
+///
+/// ```
+/// use rmd_loop::robot::{CpuLatencySetting, RobotConfig};
+/// let on = RobotConfig::from_toml("[loop]\ncpu_dma_latency_us = 10")?;
+/// assert_eq!(on.loop_config.cpu_dma_latency_us, CpuLatencySetting::Us(10));
+/// let off = RobotConfig::from_toml("[loop]\ncpu_dma_latency_us = \"off\"")?;
+/// assert_eq!(off.loop_config.cpu_dma_latency_us, CpuLatencySetting::Off);
+/// assert!(RobotConfig::from_toml("[loop]\ncpu_dma_latency_us = -1").is_err());
+/// # Ok::<(), rmd_loop::robot::RobotError>(())
+/// ```
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub enum CpuLatencySetting {
+    /// 0 us when the loop is pinned (`cpu`) or real-time (`fifo_priority`), off otherwise.
+    #[default]
+    Auto,
+    /// Leave the CPUs' idle states alone.
+    Off,
+    /// Hold this many microseconds.
+    Us(u32),
+}
+
+impl Serialize for CpuLatencySetting {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            CpuLatencySetting::Auto => s.serialize_str("auto"),
+            CpuLatencySetting::Off => s.serialize_str("off"),
+            CpuLatencySetting::Us(us) => s.serialize_u32(*us),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for CpuLatencySetting {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl serde::de::Visitor<'_> for Visitor {
+            type Value = CpuLatencySetting;
+            fn expecting(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                f.write_str("a whole number of microseconds (0 or more), \"off\" or \"auto\"")
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Self::Value, E> {
+                u32::try_from(v)
+                    .map(CpuLatencySetting::Us)
+                    .map_err(|_| E::invalid_value(serde::de::Unexpected::Signed(v), &self))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Self::Value, E> {
+                u32::try_from(v)
+                    .map(CpuLatencySetting::Us)
+                    .map_err(|_| E::invalid_value(serde::de::Unexpected::Unsigned(v), &self))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Self::Value, E> {
+                match v {
+                    "off" => Ok(CpuLatencySetting::Off),
+                    "auto" => Ok(CpuLatencySetting::Auto),
+                    other => Err(E::invalid_value(serde::de::Unexpected::Str(other), &self)),
+                }
+            }
+        }
+        d.deserialize_any(Visitor)
     }
 }
 

@@ -43,8 +43,8 @@ use rmd_protocol::{CurrentScale, Dialect, EncoderWidth, MULTI_TORQUE_MOTORS, Mot
 pub use error::RobotError;
 use error::invalid;
 pub use file::{
-    BusConfig, Direction, LoopConfig, MotorConfig, RejectedCommandPolicy, ReplyMode, RobotConfig,
-    SafeStopConfig,
+    BusConfig, CpuLatencySetting, Direction, LoopConfig, MotorConfig, RejectedCommandPolicy,
+    ReplyMode, RobotConfig, SafeStopConfig,
 };
 
 use crate::joint::JointId;
@@ -85,6 +85,9 @@ pub struct RealtimeSettings {
     pub fifo_priority: Option<FifoPriority>,
     /// Lock the process's memory when the loop starts.
     pub lock_memory: bool,
+    /// Hold this CPU wake-up latency (`/dev/cpu_dma_latency`) while the loop runs; `None`:
+    /// leave the idle states alone. At most [`MAX_CPU_LATENCY`](crate::os::MAX_CPU_LATENCY).
+    pub cpu_dma_latency: Option<Duration>,
 }
 
 /// The loop settings, checked.
@@ -460,6 +463,25 @@ fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
                 invalid("loop.fifo_priority", format!("is {prio}, must be 1..=99"))
             })?),
         };
+    let cpu_dma_latency = match l.cpu_dma_latency_us {
+        CpuLatencySetting::Off => None,
+        CpuLatencySetting::Auto => {
+            (l.cpu.is_some() || fifo_priority.is_some()).then_some(Duration::ZERO)
+        }
+        CpuLatencySetting::Us(us) => {
+            let latency = Duration::from_micros(u64::from(us));
+            if latency > crate::os::MAX_CPU_LATENCY {
+                return Err(invalid(
+                    "loop.cpu_dma_latency_us",
+                    format!(
+                        "is {us} us, must be at most {} us (or \"off\")",
+                        crate::os::MAX_CPU_LATENCY.as_micros()
+                    ),
+                ));
+            }
+            Some(latency)
+        }
+    };
     let spin_margin = Duration::from_micros(l.spin_margin_us);
     if spin_margin >= p {
         return Err(invalid(
@@ -516,6 +538,7 @@ fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
             cpu: l.cpu,
             fifo_priority,
             lock_memory: l.lock_memory,
+            cpu_dma_latency,
         },
         missing_reply_fault_after: at_least_one(
             "loop.missing_reply_fault_after",
@@ -874,6 +897,8 @@ mod tests {
         assert_eq!(s.overrun, OverrunPolicy::Fault { after: 5 });
         assert_eq!(s.reply_deadline, Duration::from_micros(1800));
         assert_eq!(s.realtime.cpu, Some(1));
+        // Pinned: the CPU latency request defaults to 0 us.
+        assert_eq!(s.realtime.cpu_dma_latency, Some(Duration::ZERO));
         assert_eq!(robot.joint_count(), 2);
         let hip = robot.spec(robot.joint("hip").unwrap());
         assert_eq!(hip.direction, Direction::Reversed);
@@ -943,6 +968,63 @@ mod tests {
             "bus[0].interface",
         );
         expect_invalid("[loop]\nrate_hz = 100.0", "bus");
+        expect_invalid(
+            &LEG.replace("cpu = 1", "cpu = 1\ncpu_dma_latency_us = 1000001"),
+            "loop.cpu_dma_latency_us",
+        );
+    }
+
+    #[test]
+    fn the_cpu_latency_request_parses_and_defaults_to_zero_with_real_time_settings() {
+        let latency = |text: &str| {
+            Robot::from_toml(text)
+                .unwrap()
+                .settings()
+                .realtime
+                .cpu_dma_latency
+        };
+        let us = Duration::from_micros;
+        // Auto: 0 us when pinned or SCHED_FIFO, off otherwise.
+        assert_eq!(latency(LEG), Some(us(0)));
+        let plain = LEG.replace("cpu = 1\n", "");
+        assert_eq!(latency(&plain), None);
+        assert_eq!(
+            latency(&plain.replace("rate_hz = 500.0", "rate_hz = 500.0\nfifo_priority = 80")),
+            Some(us(0))
+        );
+        // Given: a number of microseconds, or off, whatever else is set.
+        assert_eq!(
+            latency(&LEG.replace("cpu = 1", "cpu = 1\ncpu_dma_latency_us = 25")),
+            Some(us(25))
+        );
+        assert_eq!(
+            latency(&plain.replace("rate_hz = 500.0", "rate_hz = 500.0\ncpu_dma_latency_us = 3")),
+            Some(us(3))
+        );
+        assert_eq!(
+            latency(&LEG.replace("cpu = 1", "cpu = 1\ncpu_dma_latency_us = \"off\"")),
+            None
+        );
+        assert_eq!(
+            latency(&LEG.replace("cpu = 1", "cpu = 1\ncpu_dma_latency_us = \"auto\"")),
+            Some(us(0))
+        );
+        // Survives a round trip through TOML.
+        let robot =
+            Robot::from_toml(&LEG.replace("cpu = 1", "cpu = 1\ncpu_dma_latency_us = \"off\""))
+                .unwrap();
+        assert_eq!(Robot::from_toml(&robot.config().to_toml()).unwrap(), robot);
+        // Anything else is a parse error that says what is expected.
+        for bad in ["-1", "\"on\"", "1.5", "5000000000"] {
+            let err = Robot::from_toml(
+                &LEG.replace("cpu = 1", &format!("cpu = 1\ncpu_dma_latency_us = {bad}")),
+            )
+            .unwrap_err();
+            assert!(
+                matches!(&err, RobotError::Parse(m) if m.contains("microseconds") && m.contains("off")),
+                "{bad}: {err}"
+            );
+        }
     }
 
     #[test]

@@ -34,8 +34,8 @@ use core::time::Duration;
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::PathBuf;
 
-use rmd_loop::os::RtRequest;
-use rmd_loop::robot::{RobotConfig, read_config};
+use rmd_loop::os::{CpuLatencyRequest, RtRequest};
+use rmd_loop::robot::{CpuLatencySetting, RobotConfig, read_config};
 use rmd_loop::{Robot, RunLimit};
 
 use crate::error::RigError;
@@ -123,7 +123,7 @@ impl RobotArgs {
 }
 
 /// The real-time setup of the thread that runs: `--cpu`, `--fifo`, `--lock-memory`,
-/// `--spin-us`.
+/// `--spin-us`, `--cpu-dma-latency`.
 #[derive(clap::Args, Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct RealtimeArgs {
     /// Pin the loop thread to this CPU (ideally an isolated one: see docs/realtime.md).
@@ -139,16 +139,29 @@ pub struct RealtimeArgs {
     /// Sleep until this many microseconds before each deadline, then busy-wait (0: sleep only).
     #[arg(long, value_name = "US", allow_hyphen_values = true, value_parser = values::spin_us)]
     pub spin_us: Option<u64>,
+    /// Hold this CPU wake-up latency (/dev/cpu_dma_latency, microseconds) while the loop runs,
+    /// or `off`. Default: 0 with --cpu or --fifo (as cyclictest), else the description's.
+    #[arg(long, value_name = "US|off", value_parser = values::cpu_latency, allow_hyphen_values = true)]
+    pub cpu_dma_latency: Option<CpuLatencySetting>,
 }
 
 impl RealtimeArgs {
-    /// What to ask of the operating system for a thread that runs on its own (no loop).
+    /// What to ask of the operating system for a thread that runs on its own (no loop): the
+    /// CPU latency request as the loop would hold it (`--cpu-dma-latency`, else 0 us with
+    /// `--cpu` or `--fifo`, else none).
     pub fn request(&self, prefault_stack_bytes: usize) -> RtRequest {
+        let latency_us = match self.cpu_dma_latency.unwrap_or_default() {
+            CpuLatencySetting::Us(us) => Some(us),
+            CpuLatencySetting::Off => None,
+            CpuLatencySetting::Auto => (self.cpu.is_some() || self.fifo.is_some()).then_some(0),
+        };
         RtRequest {
             cpu: self.cpu,
             fifo_priority: self.fifo,
             lock_memory: self.lock_memory || self.fifo.is_some(),
             prefault_stack_bytes,
+            cpu_latency: latency_us
+                .map(|us| CpuLatencyRequest::new(Duration::from_micros(u64::from(us)))),
         }
     }
 
@@ -169,6 +182,9 @@ impl RealtimeArgs {
         l.lock_memory |= self.lock_memory || self.fifo.is_some();
         if let Some(us) = self.spin_us {
             l.spin_margin_us = us;
+        }
+        if let Some(latency) = self.cpu_dma_latency {
+            l.cpu_dma_latency_us = latency;
         }
     }
 }
@@ -249,6 +265,7 @@ mod tests {
                 fifo: Some(80),
                 lock_memory: false,
                 spin_us: Some(50),
+                cpu_dma_latency: None,
             },
         }
         .apply(&mut config);
@@ -270,6 +287,51 @@ mod tests {
         assert_eq!(
             (config.loop_config.rate_hz, config.loop_config.cpu),
             (250.0, Some(3))
+        );
+    }
+
+    #[test]
+    fn the_cpu_latency_flag_writes_into_the_description_and_the_request() {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Args {
+            #[command(flatten)]
+            rt: RealtimeArgs,
+        }
+        let parse = |args: &[&str]| {
+            Args::try_parse_from(std::iter::once("x").chain(args.iter().copied())).map(|a| a.rt)
+        };
+        let latency = |rt: &RealtimeArgs| {
+            rt.request(0)
+                .cpu_latency
+                .map(|l| (l.max_latency, l.device.display().to_string()))
+        };
+        let zero = Some((Duration::ZERO, "/dev/cpu_dma_latency".to_string()));
+        // Default: 0 us with --cpu or --fifo, none without.
+        assert_eq!(latency(&parse(&[]).unwrap()), None);
+        assert_eq!(latency(&parse(&["--cpu", "0"]).unwrap()), zero);
+        assert_eq!(latency(&parse(&["--fifo", "80"]).unwrap()), zero);
+        // Given: as given.
+        let off = parse(&["--cpu", "0", "--cpu-dma-latency", "off"]).unwrap();
+        assert_eq!(latency(&off), None);
+        let ten = parse(&["--cpu-dma-latency", "10"]).unwrap();
+        assert_eq!(
+            latency(&ten).map(|(d, _)| d),
+            Some(Duration::from_micros(10))
+        );
+        assert!(parse(&["--cpu-dma-latency", "soon"]).is_err());
+        // Into the description's [loop], only when given.
+        let mut config = RobotConfig::new(1000.0);
+        off.apply(&mut config);
+        assert_eq!(
+            config.loop_config.cpu_dma_latency_us,
+            CpuLatencySetting::Off
+        );
+        let mut config = RobotConfig::new(1000.0);
+        parse(&["--cpu", "0"]).unwrap().apply(&mut config);
+        assert_eq!(
+            config.loop_config.cpu_dma_latency_us,
+            CpuLatencySetting::Auto
         );
     }
 }

@@ -48,6 +48,24 @@ pub fn fifo(text: &str) -> Result<u8, String> {
     Ok(p)
 }
 
+/// `--cpu-dma-latency`: a CPU wake-up latency in whole microseconds (at most
+/// [`MAX_CPU_LATENCY`](rmd_loop::os::MAX_CPU_LATENCY)), or `off`.
+pub fn cpu_latency(text: &str) -> Result<rmd_loop::robot::CpuLatencySetting, String> {
+    use rmd_loop::robot::CpuLatencySetting;
+    let text = text.trim();
+    if text.eq_ignore_ascii_case("off") {
+        return Ok(CpuLatencySetting::Off);
+    }
+    let max = rmd_loop::os::MAX_CPU_LATENCY.as_micros();
+    let us: u32 = text
+        .parse()
+        .map_err(|_| format!("`{text}` is not a latency in whole microseconds, nor `off`"))?;
+    if u128::from(us) > max {
+        return Err(format!("{us} us: must be at most {max} us (or `off`)"));
+    }
+    Ok(CpuLatencySetting::Us(us))
+}
+
 /// `--spin-us`: microseconds of busy-waiting before each deadline, 0..=1 s (a negative or
 /// fractional value is a usage error naming the flag, not an unknown argument).
 pub fn spin_us(text: &str) -> Result<u64, String> {
@@ -82,5 +100,11 @@ mod tests {
         assert!(fifo("100").is_err());
         assert_eq!(cpu("0").unwrap(), 0);
         assert!(cpu("100000").unwrap_err().contains("not available"));
+        use rmd_loop::robot::CpuLatencySetting;
+        assert_eq!(cpu_latency("0").unwrap(), CpuLatencySetting::Us(0));
+        assert_eq!(cpu_latency("25").unwrap(), CpuLatencySetting::Us(25));
+        assert_eq!(cpu_latency("off").unwrap(), CpuLatencySetting::Off);
+        assert!(cpu_latency("-1").unwrap_err().contains("microseconds"));
+        assert!(cpu_latency("2000000").unwrap_err().contains("at most"));
     }
 }

@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use clap::Args;
 use rmd_loop::jitter::{self, JitterConfig, JitterReport};
+use rmd_loop::os::CpuLatencyStatus;
 use rmd_loop::schedule::Period;
 use serde_json::{Value, json};
 
@@ -31,8 +32,10 @@ use crate::output::report;
     (T: 0 (pid) P:prio I:period_us C:ticks Min: Avg: Max:, whole microseconds truncated as \
     cyclictest does) and the percentiles. JSON (--json): {ticks, deadline_misses, \
     wake_latency_us: {count, min, mean, p50, p90, p99, p999, max}, period_us, spin_us, cpu, \
-    fifo_priority, realtime, realtime_warnings, histogram_us: [[k, count], ...]} where bucket k \
-    counts latencies of k to k+1 us, as cyclictest -h.")]
+    fifo_priority, cpu_dma_latency_us (held, or null), realtime, realtime_warnings, \
+    histogram_us: [[k, count], ...]} where bucket k counts latencies of k to k+1 us, as \
+    cyclictest -h. With --cpu or --fifo the measuring thread holds /dev/cpu_dma_latency at 0 \
+    (as cyclictest does) unless --cpu-dma-latency says otherwise.")]
 pub(crate) struct JitterArgs {
     /// Tick period in microseconds (10..=10000000).
     #[arg(long, value_name = "P", default_value = "1000", value_parser = period_us, allow_hyphen_values = true)]
@@ -122,6 +125,10 @@ fn to_json(r: &JitterReport, rt: &RealtimeArgs) -> Value {
         "spin_us": r.spin_us,
         "cpu": rt.cpu,
         "fifo_priority": rt.fifo,
+        "cpu_dma_latency_us": match r.rt.cpu_latency {
+            CpuLatencyStatus::Held { us } => Some(us),
+            _ => None,
+        },
         "realtime": r.rt.to_string(),
         "realtime_warnings": r.rt.warnings().collect::<Vec<_>>(),
         "histogram_us": histogram::to_json(&histogram::whole_us_buckets(&r.histogram)),

@@ -4,8 +4,9 @@
 //! `--motors` counts motors PER BUS (1..=4: one 0x280 frame drives ids 1..=4), so the robot has
 //! `--motors x --buses` motors. The simulated buses run at 1 Mbit/s with the simulator's default
 //! motors; the loop refuses a rate whose exchange does not fit the period (see docs/loop.md).
-//! Without `--virtual-time` everything runs in real time on the monotonic clock; with it, on a
-//! virtual clock (as fast as the CPU allows, deterministic). The loop runs on its own thread
+//! Without `--virtual-time` everything runs in real time on the monotonic clock, each simulated
+//! bus on its own thread as real motors are (`--sim inline`: in the loop's thread); with it, on
+//! a virtual clock (as fast as the CPU allows, deterministic). The loop runs on its own thread
 //! while this thread drains its telemetry, as an application would, into the sinks of `--csv`,
 //! `--mcap` and `--foxglove` when asked (on virtual time without losing a tick: the loop waits
 //! for the sinks).
@@ -14,7 +15,7 @@ use core::time::Duration;
 use std::process::ExitCode;
 
 use clap::Args;
-use rmd_bus::{Clock, MonotonicClock, VirtualClock};
+use rmd_bus::{CanBus, Clock, MonotonicClock, VirtualClock};
 use rmd_loop::{LoopOutcome, Robot, RtLoop, RunLimit};
 use serde_json::{Value, json};
 
@@ -62,6 +63,14 @@ pub(crate) struct LoopArgs {
     /// Run on a virtual clock: deterministic, as fast as the CPU allows (latencies are then 0).
     #[arg(long)]
     virtual_time: bool,
+    /// Where the simulated buses run in real time: each on its own thread, or in the loop's.
+    #[arg(
+        long,
+        value_enum,
+        default_value = "thread",
+        conflicts_with = "virtual_time"
+    )]
+    sim: super::rate::SimPlace,
     /// The simulated motors' firmware: v1.61 (default), lk-v2.3x (MG), myactuator-v3. The
     /// robot is described as v1.61, so any other is refused at start-up, before any torque.
     #[arg(long, value_name = "FIRMWARE", default_value = "v1.61", value_parser = crate::args::parse::sim_firmware)]
@@ -77,10 +86,31 @@ pub(crate) struct LoopArgs {
 
 /// Runs `rmd bench loop`.
 pub(crate) fn run(args: LoopArgs) -> ExitCode {
+    let family = match args.sim_firmware {
+        rmd_protocol::ProtocolFamily::LkV23x => {
+            rmd_sim::FirmwareFamily::LkV23x(rmd_protocol::LkSeries::Mg)
+        }
+        rmd_protocol::ProtocolFamily::MyActuatorV3 => rmd_sim::FirmwareFamily::MyActuatorV3,
+        _ => rmd_sim::FirmwareFamily::V161,
+    };
     let outcome = if args.virtual_time {
-        run_on(VirtualClock::new(), &args)
+        let clock = VirtualClock::new();
+        robot::sim_buses_of(&clock, args.buses, args.motors, family)
+            .map_err(|e| Failure::Run(format!("simulator: {e}")))
+            .and_then(|buses| run_on(clock, buses, &args))
+    } else if args.sim == super::rate::SimPlace::Inline {
+        robot::sim_buses_of(&MonotonicClock, args.buses, args.motors, family)
+            .map_err(|e| Failure::Run(format!("simulator: {e}")))
+            .and_then(|buses| run_on(MonotonicClock, buses, &args))
     } else {
-        run_on(MonotonicClock, &args)
+        robot::threaded_buses(args.buses, args.motors, family, &args.rt, Duration::ZERO, 0)
+            .map_err(Failure::Run)
+            .and_then(|mut sims| {
+                let ports = core::mem::take(&mut sims.ports);
+                let outcome = run_on(MonotonicClock, ports, &args);
+                sims.stop().map_err(Failure::Run)?;
+                outcome
+            })
     };
     let (outcome, telemetry) = match outcome {
         Ok(outcome) => outcome,
@@ -143,6 +173,7 @@ fn bench_json(args: &LoopArgs, controller: &MovingTargetPd) -> Value {
         "motors_per_bus": args.motors,
         "buses": args.buses,
         "virtual_time": args.virtual_time,
+        "sim": if args.virtual_time { "virtual".to_string() } else { format!("{:?}", args.sim).to_lowercase() },
         "spin_us": args.rt.spin().as_micros() as u64,
         "cpu": args.rt.cpu,
         "fifo_priority": args.rt.fifo,
@@ -163,21 +194,16 @@ enum Failure {
 
 type Ran = (LoopOutcome<MovingTargetPd>, Option<TelemetryReport>);
 
-fn run_on<C: Clock + Clone + 'static>(clock: C, args: &LoopArgs) -> Result<Ran, Failure> {
+fn run_on<C: Clock + Clone + 'static, B: CanBus + Send + 'static>(
+    clock: C,
+    buses: Vec<B>,
+    args: &LoopArgs,
+) -> Result<Ran, Failure> {
     let mut config = robot::robot(args.rate, args.buses, args.motors);
     args.rt.apply(&mut config);
     let robot = Robot::try_from(config).map_err(|e| Failure::Usage(e.to_string()))?;
     let period = robot.settings().period.get();
     let ticks = u64::try_from(args.duration.as_nanos() / period.as_nanos()).unwrap_or(u64::MAX);
-    let family = match args.sim_firmware {
-        rmd_protocol::ProtocolFamily::LkV23x => {
-            rmd_sim::FirmwareFamily::LkV23x(rmd_protocol::LkSeries::Mg)
-        }
-        rmd_protocol::ProtocolFamily::MyActuatorV3 => rmd_sim::FirmwareFamily::MyActuatorV3,
-        _ => rmd_sim::FirmwareFamily::V161,
-    };
-    let buses = robot::sim_buses_of(&clock, args.buses, args.motors, family)
-        .map_err(|e| Failure::Run(format!("simulator: {e}")))?;
     let mut rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
         .map_err(|e| Failure::Usage(e.to_string()))?;
     // Before the loop thread exists: the sinks' threads must not inherit its CPU.

@@ -1,9 +1,14 @@
 //! The simulated robot the loop benchmarks run: `buses` simulated 1 Mbit/s CAN buses, each with
 //! motors 1..=`motors` of the simulator's default kind (RMD-X8 class, 1:9), and the matching
-//! robot description.
+//! robot description; in real time each simulated bus runs on its own thread.
 
-use rmd_bus::Clock;
+use core::time::Duration;
+
+use rmd_bus::{Clock, MonotonicClock};
+use rmd_loop::os::RtRequest;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
+use rmd_rig::args::RealtimeArgs;
+use rmd_sim::threaded::{Lateness, SimPort, ThreadOptions, ThreadedSim};
 use rmd_sim::{FirmwareFamily, SimBus, SimConfig};
 
 /// Gear ratio of the simulator's default motor.
@@ -61,4 +66,94 @@ pub(crate) fn sim_buses_of<C: Clock + Clone>(
             )
         })
         .collect()
+}
+
+/// Simulated buses on threads of their own (`rmd_sim::threaded`), as real motors are: the loop
+/// thread only exchanges frames with them, so it is measured alone.
+pub(crate) struct ThreadedBuses {
+    /// The simulators (stop them to get the buses back, with their traces).
+    pub(crate) sims: Vec<ThreadedSim>,
+    /// The loop's port onto each.
+    pub(crate) ports: Vec<SimPort>,
+}
+
+impl ThreadedBuses {
+    /// How well the simulator threads kept up, all together.
+    pub(crate) fn lateness(&self) -> Lateness {
+        self.sims
+            .iter()
+            .map(ThreadedSim::lateness)
+            .fold(Lateness::default(), |a, b| Lateness {
+                late_items: a.late_items + b.late_items,
+                max_late: a.max_late.max(b.max_late),
+            })
+    }
+
+    /// Stops every simulator and returns its bus.
+    pub(crate) fn stop(self) -> Result<Vec<SimBus<MonotonicClock>>, String> {
+        self.sims
+            .into_iter()
+            .map(|sim| sim.stop().map_err(|e| e.to_string()))
+            .collect()
+    }
+}
+
+/// `buses` threaded simulated buses with motors 1..=`motors` running `family`'s firmware, each
+/// recording up to `trace_capacity` transmissions (0: none). Their threads run off the loop's CPU when it is
+/// pinned and another CPU exists, at the loop's SCHED_FIFO priority when it has one (the motors
+/// are hardware: they must not wait behind other programs); the loop's receive sleeps until
+/// `receive_spin` before each reply's arrival, then busy-waits.
+pub(crate) fn threaded_buses(
+    buses: usize,
+    motors: u8,
+    family: FirmwareFamily,
+    rt: &RealtimeArgs,
+    receive_spin: Duration,
+    trace_capacity: usize,
+) -> Result<ThreadedBuses, String> {
+    let cpu = sim_cpu(rt.cpu);
+    let fifo = rt.fifo;
+    let mut out = ThreadedBuses {
+        sims: Vec::with_capacity(buses),
+        ports: Vec::with_capacity(buses),
+    };
+    for b in 0..buses {
+        let mut bus = SimBus::new(
+            MonotonicClock,
+            SimConfig::with_motors(motors)
+                .seed(SEED + b as u64)
+                .firmware_family(family),
+        )
+        .map_err(|e| format!("simulator: {e}"))?;
+        if trace_capacity > 0 {
+            bus.record_trace(trace_capacity);
+        }
+        let options = ThreadOptions {
+            receive_spin,
+            name: format!("rmd-sim{b}"),
+            ..ThreadOptions::default()
+        };
+        let (sim, ports) = ThreadedSim::spawn(bus, &options, move || {
+            let _ = rmd_loop::os::apply_to_current_thread(&RtRequest {
+                cpu,
+                fifo_priority: fifo,
+                prefault_stack_bytes: 64 * 1024,
+                ..RtRequest::default()
+            });
+        })
+        .map_err(|e| format!("cannot start a simulator thread: {e}"))?;
+        out.sims.push(sim);
+        out.ports.extend(ports);
+    }
+    Ok(out)
+}
+
+/// The CPU for the simulator threads: not the loop's, when it is pinned and another exists.
+fn sim_cpu(loop_cpu: Option<usize>) -> Option<usize> {
+    let loop_cpu = loop_cpu?;
+    core_affinity::get_core_ids()
+        .unwrap_or_default()
+        .into_iter()
+        .map(|c| c.id)
+        .find(|&id| id != loop_cpu)
 }

@@ -1,0 +1,310 @@
+//! One trial: the loop at one rate for the trial's length, and what it measured.
+//!
+//! The loop runs the PD controller of `rmd bench loop` (targets that move, so every frame's
+//! content changes), with the reply deadline at the end of the period (it waits for replies as
+//! long as the period allows), the wire-budget check off (`allow_over_budget`: the search looks
+//! beyond the worst-case budget) and no fault for missing replies (the trial always runs its
+//! full length, so that its share of missed ticks is known).
+//!
+//! The simulated buses run where `--sim` says: each on its own thread (real time, the default:
+//! the loop thread is measured alone), in the loop's thread (`inline`), or in virtual time.
+
+use core::time::Duration;
+
+use rmd_bus::{CanBus, Clock, MonotonicClock, Timestamp, VirtualClock};
+use rmd_loop::stats::Percentiles;
+use rmd_loop::{LoopOutcome, RtLoop, RunLimit};
+use rmd_sim::threaded::Lateness;
+use rmd_sim::{SimBus, Transmission};
+use serde_json::{Value, json};
+
+use super::{BITRATE, RateArgs, SimPlace};
+use crate::cmd::bench::pd::MovingTargetPd;
+use crate::cmd::bench::robot;
+use crate::cmd::bench::wire_limit::{self, WireLimit, us};
+
+/// The outcome of one trial.
+#[derive(Clone, Debug)]
+pub(super) struct Trial {
+    pub(super) buses: usize,
+    pub(super) rate_hz: f64,
+    pub(super) period: Duration,
+    pub(super) normal_stop: bool,
+    pub(super) stop_reason: String,
+    pub(super) ticks: u64,
+    pub(super) expected_ticks: u64,
+    pub(super) missed_ticks: u64,
+    pub(super) skipped_ticks: u64,
+    pub(super) deadline_misses: u64,
+    pub(super) missing_replies: u64,
+    pub(super) late_replies: u64,
+    pub(super) wake: Percentiles,
+    pub(super) round_trip: Percentiles,
+    pub(super) work: Percentiles,
+    pub(super) loop_added: Percentiles,
+    pub(super) last_reply: Percentiles,
+    pub(super) handoff: Percentiles,
+    pub(super) wire: Option<WireLimit>,
+    /// With the simulators on their own threads: replies they handed over after their arrival
+    /// (their thread was late, not the loop), and the latest.
+    pub(super) sim_late: Option<Lateness>,
+    pub(super) warnings: Vec<String>,
+}
+
+impl Trial {
+    /// The share of the trial's tick slots that were missed: ticks that missed their deadline
+    /// or a reply, and ticks skipped. A trial that did not run its full length missed them all.
+    pub(super) fn missed_fraction(&self) -> f64 {
+        let slots = self.ticks + self.skipped_ticks;
+        if !self.normal_stop || self.ticks < self.expected_ticks || slots == 0 {
+            return 1.0;
+        }
+        (self.missed_ticks + self.skipped_ticks) as f64 / slots as f64
+    }
+
+    /// Whether at most `budget` (a fraction) of the tick slots were missed.
+    pub(super) fn within(&self, budget: f64) -> bool {
+        let missed = self.missed_fraction();
+        if budget == 0.0 {
+            missed == 0.0
+        } else {
+            missed <= budget
+        }
+    }
+
+    /// The wire limit of this trial's frames, Hz.
+    pub(super) fn wire_limit_hz(&self) -> Option<f64> {
+        self.wire.map(|w| w.rate_hz())
+    }
+
+    pub(super) fn to_json(&self, budget: f64) -> Value {
+        json!({
+            "buses": self.buses,
+            "rate_hz": self.rate_hz,
+            "period_us": us(self.period),
+            "wire_limit_hz": self.wire_limit_hz(),
+            "rate_of_wire_limit": self.wire_limit_hz().map(|w| self.rate_hz / w),
+            "missed_fraction": self.missed_fraction(),
+            "within_budget": self.within(budget),
+            "zero_misses": self.within(0.0),
+            "stop_reason": self.stop_reason,
+            "ticks": self.ticks,
+            "expected_ticks": self.expected_ticks,
+            "missed_ticks": self.missed_ticks,
+            "skipped_ticks": self.skipped_ticks,
+            "deadline_misses": self.deadline_misses,
+            "missing_replies": self.missing_replies,
+            "late_replies": self.late_replies,
+            "loop_added_us": self.loop_added,
+            "wake_latency_us": self.wake,
+            "round_trip_us": self.round_trip,
+            "work_us": self.work,
+            "last_reply_after_start_us": self.last_reply,
+            "reply_to_controller_us": self.handoff,
+            "wire_limit": self.wire.map(WireLimit::to_json),
+            "sim_late_items": self.sim_late.map(|l| l.late_items),
+            "sim_max_late_us": self.sim_late.map(|l| us(l.max_late)),
+        })
+    }
+
+    pub(super) fn line(&self, n: usize, budget: f64) -> String {
+        format!(
+            "trial {n:>2}: {} bus(es) {:>8.1} Hz ({}) missed {:.3}% {}  misses {} skipped {} missing {} late {}  \
+             loop added p50 {:.1} p99 {:.1}  wake p99 {:.1} max {:.1}  work max {:.1} us{}",
+            self.buses,
+            self.rate_hz,
+            self.wire_limit_hz()
+                .map_or("wire limit n/a".to_string(), |w| format!(
+                    "{:.1}% of {w:.1} Hz",
+                    100.0 * self.rate_hz / w
+                )),
+            100.0 * self.missed_fraction(),
+            match (self.within(0.0), self.within(budget)) {
+                (true, _) => "ZERO",
+                (false, true) => "PASS",
+                (false, false) => "FAIL",
+            },
+            self.deadline_misses,
+            self.skipped_ticks,
+            self.missing_replies,
+            self.late_replies,
+            self.loop_added.p50,
+            self.loop_added.p99,
+            self.wake.p99,
+            self.wake.max,
+            self.work.max,
+            self.sim_late
+                .filter(|l| l.late_items > 0)
+                .map_or(String::new(), |l| format!(
+                    "  (simulator late: {} item(s), up to {:.1} us)",
+                    l.late_items,
+                    us(l.max_late)
+                )),
+        )
+    }
+}
+
+/// Stack of the trial thread (as the loop's own thread).
+const TRIAL_STACK_BYTES: usize = 8 * 1024 * 1024;
+
+/// A receive clock for simulated buses in the loop's thread, in real time: the monotonic clock,
+/// whose waits sleep until `spin` before the deadline and busy-wait the rest.
+#[derive(Copy, Clone, Debug)]
+struct ReceiveClock {
+    spin: Duration,
+}
+
+impl Clock for ReceiveClock {
+    fn now(&self) -> Timestamp {
+        MonotonicClock.now()
+    }
+
+    fn sleep_until(&self, deadline: Timestamp) {
+        MonotonicClock.wait_until(deadline, self.spin);
+    }
+}
+
+/// Runs one trial of `buses` buses at `rate_hz` on a thread of its own (the loop pins and
+/// prioritises it). With `running`, it is called every 50 ms meanwhile with the time elapsed;
+/// without, this thread just waits (nothing else wakes up during the measurement).
+pub(super) fn trial(
+    args: &RateArgs,
+    buses: usize,
+    rate_hz: f64,
+    mut running: Option<impl FnMut(Duration)>,
+) -> Result<Trial, String> {
+    let args = args.clone();
+    let thread = std::thread::Builder::new()
+        .name("rmd-bench-rate".to_string())
+        .stack_size(TRIAL_STACK_BYTES)
+        .spawn(move || run_trial(&args, buses, rate_hz))
+        .map_err(|e| format!("cannot start the trial thread: {e}"))?;
+    let start = std::time::Instant::now();
+    if let Some(running) = &mut running {
+        while !thread.is_finished() {
+            running(start.elapsed());
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+    thread
+        .join()
+        .map_err(|_| "the trial thread panicked".to_string())?
+}
+
+fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, String> {
+    let mut config = robot::robot(rate_hz, buses, args.motors);
+    args.rt.apply(&mut config);
+    let period = rmd_loop::schedule::Period::from_hz(rate_hz)
+        .map_err(|e| e.to_string())?
+        .get();
+    let l = &mut config.loop_config;
+    l.allow_over_budget = true;
+    l.reply_deadline_us = Some((period.as_nanos() / 1000) as u64);
+    l.missing_reply_fault_after = u32::MAX;
+    let robot = rmd_loop::Robot::try_from(config).map_err(|e| e.to_string())?;
+    let expected_ticks = (args.duration.as_nanos() / period.as_nanos()) as u64;
+    let frames_per_exchange = usize::from(args.motors) + 1;
+    // Start-up probes, every tick, and the safe stop (zero torque, motor-off and replies).
+    let trace = (expected_ticks as usize + 64) * frames_per_exchange + 64;
+    let limit = RunLimit::Duration(args.duration);
+    let controller = MovingTargetPd::new(args.sim != SimPlace::Virtual);
+    let mut sim_late = None;
+    let (outcome, traces) = match args.sim {
+        SimPlace::Virtual => {
+            let clock = VirtualClock::new();
+            let mut sims = sim_buses(&clock, buses, args.motors, trace)?;
+            let buses: Vec<_> = sims.iter_mut().collect();
+            let outcome = run(robot, clock.clone(), buses, controller, limit)?;
+            (outcome, traces_of(&sims))
+        }
+        SimPlace::Inline => {
+            let clock = ReceiveClock {
+                spin: Duration::from_micros(args.rx_spin_us),
+            };
+            let mut sims = sim_buses(&clock, buses, args.motors, trace)?;
+            let buses: Vec<_> = sims.iter_mut().collect();
+            let outcome = run(robot, MonotonicClock, buses, controller, limit)?;
+            (outcome, traces_of(&sims))
+        }
+        SimPlace::Thread => {
+            let spin = Duration::from_micros(args.rx_spin_us);
+            let mut threaded = robot::threaded_buses(
+                buses,
+                args.motors,
+                rmd_sim::FirmwareFamily::V161,
+                &args.rt,
+                spin,
+                trace,
+            )?;
+            let ports = core::mem::take(&mut threaded.ports);
+            let outcome = run(robot, MonotonicClock, ports, controller, limit)?;
+            sim_late = Some(threaded.lateness());
+            (outcome, traces_of(&threaded.stop()?))
+        }
+    };
+    // The ticks' exchanges only: not the start-up probes nor the safe stop (zero-torque frames,
+    // the longest there are).
+    let (first, last) = outcome
+        .controller
+        .ticks_due
+        .unwrap_or((Timestamp::ZERO, Timestamp::ZERO));
+    let exchanges: Vec<_> = traces
+        .iter()
+        .flat_map(|trace| wire_limit::exchanges(trace, usize::from(args.motors), BITRATE))
+        .filter(|e| e.start >= first && e.start < last + period)
+        .collect();
+    let r = &outcome.report;
+    let s = &r.stats;
+    Ok(Trial {
+        buses,
+        rate_hz,
+        period,
+        normal_stop: r.normal_stop,
+        stop_reason: r.stop_reason.to_string(),
+        ticks: s.ticks,
+        expected_ticks,
+        missed_ticks: s.missed_ticks,
+        skipped_ticks: s.skipped_ticks,
+        deadline_misses: s.deadline_misses,
+        missing_replies: s.missing_replies,
+        late_replies: s.late_replies,
+        wake: s.wake_latency_us,
+        round_trip: s.round_trip_us,
+        work: s.work_us,
+        loop_added: s.loop_added_us,
+        last_reply: outcome.controller.last_reply.percentiles(),
+        handoff: outcome.controller.handoff.percentiles(),
+        wire: WireLimit::of(&exchanges),
+        sim_late,
+        warnings: r.realtime_warnings.clone(),
+    })
+}
+
+fn run<B: CanBus, C: Clock + Clone + 'static>(
+    robot: rmd_loop::Robot,
+    clock: C,
+    buses: Vec<B>,
+    controller: MovingTargetPd,
+    limit: RunLimit,
+) -> Result<LoopOutcome<MovingTargetPd>, String> {
+    Ok(RtLoop::new(robot, clock, buses, controller)
+        .map_err(|e| e.to_string())?
+        .run(limit))
+}
+
+fn sim_buses<C: Clock + Clone>(
+    clock: &C,
+    buses: usize,
+    motors: u8,
+    trace: usize,
+) -> Result<Vec<SimBus<C>>, String> {
+    let mut sims = robot::sim_buses(clock, buses, motors).map_err(|e| format!("simulator: {e}"))?;
+    for sim in &mut sims {
+        sim.record_trace(trace);
+    }
+    Ok(sims)
+}
+
+fn traces_of<C: Clock>(sims: &[SimBus<C>]) -> Vec<Vec<Transmission>> {
+    sims.iter().map(|s| s.trace().to_vec()).collect()
+}
