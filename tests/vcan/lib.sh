@@ -130,6 +130,11 @@ vcan_install_executable() {
   mkdir -p "$root$(dirname "$dest")"
   cp -L "$file" "$root$dest"
   chmod +x "$root$dest"
+  # The VM unpacks its root into RAM: debug builds of the tools are hundreds of MB, mostly
+  # debug information (panic messages keep their file:line without it).
+  if command -v strip >/dev/null 2>&1; then
+    strip --strip-debug "$root$dest" 2>/dev/null || true
+  fi
   for lib in $(ldd "$file" 2>/dev/null | grep -o '/[^ ]*' | sort -u); do
     [ -e "$root$lib" ] && continue
     mkdir -p "$root$(dirname "$lib")"

@@ -75,7 +75,7 @@ status=0
 # boots far slower. No network, no disk; the console is the serial port on stdio.
 vcan_qemu_command
 timeout -k 10 "$timeout_s" "${VCAN_QEMU[@]}" \
-  -accel tcg -cpu max -smp "${RMD_VM_CPUS:-2}" -m "${RMD_VM_MEMORY:-512M}" -nodefaults -no-user-config -display none \
+  -accel tcg -cpu max -smp "${RMD_VM_CPUS:-2}" -m "${RMD_VM_MEMORY:-1024M}" -nodefaults -no-user-config -display none \
   -serial stdio -no-reboot -kernel "$VCAN_CACHE/kernel/vmlinux" -initrd "$work/initramfs.cpio" \
   -append 'console=ttyS0 panic=-1 quiet loglevel=3' </dev/null |
   tr -d '\r' | tee "$log" || status=$?
