@@ -5,7 +5,7 @@
 mod common;
 
 use core::time::Duration;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -50,10 +50,13 @@ impl SharedBus {
     }
 }
 
-/// Pushes 1 A on every joint; from tick `hang_at` on, its update blocks for `hang` (once).
+/// Pushes 1 A on every joint; at the first tick from `hang_at` on (a loaded machine may skip
+/// tick `hang_at` itself), its update blocks for `hang` (once).
 struct Hanging {
     hang_at: u64,
     hang: Duration,
+    /// The tick that hung (0 until then).
+    hung_at: Arc<AtomicU64>,
     /// Set when the hanging update returns.
     returned: Arc<AtomicBool>,
 }
@@ -63,7 +66,8 @@ impl Controller for Hanging {
         for (j, _) in fb.iter() {
             cmd.set_current(j, 1.0);
         }
-        if ctx.index == self.hang_at {
+        if ctx.index >= self.hang_at && self.hung_at.load(Ordering::SeqCst) == 0 {
+            self.hung_at.store(ctx.index, Ordering::SeqCst);
             std::thread::sleep(self.hang);
             self.returned.store(true, Ordering::SeqCst);
         }
@@ -77,10 +81,12 @@ fn supervised(
     hang: Duration,
     bound: Option<Duration>,
     returned: &Arc<AtomicBool>,
+    hung_at: &Arc<AtomicU64>,
 ) -> RtLoop<SharedBus, MonotonicClock, Hanging> {
     let controller = Hanging {
         hang_at: 200,
         hang,
+        hung_at: Arc::clone(hung_at),
         returned: Arc::clone(returned),
     };
     let mut config = robot_config(1000.0, 1, 4);
@@ -104,6 +110,7 @@ fn wait_until(what: &str, within: Duration, mut f: impl FnMut() -> bool) {
 fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
     let bus = SharedBus::new(41);
     let returned = Arc::new(AtomicBool::new(false));
+    let hung_at = Arc::new(AtomicU64::new(0));
     // A bound of 300 ms (a loaded test machine stalls for tens of milliseconds at times): the
     // 2 s hang at tick 200 is the only stall.
     let handle = supervised(
@@ -111,6 +118,7 @@ fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
         Duration::from_secs(2),
         Some(Duration::from_millis(300)),
         &returned,
+        &hung_at,
     )
     .spawn(RunLimit::Forever)
     .unwrap();
@@ -129,10 +137,11 @@ fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
     let out = handle.join().unwrap();
     assert!(returned.load(Ordering::SeqCst));
     let r = &out.report;
+    let hung_at = hung_at.load(Ordering::SeqCst);
     assert!(
         matches!(
             r.stop_reason,
-            StopReason::Fault(Fault::TickStalled { tick: 200, .. })
+            StopReason::Fault(Fault::TickStalled { tick, .. }) if tick == hung_at
         ),
         "{}",
         r.stop_reason
@@ -148,12 +157,14 @@ fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
 fn an_emergency_stop_acts_at_once_while_the_controller_hangs() {
     let bus = SharedBus::new(42);
     let returned = Arc::new(AtomicBool::new(false));
+    let hung_at = Arc::new(AtomicU64::new(0));
     // A stall bound longer than the hang: only the emergency stop can end it early.
     let rt = supervised(
         &bus,
         Duration::from_secs(3),
         Some(Duration::from_secs(60)),
         &returned,
+        &hung_at,
     );
     let handle = rt.spawn(RunLimit::Forever).unwrap();
     let stopper = handle.stopper();
