@@ -74,10 +74,11 @@ fn a_few_seconds_at_one_kilohertz_in_real_time() {
     println!("{r}");
     assert_eq!(r.stop_reason, StopReason::TickLimit);
     // Two seconds of 1 ms slots: every slot ran, or was skipped after an overrun (a loaded
-    // machine stalls at times); the run lasted 2 s either way (a skip landing in the instant
-    // the run ends may count one slot more).
+    // machine stalls at times); the run lasted 2 s either way. An overrun across the run's end
+    // leaves the slots after the end uncounted and may count the slot of the end itself one way
+    // or the other: one slot either side.
     let slots = r.stats.ticks + r.stats.skipped_ticks;
-    assert!((2000..=2001).contains(&slots), "{slots}");
+    assert!((1999..=2001).contains(&slots), "{slots}");
     assert_eq!(r.stats.wake_latency_us.count, r.stats.ticks);
     assert_eq!(r.stats.work_us.count, r.stats.ticks);
     assert!(r.stats.round_trip_us.count > 0);
