@@ -16,8 +16,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use rmd_loop::LoopHandle;
 use rmd_servo::{
-    JointStatus, JointTrajectory, JointTrajectoryPoint, ServoController, ServoHandle, ServoMode,
-    ServoState, Setpoint, TrajectoryReceipt, TrajectoryStart,
+    JointStatus, JointTrajectory, JointTrajectoryPoint, ServoController, ServoHandle, ServoState,
+    Setpoint, TrajectoryReceipt, TrajectoryStart,
 };
 use serde_json::Value;
 
@@ -134,18 +134,6 @@ fn servo_error(error: rmd_servo::ServoError) -> PyErr {
     ServoError::new_err(error.to_string())
 }
 
-fn mode_name(mode: ServoMode) -> &'static str {
-    match mode {
-        ServoMode::Disabled => "disabled",
-        ServoMode::ZeroTorque => "zero-torque",
-        ServoMode::Hold => "hold",
-        ServoMode::Position => "position",
-        ServoMode::Velocity => "velocity",
-        ServoMode::Effort => "effort",
-        ServoMode::Trajectory => "trajectory",
-    }
-}
-
 fn joint_dict<'py>(py: Python<'py>, j: &JointStatus) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("position_rad", j.position_rad)?;
@@ -155,7 +143,7 @@ fn joint_dict<'py>(py: Python<'py>, j: &JointStatus) -> PyResult<Bound<'py, PyDi
     d.set_item("received_at_s", j.received_at.as_nanos() as f64 * 1e-9)?;
     d.set_item("temperature_celsius", j.temperature_celsius)?;
     d.set_item("current_amps", j.current_amps)?;
-    d.set_item("mode", mode_name(j.mode))?;
+    d.set_item("mode", j.mode.name())?;
     match j.reference {
         Some(r) => {
             let reference = PyDict::new(py);

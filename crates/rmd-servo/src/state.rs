@@ -27,6 +27,25 @@ pub enum ServoMode {
     Trajectory,
 }
 
+impl ServoMode {
+    /// The mode's name as the front ends show it (`"hold"`, `"zero-torque"`, ...).
+    ///
+    /// ```
+    /// assert_eq!(rmd_servo::ServoMode::ZeroTorque.name(), "zero-torque");
+    /// ```
+    pub const fn name(self) -> &'static str {
+        match self {
+            ServoMode::Disabled => "disabled",
+            ServoMode::ZeroTorque => "zero-torque",
+            ServoMode::Hold => "hold",
+            ServoMode::Position => "position",
+            ServoMode::Velocity => "velocity",
+            ServoMode::Effort => "effort",
+            ServoMode::Trajectory => "trajectory",
+        }
+    }
+}
+
 /// Where the servo wants a joint to be in this tick.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct Reference {

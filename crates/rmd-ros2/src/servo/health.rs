@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use rmd_loop::{Percentiles, StatsSummary};
-use rmd_servo::{JointStatus, ServoHandle, ServoMode, ServoState};
+use rmd_servo::{JointStatus, ServoHandle, ServoState};
 
 use super::feed::{LoopEnded, LoopFeed};
 use crate::port::{JointInfo, LoopEnd, LoopTiming, MotorDiagnostics, RobotDiagnostics};
@@ -42,18 +42,6 @@ fn us(d: f64) -> Option<Duration> {
 
 fn kv(key: &str, value: impl ToString) -> (String, String) {
     (key.to_owned(), value.to_string())
-}
-
-fn mode_name(mode: ServoMode) -> &'static str {
-    match mode {
-        ServoMode::Disabled => "disabled",
-        ServoMode::ZeroTorque => "zero-torque",
-        ServoMode::Hold => "hold",
-        ServoMode::Position => "position",
-        ServoMode::Velocity => "velocity",
-        ServoMode::Effort => "effort",
-        ServoMode::Trajectory => "trajectory",
-    }
 }
 
 fn timing(
@@ -152,7 +140,7 @@ fn motor(
     if let Some(s) = status {
         let c = &s.counters;
         d.values.extend([
-            kv("mode", mode_name(s.mode)),
+            kv("mode", s.mode.name()),
             kv("fresh", s.fresh),
             kv("stale", s.stale),
             kv("current_a", format!("{:.3}", s.current_amps)),
@@ -180,7 +168,7 @@ fn motor(
         if s.stale {
             d.warnings.push(format!(
                 "its setpoint went stale (now {}): renew setpoints faster than stale_after_ms",
-                mode_name(s.mode)
+                s.mode.name()
             ));
         }
         if c.trajectory_failures > 0 {
