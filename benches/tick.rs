@@ -37,7 +37,7 @@ use rmd_rt::protocol::{
     CanFrame, EncoderValue, Iq, IqControl, MotorId, MultiTorque, Reply, Speed, Status2, Temperature,
 };
 use rmd_rt::rt::robot::{BusConfig, MotorConfig, RobotConfig};
-use rmd_rt::rt::{Running, TelemetrySample, mailbox::Receiver};
+use rmd_rt::rt::{Running, TelemetryReceiver};
 use rmd_rt::sim::{SimBus, SimConfig};
 use rmd_rt::{Commands, Controller, Feedback, Flow, RtLoop, TickContext};
 
@@ -170,7 +170,7 @@ fn started<B: CanBus>(
     name: &str,
     clock: VirtualClock,
     buses: Vec<B>,
-) -> (Running<B, VirtualClock, NoOp>, Receiver<TelemetrySample>) {
+) -> (Running<B, VirtualClock, NoOp>, TelemetryReceiver) {
     let n = buses.len();
     let mut rt = RtLoop::new(robot(n), clock, buses, NoOp).expect("valid robot");
     let telemetry = rt.telemetry();

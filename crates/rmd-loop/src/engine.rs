@@ -31,7 +31,6 @@ use crate::exchange::Exchange;
 use crate::exchange::frames::ZERO_TORQUE;
 use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
-use crate::mailbox::{Receiver, Sender, mailbox};
 use crate::mapping::JointMap;
 use crate::os::{CpuLatencyHold, RtSetup, RtStatus};
 use crate::report::{Fault, StopReason};
@@ -42,7 +41,10 @@ use crate::startup;
 use crate::stats::LoopStats;
 use crate::stop::Stopper;
 use crate::supervisor::{SafetyPort, Supervisor};
-use crate::telemetry::{TelemetryDelivery, TelemetrySample};
+use crate::telemetry::{
+    self, Published, TelemetryDelivery, TelemetryReceiver, TelemetrySample, TelemetrySender,
+    TickTimes,
+};
 use crate::watch::{Phase, Takeover};
 
 /// How long the loop sleeps between tries when it waits for room in the telemetry mailbox
@@ -106,8 +108,9 @@ pub(crate) struct Parts<B, C> {
     signals: [f64; MAX_SIGNALS],
     signal_count: usize,
     rejections: Rejections,
-    telemetry: Option<(Sender<TelemetrySample>, TelemetryDelivery)>,
-    sample: TelemetrySample,
+    telemetry: Option<(TelemetrySender, TelemetryDelivery)>,
+    /// This tick's timings so far, for its telemetry sample.
+    times: TickTimes,
 }
 
 /// The real-time loop: a robot, its buses, a clock and a controller, ready to start.
@@ -198,7 +201,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 signal_count,
                 rejections: Rejections::NONE,
                 telemetry: None,
-                sample: TelemetrySample::new(joints, signal_count),
+                times: TickTimes::default(),
                 shared: Arc::new(Shared::new()),
                 clock,
                 robot,
@@ -225,16 +228,20 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
     /// A receiver of the per-tick telemetry (clone it freely; each sample is received once).
     /// The loop publishes only once this was called. When the receiver falls behind, the oldest
     /// samples are overwritten and counted ([`TelemetryDelivery::Overwrite`]).
-    pub fn telemetry(&mut self) -> Receiver<TelemetrySample> {
+    pub fn telemetry(&mut self) -> TelemetryReceiver {
         self.telemetry_with(TelemetryDelivery::Overwrite)
     }
 
     /// [`telemetry`](Self::telemetry) with the given behaviour when the mailbox is full:
     /// [`TelemetryDelivery::Wait`] (virtual time only) makes the loop wait for room, so the
     /// receiver gets every tick. Calling it again replaces the earlier receiver's mailbox.
-    pub fn telemetry_with(&mut self, delivery: TelemetryDelivery) -> Receiver<TelemetrySample> {
+    pub fn telemetry_with(&mut self, delivery: TelemetryDelivery) -> TelemetryReceiver {
         let capacity = self.parts.robot.settings().telemetry_capacity.get();
-        let (tx, rx) = mailbox(capacity);
+        let (tx, rx) = telemetry::channel(
+            capacity,
+            self.parts.robot.joint_count(),
+            self.parts.signal_count,
+        );
         self.parts.telemetry = Some((tx, delivery));
         rx
     }
@@ -456,7 +463,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         if let Some(last) = last_reply {
             stats.loop_added.record(end - last);
         }
-        self.parts.sample.times.previous_work_ns = work.as_nanos() as u64;
+        self.parts.times.previous_work_ns = work.as_nanos() as u64;
         let tick_end = self.scheduler.end_tick(end);
         if tick_end.missed_deadline {
             stats.deadline_misses += 1;
@@ -480,7 +487,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
             stats,
             clock,
             robot,
-            sample,
+            times,
             shared,
             ..
         } = &mut self.parts;
@@ -505,7 +512,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         let all_fresh = exchange
             .account(fault_after, stats)
             .map_err(StopReason::Fault)?;
-        sample.times.round_trip_ns = None;
+        times.round_trip_ns = None;
         if !all_fresh {
             return Ok(None);
         }
@@ -518,7 +525,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
                 collected.rtt_max
             };
             stats.round_trip.record(rtt);
-            sample.times.round_trip_ns = Some(rtt.as_nanos() as u64);
+            times.round_trip_ns = Some(rtt.as_nanos() as u64);
         }
         Ok(collected.last_reply)
     }
@@ -549,7 +556,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         }));
         let spent = cpu.now() - began;
         parts.stats.controller.record(spent);
-        parts.sample.times.controller_ns = spent.as_nanos() as u64;
+        parts.times.controller_ns = spent.as_nanos() as u64;
         let flow = match result {
             Ok(flow) => flow,
             Err(payload) => {
@@ -646,50 +653,47 @@ impl<B, C: Clock> Parts<B, C> {
         let Some((tx, delivery)) = &self.telemetry else {
             return;
         };
-        let sample = &mut self.sample;
-        sample.tick = timing.index;
-        sample.scheduled = timing.scheduled;
-        sample.start = start;
-        sample.taken_at = self.clock.now();
-        sample.time_s = (timing.scheduled - start).as_secs_f64();
-        sample.times.wake_latency_ns = timing.wake_latency().as_nanos() as u64;
-        sample.totals.ticks = self.stats.ticks;
-        sample.totals.deadline_misses = self.stats.deadline_misses;
-        sample.totals.missing_replies = self.stats.missing_replies();
-        sample.totals.late_replies = self.stats.late_replies();
-        for (slot, (feedback, amps)) in sample
-            .joints_mut()
-            .iter_mut()
-            .zip(self.exchange.feedback.iter().zip(&self.command_amps))
-        {
-            slot.feedback = *feedback;
-            slot.command_amps = *amps;
-        }
-        sample
-            .signals_mut()
-            .copy_from_slice(&self.signals[..self.signal_count]);
-        let delivered = match delivery {
-            TelemetryDelivery::Overwrite => tx.send_overwrite(*sample).is_none(),
-            TelemetryDelivery::Wait => {
-                let mut pending = *sample;
-                loop {
-                    match tx.send(pending) {
-                        Ok(()) => break true,
-                        // Nobody will make room, or the run is to end: stop waiting.
-                        Err(_)
-                            if !tx.has_receivers()
-                                || self.shared.stop.pending().is_some()
-                                || self.shared.watch.phase() != Phase::Running =>
-                        {
-                            break false;
-                        }
-                        Err(back) => {
-                            pending = back;
-                            std::thread::sleep(TELEMETRY_WAIT);
-                        }
-                    }
-                }
+        let taken_at = self.clock.now();
+        let fill = |sample: &mut TelemetrySample| {
+            sample.tick = timing.index;
+            sample.scheduled = timing.scheduled;
+            sample.start = start;
+            sample.taken_at = taken_at;
+            sample.time_s = (timing.scheduled - start).as_secs_f64();
+            sample.times = self.times;
+            sample.times.wake_latency_ns = timing.wake_latency().as_nanos() as u64;
+            sample.totals.ticks = self.stats.ticks;
+            sample.totals.deadline_misses = self.stats.deadline_misses;
+            sample.totals.missing_replies = self.stats.missing_replies();
+            sample.totals.late_replies = self.stats.late_replies();
+            for (slot, (feedback, amps)) in sample
+                .joints_mut()
+                .iter_mut()
+                .zip(self.exchange.feedback.iter().zip(&self.command_amps))
+            {
+                slot.feedback = *feedback;
+                slot.command_amps = *amps;
             }
+            sample
+                .signals_mut()
+                .copy_from_slice(&self.signals[..self.signal_count]);
+        };
+        let delivered = match delivery {
+            TelemetryDelivery::Overwrite => tx.publish(true, fill) == Published::Queued,
+            TelemetryDelivery::Wait => loop {
+                // `fill` is called only when the sample is queued.
+                if tx.publish(false, fill) == Published::Queued {
+                    break true;
+                }
+                // Nobody will make room, or the run is to end: stop waiting.
+                if !tx.has_receivers()
+                    || self.shared.stop.pending().is_some()
+                    || self.shared.watch.phase() != Phase::Running
+                {
+                    break false;
+                }
+                std::thread::sleep(TELEMETRY_WAIT);
+            },
         };
         if !delivered {
             self.stats.telemetry_drops += 1;

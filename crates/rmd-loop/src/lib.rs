@@ -64,4 +64,4 @@ pub use report::{Fault, LoopReport, MotorRef, SafeStopReport, StopReason};
 pub use robot::{Robot, RobotError};
 pub use stats::{LoopStats, Percentiles, StatsSummary};
 pub use stop::{StopRequest, Stopper};
-pub use telemetry::{JointSample, TelemetryDelivery, TelemetrySample};
+pub use telemetry::{JointSample, TelemetryDelivery, TelemetryReceiver, TelemetrySample};

@@ -12,8 +12,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use rmd_bus::Timestamp;
-use rmd_loop::mailbox::Receiver;
-use rmd_loop::{Freshness, Robot, TelemetrySample};
+use rmd_loop::{Freshness, Robot, TelemetryReceiver, TelemetrySample};
 use rmd_telemetry::{
     JointInfo, JointRecord, LiveOptions, LiveSink, LoopTiming, McapOptions, McapSink, Pipeline,
     PipelineStats, Producer, ReplyAge, RunLayout, Telemetry, TickRecord,
@@ -88,10 +87,7 @@ pub(crate) fn layout(robot: &Robot, signals: &[String]) -> Result<RunLayout, Str
 
 impl TelemetryWorker {
     /// Starts the thread on the loop's samples.
-    pub(crate) fn start(
-        samples: Receiver<TelemetrySample>,
-        layout: RunLayout,
-    ) -> std::io::Result<Self> {
+    pub(crate) fn start(samples: TelemetryReceiver, layout: RunLayout) -> std::io::Result<Self> {
         let control = Arc::new(Control {
             stop: AtomicBool::new(false),
             sinks: Mutex::new(Sinks::default()),
@@ -193,7 +189,7 @@ impl Drop for TelemetryWorker {
     }
 }
 
-fn run(samples: &Receiver<TelemetrySample>, control: &Control) {
+fn run(samples: &TelemetryReceiver, control: &Control) {
     let mut misses = 0;
     loop {
         // Read the flag first: samples published before the loop ended are all taken below.

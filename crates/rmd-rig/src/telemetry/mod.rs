@@ -51,8 +51,7 @@ use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
 use rmd_bus::{CanBus, Clock};
-use rmd_loop::mailbox::Receiver;
-use rmd_loop::{Controller, Robot, RtLoop, TelemetryDelivery, TelemetrySample};
+use rmd_loop::{Controller, Robot, RtLoop, TelemetryDelivery, TelemetryReceiver, TelemetrySample};
 use rmd_telemetry::{
     CsvSink, Delivery, JointInfo, LayoutError, LiveOptions, LiveSink, McapOptions, McapSink,
     PipelineError, PipelineStats, Producer, RunLayout, SinkError, SinkStats, Telemetry,
@@ -124,7 +123,7 @@ pub fn run_layout(robot: &Robot, signals: &[String]) -> Result<RunLayout, Layout
 /// [`TelemetrySinks::attach`], feed with [`TelemetrySinks::pump`] (or hand to [`spawn_feed`]),
 /// end with [`TelemetrySinks::finish`].
 pub struct TelemetrySinks {
-    receiver: Option<Receiver<TelemetrySample>>,
+    receiver: Option<TelemetryReceiver>,
     recorder: Recorder,
     producer: Producer,
     pipeline: rmd_telemetry::Pipeline,
@@ -234,7 +233,7 @@ impl TelemetrySinks {
 
     /// [`attach`](Self::attach) to a mailbox the caller took from the loop itself (the runner,
     /// which also shows the samples in its status line).
-    pub fn with_receiver(mut self, receiver: Receiver<TelemetrySample>) -> Self {
+    pub fn with_receiver(mut self, receiver: TelemetryReceiver) -> Self {
         self.receiver = Some(receiver);
         self
     }

@@ -7,9 +7,8 @@ use std::ops::ControlFlow;
 use std::sync::{Arc, Mutex, Once};
 
 use rmd_bus::{BusError, CanBus, Received, Timestamp, VirtualClock};
-use rmd_loop::mailbox::Receiver;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
-use rmd_loop::{LoopOutcome, Robot, RtLoop, Running, StopReason, TelemetrySample};
+use rmd_loop::{LoopOutcome, Robot, RtLoop, Running, StopReason, TelemetryReceiver};
 use rmd_protocol::{CanFrame, MotorId};
 use rmd_servo::{ServoConfig, ServoController, ServoHandle, ServoState};
 use rmd_sim::{MotorSnapshot, SimBus};
@@ -68,7 +67,7 @@ pub struct Bench {
     /// How the loop ended, if it ended on its own.
     pub outcome: Option<LoopOutcome<ServoController>>,
     /// The loop's telemetry (every tick: feedback, commands, the servo's user signals).
-    pub telemetry: Receiver<TelemetrySample>,
+    pub telemetry: TelemetryReceiver,
 }
 
 static HOOK: Once = Once::new();

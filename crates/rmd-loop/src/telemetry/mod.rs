@@ -9,6 +9,11 @@
 
 use rmd_bus::Timestamp;
 
+mod channel;
+
+pub use channel::TelemetryReceiver;
+pub(crate) use channel::{Published, TelemetrySender, channel};
+
 use crate::commands::MAX_SIGNALS;
 use crate::feedback::JointFeedback;
 use crate::robot::MAX_JOINTS;
