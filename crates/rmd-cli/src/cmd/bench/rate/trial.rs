@@ -53,13 +53,16 @@ pub(super) struct Trial {
 
 impl Trial {
     /// The share of the trial's tick slots that were missed: ticks that missed their deadline
-    /// or a reply, and ticks skipped. A trial that did not run its full length missed them all.
+    /// or a reply, ticks skipped (after an overrun), and slots the run never accounted for (an
+    /// overrun across its end). A trial that stopped early missed them all.
     pub(super) fn missed_fraction(&self) -> f64 {
         let slots = self.ticks + self.skipped_ticks;
-        if !self.normal_stop || self.ticks < self.expected_ticks || slots == 0 {
+        if !self.normal_stop || slots == 0 {
             return 1.0;
         }
-        (self.missed_ticks + self.skipped_ticks) as f64 / slots as f64
+        let unaccounted = self.expected_ticks.saturating_sub(slots);
+        let missed = self.missed_ticks + self.skipped_ticks + unaccounted;
+        missed as f64 / slots.max(self.expected_ticks) as f64
     }
 
     /// Whether at most `budget` (a fraction) of the tick slots were missed.
@@ -307,4 +310,58 @@ fn sim_buses<C: Clock + Clone>(
 
 fn traces_of<C: Clock>(sims: &[SimBus<C>]) -> Vec<Vec<Transmission>> {
     sims.iter().map(|s| s.trace().to_vec()).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn trial(ticks: u64, skipped: u64, missed: u64, expected: u64, normal_stop: bool) -> Trial {
+        Trial {
+            buses: 1,
+            rate_hz: 1000.0,
+            period: Duration::from_millis(1),
+            normal_stop,
+            stop_reason: String::new(),
+            ticks,
+            expected_ticks: expected,
+            missed_ticks: missed,
+            skipped_ticks: skipped,
+            deadline_misses: missed,
+            missing_replies: 0,
+            late_replies: 0,
+            wake: Percentiles::default(),
+            round_trip: Percentiles::default(),
+            work: Percentiles::default(),
+            loop_added: Percentiles::default(),
+            last_reply: Percentiles::default(),
+            handoff: Percentiles::default(),
+            wire: None,
+            sim_late: None,
+            warnings: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_skipped_tick_is_one_missed_slot_not_a_failed_trial() {
+        // One overrun: the tick that overran missed its deadline, the next slot was skipped.
+        let t = trial(9999, 1, 1, 10_000, true);
+        assert_eq!(t.missed_fraction(), 2.0 / 10_000.0);
+        assert!(t.within(0.001));
+        assert!(!t.within(0.0));
+    }
+
+    #[test]
+    fn slots_the_run_never_reached_count_as_missed() {
+        let t = trial(9998, 1, 1, 10_000, true);
+        assert_eq!(t.missed_fraction(), 3.0 / 10_000.0);
+    }
+
+    #[test]
+    fn a_clean_trial_missed_nothing_and_a_stopped_one_missed_everything() {
+        assert_eq!(trial(10_000, 0, 0, 10_000, true).missed_fraction(), 0.0);
+        assert!(trial(10_000, 0, 0, 10_000, true).within(0.0));
+        assert_eq!(trial(10_000, 0, 0, 10_000, false).missed_fraction(), 1.0);
+        assert_eq!(trial(0, 0, 0, 10_000, true).missed_fraction(), 1.0);
+    }
 }
