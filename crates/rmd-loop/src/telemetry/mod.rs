@@ -1,5 +1,6 @@
-//! The loop's per-tick telemetry: a fixed-size sample pushed into a lock-free mailbox every tick,
-//! once something asked for it ([`RtLoop::telemetry`](crate::RtLoop::telemetry)).
+//! The loop's per-tick telemetry: a fixed-size sample published every tick through a lock-free
+//! channel of pre-allocated boxes ([`TelemetryReceiver`]), once something asked for it
+//! ([`RtLoop::telemetry`](crate::RtLoop::telemetry)).
 //!
 //! What happens when the consumer falls behind is the [`TelemetryDelivery`] asked for: by
 //! default the oldest samples are overwritten (the newest state is what a live display wants;
