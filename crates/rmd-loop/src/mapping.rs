@@ -50,11 +50,13 @@ impl EncoderUnwrapper {
     /// `speed_dps` (motor side); returns the continuous motor angle in degrees.
     pub fn update(&mut self, encoder: u16, speed_dps: f64, elapsed: Duration) -> f64 {
         let n = self.counts_per_turn;
-        let reading = i64::from(encoder) % n;
+        // A turn is a power of two of counts: masks are the remainders, without dividing.
+        let mask = n - 1;
+        let reading = i64::from(encoder) & mask;
         match self.last {
             None => self.counts = reading,
             Some(last) => {
-                let raw = (reading - i64::from(last)).rem_euclid(n); // 0..n
+                let raw = (reading - i64::from(last)) & mask; // rem_euclid: 0..n
                 let expected = speed_dps * elapsed.as_secs_f64() / 360.0 * n as f64;
                 // The whole number of turns k that puts raw + k*n closest to the prediction.
                 let expected = if expected.is_finite() { expected } else { 0.0 };

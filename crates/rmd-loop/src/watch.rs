@@ -119,7 +119,10 @@ impl Watch {
     }
 
     pub(crate) fn end_send(&self) {
-        self.sending.store(false, Ordering::SeqCst);
+        // Release is enough here (a plain store on x86, not a locked one): the supervisor that
+        // reads `false` sees the send completed. Only `begin_send`'s store-then-load needs
+        // SeqCst, against the supervisor's phase change followed by its read of `sending`.
+        self.sending.store(false, Ordering::Release);
     }
 
     /// Called by the supervisor after taking over: waits until the loop thread is out of a send.
