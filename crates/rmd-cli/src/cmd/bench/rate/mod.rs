@@ -267,7 +267,9 @@ fn summary_json(args: &RateArgs, r: &ByBusCount<'_>) -> Value {
         "wire_limit_hz": headline.and_then(|(t, _)| t.wire_limit_hz()),
         "rate_hz": headline.map(|(t, _)| t.rate_hz),
         "rate_of_wire_limit": headline.and_then(|(t, _)| ratio(t)),
-        "rate_passes": headline.map(|(_, n)| n),
+        "rate_passes": headline.map(|(t, _)| passes(&r.search.trials, t.rate_hz, args.budget())),
+        "rate_trials": headline.map(|(_, n)| n),
+        "rate_missed_fraction": headline.and_then(|(t, _)| r.search.pooled(t.rate_hz)).map(|(m, _)| m),
         "zero_miss_rate_hz": zero.map(|(t, _)| t.rate_hz),
         "zero_miss_wire_limit_hz": zero.and_then(|(t, _)| t.wire_limit_hz()),
         "zero_miss_of_wire_limit": zero.and_then(|(t, _)| ratio(t)),
@@ -287,13 +289,14 @@ fn summary_text(args: &RateArgs, r: &ByBusCount<'_>) -> String {
         })
     };
     match r.headline(args) {
-        Some((t, passes)) => {
+        Some((t, trials)) => {
             out += &format!(
-                "{buses} bus(es): {:.1} Hz with at most {}% of ticks missed = {} (passed {passes} \
-                 time(s), worst {:.3}% missed)\n",
+                "{buses} bus(es): {:.1} Hz with at most {}% of ticks missed = {} ({:.3}% of the \
+                 slots of {trials} trial(s) missed, worst trial {:.3}%)\n",
                 t.rate_hz,
                 args.miss_budget_pct,
                 of_limit(t),
+                100.0 * r.search.pooled(t.rate_hz).map_or(0.0, |(m, _)| m),
                 100.0 * worst_missed(&r.search.trials, t.rate_hz),
             );
             if let Some(w) = t.wire {
@@ -337,6 +340,14 @@ fn summary_text(args: &RateArgs, r: &ByBusCount<'_>) -> String {
         );
     }
     out
+}
+
+/// How many trials at `rate_hz` were, each on its own, within `budget`.
+fn passes(trials: &[Trial], rate_hz: f64, budget: f64) -> usize {
+    trials
+        .iter()
+        .filter(|t| t.rate_hz == rate_hz && t.within(budget))
+        .count()
 }
 
 /// The worst missed share among the trials at `rate_hz`.

@@ -23,6 +23,15 @@ use crate::cmd::bench::pd::MovingTargetPd;
 use crate::cmd::bench::robot;
 use crate::cmd::bench::wire_limit::{self, WireLimit, us};
 
+/// Whether a missed share is within `budget` (a fraction; 0 means none missed).
+pub(super) fn within(missed: f64, budget: f64) -> bool {
+    if budget == 0.0 {
+        missed == 0.0
+    } else {
+        missed <= budget
+    }
+}
+
 /// The outcome of one trial.
 #[derive(Clone, Debug)]
 pub(super) struct Trial {
@@ -52,27 +61,34 @@ pub(super) struct Trial {
 }
 
 impl Trial {
-    /// The share of the trial's tick slots that were missed: ticks that missed their deadline
-    /// or a reply, ticks skipped (after an overrun), and slots the run never accounted for (an
-    /// overrun across its end). A trial that stopped early missed them all.
-    pub(super) fn missed_fraction(&self) -> f64 {
-        let slots = self.ticks + self.skipped_ticks;
-        if !self.normal_stop || slots == 0 {
-            return 1.0;
+    /// The trial's tick slots: those it covered (ticks run and skipped), at least as many as its
+    /// length holds.
+    pub(super) fn slots(&self) -> u64 {
+        (self.ticks + self.skipped_ticks)
+            .max(self.expected_ticks)
+            .max(1)
+    }
+
+    /// Missed slots: ticks that missed their deadline or a reply, ticks skipped (after an
+    /// overrun), and slots the run never accounted for (an overrun across its end). A trial that
+    /// stopped early missed them all.
+    pub(super) fn missed_slots(&self) -> u64 {
+        let covered = self.ticks + self.skipped_ticks;
+        if !self.normal_stop || covered == 0 {
+            return self.slots();
         }
-        let unaccounted = self.expected_ticks.saturating_sub(slots);
-        let missed = self.missed_ticks + self.skipped_ticks + unaccounted;
-        missed as f64 / slots.max(self.expected_ticks) as f64
+        let unaccounted = self.expected_ticks.saturating_sub(covered);
+        (self.missed_ticks + self.skipped_ticks + unaccounted).min(self.slots())
+    }
+
+    /// The share of the trial's tick slots that were missed.
+    pub(super) fn missed_fraction(&self) -> f64 {
+        self.missed_slots() as f64 / self.slots() as f64
     }
 
     /// Whether at most `budget` (a fraction) of the tick slots were missed.
     pub(super) fn within(&self, budget: f64) -> bool {
-        let missed = self.missed_fraction();
-        if budget == 0.0 {
-            missed == 0.0
-        } else {
-            missed <= budget
-        }
+        within(self.missed_fraction(), budget)
     }
 
     /// The wire limit of this trial's frames, Hz.
@@ -313,10 +329,17 @@ fn traces_of<C: Clock>(sims: &[SimBus<C>]) -> Vec<Vec<Transmission>> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    fn trial(ticks: u64, skipped: u64, missed: u64, expected: u64, normal_stop: bool) -> Trial {
+    /// A trial at 1 kHz with these counts (the other figures empty).
+    pub(in crate::cmd::bench::rate) fn trial(
+        ticks: u64,
+        skipped: u64,
+        missed: u64,
+        expected: u64,
+        normal_stop: bool,
+    ) -> Trial {
         Trial {
             buses: 1,
             rate_hz: 1000.0,
