@@ -91,6 +91,11 @@ impl<T> Sender<T> {
     pub fn is_empty(&self) -> bool {
         self.inner.queue.is_empty()
     }
+
+    /// The mailbox's capacity.
+    pub fn capacity(&self) -> usize {
+        self.inner.queue.capacity()
+    }
 }
 
 /// The receiving end of a mailbox. Clone it to receive from several threads (each value is
@@ -129,9 +134,17 @@ impl<T> Receiver<T> {
 
     /// The newest queued value, discarding older ones; `None` if nothing was queued.
     pub fn latest(&self) -> Option<T> {
+        self.latest_with(drop)
+    }
+
+    /// The newest queued value, handing each older one to `discard`; `None` if nothing was
+    /// queued.
+    pub fn latest_with(&self, mut discard: impl FnMut(T)) -> Option<T> {
         let mut last = None;
         while let Some(v) = self.inner.queue.pop() {
-            last = Some(v);
+            if let Some(older) = last.replace(v) {
+                discard(older);
+            }
         }
         last
     }
@@ -170,6 +183,19 @@ mod tests {
         assert_eq!(tx.send_overwrite(4), Some(1));
         assert_eq!(rx.drain().collect::<Vec<_>>(), vec![2, 4]);
         assert!(rx.is_empty());
+    }
+
+    #[test]
+    fn latest_hands_every_older_value_to_the_discard() {
+        let (tx, rx) = mailbox(4);
+        for v in 1..=3 {
+            tx.send(v).unwrap();
+        }
+        assert_eq!(tx.capacity(), 4);
+        let mut discarded = Vec::new();
+        assert_eq!(rx.latest_with(|v| discarded.push(v)), Some(3));
+        assert_eq!(discarded, vec![1, 2]);
+        assert_eq!(rx.latest_with(|_| panic!("nothing queued")), None);
     }
 
     #[test]

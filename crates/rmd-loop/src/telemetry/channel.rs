@@ -2,32 +2,21 @@
 //!
 //! A [`TelemetrySample`] is sized for the largest robot (a few kilobytes), so moving one by value
 //! through a queue costs several copies of it per tick. Instead the channel allocates, once, a
-//! pool of boxed samples that travel between two lock-free queues (crossbeam's `ArrayQueue`):
-//! `free` and `full`. The loop takes a box from `free` (or, when the receiver has fallen behind,
-//! the oldest from `full`: that sample is overwritten), fills in only its robot's joints, and
-//! pushes it onto `full`; a receiver pops one, copies the sample out on its own thread and
-//! returns the box to `free`. Only pointers cross the queues: no allocation, no lock, no wait on
-//! the loop's side.
-
-use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
-
-use crossbeam_queue::ArrayQueue;
+//! pool of boxed samples that travel between two [`mailbox`]es: `queued` (loop to receivers) and
+//! `free` (receivers back to the loop). The loop takes a box from `free`, fills in only its
+//! robot's joints and queues it (when the receivers have fallen behind, the oldest queued box is
+//! pushed out: that sample is overwritten, and its box goes back to `free`); a receiver takes
+//! one, copies the sample out on its own thread and gives the box back. Only pointers cross the
+//! mailboxes: no allocation, no lock, no wait on the loop's side.
 
 use super::TelemetrySample;
+use crate::mailbox::{Receiver, Sender, mailbox};
 
-/// Boxes beyond the channel's capacity: one the loop fills while `full` is at capacity, and
+/// Boxes beyond the channel's capacity: one the loop fills while `queued` is at capacity, and
 /// some that receivers on several threads hold while they copy a sample out.
 const SPARE_BOXES: usize = 4;
 
-/// The pool and how many receivers are alive.
-#[derive(Debug)]
-struct Pool {
-    full: ArrayQueue<Box<TelemetrySample>>,
-    free: ArrayQueue<Box<TelemetrySample>>,
-    senders: AtomicUsize,
-    receivers: AtomicUsize,
-}
+type Slot = Box<TelemetrySample>;
 
 /// Creates a channel holding up to `capacity` samples (at least 1) of `joints` joints and
 /// `signals` user signals. Allocates every box now.
@@ -38,22 +27,19 @@ pub(crate) fn channel(
 ) -> (TelemetrySender, TelemetryReceiver) {
     let capacity = capacity.max(1);
     let boxes = capacity + SPARE_BOXES;
-    let free = ArrayQueue::new(boxes);
+    let (queue, queued) = mailbox(capacity);
+    let (give_back, free) = mailbox(boxes);
     for _ in 0..boxes {
-        // Cannot fail: the queue holds exactly `boxes`.
-        let _ = free.push(Box::new(TelemetrySample::new(joints, signals)));
+        // Cannot fail: the mailbox holds exactly `boxes`.
+        let _ = give_back.send(Box::new(TelemetrySample::new(joints, signals)));
     }
-    let pool = Arc::new(Pool {
-        full: ArrayQueue::new(capacity),
-        free,
-        senders: AtomicUsize::new(1),
-        receivers: AtomicUsize::new(1),
-    });
     (
         TelemetrySender {
-            pool: Arc::clone(&pool),
+            queue,
+            free,
+            give_back: give_back.clone(),
         },
-        TelemetryReceiver { pool },
+        TelemetryReceiver { queued, give_back },
     )
 }
 
@@ -72,19 +58,15 @@ pub(crate) enum Published {
 /// The loop's end (one per loop: not `Clone`).
 #[derive(Debug)]
 pub(crate) struct TelemetrySender {
-    pool: Arc<Pool>,
-}
-
-impl Drop for TelemetrySender {
-    fn drop(&mut self) {
-        self.pool.senders.fetch_sub(1, Ordering::Release);
-    }
+    queue: Sender<Slot>,
+    free: Receiver<Slot>,
+    give_back: Sender<Slot>,
 }
 
 impl TelemetrySender {
     /// Whether a receiver still exists.
     pub(crate) fn has_receivers(&self) -> bool {
-        self.pool.receivers.load(Ordering::Acquire) > 0
+        self.queue.has_receivers()
     }
 
     /// Fills a box with `fill` and queues it. With `overwrite`, a full channel loses its oldest
@@ -95,33 +77,22 @@ impl TelemetrySender {
         overwrite: bool,
         fill: impl FnOnce(&mut TelemetrySample),
     ) -> Published {
-        let pool = &*self.pool;
-        // The loop is the only producer: once `full` has room, only receivers touch it, and they
-        // only make more.
-        if !overwrite && pool.full.is_full() {
+        // The loop is the only producer: once `queue` has room, only receivers touch it, and
+        // they only make more.
+        if !overwrite && self.queue.len() >= self.queue.capacity() {
             return Published::NotQueued;
         }
-        // A full channel gives up its oldest box at once (rather than taking a free one and
-        // pushing out the oldest): the cheaper path through the queue.
-        let oldest = if overwrite && pool.full.is_full() {
-            pool.full.pop()
-        } else {
-            None
-        };
-        let mut lost = oldest.is_some();
-        let Some(mut slot) = oldest.or_else(|| pool.free.pop()) else {
+        let Some(mut slot) = self.free.try_recv() else {
             return Published::NotQueued;
         };
         fill(&mut slot);
-        if let Some(oldest) = pool.full.force_push(slot) {
-            lost = true;
-            // Cannot fail: `free` holds every box.
-            let _ = pool.free.push(oldest);
-        }
-        if lost {
-            Published::Overwrote
-        } else {
-            Published::Queued
+        match self.queue.send_overwrite(slot) {
+            None => Published::Queued,
+            Some(oldest) => {
+                // Cannot fail: `free` holds every box.
+                let _ = self.give_back.send(oldest);
+                Published::Overwrote
+            }
         }
     }
 }
@@ -137,51 +108,31 @@ impl TelemetrySender {
 ///     samples.latest().map(|sample| sample.tick)
 /// }
 /// ```
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct TelemetryReceiver {
-    pool: Arc<Pool>,
-}
-
-impl Clone for TelemetryReceiver {
-    fn clone(&self) -> Self {
-        self.pool.receivers.fetch_add(1, Ordering::Relaxed);
-        Self {
-            pool: Arc::clone(&self.pool),
-        }
-    }
-}
-
-impl Drop for TelemetryReceiver {
-    fn drop(&mut self) {
-        self.pool.receivers.fetch_sub(1, Ordering::Release);
-    }
+    queued: Receiver<Slot>,
+    give_back: Sender<Slot>,
 }
 
 impl TelemetryReceiver {
     /// Whether the loop still publishes: once it does not and the channel is empty, nothing more
     /// will come (the loop has finished, or published to a newer receiver).
     pub fn has_senders(&self) -> bool {
-        self.pool.senders.load(Ordering::Acquire) > 0
+        self.queued.has_senders()
     }
 
     /// The oldest queued sample, if any.
     pub fn try_recv(&self) -> Option<TelemetrySample> {
-        let slot = self.pool.full.pop()?;
-        let sample = *slot;
-        // Cannot fail: `free` holds every box.
-        let _ = self.pool.free.push(slot);
-        Some(sample)
+        self.queued.try_recv().map(|slot| self.copy_out(slot))
     }
 
     /// The newest queued sample, discarding older ones; `None` if nothing was queued.
     pub fn latest(&self) -> Option<TelemetrySample> {
-        let mut newest = self.pool.full.pop()?;
-        while let Some(next) = self.pool.full.pop() {
-            let _ = self.pool.free.push(std::mem::replace(&mut newest, next));
-        }
-        let sample = *newest;
-        let _ = self.pool.free.push(newest);
-        Some(sample)
+        self.queued
+            .latest_with(|older| {
+                let _ = self.give_back.send(older);
+            })
+            .map(|slot| self.copy_out(slot))
     }
 
     /// Takes every queued sample, oldest first.
@@ -191,17 +142,25 @@ impl TelemetryReceiver {
 
     /// Number of queued samples.
     pub fn len(&self) -> usize {
-        self.pool.full.len()
+        self.queued.len()
     }
 
     /// Whether nothing is queued.
     pub fn is_empty(&self) -> bool {
-        self.pool.full.is_empty()
+        self.queued.is_empty()
     }
 
     /// How many samples the channel holds before the loop overwrites (or waits).
     pub fn capacity(&self) -> usize {
-        self.pool.full.capacity()
+        self.queued.capacity()
+    }
+
+    /// The sample in `slot`, the box given back to the loop.
+    fn copy_out(&self, slot: Slot) -> TelemetrySample {
+        let sample = *slot;
+        // Cannot fail: `free` holds every box.
+        let _ = self.give_back.send(slot);
+        sample
     }
 }
 
@@ -250,6 +209,8 @@ mod tests {
         }
         assert_eq!(rx.latest().map(|s| s.tick), Some(99));
         assert_eq!(rx.len(), 0);
+        // `latest` gave every box back, the discarded ones too.
+        assert_eq!(tx.free.len(), 2 + SPARE_BOXES);
     }
 
     #[test]
