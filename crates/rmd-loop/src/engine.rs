@@ -330,8 +330,9 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
         crate::panics::enter();
         // On every early return below the hold is dropped: the request ends with the start.
         let RtSetup {
-            status: realtime,
+            status: mut realtime,
             cpu_latency,
+            supervisor: supervisor_placement,
         } = startup::prepare_thread(parts.robot.settings());
         let identified = match startup::identify_motors(&mut parts) {
             Ok(identified) => identified,
@@ -390,8 +391,11 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                     ids: parts.exchange.motors.iter().map(|m| m.id).collect(),
                     robot: parts.robot.clone(),
                 };
-                match supervisor.spawn() {
-                    Ok(handle) => Some(handle),
+                match supervisor.spawn(&supervisor_placement) {
+                    Ok((handle, placed)) => {
+                        realtime.supervisor = placed;
+                        Some(handle)
+                    }
                     Err(_) => {
                         let reason = StopReason::Fault(Fault::Supervisor);
                         return Err(Box::new(finish::finish(

@@ -14,7 +14,12 @@
 //!
 //! Taking over, it sends zero torque and motor-off on every bus with the same safe stop as the
 //! loop; when the loop thread comes back it sends nothing more, and its report carries the
-//! supervisor's safe stop. The supervisor never touches the loop thread's data: it reads a few
+//! supervisor's safe stop.
+//!
+//! It runs off the loop's CPU when the loop is pinned (on the CPUs the loop was allowed before),
+//! one `SCHED_FIFO` priority above the loop when the loop is real-time
+//! ([`crate::os::supervisor_thread`]): a controller stuck in a busy loop at real-time priority
+//! cannot keep it from running, and its looks never interrupt the loop's CPU. The supervisor never touches the loop thread's data: it reads a few
 //! atomics (the `watch` module) and sleeps in real time between looks.
 
 use core::time::Duration;
@@ -25,6 +30,7 @@ use rmd_bus::{CanBus, Clock, Timestamp};
 use rmd_protocol::MotorId;
 
 use crate::bus_link::BusLink;
+use crate::os::{SupervisorPlacement, SupervisorRequest, place_supervisor};
 use crate::report::{Fault, SafeStopBy, StopReason};
 use crate::robot::Robot;
 use crate::safe_stop::make_safe;
@@ -46,11 +52,23 @@ pub(crate) struct Supervisor<C> {
 }
 
 impl<C: Clock + 'static> Supervisor<C> {
-    /// Starts the supervisor's thread.
-    pub(crate) fn spawn(self) -> std::io::Result<JoinHandle<()>> {
-        std::thread::Builder::new()
+    /// Starts the supervisor's thread, which first places itself as `placement` asks (off the
+    /// loop's CPU, above its priority), and returns where it runs.
+    pub(crate) fn spawn(
+        self,
+        placement: &SupervisorRequest,
+    ) -> std::io::Result<(JoinHandle<()>, SupervisorPlacement)> {
+        let (tx, rx) = std::sync::mpsc::sync_channel(1);
+        let placement = placement.clone();
+        let handle = std::thread::Builder::new()
             .name("rmd-rt-supervisor".to_string())
-            .spawn(move || self.run())
+            .spawn(move || {
+                let _ = tx.send(place_supervisor(&placement));
+                self.run()
+            })?;
+        // Start-up, not the real-time path: the loop thread waits for the placement once.
+        let placed = rx.recv().unwrap_or_default();
+        Ok((handle, placed))
     }
 
     fn run(mut self) {

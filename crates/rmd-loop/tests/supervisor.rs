@@ -51,10 +51,12 @@ impl SharedBus {
 }
 
 /// Pushes 1 A on every joint; at the first tick from `hang_at` on (a loaded machine may skip
-/// tick `hang_at` itself), its update blocks for `hang` (once).
+/// tick `hang_at` itself), its update blocks for `hang` (once): asleep, or busy-looping when
+/// `busy` (a controller stuck in a loop, which never gives its CPU away).
 struct Hanging {
     hang_at: u64,
     hang: Duration,
+    busy: bool,
     /// The tick that hung (0 until then).
     hung_at: Arc<AtomicU64>,
     /// Set when the hanging update returns.
@@ -68,7 +70,14 @@ impl Controller for Hanging {
         }
         if ctx.index >= self.hang_at && self.hung_at.load(Ordering::SeqCst) == 0 {
             self.hung_at.store(ctx.index, Ordering::SeqCst);
-            std::thread::sleep(self.hang);
+            if self.busy {
+                let until = Instant::now() + self.hang;
+                while Instant::now() < until {
+                    std::hint::spin_loop();
+                }
+            } else {
+                std::thread::sleep(self.hang);
+            }
             self.returned.store(true, Ordering::SeqCst);
         }
         Flow::Continue
@@ -83,14 +92,26 @@ fn supervised(
     returned: &Arc<AtomicBool>,
     hung_at: &Arc<AtomicU64>,
 ) -> RtLoop<SharedBus, MonotonicClock, Hanging> {
+    let mut config = robot_config(1000.0, 1, 4);
+    config.loop_config.stall_bound_ms = bound.map(|b| b.as_millis() as u64);
+    supervised_with(bus, config, hang, false, returned, hung_at)
+}
+
+fn supervised_with(
+    bus: &SharedBus,
+    config: rmd_loop::robot::RobotConfig,
+    hang: Duration,
+    busy: bool,
+    returned: &Arc<AtomicBool>,
+    hung_at: &Arc<AtomicU64>,
+) -> RtLoop<SharedBus, MonotonicClock, Hanging> {
     let controller = Hanging {
         hang_at: 200,
         hang,
+        busy,
         hung_at: Arc::clone(hung_at),
         returned: Arc::clone(returned),
     };
-    let mut config = robot_config(1000.0, 1, 4);
-    config.loop_config.stall_bound_ms = bound.map(|b| b.as_millis() as u64);
     let robot = rmd_loop::Robot::try_from(config).unwrap();
     RtLoop::new(robot, MonotonicClock, vec![bus.clone()], controller)
         .unwrap()
@@ -150,6 +171,85 @@ fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
     assert_eq!(r.safe_stop.by, SafeStopBy::Supervisor);
     assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
     // When the controller came back, the loop sent nothing more: the motors stayed off.
+    assert!(bus.all_off(), "{:?}", bus.modes());
+}
+
+/// The loop pinned to a CPU under `SCHED_FIFO`, its controller stuck in a busy loop: a
+/// supervisor on the loop's CPU at the loop's priority would never run until the controller
+/// came back. It runs off the loop's CPU (or above its priority) and stops the motors while the
+/// controller still spins.
+#[test]
+fn a_controller_spinning_under_sched_fifo_is_stopped_by_the_supervisor_before_it_returns() {
+    if !nix::unistd::geteuid().is_root() {
+        eprintln!("skipped: SCHED_FIFO needs root (CI runs this test as root)");
+        return;
+    }
+    let bus = SharedBus::new(44);
+    let returned = Arc::new(AtomicBool::new(false));
+    let hung_at = Arc::new(AtomicU64::new(0));
+    let last_cpu = std::thread::available_parallelism().map_or(0, |n| n.get() - 1);
+    let mut config = robot_config(1000.0, 1, 4);
+    config.loop_config.stall_bound_ms = Some(300);
+    config.loop_config.cpu = Some(last_cpu);
+    config.loop_config.fifo_priority = Some(10);
+    // A 1.5 s busy loop: the kernel's real-time throttling (95% of each second) still lets
+    // ordinary threads have that CPU now and then, but never a thread of the same class.
+    let handle = supervised_with(
+        &bus,
+        config,
+        Duration::from_millis(1500),
+        true,
+        &returned,
+        &hung_at,
+    )
+    .spawn(RunLimit::Forever)
+    .unwrap();
+    wait_until("torque", Duration::from_secs(10), || {
+        bus.modes()
+            .iter()
+            .all(|m| matches!(m, ControlMode::Torque { .. }))
+    });
+    wait_until("every motor off", Duration::from_secs(10), || bus.all_off());
+    assert!(
+        !returned.load(Ordering::SeqCst),
+        "the motors went off only after the busy loop ended"
+    );
+    let out = handle.join().unwrap();
+    let r = &out.report;
+    assert_eq!(
+        r.realtime.fifo,
+        rmd_loop::os::StepStatus::Applied,
+        "{}",
+        r.realtime
+    );
+    assert_eq!(
+        r.realtime.affinity,
+        rmd_loop::os::StepStatus::Applied,
+        "{}",
+        r.realtime
+    );
+    // Where the supervisor ran: one priority above the loop, off its CPU when there is another.
+    let rmd_loop::os::SupervisorPlacement::Running { request, fifo, .. } = &r.realtime.supervisor
+    else {
+        panic!("no supervisor in the report: {}", r.realtime);
+    };
+    assert_eq!(request.fifo_priority, Some(11));
+    assert_eq!(*fifo, rmd_loop::os::StepStatus::Applied);
+    assert!(
+        r.realtime.to_string().contains("SCHED_FIFO 11"),
+        "{}",
+        r.realtime
+    );
+    if last_cpu > 0 {
+        assert!(!request.cpus.as_ref().unwrap().contains(&last_cpu));
+    }
+    assert!(
+        matches!(r.stop_reason, StopReason::Fault(Fault::TickStalled { .. })),
+        "{}",
+        r.stop_reason
+    );
+    assert_eq!(r.safe_stop.by, SafeStopBy::Supervisor);
+    assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
     assert!(bus.all_off(), "{:?}", bus.modes());
 }
 

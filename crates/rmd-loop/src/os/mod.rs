@@ -1,6 +1,7 @@
 //! The small operating-system layer of the loop thread: CPU pinning, `SCHED_FIFO` priority,
 //! memory locking, stack pre-faulting, the timer slack, and the CPU wake-up latency request
-//! (`/dev/cpu_dma_latency`). The only place in rmd-loop with `unsafe` code.
+//! (`/dev/cpu_dma_latency`); and where the loop's supervisor thread runs ([`supervisor_thread`]).
+//! The only place in rmd-loop with `unsafe` code.
 //!
 //! Each step is best effort: when a privilege is missing (no `CAP_SYS_NICE` / rtprio limit for
 //! `SCHED_FIFO`, no `CAP_IPC_LOCK` / memlock limit for `mlockall`, no write access to
@@ -13,6 +14,10 @@ use std::fmt;
 use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+
+pub mod supervisor_thread;
+
+pub use supervisor_thread::{SupervisorPlacement, SupervisorRequest, place_supervisor};
 
 /// The kernel's CPU latency request device (PM QoS): while a process holds it open with a value
 /// written, no CPU enters an idle state whose exit latency exceeds that value.
@@ -116,6 +121,8 @@ pub struct RtStatus {
     /// default) to batch wake-ups; the loop thread always sets its own to 1 ns (no privilege
     /// needed). Real-time threads ignore it.
     pub timer_slack_ns: Option<u64>,
+    /// Where the loop's supervisor thread ran (set when it starts).
+    pub supervisor: SupervisorPlacement,
 }
 
 impl RtStatus {
@@ -132,6 +139,7 @@ impl RtStatus {
                 _ => None,
             })
             .chain(latency)
+            .chain(self.supervisor.warnings())
     }
 
     /// Whether every requested step was applied.
@@ -170,6 +178,9 @@ impl fmt::Display for RtStatus {
         )?;
         if let Some(ns) = self.timer_slack_ns {
             write!(f, ", timer slack: {ns} ns")?;
+        }
+        if self.supervisor != SupervisorPlacement::NotRunning {
+            write!(f, ", {}", self.supervisor)?;
         }
         Ok(())
     }
@@ -313,20 +324,31 @@ pub struct RtSetup {
     pub status: RtStatus,
     /// The CPU latency request, if it was asked for and granted: drop it to withdraw it.
     pub cpu_latency: Option<CpuLatencyHold>,
+    /// Where a supervisor of this thread should run: off its CPU, above its priority.
+    pub supervisor: SupervisorRequest,
 }
 
 /// Applies `request` to the calling thread and reports what was granted. Never fails: a step
 /// that cannot be applied is reported in the returned status. The CPU latency request is held
 /// until the returned [`RtSetup`] (its `cpu_latency`) is dropped.
 pub fn apply_to_current_thread(request: &RtRequest) -> RtSetup {
+    // Before pinning: the CPUs a supervisor may use instead of this thread's.
+    let allowed = supervisor_thread::allowed_cpus().unwrap_or_default();
     let affinity = match request.cpu {
         None => StepStatus::NotRequested,
         Some(cpu) => pin_to_cpu(cpu),
     };
     let fifo = match request.fifo_priority {
         None => StepStatus::NotRequested,
-        Some(prio) => set_fifo(prio),
+        Some(prio) => set_fifo("loop", prio),
     };
+    let supervisor = SupervisorRequest::for_loop(
+        request.cpu.filter(|_| affinity == StepStatus::Applied),
+        request
+            .fifo_priority
+            .filter(|_| fifo == StepStatus::Applied),
+        &allowed,
+    );
     let memory_lock = if request.lock_memory {
         lock_memory()
     } else {
@@ -355,8 +377,10 @@ pub fn apply_to_current_thread(request: &RtRequest) -> RtSetup {
             cpu_latency,
             prefaulted_stack_bytes: request.prefault_stack_bytes.min(MAX_PREFAULT),
             timer_slack_ns: minimise_timer_slack(),
+            supervisor: SupervisorPlacement::NotRunning,
         },
         cpu_latency: hold,
+        supervisor,
     }
 }
 
@@ -400,8 +424,9 @@ fn pin_to_cpu(cpu: usize) -> StepStatus {
     }
 }
 
+/// Switches the calling thread (the `who` thread, for the messages) to `SCHED_FIFO`.
 #[cfg(target_os = "linux")]
-fn set_fifo(priority: u8) -> StepStatus {
+fn set_fifo(who: &str, priority: u8) -> StepStatus {
     if !(1..=99).contains(&priority) {
         return StepStatus::Failed(format!(
             "SCHED_FIFO priority {priority} is out of range: use 1..=99"
@@ -418,7 +443,7 @@ fn set_fifo(priority: u8) -> StepStatus {
     } else {
         let err = std::io::Error::from_raw_os_error(rc);
         StepStatus::Failed(format!(
-            "could not switch the loop thread to SCHED_FIFO priority {priority} ({err}); the loop \
+            "could not switch the {who} thread to SCHED_FIFO priority {priority} ({err}); it \
              runs under the normal scheduler. Fix: run as root, or grant CAP_SYS_NICE \
              (`setcap cap_sys_nice+ep <binary>`), or raise the rtprio limit \
              (`@realtime - rtprio 99` in /etc/security/limits.d/)"
@@ -427,7 +452,7 @@ fn set_fifo(priority: u8) -> StepStatus {
 }
 
 #[cfg(not(target_os = "linux"))]
-fn set_fifo(priority: u8) -> StepStatus {
+fn set_fifo(_who: &str, priority: u8) -> StepStatus {
     StepStatus::Failed(format!(
         "SCHED_FIFO priority {priority} requested, but real-time scheduling is only supported on Linux"
     ))
