@@ -49,7 +49,7 @@
 
 use core::time::Duration;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::thread::JoinHandle;
 
 use crossbeam_queue::ArrayQueue;
@@ -68,6 +68,10 @@ pub const LOOKAHEAD: Duration = Duration::from_millis(2);
 
 /// Longest sleep of an idle simulator thread between looks at its stop flag.
 const IDLE: Duration = Duration::from_millis(20);
+
+/// How many late items' arrivals [`ThreadedSim::late_arrivals`] keeps (the first ones; all are
+/// counted in [`Lateness`]).
+pub const LATE_LOG_LEN: usize = 16_384;
 
 /// How a [`ThreadedSim`] runs.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -115,6 +119,24 @@ struct Shared {
     late_items: AtomicU64,
     /// The latest of them, nanoseconds after its arrival.
     max_late_ns: AtomicU64,
+    /// The arrivals of the first [`LATE_LOG_LEN`] of them (nanoseconds), written by the
+    /// simulator thread only; `late_logged` are valid.
+    late_log: Box<[AtomicU64]>,
+    late_logged: AtomicUsize,
+}
+
+impl Shared {
+    /// Counts an item handed over `late` after its arrival `at` (the simulator thread only).
+    fn record_late(&self, at: Timestamp, late: Duration) {
+        self.late_items.fetch_add(1, Ordering::Relaxed);
+        self.max_late_ns
+            .fetch_max(late.as_nanos() as u64, Ordering::Relaxed);
+        let n = self.late_logged.load(Ordering::Relaxed);
+        if let Some(slot) = self.late_log.get(n) {
+            slot.store(at.as_nanos(), Ordering::Relaxed);
+            self.late_logged.store(n + 1, Ordering::Release);
+        }
+    }
 }
 
 /// How well the simulator thread kept up with the real clock.
@@ -154,6 +176,8 @@ impl ThreadedSim {
             stop: AtomicBool::new(false),
             late_items: AtomicU64::new(0),
             max_late_ns: AtomicU64::new(0),
+            late_log: (0..LATE_LOG_LEN).map(|_| AtomicU64::new(0)).collect(),
+            late_logged: AtomicUsize::new(0),
         });
         let queues = (0..options.ports.max(1))
             .map(|_| {
@@ -198,6 +222,17 @@ impl ThreadedSim {
             late_items: self.shared.late_items.load(Ordering::Relaxed),
             max_late: Duration::from_nanos(self.shared.max_late_ns.load(Ordering::Relaxed)),
         }
+    }
+
+    /// When the items handed over late were due to arrive (the first [`LATE_LOG_LEN`]): a
+    /// benchmark tells the ticks whose replies the simulator was late with from those the loop
+    /// missed on its own.
+    pub fn late_arrivals(&self) -> Vec<Timestamp> {
+        let n = self.shared.late_logged.load(Ordering::Acquire);
+        self.shared.late_log[..n]
+            .iter()
+            .map(|at| Timestamp::from_nanos(at.load(Ordering::Relaxed)))
+            .collect()
     }
 
     /// Stops the thread (frames sent after this are never simulated) and returns the bus, to
@@ -247,10 +282,7 @@ fn simulate(
         while let Some(item) = bus.next_received(now + LOOKAHEAD) {
             let late = clock.now() - item.at;
             if !late.is_zero() {
-                shared.late_items.fetch_add(1, Ordering::Relaxed);
-                shared
-                    .max_late_ns
-                    .fetch_max(late.as_nanos() as u64, Ordering::Relaxed);
+                shared.record_late(item.at, late);
             }
             for q in queues {
                 if q.to_user.force_push(item).is_some() {

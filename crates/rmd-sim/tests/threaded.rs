@@ -224,5 +224,8 @@ fn a_simulator_thread_that_is_late_is_counted_and_its_replies_keep_their_times()
     let late = sim.lateness();
     assert_eq!(late.late_items, 2);
     assert!(late.max_late >= Duration::from_millis(45), "{late:?}");
+    // Their arrivals are logged, as handed over: the two replies' own times.
+    let arrivals = sim.late_arrivals();
+    assert_eq!(arrivals, vec![got[0].at, got[1].at]);
     sim.stop().unwrap();
 }

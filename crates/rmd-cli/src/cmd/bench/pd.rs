@@ -9,6 +9,8 @@
 
 use core::f64::consts::PI;
 
+use core::time::Duration;
+
 use rmd_bus::{Clock, MonotonicClock, Timestamp};
 use rmd_loop::stats::LatencyHistogram;
 use rmd_loop::{Commands, Controller, Feedback, Flow, TickContext};
@@ -24,6 +26,31 @@ const KD: f64 = 0.01;
 /// Tracking is measured after this long (the joints start at rest at 0 degrees).
 const SETTLE_S: f64 = 0.5;
 
+/// A tick that missed (a reply missing, or an overrun that skipped the slots after it), as the
+/// benchmark's controller saw it.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub(crate) struct MissedTick {
+    /// The tick's index.
+    pub(crate) index: u64,
+    /// When it was due.
+    pub(crate) scheduled: Timestamp,
+    /// How late the loop woke for it.
+    pub(crate) wake_late: Duration,
+    /// Slots skipped after it (0: it missed a reply but did not overrun).
+    pub(crate) skipped_after: u64,
+}
+
+/// Missed ticks the controller logs at most (it never allocates while the loop runs).
+const MISSED_LOG_LEN: usize = 16_384;
+
+/// The tick the controller ran last: to see slots skipped after it.
+#[derive(Copy, Clone, Debug)]
+struct LastTick {
+    index: u64,
+    scheduled: Timestamp,
+    wake_late: Duration,
+}
+
 /// PD control towards moving targets, with tracking and timing measurements.
 #[derive(Debug)]
 pub(crate) struct MovingTargetPd {
@@ -38,6 +65,10 @@ pub(crate) struct MovingTargetPd {
     measure_handoff: bool,
     /// When the first and the last tick the controller ran were due.
     pub(crate) ticks_due: Option<(Timestamp, Timestamp)>,
+    /// Ticks that missed a reply, or were followed by skipped slots (the first
+    /// [`MISSED_LOG_LEN`] entries; a tick may have two).
+    pub(crate) missed: Vec<MissedTick>,
+    last: Option<LastTick>,
 }
 
 impl MovingTargetPd {
@@ -51,7 +82,48 @@ impl MovingTargetPd {
             last_reply: LatencyHistogram::new(),
             measure_handoff: real_time,
             ticks_due: None,
+            missed: Vec::with_capacity(MISSED_LOG_LEN),
+            last: None,
         }
+    }
+
+    /// Logs a missed tick, if the log has room (never grows it).
+    fn log_missed(&mut self, tick: MissedTick) {
+        if self.missed.len() < self.missed.capacity() {
+            self.missed.push(tick);
+        }
+    }
+
+    /// Logs the last tick when slots were skipped between it and `index`, and the tick `ctx`
+    /// when it missed a reply.
+    fn log_ticks(&mut self, ctx: &TickContext, all_fresh: bool) {
+        let now = LastTick {
+            index: ctx.index,
+            scheduled: ctx.scheduled,
+            wake_late: ctx
+                .woke
+                .checked_duration_since(ctx.scheduled)
+                .unwrap_or_default(),
+        };
+        if let Some(last) = self.last
+            && now.index > last.index + 1
+        {
+            self.log_missed(MissedTick {
+                index: last.index,
+                scheduled: last.scheduled,
+                wake_late: last.wake_late,
+                skipped_after: now.index - last.index - 1,
+            });
+        }
+        if !all_fresh {
+            self.log_missed(MissedTick {
+                index: now.index,
+                scheduled: now.scheduled,
+                wake_late: now.wake_late,
+                skipped_after: 0,
+            });
+        }
+        self.last = Some(now);
     }
 
     /// The target of joint `i` at `t` seconds: angle (deg) and velocity (deg/s).
@@ -97,6 +169,7 @@ impl Controller for MovingTargetPd {
                 self.max_error_deg = self.max_error_deg.max(error.abs());
             }
         }
+        self.log_ticks(ctx, fb.all_fresh());
         if fb.all_fresh()
             && let Some(last) = latest
         {
@@ -122,5 +195,36 @@ mod tests {
         assert!((v0 - AMPLITUDE_DEG * 2.0 * PI * FREQUENCY_HZ).abs() < 1e-9);
         let (a, _) = MovingTargetPd::target(0, 0.5);
         assert!((a - AMPLITUDE_DEG).abs() < 1e-9);
+    }
+
+    #[test]
+    fn ticks_that_missed_a_reply_or_were_followed_by_skipped_slots_are_logged() {
+        let ms = Duration::from_millis;
+        let ctx = |index: u64, wake_late_us: u64| TickContext {
+            index,
+            scheduled: Timestamp::ZERO + ms(index),
+            woke: Timestamp::ZERO + ms(index) + Duration::from_micros(wake_late_us),
+            period: ms(1),
+            start: Timestamp::ZERO,
+        };
+        let mut pd = MovingTargetPd::new(false);
+        // Ticks 0, 1, then 4 (1 overran: 2 and 3 skipped), 5 with a reply missing, 6.
+        for (index, fresh) in [(0, true), (1, true), (4, true), (5, false), (6, true)] {
+            pd.log_ticks(&ctx(index, 3 * index), fresh);
+        }
+        let tick = |index: u64, skipped_after: u64| MissedTick {
+            index,
+            scheduled: Timestamp::ZERO + ms(index),
+            wake_late: Duration::from_micros(3 * index),
+            skipped_after,
+        };
+        assert_eq!(pd.missed, vec![tick(1, 2), tick(5, 0)]);
+        // The log never grows past what was reserved.
+        let capacity = pd.missed.capacity();
+        for index in 0..capacity as u64 + 10 {
+            pd.log_ticks(&ctx(100 + 2 * index, 0), true);
+        }
+        assert_eq!(pd.missed.len(), capacity);
+        assert_eq!(pd.missed.capacity(), capacity);
     }
 }

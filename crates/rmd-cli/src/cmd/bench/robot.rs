@@ -89,6 +89,14 @@ impl ThreadedBuses {
             })
     }
 
+    /// When the items the simulator threads handed over late were due, all buses together.
+    pub(crate) fn late_arrivals(&self) -> Vec<rmd_bus::Timestamp> {
+        self.sims
+            .iter()
+            .flat_map(ThreadedSim::late_arrivals)
+            .collect()
+    }
+
     /// Stops every simulator and returns its bus.
     pub(crate) fn stop(self) -> Result<Vec<SimBus<MonotonicClock>>, String> {
         self.sims

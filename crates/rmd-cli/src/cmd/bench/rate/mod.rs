@@ -18,6 +18,7 @@
 //! once; `--sim inline` runs them inside the loop's thread (as before: the loop then also pays
 //! for their firmware and physics); `--virtual-time` runs everything on a virtual clock.
 
+mod attribution;
 mod search;
 mod trial;
 

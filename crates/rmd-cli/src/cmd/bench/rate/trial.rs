@@ -18,7 +18,7 @@ use rmd_sim::threaded::Lateness;
 use rmd_sim::{SimBus, Transmission};
 use serde_json::{Value, json};
 
-use super::{BITRATE, RateArgs, SimPlace};
+use super::{BITRATE, RateArgs, SimPlace, attribution};
 use crate::cmd::bench::pd::MovingTargetPd;
 use crate::cmd::bench::robot;
 use crate::cmd::bench::wire_limit::{self, WireLimit, us};
@@ -57,6 +57,8 @@ pub(super) struct Trial {
     /// With the simulators on their own threads: replies they handed over after their arrival
     /// (their thread was late, not the loop), and the latest.
     pub(super) sim_late: Option<Lateness>,
+    /// Missed slots that were the simulator's, not the loop's (see [`super::attribution`]).
+    pub(super) sim_missed_slots: u64,
     pub(super) warnings: Vec<String>,
 }
 
@@ -69,10 +71,17 @@ impl Trial {
             .max(1)
     }
 
-    /// Missed slots: ticks that missed their deadline or a reply, ticks skipped (after an
+    /// Missed slots that were the loop's: all of them ([`Self::all_missed_slots`]) but those
+    /// the simulator made it miss (it handed a reply over late while the loop was on time).
+    pub(super) fn missed_slots(&self) -> u64 {
+        self.all_missed_slots()
+            .saturating_sub(self.sim_missed_slots)
+    }
+
+    /// All missed slots: ticks that missed their deadline or a reply, ticks skipped (after an
     /// overrun), and slots the run never accounted for (an overrun across its end). A trial that
     /// stopped early missed them all.
-    pub(super) fn missed_slots(&self) -> u64 {
+    pub(super) fn all_missed_slots(&self) -> u64 {
         let covered = self.ticks + self.skipped_ticks;
         if !self.normal_stop || covered == 0 {
             return self.slots();
@@ -81,9 +90,14 @@ impl Trial {
         (self.missed_ticks + self.skipped_ticks + unaccounted).min(self.slots())
     }
 
-    /// The share of the trial's tick slots that were missed.
+    /// The share of the trial's tick slots that the loop missed.
     pub(super) fn missed_fraction(&self) -> f64 {
         self.missed_slots() as f64 / self.slots() as f64
+    }
+
+    /// The share of the trial's tick slots missed, the simulator's doing included.
+    pub(super) fn all_missed_fraction(&self) -> f64 {
+        self.all_missed_slots() as f64 / self.slots() as f64
     }
 
     /// Whether at most `budget` (a fraction) of the tick slots were missed.
@@ -104,6 +118,8 @@ impl Trial {
             "wire_limit_hz": self.wire_limit_hz(),
             "rate_of_wire_limit": self.wire_limit_hz().map(|w| self.rate_hz / w),
             "missed_fraction": self.missed_fraction(),
+            "missed_fraction_with_simulator": self.all_missed_fraction(),
+            "simulator_missed_slots": self.sim_missed_slots,
             "within_budget": self.within(budget),
             "zero_misses": self.within(0.0),
             "stop_reason": self.stop_reason,
@@ -128,7 +144,7 @@ impl Trial {
 
     pub(super) fn line(&self, n: usize, budget: f64) -> String {
         format!(
-            "trial {n:>2}: {} bus(es) {:>8.1} Hz ({}) missed {:.3}% {}  misses {} skipped {} missing {} late {}  \
+            "trial {n:>2}: {} bus(es) {:>8.1} Hz ({}) missed {:.3}%{} {}  misses {} skipped {} missing {} late {}  \
              loop added p50 {:.1} p99 {:.1}  wake p99 {:.1} max {:.1}  work max {:.1} us{}",
             self.buses,
             self.rate_hz,
@@ -138,6 +154,15 @@ impl Trial {
                     100.0 * self.rate_hz / w
                 )),
             100.0 * self.missed_fraction(),
+            if self.sim_missed_slots > 0 {
+                format!(
+                    " (+{} slot(s) the simulator's: {:.3}% in all)",
+                    self.sim_missed_slots,
+                    100.0 * self.all_missed_fraction()
+                )
+            } else {
+                String::new()
+            },
             match (self.within(0.0), self.within(budget)) {
                 (true, _) => "ZERO",
                 (false, true) => "PASS",
@@ -228,6 +253,7 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
     let limit = RunLimit::Duration(args.duration);
     let controller = MovingTargetPd::new(args.sim != SimPlace::Virtual);
     let mut sim_late = None;
+    let mut late_arrivals = Vec::new();
     let (outcome, traces) = match args.sim {
         SimPlace::Virtual => {
             let clock = VirtualClock::new();
@@ -258,6 +284,7 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
             let ports = core::mem::take(&mut threaded.ports);
             let outcome = run(robot, MonotonicClock, ports, controller, limit)?;
             sim_late = Some(threaded.lateness());
+            late_arrivals = threaded.late_arrivals();
             (outcome, traces_of(&threaded.stop()?))
         }
     };
@@ -295,6 +322,11 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
         handoff: outcome.controller.handoff.percentiles(),
         wire: WireLimit::of(&exchanges),
         sim_late,
+        sim_missed_slots: attribution::simulator_slots(
+            &outcome.controller.missed,
+            &late_arrivals,
+            period,
+        ),
         warnings: r.realtime_warnings.clone(),
     })
 }
@@ -361,6 +393,7 @@ pub(super) mod tests {
             handoff: Percentiles::default(),
             wire: None,
             sim_late: None,
+            sim_missed_slots: 0,
             warnings: Vec::new(),
         }
     }
@@ -372,6 +405,24 @@ pub(super) mod tests {
         assert_eq!(t.missed_fraction(), 2.0 / 10_000.0);
         assert!(t.within(0.001));
         assert!(!t.within(0.0));
+    }
+
+    #[test]
+    fn slots_the_simulator_made_the_loop_miss_are_not_the_loops() {
+        // 12 missed slots, 8 of them in ticks whose replies the simulator handed over late.
+        let mut t = trial(9994, 6, 6, 10_000, true);
+        t.sim_missed_slots = 8;
+        assert_eq!(t.all_missed_fraction(), 12.0 / 10_000.0);
+        assert_eq!(t.missed_fraction(), 4.0 / 10_000.0);
+        assert!(t.within(0.001));
+        let line = t.line(1, 0.001);
+        assert!(
+            line.contains("missed 0.040% (+8 slot(s) the simulator's: 0.120% in all) PASS"),
+            "{line}"
+        );
+        let json = t.to_json(0.001);
+        assert_eq!(json["simulator_missed_slots"], 8);
+        assert_eq!(json["missed_fraction_with_simulator"], 12.0 / 10_000.0);
     }
 
     #[test]
