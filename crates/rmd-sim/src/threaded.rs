@@ -119,9 +119,9 @@ struct Shared {
     late_items: AtomicU64,
     /// The latest of them, nanoseconds after its arrival.
     max_late_ns: AtomicU64,
-    /// The arrivals of the first [`LATE_LOG_LEN`] of them (nanoseconds), written by the
-    /// simulator thread only; `late_logged` are valid.
-    late_log: Box<[AtomicU64]>,
+    /// The arrivals of the first [`LATE_LOG_LEN`] of them and how late each was (nanoseconds),
+    /// written by the simulator thread only; `late_logged` are valid.
+    late_log: Box<[(AtomicU64, AtomicU64)]>,
     late_logged: AtomicUsize,
 }
 
@@ -132,8 +132,9 @@ impl Shared {
         self.max_late_ns
             .fetch_max(late.as_nanos() as u64, Ordering::Relaxed);
         let n = self.late_logged.load(Ordering::Relaxed);
-        if let Some(slot) = self.late_log.get(n) {
-            slot.store(at.as_nanos(), Ordering::Relaxed);
+        if let Some((arrival, by)) = self.late_log.get(n) {
+            arrival.store(at.as_nanos(), Ordering::Relaxed);
+            by.store(late.as_nanos() as u64, Ordering::Relaxed);
             self.late_logged.store(n + 1, Ordering::Release);
         }
     }
@@ -176,7 +177,9 @@ impl ThreadedSim {
             stop: AtomicBool::new(false),
             late_items: AtomicU64::new(0),
             max_late_ns: AtomicU64::new(0),
-            late_log: (0..LATE_LOG_LEN).map(|_| AtomicU64::new(0)).collect(),
+            late_log: (0..LATE_LOG_LEN)
+                .map(|_| (AtomicU64::new(0), AtomicU64::new(0)))
+                .collect(),
             late_logged: AtomicUsize::new(0),
         });
         let queues = (0..options.ports.max(1))
@@ -224,14 +227,19 @@ impl ThreadedSim {
         }
     }
 
-    /// When the items handed over late were due to arrive (the first [`LATE_LOG_LEN`]): a
-    /// benchmark tells the ticks whose replies the simulator was late with from those the loop
-    /// missed on its own.
-    pub fn late_arrivals(&self) -> Vec<Timestamp> {
+    /// The items handed over late (the first [`LATE_LOG_LEN`]): when each was due to arrive,
+    /// and how late it was handed over. A benchmark tells the ticks whose replies the simulator
+    /// was late with from those the loop missed on its own.
+    pub fn late_arrivals(&self) -> Vec<(Timestamp, Duration)> {
         let n = self.shared.late_logged.load(Ordering::Acquire);
         self.shared.late_log[..n]
             .iter()
-            .map(|at| Timestamp::from_nanos(at.load(Ordering::Relaxed)))
+            .map(|(at, by)| {
+                (
+                    Timestamp::from_nanos(at.load(Ordering::Relaxed)),
+                    Duration::from_nanos(by.load(Ordering::Relaxed)),
+                )
+            })
             .collect()
     }
 

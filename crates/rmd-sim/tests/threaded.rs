@@ -224,8 +224,14 @@ fn a_simulator_thread_that_is_late_is_counted_and_its_replies_keep_their_times()
     let late = sim.lateness();
     assert_eq!(late.late_items, 2);
     assert!(late.max_late >= Duration::from_millis(45), "{late:?}");
-    // Their arrivals are logged, as handed over: the two replies' own times.
+    // Their arrivals are logged, as handed over (the two replies' own times), with how late.
     let arrivals = sim.late_arrivals();
-    assert_eq!(arrivals, vec![got[0].at, got[1].at]);
+    let times: Vec<_> = arrivals.iter().map(|(at, _)| *at).collect();
+    assert_eq!(times, vec![got[0].at, got[1].at]);
+    assert!(
+        arrivals
+            .iter()
+            .all(|(_, by)| *by >= Duration::from_millis(45) && *by <= late.max_late)
+    );
     sim.stop().unwrap();
 }

@@ -89,8 +89,9 @@ impl ThreadedBuses {
             })
     }
 
-    /// When the items the simulator threads handed over late were due, all buses together.
-    pub(crate) fn late_arrivals(&self) -> Vec<rmd_bus::Timestamp> {
+    /// When the items the simulator threads handed over late were due, and how late, all buses
+    /// together.
+    pub(crate) fn late_arrivals(&self) -> Vec<(rmd_bus::Timestamp, Duration)> {
         self.sims
             .iter()
             .flat_map(ThreadedSim::late_arrivals)
