@@ -122,6 +122,8 @@ struct RateRow {
     added_p99: Option<f64>,
     trials: usize,
     sim_late: u64,
+    /// Missed slots that were the simulator's (not counted against the loop).
+    sim_missed: u64,
 }
 
 fn rate_rows(objects: &[Value]) -> Vec<RateRow> {
@@ -140,6 +142,11 @@ fn rate_rows(objects: &[Value]) -> Vec<RateRow> {
             sim_late: v["trials"].as_array().map_or(0, |ts| {
                 ts.iter().filter_map(|t| t["sim_late_items"].as_u64()).sum()
             }),
+            sim_missed: v["trials"].as_array().map_or(0, |ts| {
+                ts.iter()
+                    .filter_map(|t| t["simulator_missed_slots"].as_u64())
+                    .sum()
+            }),
         })
         .collect()
 }
@@ -149,13 +156,13 @@ fn rate_table(rows: &[RateRow]) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "| buses x 4 motors | wire limit | headline rate (<= 0.1% missed) | of the limit | zero-miss rate | of the limit | loop added p50 / p99 | headline vs 1 bus | trials | simulator late |"
+        "| buses x 4 motors | wire limit | headline rate (<= 0.1% missed) | of the limit | zero-miss rate | of the limit | loop added p50 / p99 | headline vs 1 bus | trials | simulator late: items / missed slots |"
     );
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|");
     for r in rows {
         let _ = writeln!(
             out,
-            "| {} | {} Hz | **{} Hz** | **{}** | {} Hz | {} | {} / {} us | {} | {} | {} |",
+            "| {} | {} Hz | **{} Hz** | **{}** | {} Hz | {} | {} / {} us | {} | {} | {} / {} |",
             r.buses,
             fmt(r.wire_limit, 1),
             fmt(r.rate, 1),
@@ -167,6 +174,7 @@ fn rate_table(rows: &[RateRow]) -> String {
             pct(r.rate.zip(one).map(|(r, o)| r / o)),
             r.trials,
             r.sim_late,
+            r.sim_missed,
         );
     }
     out
@@ -568,7 +576,10 @@ mod tests {
             "zero_miss_rate_hz": rate * 0.9,
             "zero_miss_of_wire_limit": rate * 0.9 / limit,
             "loop_added_us": {"p50": 1.5, "p99": 4.25},
-            "trials": [{"sim_late_items": 2}, {"sim_late_items": 1}],
+            "trials": [
+                {"sim_late_items": 2, "simulator_missed_slots": 0},
+                {"sim_late_items": 1, "simulator_missed_slots": 4},
+            ],
         })
     }
 
@@ -579,9 +590,10 @@ mod tests {
             rate_object(4, 1150.0, 1210.0),
         ]);
         assert_eq!(rows[0].sim_late, 3);
+        assert_eq!(rows[0].sim_missed, 4);
         let table = rate_table(&rows);
         assert!(
-            table.contains("| 1 | 1225.0 Hz | **1200.0 Hz** | **98.0%** | 1080.0 Hz | 88.2% | 1.50 / 4.25 us | 100.0% | 2 | 3 |"),
+            table.contains("| 1 | 1225.0 Hz | **1200.0 Hz** | **98.0%** | 1080.0 Hz | 88.2% | 1.50 / 4.25 us | 100.0% | 2 | 3 / 4 |"),
             "{table}"
         );
         assert!(
