@@ -43,8 +43,9 @@ enum BenchCommand {
     Loop(loop_bench::LoopArgs),
     /// Measure the loop timer's wake latency alone (no bus, no controller), like cyclictest.
     Jitter(jitter::JitterArgs),
-    /// Find, per bus count, the highest rate with at most 0.1% of ticks missed and the highest
-    /// with none, against the wire limit of the frames sent; and what the loop adds per exchange.
+    /// Find, per bus count, the highest rate with at most 0.1% of ticks missed by the loop (not
+    /// those a late simulator thread caused) and the highest with none, against the wire limit
+    /// of the frames sent; and what the loop adds per exchange.
     Rate(rate::RateArgs),
     /// Compare the loop's work per tick with every telemetry sink on (MCAP, CSV, live server)
     /// and all off, in alternating rounds: the p99 ratio.

@@ -6,6 +6,8 @@
 //! trial (a descheduled vCPU, a non-preemptible kernel section), not by the loop: the headline
 //! allows a small share of missed ticks (`--miss-budget-pct`, default 0.1%) and so measures
 //! the loop. A tick is missed when it misses its deadline or a motor's reply, or is skipped.
+//! A missed tick whose reply a simulator thread handed over late while the loop was on time is
+//! the simulator's, not the loop's ([`attribution`]): it is reported, not counted in the budget.
 //!
 //! The wire limit (see [`super::wire_limit`]) is 1 / the longest exchange of the trial's frames
 //! on the simulated 1 Mbit/s wire: stuffed frame lengths plus the motors' turnaround. What the
