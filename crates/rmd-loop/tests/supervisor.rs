@@ -127,6 +127,21 @@ fn wait_until(what: &str, within: Duration, mut f: impl FnMut() -> bool) {
     }
 }
 
+/// Waits until every motor is driven, then until every motor is off, and checks that the
+/// controller had not returned from its hang by then (`after`: what ended too late).
+fn assert_off_while_hanging(bus: &SharedBus, returned: &AtomicBool, after: &str) {
+    wait_until("torque", Duration::from_secs(10), || {
+        bus.modes()
+            .iter()
+            .all(|m| matches!(m, ControlMode::Torque { .. }))
+    });
+    wait_until("every motor off", Duration::from_secs(10), || bus.all_off());
+    assert!(
+        !returned.load(Ordering::SeqCst),
+        "the motors went off only after {after}"
+    );
+}
+
 #[test]
 fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
     let bus = SharedBus::new(41);
@@ -145,16 +160,7 @@ fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
     .unwrap();
     // The motors are driven at 1 A, then the controller hangs; the supervisor turns every motor
     // off while it still hangs.
-    wait_until("torque", Duration::from_secs(10), || {
-        bus.modes()
-            .iter()
-            .all(|m| matches!(m, ControlMode::Torque { .. }))
-    });
-    wait_until("every motor off", Duration::from_secs(10), || bus.all_off());
-    assert!(
-        !returned.load(Ordering::SeqCst),
-        "the motors went off only after the hang"
-    );
+    assert_off_while_hanging(&bus, &returned, "the hang");
     let out = handle.join().unwrap();
     assert!(returned.load(Ordering::SeqCst));
     let r = &out.report;
@@ -204,16 +210,7 @@ fn a_controller_spinning_under_sched_fifo_is_stopped_by_the_supervisor_before_it
     )
     .spawn(RunLimit::Forever)
     .unwrap();
-    wait_until("torque", Duration::from_secs(10), || {
-        bus.modes()
-            .iter()
-            .all(|m| matches!(m, ControlMode::Torque { .. }))
-    });
-    wait_until("every motor off", Duration::from_secs(10), || bus.all_off());
-    assert!(
-        !returned.load(Ordering::SeqCst),
-        "the motors went off only after the busy loop ended"
-    );
+    assert_off_while_hanging(&bus, &returned, "the busy loop ended");
     let out = handle.join().unwrap();
     let r = &out.report;
     assert_eq!(
