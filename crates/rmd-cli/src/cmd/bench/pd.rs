@@ -8,7 +8,6 @@
 //! reached it (for `rmd bench rate`).
 
 use core::f64::consts::PI;
-
 use core::time::Duration;
 
 use rmd_bus::{Clock, MonotonicClock, Timestamp};
@@ -43,14 +42,6 @@ pub(crate) struct MissedTick {
 /// Missed ticks the controller logs at most (it never allocates while the loop runs).
 const MISSED_LOG_LEN: usize = 16_384;
 
-/// The tick the controller ran last: to see slots skipped after it.
-#[derive(Copy, Clone, Debug)]
-struct LastTick {
-    index: u64,
-    scheduled: Timestamp,
-    wake_late: Duration,
-}
-
 /// PD control towards moving targets, with tracking and timing measurements.
 #[derive(Debug)]
 pub(crate) struct MovingTargetPd {
@@ -68,7 +59,8 @@ pub(crate) struct MovingTargetPd {
     /// Ticks that missed a reply, or were followed by skipped slots (the first
     /// [`MISSED_LOG_LEN`] entries; a tick may have two).
     pub(crate) missed: Vec<MissedTick>,
-    last: Option<LastTick>,
+    /// The tick the controller ran last (nothing skipped after it yet): to see slots skipped.
+    last: Option<MissedTick>,
 }
 
 impl MovingTargetPd {
@@ -97,31 +89,25 @@ impl MovingTargetPd {
     /// Logs the last tick when slots were skipped between it and `index`, and the tick `ctx`
     /// when it missed a reply.
     fn log_ticks(&mut self, ctx: &TickContext, all_fresh: bool) {
-        let now = LastTick {
+        let now = MissedTick {
             index: ctx.index,
             scheduled: ctx.scheduled,
             wake_late: ctx
                 .woke
                 .checked_duration_since(ctx.scheduled)
                 .unwrap_or_default(),
+            skipped_after: 0,
         };
         if let Some(last) = self.last
             && now.index > last.index + 1
         {
             self.log_missed(MissedTick {
-                index: last.index,
-                scheduled: last.scheduled,
-                wake_late: last.wake_late,
                 skipped_after: now.index - last.index - 1,
+                ..last
             });
         }
         if !all_fresh {
-            self.log_missed(MissedTick {
-                index: now.index,
-                scheduled: now.scheduled,
-                wake_late: now.wake_late,
-                skipped_after: 0,
-            });
+            self.log_missed(now);
         }
         self.last = Some(now);
     }
