@@ -77,7 +77,7 @@ pub fn interrupted() -> bool {
 }
 
 /// Proof that the process's signal handler is installed; cheap to copy.
-#[derive(Copy, Clone, Debug)]
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub struct Signals {
     _installed: (),
 }
