@@ -77,7 +77,7 @@ pub enum LineProblem {
     #[error("not valid UTF-8 text")]
     NotText,
     /// The line is longer than [`MAX_LINE_BYTES`]: no candump line is; it was skipped unread.
-    #[error("longer than {limit} bytes ({bytes} bytes): not a candump line, skipped unread")]
+    #[error("longer than {limit} bytes ({bytes} bytes): not a candump line, not read")]
     TooLong {
         /// The line's length, bytes.
         bytes: u64,
