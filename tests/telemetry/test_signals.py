@@ -23,7 +23,7 @@ import time
 import pytest
 from mcap.reader import make_reader
 
-from conftest import rmd_path
+from conftest import pd_hold_path, rmd_path
 
 # A run that would last far longer than the test waits. The loops run on virtual time: the
 # subject is the signal, and simulated motors on threads of their own miss replies when a
@@ -31,13 +31,6 @@ from conftest import rmd_path
 LONG_S = 3000
 # The most a command may take to stop after its signal (a hang is the failure, not a timing goal).
 STOP_WITHIN_S = 60
-
-
-def pd_hold_path() -> str:
-    path = os.environ.get("PD_HOLD_BIN")
-    if not path:
-        pytest.fail("PD_HOLD_BIN is not set: run the tests through tests/telemetry/run.sh")
-    return path
 
 
 def command(name, tmp_path):
