@@ -213,6 +213,9 @@ fn run_on<C: Clock + Clone + 'static, B: CanBus + Send + 'static>(
     let ticks = u64::try_from(args.duration.as_nanos() / period.as_nanos()).unwrap_or(u64::MAX);
     let mut rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
         .map_err(|e| Failure::Usage(e.to_string()))?;
+    // Before anything is served or recorded: a signal from now on follows the policy (one
+    // before the loop runs stops it at once).
+    let signals = rmd_rig::signals::install().map_err(|e| Failure::Run(e.to_string()))?;
     // Before the loop thread exists: the sinks' threads must not inherit its CPU.
     let mut sinks = TelemetrySinks::attach(&mut rt, &args.telemetry.outputs())
         .map_err(|e| Failure::Usage(e.to_string()))?;
@@ -220,7 +223,6 @@ fn run_on<C: Clock + Clone + 'static, B: CanBus + Send + 'static>(
         errln!("telemetry: live on ws://{addr}");
     }
     let telemetry = sinks.is_none().then(|| rt.telemetry());
-    let signals = rmd_rig::signals::install().map_err(|e| Failure::Run(e.to_string()))?;
     let handle = rt
         .spawn(RunLimit::Duration(args.duration))
         .map_err(|e| Failure::Run(e.to_string()))?;
