@@ -14,9 +14,10 @@
 //! The handler runs on the `ctrlc` crate's own thread (an ordinary thread, never the loop's),
 //! and is installed once per process by [`install`].
 //!
-//! Invariant: the signal path acts and never writes. The handler only updates atomics and asks
-//! the watched loop to stop; it cannot fail and cannot block on output, whatever state stdout
-//! and stderr are in (a hung-up terminal, a dead pipe, a full disk, a terminal nobody reads).
+//! Invariant: the signal path acts and never writes. The handler only updates atomics, takes
+//! the watched loop's stopper (from a mutex nobody holds across I/O or a wait) and asks the
+//! loop to stop; it cannot fail and cannot block on output, whatever state stdout and stderr
+//! are in (a hung-up terminal, a dead pipe, a full disk, a terminal nobody reads).
 //! What it did is said on stderr by a thread of its own (`rmd-signal-notice`), best effort: a
 //! write there that fails is lost, one that blocks holds only that thread. A panic in the
 //! handler (there is none to expect) is caught, so the handler thread lives on and every later
