@@ -294,7 +294,7 @@ fn the_example_runs_end_to_end_and_writes_every_tick() {
     }
     assert!(
         ran.stderr.contains(&format!(
-            "telemetry: csv {}: 2000 written, 0 dropped, 0 errors",
+            "telemetry: csv {}: 2000 written, 0 failed, 0 dropped, 0 errors",
             csv.display()
         )),
         "{}",

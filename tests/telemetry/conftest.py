@@ -30,18 +30,25 @@ OP_MESSAGE_DATA = 0x01
 START_UNIX_NS = 1_700_000_000_000_000_000
 
 
-def synth_path() -> str:
-    path = os.environ.get("TELEMETRY_SYNTH")
+def built(variable: str) -> str:
+    """The path of a program run.sh built, from its environment variable."""
+    path = os.environ.get(variable)
     if not path:
-        pytest.fail("TELEMETRY_SYNTH is not set: run the tests through tests/telemetry/run.sh")
+        pytest.fail(f"{variable} is not set: run the tests through tests/telemetry/run.sh")
     return path
+
+
+def synth_path() -> str:
+    return built("TELEMETRY_SYNTH")
 
 
 def rmd_path() -> str:
-    path = os.environ.get("RMD_BIN")
-    if not path:
-        pytest.fail("RMD_BIN is not set: run the tests through tests/telemetry/run.sh")
-    return path
+    return built("RMD_BIN")
+
+
+def pd_hold_path() -> str:
+    """The `pd_hold` example."""
+    return built("PD_HOLD_BIN")
 
 
 def run_rmd(*args, timeout: float = 300):

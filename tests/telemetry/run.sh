@@ -3,8 +3,9 @@
 # `mcap-ros2-support` readers (MCAP files, also truncated ones), `jsonschema` (the JSON channels),
 # `websockets` speaking the Foxglove WebSocket protocol (the live server). Installs them, pinned,
 # into a venv under target/, builds the synthetic writer (the `telemetry_synth` example of
-# rmd-telemetry) and the `rmd` tool (`rmd bench loop --mcap/--foxglove`, `rmd decode --mcap`,
-# `rmd torque --mcap`) and runs pytest. Loopback only. Idempotent: the venv is rebuilt only when
+# rmd-telemetry), the `rmd` tool (`rmd bench loop --mcap/--foxglove`, `rmd decode --mcap`,
+# `rmd torque --mcap`, `rmd drill`, `rmd replay`) and the `pd_hold` example, and runs pytest.
+# The full-disk tests mount a small tmpfs in a private mount namespace (`unshare -m`, as root). Loopback only. Idempotent: the venv is rebuilt only when
 # requirements.txt changes.
 # Usage: ./tests/telemetry/run.sh [pytest args...]
 set -euo pipefail
@@ -25,9 +26,12 @@ fi
 
 cargo build --quiet -p rmd-telemetry --example telemetry_synth
 cargo build --quiet -p rmd-cli --bin rmd
+cargo build --quiet --example pd_hold
 export TELEMETRY_SYNTH="$target_dir/debug/examples/telemetry_synth"
 export RMD_BIN="$target_dir/debug/rmd"
+export PD_HOLD_BIN="$target_dir/debug/examples/pd_hold"
 test -x "$TELEMETRY_SYNTH"
 test -x "$RMD_BIN"
+test -x "$PD_HOLD_BIN"
 
 exec "$venv/bin/python" -m pytest -p no:cacheprovider -q tests/telemetry "$@"

@@ -1,9 +1,12 @@
 //! Playing a `candump -L` log back with its original timing, in real or virtual time.
 //!
-//! [`read_log`] reads a log (`(seconds.fraction) interface ID#DATA [T|R]` lines, as `candump -L`
-//! and [`record`](crate::record) write them) into [`LogRecord`]s, keeping the lines it cannot
-//! use as [`BadLine`]s instead of giving up. [`ReplaySchedule`] maps each record's timestamp to
-//! the instant it is due on a [`Clock`], at the original pace, scaled, or as fast as possible.
+//! [`LogReader`] streams a log (`(seconds.fraction) interface ID#DATA [T|R]` lines, as
+//! `candump -L` and [`record`](crate::record) write them) as [`LogRecord`]s, one line at a time
+//! (at most [`MAX_LINE_BYTES`] held: a longer line is a [`BadLine`], skipped without being
+//! read into memory), keeping the lines it cannot use as [`BadLine`]s instead of giving up;
+//! [`read_log`] collects a whole log. [`ReplaySchedule`] maps each record's timestamp to the
+//! instant it is due on a [`Clock`], at the original pace, scaled, or as fast as possible, with
+//! pauses longer than a cap shortened to it ([`ReplaySchedule::max_gap`]).
 //! [`ReplayBus`] is a [`CanBus`] that yields recorded frames at those instants (e.g. the
 //! received frames of a session, to run a decoder or a controller against them offline); a
 //! tool that plays a log onto an interface sends each record when it is due.
@@ -35,6 +38,10 @@
 use core::time::Duration;
 use std::collections::VecDeque;
 use std::io::{self, BufRead};
+
+/// The longest log line read, in bytes (line break excluded). A `candump -L` line of a classic
+/// CAN frame is under 60 bytes, of a CAN FD frame under 200; a longer line is not a frame.
+pub const MAX_LINE_BYTES: usize = 1024;
 
 use crate::candump::{CandumpError, Direction, parse_line};
 use crate::{BusError, BusMessage, CanBus, CanFrame, Clock, Received, Timestamp};
@@ -69,6 +76,14 @@ pub enum LineProblem {
     /// The line is not valid UTF-8.
     #[error("not valid UTF-8 text")]
     NotText,
+    /// The line is longer than [`MAX_LINE_BYTES`]: no candump line is; it was skipped unread.
+    #[error("longer than {limit} bytes ({bytes} bytes): not a candump line, not read")]
+    TooLong {
+        /// The line's length, bytes.
+        bytes: u64,
+        /// [`MAX_LINE_BYTES`].
+        limit: usize,
+    },
 }
 
 /// A line of a log that was not used, and why.
@@ -90,29 +105,133 @@ pub struct ParsedLog {
     pub bad_lines: Vec<BadLine>,
 }
 
-/// Reads a `candump -L` log. Every usable line becomes a [`LogRecord`]; every other non-blank
-/// line a [`BadLine`] (the rest is still read). Fails only on an I/O error.
+/// Reads a whole `candump -L` log into memory (see [`LogReader`] to stream one). Every usable
+/// line becomes a [`LogRecord`]; every other non-blank line a [`BadLine`] (the rest is still
+/// read). Fails only on an I/O error.
 pub fn read_log<R: BufRead>(reader: R) -> io::Result<ParsedLog> {
     let mut parsed = ParsedLog::default();
-    for (index, bytes) in reader.split(b'\n').enumerate() {
-        let bytes = bytes?;
-        let line = index + 1;
-        let Ok(text) = std::str::from_utf8(&bytes) else {
-            parsed.bad_lines.push(BadLine {
-                line,
-                problem: LineProblem::NotText,
-            });
-            continue;
-        };
-        if text.trim().is_empty() {
-            continue;
-        }
-        match record_of(line, text) {
+    for item in LogReader::new(reader) {
+        match item? {
             Ok(record) => parsed.records.push(record),
-            Err(problem) => parsed.bad_lines.push(BadLine { line, problem }),
+            Err(bad) => parsed.bad_lines.push(bad),
         }
     }
     Ok(parsed)
+}
+
+/// A `candump -L` log, line by line: each non-blank line is `Ok(record)` or `Err(bad line)`;
+/// the iterator's own `Err` is an I/O error (it ends there). At most [`MAX_LINE_BYTES`] of a
+/// line are held in memory: a longer line is skipped up to its line break, unread, and is a
+/// [`LineProblem::TooLong`].
+///
+/// ```
+/// use rmd_bus::replay::{LineProblem, LogReader, MAX_LINE_BYTES};
+/// let log = format!("(1.0) can0 141#00\n{}\n(2.0) can0 141#01\n", "x".repeat(5000));
+/// let lines: Vec<_> = LogReader::new(log.as_bytes()).collect::<Result<_, _>>()?;
+/// assert_eq!(lines.len(), 3);
+/// assert_eq!(lines[2].as_ref().unwrap().line, 3);
+/// let bad = lines[1].as_ref().unwrap_err();
+/// assert_eq!(bad.problem, LineProblem::TooLong { bytes: 5000, limit: MAX_LINE_BYTES });
+/// # Ok::<(), std::io::Error>(())
+/// ```
+#[derive(Debug)]
+pub struct LogReader<R> {
+    reader: R,
+    line: usize,
+    buffer: Vec<u8>,
+    done: bool,
+}
+
+impl<R: BufRead> LogReader<R> {
+    /// Reads `reader` from where it stands.
+    pub fn new(reader: R) -> Self {
+        Self {
+            reader,
+            line: 0,
+            buffer: Vec::with_capacity(128),
+            done: false,
+        }
+    }
+
+    /// The next line into `self.buffer` (without its line break), or its length if it is too
+    /// long to hold; `None` at the end.
+    fn next_line(&mut self) -> io::Result<Option<Result<(), u64>>> {
+        self.buffer.clear();
+        let mut length = 0u64;
+        let mut any = false;
+        loop {
+            let chunk = match self.reader.fill_buf() {
+                Ok(chunk) => chunk,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e),
+            };
+            if chunk.is_empty() {
+                return Ok(any.then(|| held(length)));
+            }
+            any = true;
+            let (part, end) = match chunk.iter().position(|&b| b == b'\n') {
+                Some(at) => (&chunk[..at], Some(at + 1)),
+                None => (chunk, None),
+            };
+            length += part.len() as u64;
+            if length <= MAX_LINE_BYTES as u64 {
+                self.buffer.extend_from_slice(part);
+            }
+            let used = end.unwrap_or(chunk.len());
+            self.reader.consume(used);
+            if end.is_some() {
+                return Ok(Some(held(length)));
+            }
+        }
+    }
+}
+
+/// `Ok` for a line that fits the limit, its length otherwise.
+fn held(length: u64) -> Result<(), u64> {
+    if length <= MAX_LINE_BYTES as u64 {
+        Ok(())
+    } else {
+        Err(length)
+    }
+}
+
+impl<R: BufRead> Iterator for LogReader<R> {
+    type Item = io::Result<Result<LogRecord, BadLine>>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        while !self.done {
+            let read = match self.next_line() {
+                Ok(Some(read)) => read,
+                Ok(None) => {
+                    self.done = true;
+                    return None;
+                }
+                Err(e) => {
+                    self.done = true;
+                    return Some(Err(e));
+                }
+            };
+            self.line += 1;
+            let line = self.line;
+            let bad = |problem| Some(Ok(Err(BadLine { line, problem })));
+            if let Err(bytes) = read {
+                return bad(LineProblem::TooLong {
+                    bytes,
+                    limit: MAX_LINE_BYTES,
+                });
+            }
+            let Ok(text) = std::str::from_utf8(&self.buffer) else {
+                return bad(LineProblem::NotText);
+            };
+            if text.trim().is_empty() {
+                continue;
+            }
+            return Some(Ok(
+                record_of(line, text).map_err(|problem| BadLine { line, problem })
+            ));
+        }
+        None
+    }
 }
 
 fn record_of(line: usize, text: &str) -> Result<LogRecord, LineProblem> {
@@ -163,9 +282,11 @@ impl Pace {
     }
 }
 
-/// When each record of a log is due on a clock: the first record at `start`, the others after
-/// it by their timestamp difference (scaled by the pace). A timestamp earlier than the first
-/// is due at `start`.
+/// When each record of a log is due on a clock, taken in log order: the first record at
+/// `start`, each next one after the one before by their timestamp difference (scaled by the
+/// pace). A timestamp earlier than one before it is due at once (never before the previous
+/// record). With [`max_gap`](Self::max_gap), a pause longer than the cap is played as the cap
+/// (and [`Due::shortened`] says so): a log with a gap of years still plays.
 ///
 /// ```
 /// use core::time::Duration;
@@ -173,31 +294,71 @@ impl Pace {
 /// use rmd_bus::replay::{Pace, ReplaySchedule};
 /// let first = Duration::from_secs(1_700_000_000);
 /// let start = Timestamp::from_nanos(5_000);
-/// let schedule = ReplaySchedule::new(first, start, Pace::Scaled(2.0));
-/// assert_eq!(schedule.due(first + Duration::from_millis(10)), start + Duration::from_millis(5));
+/// let mut schedule = ReplaySchedule::new(first, start, Pace::Scaled(2.0))
+///     .max_gap(Duration::from_secs(10));
+/// assert_eq!(schedule.next(first).at, start);
+/// assert_eq!(schedule.next(first + Duration::from_millis(10)).at, start + Duration::from_millis(5));
+/// // Eight years later in the log: played 10 s later.
+/// let due = schedule.next(first + Duration::from_secs(8 * 365 * 86_400));
+/// assert_eq!(due.at, start + Duration::from_millis(5) + Duration::from_secs(10));
+/// assert!(due.shortened.unwrap() > Duration::from_secs(4 * 365 * 86_400 - 1)); // at 2x
 /// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ReplaySchedule {
-    first: Duration,
-    start: Timestamp,
     pace: Pace,
+    max_gap: Option<Duration>,
+    /// The latest timestamp taken so far (the first record's before any).
+    latest: Duration,
+    /// When the record of `latest` was due.
+    at: Timestamp,
+}
+
+/// When a record is due, and whether the pause before it was shortened.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Due {
+    /// The instant it is due.
+    pub at: Timestamp,
+    /// The pause before it as the log has it (scaled by the pace), when longer than the cap
+    /// and played as the cap instead.
+    pub shortened: Option<Duration>,
 }
 
 impl ReplaySchedule {
-    /// A schedule whose record stamped `first` is due at `start`.
+    /// A schedule whose record stamped `first` is due at `start`, without a cap on pauses.
     pub fn new(first: Duration, start: Timestamp, pace: Pace) -> Self {
-        Self { first, start, pace }
+        Self {
+            pace,
+            max_gap: None,
+            latest: first,
+            at: start,
+        }
     }
 
-    /// When the record stamped `timestamp` is due.
-    pub fn due(&self, timestamp: Duration) -> Timestamp {
-        let since_first = timestamp.saturating_sub(self.first);
-        match self.pace {
-            Pace::Original => self.start + since_first,
+    /// Plays any pause longer than `gap` (after the pace's scaling) as `gap`.
+    pub fn max_gap(mut self, gap: Duration) -> Self {
+        self.max_gap = Some(gap);
+        self
+    }
+
+    /// When the next record, stamped `timestamp`, is due (records are taken in log order).
+    pub fn next(&mut self, timestamp: Duration) -> Due {
+        let recorded = timestamp.saturating_sub(self.latest);
+        self.latest = self.latest.max(timestamp);
+        let played = match self.pace {
+            Pace::Original => recorded,
             Pace::Scaled(speed) => {
-                self.start + Duration::from_secs_f64(since_first.as_secs_f64() / speed)
+                Duration::try_from_secs_f64(recorded.as_secs_f64() / speed).unwrap_or(Duration::MAX)
             }
-            Pace::AsFastAsPossible => self.start,
+            Pace::AsFastAsPossible => Duration::ZERO,
+        };
+        let (pause, shortened) = match self.max_gap {
+            Some(cap) if played > cap => (cap, Some(played)),
+            _ => (played, None),
+        };
+        self.at += pause;
+        Due {
+            at: self.at,
+            shortened,
         }
     }
 }
@@ -224,12 +385,9 @@ impl<C: Clock> ReplayBus<C> {
         let start = clock.now();
         let mut frames = VecDeque::with_capacity(records.len());
         if let Some(first) = records.first() {
-            let schedule = ReplaySchedule::new(first.timestamp, start, pace);
-            let mut previous = start;
+            let mut schedule = ReplaySchedule::new(first.timestamp, start, pace);
             for record in records {
-                let due = schedule.due(record.timestamp).max(previous);
-                previous = due;
-                frames.push_back((due, record.frame));
+                frames.push_back((schedule.next(record.timestamp).at, record.frame));
             }
         }
         Self {
@@ -319,6 +477,69 @@ this is not a frame
             parsed.bad_lines[1].to_string(),
             "line 6: no (seconds.fraction) timestamp: replay needs candump -L lines"
         );
+    }
+
+    #[test]
+    fn an_over_long_line_is_skipped_unread_and_the_rest_is_read() {
+        let long = "1".repeat(3 * MAX_LINE_BYTES);
+        let log = format!("(1.0) can0 141#00\n(2.0) can0 141#{long}\n(3.0) can0 141#01");
+        // A small buffer: the long line spans many reads, none of which is kept.
+        let reader = io::BufReader::with_capacity(64, log.as_bytes());
+        let parsed = read_log(reader).unwrap();
+        assert_eq!(
+            parsed.records.iter().map(|r| r.line).collect::<Vec<_>>(),
+            [1, 3]
+        );
+        assert_eq!(
+            parsed.bad_lines,
+            [BadLine {
+                line: 2,
+                problem: LineProblem::TooLong {
+                    bytes: (3 * MAX_LINE_BYTES + 15) as u64,
+                    limit: MAX_LINE_BYTES
+                }
+            }]
+        );
+        // A line of exactly the limit is read.
+        let exact = format!("(1.0) can0 141#00{}", " ".repeat(MAX_LINE_BYTES - 17));
+        assert_eq!(exact.len(), MAX_LINE_BYTES);
+        assert_eq!(read_log(exact.as_bytes()).unwrap().records.len(), 1);
+    }
+
+    #[test]
+    fn a_gap_longer_than_the_cap_is_played_as_the_cap() {
+        let second = Duration::from_secs(1);
+        let mut schedule =
+            ReplaySchedule::new(second, Timestamp::ZERO, Pace::Original).max_gap(second * 2);
+        let times: Vec<(u64, Option<u64>)> = [1, 2, 1000, 1001, 1000, 1003]
+            .into_iter()
+            .map(|s| {
+                let due = schedule.next(second * s);
+                (
+                    due.at.as_nanos() / 1_000_000_000,
+                    due.shortened.map(|d| d.as_secs()),
+                )
+            })
+            .collect();
+        // 998 s cut to 2; a step back plays at once; then on from the latest timestamp.
+        assert_eq!(
+            times,
+            [
+                (0, None),
+                (1, None),
+                (3, Some(998)),
+                (4, None),
+                (4, None),
+                (6, None)
+            ]
+        );
+        // Even a gap of centuries, at the slowest pace, stays representable.
+        let mut slow = ReplaySchedule::new(Duration::ZERO, Timestamp::ZERO, Pace::Scaled(0.001))
+            .max_gap(second * 10);
+        slow.next(Duration::ZERO);
+        let due = slow.next(Duration::from_secs(u64::MAX / 2));
+        assert_eq!(due.at, Timestamp::ZERO + second * 10);
+        assert_eq!(due.shortened, Some(Duration::MAX));
     }
 
     #[test]

@@ -8,6 +8,7 @@ use rand_pcg::Pcg64Mcg;
 use rand_pcg::rand_core::{Rng, SeedableRng};
 use rmd_protocol::MotorId;
 use rmd_rig::SimTime;
+use rmd_rig::signals::Signals;
 use serde::Serialize;
 
 use crate::fault::{DrillFault, Probability};
@@ -30,6 +31,9 @@ pub struct ChaosSpec {
     pub seed: u64,
     /// Real or virtual time for every drill.
     pub time: SimTime,
+    /// The program's signals, if they are to stop the run: the drill in progress is stopped
+    /// (and judged), no other starts (`rmd_rig::signals`).
+    pub signals: Option<Signals>,
 }
 
 /// One drill of a chaos run, and what it found.
@@ -126,7 +130,12 @@ impl ChaosReport {
 /// use core::time::Duration;
 /// use rmd_drill::chaos::{ChaosSpec, chaos};
 /// use rmd_rig::SimTime;
-/// let spec = ChaosSpec { seconds: Duration::from_secs(1), seed: 7, time: SimTime::Virtual };
+/// let spec = ChaosSpec {
+///     seconds: Duration::from_secs(1),
+///     seed: 7,
+///     time: SimTime::Virtual,
+///     signals: None,
+/// };
 /// let report = chaos(&spec, |_| {});
 /// assert!(report.passed(), "{:?}", report.failures);
 /// assert!(report.drills.len() >= 2);
@@ -138,12 +147,15 @@ pub fn chaos(spec: &ChaosSpec, mut each: impl FnMut(&ChaosDrill)) -> ChaosReport
     let mut baseline_rss = None;
     let mut max_rss = 0;
     let mut warm_up = warm_up(&mut rng, spec.time).into_iter();
-    while elapsed < spec.seconds {
+    while elapsed < spec.seconds && !spec.signals.is_some_and(|s| s.interrupted()) {
         let index = report.drills.len();
-        let (drill, warming) = match warm_up.next() {
+        let (mut drill, warming) = match warm_up.next() {
             Some(drill) => (drill, true),
             None => (random_drill(&mut rng, spec.time), false),
         };
+        if let Some(signals) = spec.signals {
+            drill = drill.stopped_by(signals);
+        }
         elapsed += drill.seconds;
         let budget = budget(&drill);
         let (tx, rx) = mpsc::channel();

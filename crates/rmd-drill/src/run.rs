@@ -93,7 +93,9 @@ pub fn run_with_telemetry(
         .map(spawn_feed)
         .transpose()
         .map_err(RigError::from)?;
+    let watch = spec.signals.map(|signals| signals.watch(rt.stopper()));
     let outcome = rt.run(RunLimit::Duration(spec.seconds));
+    drop(watch);
     let telemetry = feed.map(|feed| feed.finish(outcome.report.stats.telemetry_drops));
     let fault_at = spec
         .faults

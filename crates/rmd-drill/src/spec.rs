@@ -3,6 +3,7 @@
 use core::time::Duration;
 
 use rmd_rig::SimTime;
+use rmd_rig::signals::Signals;
 
 use crate::fault::DrillFault;
 
@@ -32,6 +33,7 @@ pub struct DrillSpec {
     pub(crate) seconds: Duration,
     pub(crate) seed: u64,
     pub(crate) time: SimTime,
+    pub(crate) signals: Option<Signals>,
 }
 
 impl DrillSpec {
@@ -45,6 +47,7 @@ impl DrillSpec {
             seconds: Duration::from_secs(2),
             seed: 1,
             time: SimTime::Real,
+            signals: None,
         }
     }
 
@@ -89,6 +92,14 @@ impl DrillSpec {
     /// Runs in real or virtual time.
     pub fn time(mut self, time: SimTime) -> Self {
         self.time = time;
+        self
+    }
+
+    /// Lets the program's signals stop the drill's loop, by the project's policy
+    /// (`rmd_rig::signals`): the first stops it (zero torque, motor off), the second is an
+    /// emergency stop; the verdict is still taken from the simulated firmware.
+    pub fn stopped_by(mut self, signals: Signals) -> Self {
+        self.signals = Some(signals);
         self
     }
 

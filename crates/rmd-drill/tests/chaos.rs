@@ -12,6 +12,7 @@ fn a_short_chaos_run_leaves_every_motor_safe() {
         seconds: Duration::from_secs(60),
         seed: 2026,
         time: SimTime::Virtual,
+        signals: None,
     };
     let report = chaos(&spec, |_| {});
     assert!(

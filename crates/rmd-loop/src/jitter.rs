@@ -48,8 +48,18 @@ pub struct JitterReport {
 
 /// Measures on the calling thread (which it pins and prioritises as asked) with `clock`.
 pub fn measure<C: Clock + ?Sized>(clock: &C, config: &JitterConfig) -> JitterReport {
+    measure_while(clock, config, || true)
+}
+
+/// [`measure`], ending early at the first tick `go_on` returns false (asked once a tick,
+/// after the wake is measured): the report has the ticks measured until then.
+pub fn measure_while<C: Clock + ?Sized>(
+    clock: &C,
+    config: &JitterConfig,
+    go_on: impl Fn() -> bool,
+) -> JitterReport {
     let setup = os::apply_to_current_thread(&config.rt);
-    let ticks = (config.duration.as_nanos() / config.period.get().as_nanos()).max(1) as u64;
+    let planned = (config.duration.as_nanos() / config.period.get().as_nanos()).max(1) as u64;
     let mut histogram = LatencyHistogram::new();
     let mut deadline_misses = 0;
     let t0 = clock.now() + config.period.get();
@@ -59,11 +69,16 @@ pub fn measure<C: Clock + ?Sized>(clock: &C, config: &JitterConfig) -> JitterRep
         OverrunPolicy::Continue,
         t0,
     );
-    for _ in 0..ticks {
+    let mut ticks = 0;
+    while ticks < planned {
         let tick = scheduler.wait_next(clock);
         histogram.record(tick.wake_latency());
         if scheduler.end_tick(clock.now()).missed_deadline {
             deadline_misses += 1;
+        }
+        ticks += 1;
+        if !go_on() {
+            break;
         }
     }
     JitterReport {
@@ -81,10 +96,18 @@ pub fn measure<C: Clock + ?Sized>(clock: &C, config: &JitterConfig) -> JitterRep
 /// Measures in real time on a dedicated thread (so that pinning and priority do not touch the
 /// caller's thread).
 pub fn measure_real_time(config: JitterConfig) -> std::io::Result<JitterReport> {
+    measure_real_time_while(config, || true)
+}
+
+/// [`measure_real_time`], ending early when `go_on` returns false (see [`measure_while`]).
+pub fn measure_real_time_while(
+    config: JitterConfig,
+    go_on: impl Fn() -> bool + Send + 'static,
+) -> std::io::Result<JitterReport> {
     let thread = std::thread::Builder::new()
         .name("rmd-rt-jitter".to_string())
         .stack_size(crate::handle::LOOP_STACK_BYTES)
-        .spawn(move || measure(&MonotonicClock, &config))?;
+        .spawn(move || measure_while(&MonotonicClock, &config, go_on))?;
     thread
         .join()
         .map_err(|_| std::io::Error::other("the jitter measurement thread panicked"))
@@ -108,6 +131,23 @@ mod tests {
         assert_eq!(report.deadline_misses, 0);
         assert_eq!(report.wake_latency_us.count, 250);
         assert_eq!(report.wake_latency_us.max, 0.0);
+    }
+
+    #[test]
+    fn a_measurement_ends_at_the_first_tick_told_to_stop() {
+        let config = JitterConfig {
+            period: Period::from_hz(1000.0).unwrap(),
+            duration: Duration::from_millis(250),
+            spin_margin: Duration::ZERO,
+            rt: RtRequest::default(),
+        };
+        let asked = core::cell::Cell::new(0);
+        let report = measure_while(&VirtualClock::new(), &config, || {
+            asked.set(asked.get() + 1);
+            asked.get() < 10
+        });
+        assert_eq!(report.ticks, 10);
+        assert_eq!(report.wake_latency_us.count, 10);
     }
 
     #[test]

@@ -13,9 +13,21 @@
 //!
 //! The handler runs on the `ctrlc` crate's own thread (an ordinary thread, never the loop's),
 //! and is installed once per process by [`install`].
+//!
+//! Invariant: the signal path acts and never writes. The handler only updates atomics, takes
+//! the watched loop's stopper (from a mutex nobody holds across I/O or a wait) and asks the
+//! loop to stop; it cannot fail and cannot block on output, whatever state stdout and stderr
+//! are in (a hung-up terminal, a dead pipe, a full disk, a terminal nobody reads).
+//! What it did is said on stderr by a thread of its own (`rmd-signal-notice`), best effort: a
+//! write there that fails is lost, one that blocks holds only that thread. A panic in the
+//! handler (there is none to expect) is caught, so the handler thread lives on and every later
+//! signal still acts.
 
-use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::io::Write;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, Ordering};
 use std::sync::{Mutex, OnceLock, PoisonError};
+use std::thread::Thread;
 
 use rmd_bus::{Clock, Timestamp};
 use rmd_loop::Stopper;
@@ -38,6 +50,14 @@ static MOVING: AtomicBool = AtomicBool::new(false);
 static OFF_SENT: AtomicBool = AtomicBool::new(false);
 /// Whether the handler is installed (or why it could not be).
 static INSTALLED: OnceLock<Result<(), String>> = OnceLock::new();
+/// Notices the handler left for the notice thread ([`NOTICE_STOP`] | [`NOTICE_ESTOP`]).
+static NOTICES: AtomicU8 = AtomicU8::new(0);
+/// The thread that writes the notices (none if it could not start: the notices are then lost).
+static NOTICE_THREAD: OnceLock<Thread> = OnceLock::new();
+/// A notice: the first signal asked the watched loop to stop.
+const NOTICE_STOP: u8 = 1;
+/// A notice: the second signal was an emergency stop of the watched loop.
+const NOTICE_ESTOP: u8 = 2;
 
 /// Marks the start of a command that drives motors itself, without a loop (`rmd torque`,
 /// `rmd move`): until [`motors_off_sent`] the third signal waits for its motor-off (at most
@@ -58,7 +78,7 @@ pub fn interrupted() -> bool {
 }
 
 /// Proof that the process's signal handler is installed; cheap to copy.
-#[derive(Copy, Clone, Debug)]
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub struct Signals {
     _installed: (),
 }
@@ -66,29 +86,76 @@ pub struct Signals {
 /// Installs the handler (once per process; later calls return the same result).
 pub fn install() -> Result<Signals, RigError> {
     INSTALLED
-        .get_or_init(|| ctrlc::set_handler(on_signal).map_err(|e| e.to_string()))
+        .get_or_init(|| {
+            start_notices();
+            ctrlc::set_handler(|| {
+                // Nothing in `on_signal` panics; should anything ever, this thread must live on
+                // for the next signal.
+                let _ = catch_unwind(AssertUnwindSafe(on_signal));
+            })
+            .map_err(|e| e.to_string())
+        })
         .clone()
         .map(|()| Signals { _installed: () })
         .map_err(RigError::Signals)
 }
 
-/// Runs on the handler thread for every signal.
+/// Starts the notice thread (best effort: without it the notices are lost, the signals still
+/// act).
+fn start_notices() {
+    let spawned = std::thread::Builder::new()
+        .name("rmd-signal-notice".to_owned())
+        .spawn(|| {
+            loop {
+                std::thread::park();
+                write_notices(NOTICES.swap(0, Ordering::AcqRel));
+            }
+        });
+    if let Ok(handle) = spawned {
+        let _ = NOTICE_THREAD.set(handle.thread().clone());
+    }
+}
+
+/// Writes the notices `pending` stands for on stderr; an error is lost (docs/cli.md: a closed
+/// stderr only loses messages).
+fn write_notices(pending: u8) {
+    let mut err = std::io::stderr().lock();
+    if pending & NOTICE_STOP != 0 {
+        let _ = err.write_all(
+            b"\ninterrupted: stopping (zero torque, then motor off); again for an emergency stop\n",
+        );
+    }
+    if pending & NOTICE_ESTOP != 0 {
+        let _ = err
+            .write_all(b"\ninterrupted again: EMERGENCY STOP; once more exits (after motor-off)\n");
+    }
+}
+
+/// Leaves `notice` for the notice thread (never writes, never blocks).
+fn notify(notice: u8) {
+    NOTICES.fetch_or(notice, Ordering::AcqRel);
+    if let Some(thread) = NOTICE_THREAD.get() {
+        thread.unpark();
+    }
+}
+
+/// Runs on the handler thread for every signal: acts, and leaves the telling to the notice
+/// thread.
 fn on_signal() {
     let count = COUNT.fetch_add(1, Ordering::SeqCst) + 1;
+    // Held by nobody across I/O or a wait: `watch` and `Watch::drop` only swap the value.
     let watched = WATCHED
         .lock()
         .unwrap_or_else(PoisonError::into_inner)
         .clone();
     match (count, watched) {
         (1, Some(stopper)) => {
-            eprintln!(
-                "\ninterrupted: stopping (zero torque, then motor off); again for an emergency stop"
-            );
             stopper.stop();
+            notify(NOTICE_STOP);
         }
         (2, Some(stopper)) => {
-            eprintln!("\ninterrupted again: EMERGENCY STOP; once more exits (after motor-off)");
             stopper.emergency_stop();
+            notify(NOTICE_ESTOP);
         }
         (1 | 2, None) => {}
         (_, Some(stopper)) => {

@@ -160,12 +160,13 @@ impl Channels {
     }
 
     /// Feeds `record` to the health window; logs `/diagnostics` when a second completes.
-    pub(crate) fn observe(&mut self, record: &TickRecord) -> Result<(), SinkError> {
+    /// Returns the bytes of the message logged (0: none).
+    pub(crate) fn observe(&mut self, record: &TickRecord) -> Result<usize, SinkError> {
         self.last_since_start_ns = record.since_start_ns;
-        if let Some(statuses) = self.health.observe(&self.layout, record) {
-            self.log_diagnostics(record.since_start_ns, statuses)?;
+        match self.health.observe(&self.layout, record) {
+            Some(statuses) => self.log_diagnostics(record.since_start_ns, statuses),
+            None => Ok(0),
         }
-        Ok(())
     }
 
     /// Logs the unfinished second's `/diagnostics` (end of run), if it has any tick.
@@ -181,7 +182,7 @@ impl Channels {
         &mut self,
         since_start_ns: u64,
         status: Vec<ros2::DiagnosticStatus>,
-    ) -> Result<(), SinkError> {
+    ) -> Result<usize, SinkError> {
         let unix_ns = self.layout.unix_ns(since_start_ns);
         let message = DiagnosticArray {
             header: Header {
@@ -193,11 +194,11 @@ impl Channels {
         ros2::encode_cdr(&message, DIAGNOSTICS_TOPIC, &mut self.buffer)?;
         self.diagnostics
             .log_with_meta(&self.buffer, PartialMetadata::with_log_time(unix_ns));
-        Ok(())
+        Ok(self.buffer.len())
     }
 
-    /// Logs `record` on every per-tick channel.
-    pub(crate) fn publish(&mut self, record: &TickRecord) -> Result<(), SinkError> {
+    /// Logs `record` on every per-tick channel. Returns the bytes of the messages logged.
+    pub(crate) fn publish(&mut self, record: &TickRecord) -> Result<usize, SinkError> {
         let unix_ns = self.layout.unix_ns(record.since_start_ns);
         let meta = PartialMetadata::with_log_time(unix_ns);
         self.fill_joint_arrays(record);
@@ -213,6 +214,7 @@ impl Channels {
         };
         ros2::encode_cdr(&joint_state, JOINT_STATES_TOPIC, &mut self.buffer)?;
         self.joint_states.log_with_meta(&self.buffer, meta);
+        let mut bytes = self.buffer.len();
 
         let layout = &*self.layout;
         json::encode_json(
@@ -221,6 +223,7 @@ impl Channels {
             &mut self.buffer,
         )?;
         self.motor_states.log_with_meta(&self.buffer, meta);
+        bytes += self.buffer.len();
 
         json::encode_json(
             &LoopTimingMessage::of(record),
@@ -228,12 +231,14 @@ impl Channels {
             &mut self.buffer,
         )?;
         self.loop_timing.log_with_meta(&self.buffer, meta);
+        bytes += self.buffer.len();
 
         if let Some(signals) = &self.signals {
             json::encode_json(&Signals { layout, record }, SIGNALS_TOPIC, &mut self.buffer)?;
             signals.log_with_meta(&self.buffer, meta);
+            bytes += self.buffer.len();
         }
-        Ok(())
+        Ok(bytes)
     }
 
     /// The `JointState` arrays: NaN for a joint that never replied; effort NaN for a joint

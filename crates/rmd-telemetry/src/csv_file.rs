@@ -1,11 +1,12 @@
-//! The CSV sink: one row per tick, columns named after the joints and signals.
+//! The CSV sink: one row per tick, columns named after the joints and signals; on a write
+//! error, cut back to its last complete row.
 
 use std::fmt::Write as _;
 use std::fs::File;
-use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 use crate::layout::RunLayout;
+use crate::output::{Output, Units};
 use crate::record::TickRecord;
 use crate::sink::{Sink, SinkError};
 
@@ -35,6 +36,10 @@ const LOOP_COLUMNS: [&str; 4] = [
 /// loop.misses`. A value that does not exist (no reply yet, no torque constant, NaN) is an empty
 /// cell; `fresh` is 1 or 0.
 ///
+/// When a write fails (a full disk), the file is cut back to its last complete row: every row
+/// in it is whole, the sink [breaks](Sink::is_broken), and the rows it had taken that did not
+/// reach the file count as failed ([`Sink::lost`]).
+///
 /// ```no_run
 /// use rmd_telemetry::{CsvSink, RunLayout};
 ///
@@ -45,7 +50,14 @@ const LOOP_COLUMNS: [&str; 4] = [
 pub struct CsvSink {
     name: String,
     path: PathBuf,
-    writer: csv::Writer<BufWriter<File>>,
+    writer: csv::Writer<Output>,
+    output: Output,
+    /// Line breaks of the header row (a name may hold one, quoted).
+    header_lines: u64,
+    /// Rows accepted.
+    accepted: u64,
+    /// The file was cut back after a write error.
+    broken: bool,
     joints: usize,
     torque: Vec<bool>,
     signals: usize,
@@ -62,7 +74,9 @@ impl CsvSink {
         let path = path.as_ref().to_owned();
         let file = File::create(&path)
             .map_err(|e| SinkError::io(format!("creating {}", path.display()), e))?;
-        let mut writer = csv::Writer::from_writer(BufWriter::new(file));
+        let output = Output::file(file, Units::Lines);
+        // The csv writer buffers (8 KiB) and writes whole buffers: the output marks row ends.
+        let mut writer = csv::Writer::from_writer(output.clone());
         let mut header = vec!["time_s".to_owned(), "tick".to_owned()];
         for joint in layout.joints() {
             header.extend(
@@ -79,10 +93,17 @@ impl CsvSink {
                 context: format!("writing {}", path.display()),
                 source,
             })?;
+        writer
+            .flush()
+            .map_err(|e| SinkError::io(format!("writing {}", path.display()), e))?;
         Ok(Self {
             name: format!("csv {}", path.display()),
             path,
             writer,
+            header_lines: output.lines(),
+            output,
+            accepted: 0,
+            broken: false,
             joints: layout.joints().len(),
             torque: layout
                 .joints()
@@ -141,28 +162,65 @@ impl CsvSink {
     }
 }
 
+impl CsvSink {
+    /// `result`, or, after a write error, the file cut back to its last complete row (the sink
+    /// takes no more).
+    fn check<T>(&mut self, result: Result<T, SinkError>) -> Result<T, SinkError> {
+        if result.is_err() || self.output.errors().0 > 0 {
+            self.broken = true;
+            // A failed cut leaves the file where the failing write left it; the first error is
+            // the one reported either way.
+            let _ = self.output.seal(b"");
+        }
+        result
+    }
+}
+
 impl Sink for CsvSink {
     fn name(&self) -> &str {
         &self.name
     }
 
     fn write(&mut self, record: &TickRecord) -> Result<(), SinkError> {
-        self.row(record).map_err(|source| SinkError::Csv {
+        let written = self.row(record).map_err(|source| SinkError::Csv {
             context: format!("writing {}", self.path.display()),
             source,
-        })
+        });
+        self.check(written)?;
+        self.accepted += 1;
+        Ok(())
     }
 
     fn idle(&mut self) -> Result<(), SinkError> {
-        self.writer
+        let flushed = self
+            .writer
             .flush()
-            .map_err(|e| SinkError::io(format!("flushing {}", self.path.display()), e))
+            .map_err(|e| SinkError::io(format!("flushing {}", self.path.display()), e));
+        self.check(flushed)
     }
 
-    fn close(mut self: Box<Self>) -> Result<(), SinkError> {
-        self.writer
+    fn close(&mut self) -> Result<(), SinkError> {
+        if self.broken {
+            return Ok(());
+        }
+        let flushed = self
+            .writer
             .flush()
-            .map_err(|e| SinkError::io(format!("closing {}", self.path.display()), e))
+            .map_err(|e| SinkError::io(format!("closing {}", self.path.display()), e));
+        self.check(flushed)
+    }
+
+    fn is_broken(&self) -> bool {
+        self.broken
+    }
+
+    fn lost(&self) -> u64 {
+        if self.broken {
+            let rows = self.output.lines().saturating_sub(self.header_lines);
+            self.accepted.saturating_sub(rows)
+        } else {
+            0
+        }
     }
 }
 
@@ -183,7 +241,7 @@ mod tests {
             .signal("target")
             .build()
             .unwrap();
-        let mut sink = Box::new(CsvSink::create(&path, &layout).unwrap());
+        let mut sink = CsvSink::create(&path, &layout).unwrap();
         let mut record = TickRecord::new(2, 2_000_000, 0);
         record.joints[0] = JointRecord {
             position_rad: 0.25,

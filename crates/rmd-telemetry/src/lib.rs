@@ -48,6 +48,7 @@ mod json;
 mod layout;
 mod live;
 mod mcap_file;
+mod output;
 mod pipeline;
 mod record;
 mod ros2;
@@ -59,7 +60,10 @@ pub use channels::{
 pub use csv_file::CsvSink;
 pub use foxglove_layout::foxglove_layout;
 pub use layout::{JointInfo, LayoutError, RunLayout, RunLayoutBuilder};
-pub use live::{DEFAULT_LIVE_ADDR, DEFAULT_LIVE_RATE_HZ, LiveOptions, LiveSink};
+pub use live::{
+    DEFAULT_LIVE_ADDR, DEFAULT_LIVE_RATE_HZ, DEFAULT_MAX_CLIENTS, FIRST_BYTES_WITHIN, LiveOptions,
+    LiveSink,
+};
 pub use mcap_file::{McapOptions, McapSink};
 pub use pipeline::{
     DEFAULT_QUEUE_CAPACITY, Delivery, Pipeline, PipelineError, PipelineStats, Producer,

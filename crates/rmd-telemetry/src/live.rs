@@ -1,10 +1,20 @@
-//! The live sink: a Foxglove WebSocket server with the MCAP file's channels, decimated.
+//! The live sink: a Foxglove WebSocket server with the MCAP file's channels, decimated, behind
+//! a front door that admits at most [`LiveOptions::max_clients`] clients at once.
+//!
+//! The Foxglove SDK's server has no connection limit, so it listens on an ephemeral loopback
+//! port, and the address the user asked for is a small TCP relay of ours (on the sink's own
+//! runtime): a connection over the limit, or one that sends nothing within
+//! [`FIRST_BYTES_WITHIN`], is answered `503 Service Unavailable` (a WebSocket client reports
+//! the refusal) and closed, and counted; the others are relayed byte for byte.
 
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::time::Duration;
 
 use foxglove::{Context, WebSocketServer, WebSocketServerHandle};
+use tokio::io::AsyncWriteExt;
+use tokio::net::{TcpListener, TcpStream};
 
 use crate::channels::Channels;
 use crate::layout::RunLayout;
@@ -17,6 +27,13 @@ pub const DEFAULT_LIVE_ADDR: SocketAddr = SocketAddr::new(IpAddr::V4(Ipv4Addr::L
 /// The default live publishing rate (Hz).
 pub const DEFAULT_LIVE_RATE_HZ: f64 = 100.0;
 
+/// The default number of clients served at once.
+pub const DEFAULT_MAX_CLIENTS: usize = 8;
+
+/// A client that sends nothing for this long after connecting is refused (it would hold a
+/// place without ever becoming a viewer).
+pub const FIRST_BYTES_WITHIN: Duration = Duration::from_secs(5);
+
 /// How the live server runs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LiveOptions {
@@ -28,6 +45,9 @@ pub struct LiveOptions {
     pub rate_hz: f64,
     /// The server's name as Foxglove shows it.
     pub server_name: String,
+    /// Clients served at once (default [`DEFAULT_MAX_CLIENTS`]); one more is refused with
+    /// `503 Service Unavailable` and counted. At least 1.
+    pub max_clients: usize,
 }
 
 impl Default for LiveOptions {
@@ -36,8 +56,121 @@ impl Default for LiveOptions {
             addr: DEFAULT_LIVE_ADDR,
             rate_hz: DEFAULT_LIVE_RATE_HZ,
             server_name: "rmd-rt".to_owned(),
+            max_clients: DEFAULT_MAX_CLIENTS,
         }
     }
+}
+
+impl LiveOptions {
+    /// A warning for a server other hosts can reach (any address but loopback): anyone who
+    /// reaches it sees the robot's telemetry, without authentication or encryption. `None` on
+    /// loopback.
+    ///
+    /// ```
+    /// use rmd_telemetry::LiveOptions;
+    /// assert!(LiveOptions::default().exposure_warning().is_none());
+    /// let open = LiveOptions { addr: "0.0.0.0:8765".parse()?, ..LiveOptions::default() };
+    /// assert!(open.exposure_warning().unwrap().contains("0.0.0.0:8765"));
+    /// # Ok::<(), std::net::AddrParseError>(())
+    /// ```
+    pub fn exposure_warning(&self) -> Option<String> {
+        let ip = self.addr.ip();
+        (!ip.is_loopback()).then(|| {
+            let reach = if ip.is_unspecified() {
+                "every network interface of this host"
+            } else {
+                "the network of that address"
+            };
+            format!(
+                "the live telemetry server listens on {} ({reach}): anyone who can reach it sees \
+                 the robot's telemetry, without authentication or encryption (at most {} \
+                 clients at once); serve on 127.0.0.1 unless other hosts must watch",
+                self.addr, self.max_clients
+            )
+        })
+    }
+}
+
+/// The front door's counts, shared with its tasks.
+#[derive(Debug, Default)]
+struct Door {
+    /// Clients being relayed now.
+    active: AtomicUsize,
+    /// Clients relayed since the start.
+    served: AtomicU64,
+    /// Connections refused: over the limit.
+    over_limit: AtomicU64,
+    /// Connections refused: nothing sent within [`FIRST_BYTES_WITHIN`].
+    silent: AtomicU64,
+}
+
+/// The refusal a client over the limit reads (an HTTP response: a WebSocket client reports
+/// the status).
+fn refusal(max_clients: usize) -> Vec<u8> {
+    let body = format!(
+        "rmd-rt live telemetry: {max_clients} client(s) already connected, the limit; try again \
+         later\n"
+    );
+    format!(
+        "HTTP/1.1 503 Service Unavailable\r\nContent-Type: text/plain\r\nContent-Length: {}\r\n\
+         Connection: close\r\n\r\n{body}",
+        body.len()
+    )
+    .into_bytes()
+}
+
+/// Takes connections on `front` and relays them to the server on `back`, at most `max` at once.
+async fn admit(front: TcpListener, back: SocketAddr, max: usize, door: Arc<Door>) {
+    loop {
+        let Ok((client, _)) = front.accept().await else {
+            // Out of file descriptors or the like: wait, then take connections again.
+            tokio::time::sleep(Duration::from_millis(100)).await;
+            continue;
+        };
+        let _ = client.set_nodelay(true);
+        // Only this task admits, so the count cannot grow between the check and the increment.
+        if door.active.load(Ordering::Acquire) >= max {
+            door.over_limit.fetch_add(1, Ordering::Relaxed);
+            tokio::spawn(refuse(client, refusal(max)));
+            continue;
+        }
+        door.active.fetch_add(1, Ordering::AcqRel);
+        tokio::spawn(relay(client, back, Arc::clone(&door)));
+    }
+}
+
+/// Answers `client` with `refusal` and closes the connection (best effort).
+async fn refuse(mut client: TcpStream, refusal: Vec<u8>) {
+    let answer = async {
+        client.write_all(&refusal).await?;
+        client.shutdown().await
+    };
+    let _ = tokio::time::timeout(FIRST_BYTES_WITHIN, answer).await;
+}
+
+/// Relays one admitted client to the server until either side closes.
+async fn relay(mut client: TcpStream, back: SocketAddr, door: Arc<Door>) {
+    /// Gives the client's place back however the relay ends.
+    struct Place(Arc<Door>);
+    impl Drop for Place {
+        fn drop(&mut self) {
+            self.0.active.fetch_sub(1, Ordering::AcqRel);
+        }
+    }
+    let _place = Place(Arc::clone(&door));
+    if !matches!(
+        tokio::time::timeout(FIRST_BYTES_WITHIN, client.readable()).await,
+        Ok(Ok(()))
+    ) {
+        door.silent.fetch_add(1, Ordering::Relaxed);
+        return;
+    }
+    let Ok(mut server) = TcpStream::connect(back).await else {
+        return;
+    };
+    let _ = server.set_nodelay(true);
+    door.served.fetch_add(1, Ordering::Relaxed);
+    let _ = tokio::io::copy_bidirectional(&mut client, &mut server).await;
 }
 
 /// Keeps one record per period of run time: the first, then the first at or after each period.
@@ -80,7 +213,8 @@ impl Decimator {
 /// Serves the telemetry live over the Foxglove WebSocket protocol (subprotocol
 /// `foxglove.sdk.v1`, which the Foxglove app speaks): the same channels as the MCAP file, the
 /// per-tick ones decimated to [`LiveOptions::rate_hz`]. A client that cannot keep up loses
-/// messages inside the server; the loop never notices.
+/// messages inside the server; the loop never notices. At most [`LiveOptions::max_clients`]
+/// clients are served at once; the refused ones are counted ([`Sink::note`]).
 ///
 /// ```no_run
 /// use rmd_telemetry::{LiveOptions, LiveSink, RunLayout};
@@ -98,6 +232,8 @@ pub struct LiveSink {
     _context: Arc<Context>,
     decimator: Decimator,
     addr: SocketAddr,
+    door: Arc<Door>,
+    max_clients: usize,
 }
 
 impl LiveSink {
@@ -108,15 +244,20 @@ impl LiveSink {
     /// pinning the calling thread to the real-time CPU, or from another thread.
     ///
     /// # Errors
-    /// [`SinkError::Config`] for a rate that is not a positive number; [`SinkError::Io`] if the
-    /// runtime cannot start; [`SinkError::Foxglove`] if the address cannot be bound or a channel
-    /// cannot be created.
+    /// [`SinkError::Config`] for a rate that is not a positive number or a client limit of 0;
+    /// [`SinkError::Io`] if the runtime cannot start or the address cannot be bound;
+    /// [`SinkError::Foxglove`] if the server or a channel cannot be created.
     pub fn start(layout: &RunLayout, options: LiveOptions) -> Result<Self, SinkError> {
         if !(options.rate_hz.is_finite() && options.rate_hz > 0.0) {
             return Err(SinkError::Config(format!(
                 "the live rate must be a positive number of Hz, got {}",
                 options.rate_hz
             )));
+        }
+        if options.max_clients == 0 {
+            return Err(SinkError::Config(
+                "the live server must admit at least 1 client".to_owned(),
+            ));
         }
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
@@ -125,19 +266,27 @@ impl LiveSink {
             .enable_time()
             .build()
             .map_err(|e| SinkError::io("starting the live server's runtime", e))?;
+        let front = runtime
+            .block_on(TcpListener::bind(options.addr))
+            .map_err(|e| SinkError::io(format!("serving on {}", options.addr), e))?;
+        let addr = front
+            .local_addr()
+            .map_err(|e| SinkError::io(format!("serving on {}", options.addr), e))?;
         let context = Context::new();
         // Started inside our runtime, the server runs its tasks there (not on the SDK's own
-        // runtime, which would take a worker thread per CPU).
+        // runtime, which would take a worker thread per CPU). Only the front door reaches it.
         let server = runtime
             .block_on(
                 WebSocketServer::new()
                     .name(options.server_name.clone())
-                    .bind(options.addr.ip().to_string(), options.addr.port())
+                    .bind(Ipv4Addr::LOCALHOST.to_string(), 0)
                     .context(&context)
                     .start(),
             )
-            .map_err(|e| SinkError::foxglove(format!("serving on {}", options.addr), e))?;
-        let addr = SocketAddr::new(options.addr.ip(), server.port());
+            .map_err(|e| SinkError::foxglove(format!("serving on {addr}"), e))?;
+        let back = SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), server.port());
+        let door = Arc::new(Door::default());
+        runtime.spawn(admit(front, back, options.max_clients, Arc::clone(&door)));
         let channels = Channels::new(&context, Arc::new(layout.clone()))?;
         Ok(Self {
             name: format!("foxglove ws://{addr}"),
@@ -147,6 +296,8 @@ impl LiveSink {
             _context: context,
             decimator: Decimator::new(options.rate_hz),
             addr,
+            door,
+            max_clients: options.max_clients,
         })
     }
 
@@ -160,6 +311,15 @@ impl LiveSink {
         self.server
             .as_ref()
             .map_or(0, WebSocketServerHandle::client_count)
+    }
+
+    /// Connections refused so far: over the client limit, and silent for
+    /// [`FIRST_BYTES_WITHIN`].
+    pub fn refused(&self) -> (u64, u64) {
+        (
+            self.door.over_limit.load(Ordering::Relaxed),
+            self.door.silent.load(Ordering::Relaxed),
+        )
     }
 }
 
@@ -176,7 +336,17 @@ impl Sink for LiveSink {
         Ok(())
     }
 
-    fn close(mut self: Box<Self>) -> Result<(), SinkError> {
+    fn note(&self) -> Option<String> {
+        let (over_limit, silent) = self.refused();
+        let served = self.door.served.load(Ordering::Relaxed);
+        Some(format!(
+            "{served} client(s) served, {over_limit} refused over the limit of {}, {silent} \
+             refused for sending nothing",
+            self.max_clients
+        ))
+    }
+
+    fn close(&mut self) -> Result<(), SinkError> {
         let health = self.channels.flush_health();
         self.channels.close();
         if let Some(server) = self.server.take() {

@@ -377,8 +377,11 @@ fn wake(lanes: &[(Arc<Lane>, Thread)]) {
     }
 }
 
-/// A sink thread: its queue to its sink, then close. Returns the first error's message.
-fn run_sink(mut sink: Box<dyn Sink>, lane: &Lane) -> Option<String> {
+/// What a sink thread reports at its end: the first error's message, the sink's note.
+type SinkEnd = (Option<String>, Option<String>);
+
+/// A sink thread: its queue to its sink, then close.
+fn run_sink(mut sink: Box<dyn Sink>, lane: &Lane) -> SinkEnd {
     /// Marks the lane dead when the thread ends, even by a panic, so nobody waits for it.
     struct Alive<'a>(&'a AtomicBool);
     impl Drop for Alive<'_> {
@@ -392,11 +395,25 @@ fn run_sink(mut sink: Box<dyn Sink>, lane: &Lane) -> Option<String> {
         lane.errors.fetch_add(1, Ordering::Relaxed);
         first_error.get_or_insert_with(|| error.to_string());
     };
+    // Records counted written that the sink reported lost since (moved to failed).
+    let mut lost = 0;
+    let mut account_lost = |sink: &dyn Sink| {
+        let now = sink.lost();
+        if now > lost {
+            lane.written.fetch_sub(now - lost, Ordering::Relaxed);
+            lane.failed.fetch_add(now - lost, Ordering::Relaxed);
+            lost = now;
+        }
+    };
     loop {
         let closing = lane.closing.load(Ordering::Acquire);
         let mut handled = false;
         while let Some(record) = lane.queue.pop() {
             handled = true;
+            if sink.is_broken() {
+                lane.failed.fetch_add(1, Ordering::Relaxed);
+                continue;
+            }
             match sink.write(&record) {
                 Ok(()) => lane.written.fetch_add(1, Ordering::Relaxed),
                 Err(error) => {
@@ -404,13 +421,17 @@ fn run_sink(mut sink: Box<dyn Sink>, lane: &Lane) -> Option<String> {
                     lane.failed.fetch_add(1, Ordering::Relaxed)
                 }
             };
+            account_lost(&*sink);
         }
         if closing {
             break;
         }
         if !handled {
-            if let Err(error) = sink.idle() {
+            if !sink.is_broken()
+                && let Err(error) = sink.idle()
+            {
                 note(error);
+                account_lost(&*sink);
             }
             thread::park_timeout(SINK_POLL);
         }
@@ -418,7 +439,8 @@ fn run_sink(mut sink: Box<dyn Sink>, lane: &Lane) -> Option<String> {
     if let Err(error) = sink.close() {
         note(error);
     }
-    first_error
+    account_lost(&*sink);
+    (first_error, sink.note())
 }
 
 /// The running pipeline: live statistics and the clean stop. Dropping it stops it too.
@@ -427,7 +449,7 @@ pub struct Pipeline {
     lanes: Vec<Arc<Lane>>,
     stop: Arc<AtomicBool>,
     fan_out: Option<JoinHandle<()>>,
-    sink_threads: Vec<JoinHandle<Option<String>>>,
+    sink_threads: Vec<JoinHandle<SinkEnd>>,
     finished: Option<PipelineStats>,
 }
 
@@ -459,7 +481,7 @@ impl Pipeline {
         self.snapshot(&[])
     }
 
-    fn snapshot(&self, first_errors: &[Option<String>]) -> PipelineStats {
+    fn snapshot(&self, ends: &[SinkEnd]) -> PipelineStats {
         let (offered, intake_dropped) = self.intake.as_ref().map_or((0, 0), |i| {
             (
                 i.offered.load(Ordering::Relaxed),
@@ -476,7 +498,8 @@ impl Pipeline {
                 failed: lane.failed.load(Ordering::Relaxed),
                 dropped: lane.dropped.load(Ordering::Relaxed) + intake_dropped,
                 errors: lane.errors.load(Ordering::Relaxed),
-                first_error: first_errors.get(i).cloned().flatten(),
+                first_error: ends.get(i).and_then(|end| end.0.clone()),
+                note: ends.get(i).and_then(|end| end.1.clone()),
             })
             .collect();
         PipelineStats {
@@ -514,13 +537,13 @@ impl Pipeline {
                 thread.thread().unpark();
             }
         }
-        let first_errors: Vec<Option<String>> = self
+        let ends: Vec<SinkEnd> = self
             .sink_threads
             .drain(..)
             .map(|handle| {
                 handle
                     .join()
-                    .unwrap_or_else(|_| Some("the sink's thread panicked".to_owned()))
+                    .unwrap_or_else(|_| (Some("the sink's thread panicked".to_owned()), None))
             })
             .collect();
         // Records the fan-out thread never delivered (a push that raced the stop) are lost for
@@ -532,7 +555,7 @@ impl Pipeline {
             }
             intake.dropped.fetch_add(stranded, Ordering::Relaxed);
         }
-        let stats = self.snapshot(&first_errors);
+        let stats = self.snapshot(&ends);
         self.finished = Some(stats.clone());
         stats
     }
@@ -570,14 +593,7 @@ impl fmt::Display for PipelineStats {
         }
         write!(f, "telemetry: {} records", self.offered)?;
         for sink in &self.sinks {
-            write!(
-                f,
-                "; {}: {} written, {} dropped, {} errors",
-                sink.name, sink.written, sink.dropped, sink.errors
-            )?;
-            if let Some(error) = &sink.first_error {
-                write!(f, " (first: {error})")?;
-            }
+            write!(f, "; {sink}")?;
         }
         Ok(())
     }

@@ -29,11 +29,32 @@ pub trait Sink: Send + 'static {
     }
 
     /// Finishes the output (writes summaries, closes files, stops servers). Called once, after
-    /// the last record.
+    /// the last record (also after the sink [broke](Sink::is_broken)).
     ///
     /// # Errors
     /// Whatever went wrong finishing.
-    fn close(self: Box<Self>) -> Result<(), SinkError>;
+    fn close(&mut self) -> Result<(), SinkError>;
+
+    /// Whether the output failed for good (a full disk, a closed device): the sink has ended
+    /// what it had properly and takes no more. The pipeline then hands it no more records (each
+    /// counts as [failed](SinkStats::failed), without an error of its own) and calls
+    /// [`close`](Sink::close) at the end. The default: never.
+    fn is_broken(&self) -> bool {
+        false
+    }
+
+    /// Records this sink accepted ([`write`](Sink::write) returned `Ok`) that its output lost
+    /// afterwards: held in a buffer when the output failed, so not readable. The pipeline counts
+    /// them as failed, not written. The default: none.
+    fn lost(&self) -> u64 {
+        0
+    }
+
+    /// What else the sink has to say in its report (the live server: clients served and
+    /// refused), asked once, after [`close`](Sink::close). The default: nothing.
+    fn note(&self) -> Option<String> {
+        None
+    }
 }
 
 /// Why a sink could not open, write or close.
@@ -116,19 +137,43 @@ impl SinkError {
 ///
 /// For every sink, `written + failed + dropped` equals the records the producer pushed while the
 /// pipeline was open ([`PipelineStats::offered`](crate::PipelineStats::offered)), once the
-/// pipeline has shut down.
+/// pipeline has shut down. `written` counts only what the output holds readable: a record a file
+/// sink took into a buffer that its failing disk then lost is `failed`.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct SinkStats {
     /// The sink's [`Sink::name`].
     pub name: String,
-    /// Records the sink handled without error.
+    /// Records the output holds (readable in a file, sent by a server).
     pub written: u64,
-    /// Records the sink failed to write ([`Sink::write`] returned an error).
+    /// Records the sink failed to write: [`Sink::write`] returned an error, the output had
+    /// broken before ([`Sink::is_broken`]), or a failure lost them afterwards ([`Sink::lost`]).
     pub failed: u64,
     /// Records the sink never saw: its queue was full, or the pipeline's intake was.
     pub dropped: u64,
-    /// Errors of any kind (writes, flushes, the final close).
+    /// Errors of any kind (writes, flushes, the final close); the records a broken sink is not
+    /// handed are failed without an error each.
     pub errors: u64,
     /// The first error's message, if any.
     pub first_error: Option<String>,
+    /// The sink's own note ([`Sink::note`]), if any.
+    pub note: Option<String>,
+}
+
+impl std::fmt::Display for SinkStats {
+    /// `mcap run.mcap: 4838 written, 0 failed, 0 dropped, 0 errors`, then the first error and
+    /// the note in parentheses, if any.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}: {} written, {} failed, {} dropped, {} errors",
+            self.name, self.written, self.failed, self.dropped, self.errors
+        )?;
+        if let Some(error) = &self.first_error {
+            write!(f, " (first: {error})")?;
+        }
+        if let Some(note) = &self.note {
+            write!(f, " ({note})")?;
+        }
+        Ok(())
+    }
 }

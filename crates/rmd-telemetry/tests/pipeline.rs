@@ -77,7 +77,7 @@ impl Sink for Probe {
         Ok(())
     }
 
-    fn close(self: Box<Self>) -> Result<(), SinkError> {
+    fn close(&mut self) -> Result<(), SinkError> {
         self.seen.closes.fetch_add(1, Ordering::Relaxed);
         Ok(())
     }
@@ -192,8 +192,8 @@ fn shutdown_delivers_everything_queued_and_closes_every_sink_once() {
     }
     assert_eq!(
         stats.to_string(),
-        "telemetry: 3000 records; a: 3000 written, 0 dropped, 0 errors; \
-         b: 3000 written, 0 dropped, 0 errors"
+        "telemetry: 3000 records; a: 3000 written, 0 failed, 0 dropped, 0 errors; \
+         b: 3000 written, 0 failed, 0 dropped, 0 errors"
     );
 }
 

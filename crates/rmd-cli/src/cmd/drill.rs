@@ -7,6 +7,10 @@
 //!   drill passed.
 //! - `rmd drill --chaos`: random drills for `--seconds` of run time; exit 0 when none panicked,
 //!   hung, left a motor energised or grew memory.
+//!
+//! Signals follow the project's policy (`rmd_rig::signals`): the first stops the drill in
+//! progress (its verdict and telemetry files are still written) and starts no other, the second
+//! is an emergency stop; exit status 130.
 
 use std::process::ExitCode;
 use std::time::Duration;
@@ -17,6 +21,7 @@ use rmd_drill::{Drill, DrillFault, DrillSpec};
 use rmd_rig::SimTime;
 use rmd_rig::args::TelemetryArgs;
 use rmd_rig::args::duration::{self, Bounds};
+use rmd_rig::signals::{self, EXIT_INTERRUPTED, Signals};
 use rmd_rig::telemetry::TelemetryReport;
 
 use crate::output::progress::{self, Progress};
@@ -33,7 +38,9 @@ use crate::output::{errln, outln};
     unknown-motor:ID. Faults of the motors and buses strike bus 0.\n\n\
     The verdict comes from the simulated firmware, not from the loop: a motor is safe when its \
     firmware applies and is commanded no torque. Exit status: 0 when every motor ended safe, 1 \
-    when some motor is still energised (or a chaos drill failed), 2 on a usage error.\n\n\
+    when some motor is still energised (or a chaos drill failed, or a telemetry file could not \
+    be written), 2 on a usage error, 130 after Ctrl-C/SIGTERM/SIGHUP (the drill in progress is \
+    stopped and judged, no other starts; a second signal is an emergency stop).\n\n\
     Telemetry of one drill (--fault): --mcap FILE, --csv FILE, --foxglove [ADDR] (docs/telemetry.md); \
     not with --all or --chaos.\n\n\
     Examples:\n  rmd drill --fault bus-off:50 --buses 2\n  rmd drill --all --virtual-time\n  \
@@ -100,6 +107,10 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
     } else {
         SimTime::Real
     };
+    let signals = match signals::install() {
+        Ok(signals) => signals,
+        Err(e) => return report::failure(e),
+    };
     let spec = |fault| {
         DrillSpec::new(fault)
             .buses(args.buses)
@@ -108,6 +119,7 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
             .seconds(args.seconds)
             .seed(args.seed)
             .time(time)
+            .stopped_by(signals)
     };
     let result = if (args.chaos || args.all) && args.telemetry.any() {
         Err(CliError::Usage(
@@ -116,9 +128,9 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
                 .into(),
         ))
     } else if args.chaos {
-        run_chaos(&args, time)
+        run_chaos(&args, time, signals)
     } else if args.all {
-        run_all(&args, spec)
+        run_all(&args, spec, signals)
     } else if let Some((&(first, first_at), rest)) = args.fault.split_first() {
         let mut one = spec(first).at(first_at.unwrap_or(args.at));
         for &(fault, when) in rest {
@@ -131,6 +143,7 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
         ))
     };
     match result {
+        Ok(_) if signals.interrupted() => ExitCode::from(EXIT_INTERRUPTED),
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::from(report::FAILURE),
         Err(e) => report::exit(Err(e)),
@@ -171,7 +184,8 @@ fn run_one(spec: &DrillSpec, telemetry: &TelemetryArgs, json: bool) -> Result<bo
     if let Some(report) = &report {
         errln!("{report}");
     }
-    Ok(drill.passed())
+    // A recording asked for and not written is a failure too.
+    Ok(drill.passed() && !report.as_ref().is_some_and(TelemetryReport::failed))
 }
 
 /// The verdict in words.
@@ -212,7 +226,11 @@ fn verdict(d: &Drill) -> String {
     lines.join("\n")
 }
 
-fn run_all(args: &DrillArgs, spec: impl Fn(DrillFault) -> DrillSpec) -> Result<bool, CliError> {
+fn run_all(
+    args: &DrillArgs,
+    spec: impl Fn(DrillFault) -> DrillSpec,
+    signals: Signals,
+) -> Result<bool, CliError> {
     let matrix = DrillFault::matrix();
     let show = progress::shown(args.json);
     let progress = Progress::counter(matrix.len() as u64, "drills", show);
@@ -226,6 +244,9 @@ fn run_all(args: &DrillArgs, spec: impl Fn(DrillFault) -> DrillSpec) -> Result<b
     ]);
     let mut passed = true;
     for (done, fault) in matrix.into_iter().enumerate() {
+        if signals.interrupted() {
+            break;
+        }
         progress.set_message(fault.to_string());
         let mut one = spec(fault);
         if let DrillFault::SilentMotor(id) = fault
@@ -257,6 +278,9 @@ fn run_all(args: &DrillArgs, spec: impl Fn(DrillFault) -> DrillSpec) -> Result<b
         }
     }
     drop(progress);
+    if signals.interrupted() {
+        errln!("interrupted: the drills after the one in progress were not run");
+    }
     if !args.json {
         outln!("{}", table.render())?;
         outln!(
@@ -305,11 +329,12 @@ fn short_stop(d: &Drill) -> String {
     }
 }
 
-fn run_chaos(args: &DrillArgs, time: SimTime) -> Result<bool, CliError> {
+fn run_chaos(args: &DrillArgs, time: SimTime, signals: Signals) -> Result<bool, CliError> {
     let spec = ChaosSpec {
         seconds: args.seconds,
         seed: args.seed,
         time,
+        signals: Some(signals),
     };
     let show = progress::shown(args.json);
     let progress = Progress::timer(args.seconds, show);

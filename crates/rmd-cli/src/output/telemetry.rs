@@ -4,7 +4,8 @@
 use rmd_rig::telemetry::TelemetryReport;
 use serde_json::{Value, json};
 
-/// `[{"name", "written", "dropped", "failed", "errors", "first_error"}, ...]`, one per sink.
+/// `[{"name", "written", "dropped", "failed", "errors", "first_error", "note"}, ...]`, one per
+/// sink.
 pub(crate) fn report_json(report: &TelemetryReport) -> Value {
     Value::Array(
         report
@@ -18,6 +19,7 @@ pub(crate) fn report_json(report: &TelemetryReport) -> Value {
                     "failed": s.failed,
                     "errors": s.errors,
                     "first_error": s.first_error,
+                    "note": s.note,
                 })
             })
             .collect(),

@@ -28,7 +28,7 @@ pub mod duration;
 mod telemetry;
 pub mod values;
 
-pub use telemetry::{TelemetryArgs, live_addr, live_rate};
+pub use telemetry::{MAX_LIVE_CLIENTS, TelemetryArgs, live_addr, live_clients, live_rate};
 
 use core::time::Duration;
 use std::io::{BufRead, IsTerminal, Write};

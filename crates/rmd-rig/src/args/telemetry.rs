@@ -1,10 +1,13 @@
 //! The telemetry flags of every program that runs the loop: `--csv FILE`, `--mcap FILE`,
-//! `--foxglove [ADDR]` and `--foxglove-rate HZ`.
+//! `--foxglove [ADDR]`, `--foxglove-rate HZ` and `--foxglove-clients N`.
 
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::PathBuf;
 
-use rmd_telemetry::{DEFAULT_LIVE_ADDR, DEFAULT_LIVE_RATE_HZ, LiveOptions};
+use rmd_telemetry::{DEFAULT_LIVE_ADDR, DEFAULT_LIVE_RATE_HZ, DEFAULT_MAX_CLIENTS, LiveOptions};
+
+/// The most clients `--foxglove-clients` admits.
+pub const MAX_LIVE_CLIENTS: usize = 64;
 
 use crate::telemetry::TelemetryOutputs;
 
@@ -39,12 +42,16 @@ pub struct TelemetryArgs {
     pub mcap: Option<PathBuf>,
     /// Serve the telemetry live to Foxglove (WebSocket) on ADDR [default: 127.0.0.1:8765; a
     /// bare port: 127.0.0.1:PORT]. 0.0.0.0:PORT opens it to the network, without
-    /// authentication.
+    /// authentication (a warning says so at the start).
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765", value_parser = live_addr)]
     pub foxglove: Option<SocketAddr>,
     /// Messages per second on each live channel (decimated from the loop rate) [default: 100].
     #[arg(long, value_name = "HZ", value_parser = live_rate, requires = "foxglove")]
     pub foxglove_rate: Option<f64>,
+    /// Live clients served at once, 1..=64 [default: 8]; one more is refused (HTTP 503) and
+    /// counted in the report.
+    #[arg(long, value_name = "N", value_parser = live_clients, requires = "foxglove")]
+    pub foxglove_clients: Option<usize>,
 }
 
 impl TelemetryArgs {
@@ -56,6 +63,7 @@ impl TelemetryArgs {
             live: self.foxglove.map(|addr| LiveOptions {
                 addr,
                 rate_hz: self.foxglove_rate.unwrap_or(DEFAULT_LIVE_RATE_HZ),
+                max_clients: self.foxglove_clients.unwrap_or(DEFAULT_MAX_CLIENTS),
                 ..LiveOptions::default()
             }),
         }
@@ -92,6 +100,17 @@ pub fn live_rate(text: &str) -> Result<f64, String> {
     }
 }
 
+/// `--foxglove-clients N`: 1..=[`MAX_LIVE_CLIENTS`].
+pub fn live_clients(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if (1..=MAX_LIVE_CLIENTS).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "`{text}` is not a number of live clients: give a whole number from 1 to \
+             {MAX_LIVE_CLIENTS}"
+        )),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -107,6 +126,10 @@ mod tests {
         assert_eq!(live_rate("200"), Ok(200.0));
         for bad in ["0", "-1", "nan", "inf", "1e5", "x"] {
             assert!(live_rate(bad).is_err(), "{bad}");
+        }
+        assert_eq!(live_clients("2"), Ok(2));
+        for bad in ["0", "-1", "65", "1.5", "x"] {
+            assert!(live_clients(bad).is_err(), "{bad}");
         }
     }
 

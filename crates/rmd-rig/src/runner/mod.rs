@@ -69,20 +69,19 @@ pub struct Finished<K> {
 
 impl<K> Finished<K> {
     /// The exit status: [`EXIT_INTERRUPTED`] when a signal stopped the run, [`EXIT_OK`] when
-    /// it ended normally, [`EXIT_FAULT`] otherwise.
+    /// it ended normally and every telemetry sink wrote what it got, [`EXIT_FAULT`] otherwise
+    /// (a fault, or a recording that failed: the user asked for it).
     pub fn exit_code(&self) -> ExitCode {
         ExitCode::from(self.exit_status())
     }
 
     /// [`exit_code`](Self::exit_code) as a number.
     pub fn exit_status(&self) -> u8 {
-        if self.interrupted {
-            EXIT_INTERRUPTED
-        } else if self.outcome.report.normal_stop {
-            EXIT_OK
-        } else {
-            EXIT_FAULT
-        }
+        exit_status(
+            self.interrupted,
+            &self.outcome.report,
+            self.telemetry.as_ref(),
+        )
     }
 
     /// Prints the report on standard output (as one JSON object with `json`), then what each
@@ -97,6 +96,23 @@ impl<K> Finished<K> {
         if let Some(telemetry) = &self.telemetry {
             let _ = writeln!(std::io::stderr(), "{telemetry}");
         }
+    }
+}
+
+/// The exit status of a run every program shares: [`EXIT_INTERRUPTED`] after a signal,
+/// [`EXIT_FAULT`] after a fault or a failed telemetry sink (see [`TelemetryReport::failed`]),
+/// [`EXIT_OK`] otherwise.
+pub fn exit_status(
+    interrupted: bool,
+    report: &rmd_loop::LoopReport,
+    telemetry: Option<&TelemetryReport>,
+) -> u8 {
+    if interrupted {
+        EXIT_INTERRUPTED
+    } else if !report.normal_stop || telemetry.is_some_and(TelemetryReport::failed) {
+        EXIT_FAULT
+    } else {
+        EXIT_OK
     }
 }
 

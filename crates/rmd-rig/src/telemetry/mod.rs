@@ -47,6 +47,7 @@ mod feed;
 mod record;
 
 use std::fmt;
+use std::io::Write;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
@@ -183,6 +184,10 @@ impl TelemetrySinks {
         }
         let mut live_addr = None;
         if let Some(options) = &outputs.live {
+            if let Some(warning) = options.exposure_warning() {
+                // Said before the server starts, whatever the display: the user must know.
+                let _ = writeln!(std::io::stderr(), "warning: {warning}");
+            }
             let live = LiveSink::start(layout, options.clone())?;
             live_addr = Some(live.local_addr());
             builder = builder.sink(live);
@@ -319,23 +324,25 @@ impl TelemetryReport {
             .iter()
             .all(|s| s.dropped == 0 && s.failed == 0 && s.errors == 0)
     }
+
+    /// Whether some sink failed: a record it could not write or an error (a full disk, a
+    /// closed device). A run that asked for a recording and did not get it ends with a
+    /// non-zero status; records dropped for lack of room (counted, real time only) are not a
+    /// failure.
+    pub fn failed(&self) -> bool {
+        self.sinks().iter().any(|s| s.failed > 0 || s.errors > 0)
+    }
 }
 
 impl fmt::Display for TelemetryReport {
-    /// One line per sink: `telemetry: mcap run.mcap: 10000 written, 0 dropped, 0 errors`.
+    /// One line per sink: `telemetry: mcap run.mcap: 10000 written, 0 failed, 0 dropped, 0
+    /// errors`, with the first error and the sink's note in parentheses.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         for (i, sink) in self.sinks().iter().enumerate() {
             if i > 0 {
                 writeln!(f)?;
             }
-            write!(
-                f,
-                "telemetry: {}: {} written, {} dropped, {} errors",
-                sink.name, sink.written, sink.dropped, sink.errors
-            )?;
-            if let Some(error) = &sink.first_error {
-                write!(f, " (first: {error})")?;
-            }
+            write!(f, "telemetry: {sink}")?;
         }
         Ok(())
     }

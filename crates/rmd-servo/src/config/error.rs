@@ -12,6 +12,25 @@ pub enum ServoConfigError {
         /// The underlying error.
         source: std::io::Error,
     },
+    /// The file holds nothing (or only white space): taken as the defaults it would hide a
+    /// wrong path or a truncated copy.
+    #[error(
+        "servo configuration {path} is empty: it sets nothing (is it the right file?); give \
+         [servo], [defaults] or [joint.NAME] tables, or leave the file out for the built-in \
+         defaults"
+    )]
+    Empty {
+        /// The file.
+        path: String,
+    },
+    /// The file is larger than any servo configuration.
+    #[error("servo configuration {path} is larger than {limit} bytes: not a servo configuration")]
+    TooLarge {
+        /// The file.
+        path: String,
+        /// [`MAX_FILE_BYTES`](crate::config::MAX_FILE_BYTES).
+        limit: u64,
+    },
     /// Not valid TOML, or a key is unknown or of the wrong type.
     #[error("servo configuration: {0}")]
     Parse(String),

@@ -64,19 +64,38 @@ pub struct ServoFile {
     pub joint: BTreeMap<String, JointSettings>,
 }
 
+/// The largest servo configuration file [`ServoFile::from_file`] reads, bytes.
+pub const MAX_FILE_BYTES: u64 = 1024 * 1024;
+
 impl ServoFile {
     /// Parses a TOML servo configuration (unknown keys and wrong types are errors naming the key).
     pub fn from_toml(text: &str) -> Result<Self, crate::ServoConfigError> {
         toml::from_str(text).map_err(|e| crate::ServoConfigError::Parse(e.to_string()))
     }
 
-    /// Reads and parses a TOML servo configuration file.
+    /// Reads and parses a TOML servo configuration file: at most [`MAX_FILE_BYTES`] read, and
+    /// a file with nothing in it (`/dev/null`, a truncated copy) is refused, never taken as the
+    /// defaults.
     pub fn from_file(path: impl AsRef<std::path::Path>) -> Result<Self, crate::ServoConfigError> {
+        use std::io::Read as _;
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| crate::ServoConfigError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let named = || path.display().to_string();
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .and_then(|file| file.take(MAX_FILE_BYTES + 1).read_to_string(&mut text))
+            .map_err(|source| crate::ServoConfigError::Io {
+                path: named(),
+                source,
+            })?;
+        if text.len() as u64 > MAX_FILE_BYTES {
+            return Err(crate::ServoConfigError::TooLarge {
+                path: named(),
+                limit: MAX_FILE_BYTES,
+            });
+        }
+        if text.trim().is_empty() {
+            return Err(crate::ServoConfigError::Empty { path: named() });
+        }
         Self::from_toml(&text)
     }
 

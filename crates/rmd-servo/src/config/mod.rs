@@ -48,7 +48,7 @@ use rmd_loop::robot::JointSpec;
 use rmd_loop::{JointId, Robot};
 
 pub use error::ServoConfigError;
-pub use file::{JointSettings, ServoFile, ServoOptions, StalePolicy};
+pub use file::{JointSettings, MAX_FILE_BYTES, ServoFile, ServoOptions, StalePolicy};
 
 /// Built-in position gain, N·m/rad.
 pub const DEFAULT_KP_NM_PER_RAD: f64 = 20.0;
@@ -443,6 +443,27 @@ mod tests {
             Err(ServoConfigError::Invalid { joint, key, .. }) => (joint, key),
             other => panic!("expected an invalid value, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn an_empty_or_endless_file_is_refused_naming_it() {
+        let robot = robot();
+        let err = ServoConfig::from_file(&robot, "/dev/null").unwrap_err();
+        assert!(matches!(err, ServoConfigError::Empty { .. }), "{err:?}");
+        assert!(err.to_string().contains("/dev/null is empty"), "{err}");
+        // An endless file (NUL bytes are text) is read no further than the limit.
+        let err = ServoConfig::from_file(&robot, "/dev/zero").unwrap_err();
+        assert!(
+            matches!(
+                err,
+                ServoConfigError::TooLarge {
+                    limit: MAX_FILE_BYTES,
+                    ..
+                }
+            ),
+            "{err:?}"
+        );
+        assert!(err.to_string().contains("/dev/zero"), "{err}");
     }
 
     #[test]

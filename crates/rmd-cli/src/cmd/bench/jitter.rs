@@ -1,6 +1,8 @@
 //! `rmd bench jitter`: the wake latency of the loop's own timer, measured as `cyclictest`
 //! measures the kernel's (actual wake minus the absolute deadline, every tick), with no bus and
-//! no controller, on the loop's own scheduler ([`rmd_loop::jitter`]).
+//! no controller, on the loop's own scheduler ([`rmd_loop::jitter`]). A signal
+//! (`rmd_rig::signals`) ends the measurement: the ticks measured so far are reported, exit
+//! status 130.
 
 use core::time::Duration;
 use std::process::ExitCode;
@@ -74,6 +76,10 @@ pub(crate) fn run(args: JitterArgs) -> ExitCode {
         spin_margin: args.rt.spin(),
         rt: args.rt.request(PREFAULT_STACK_BYTES),
     };
+    let signals = match rmd_rig::signals::install() {
+        Ok(signals) => signals,
+        Err(e) => return report::failure(e),
+    };
     let result = match measure(config, progress::shown(args.json)) {
         Ok(r) => r,
         Err(e) => return report::failure(e),
@@ -90,7 +96,11 @@ pub(crate) fn run(args: JitterArgs) -> ExitCode {
             return code;
         }
     }
-    ExitCode::SUCCESS
+    if signals.interrupted() {
+        ExitCode::from(rmd_rig::signals::EXIT_INTERRUPTED)
+    } else {
+        ExitCode::SUCCESS
+    }
 }
 
 /// Measures on the loop's own measuring thread; meanwhile this thread shows the progress (only
@@ -100,7 +110,7 @@ fn measure(config: JitterConfig, show: bool) -> Result<JitterReport, String> {
     let start = Instant::now();
     let measuring = std::thread::Builder::new()
         .name("rmd-bench-jitter".to_string())
-        .spawn(move || jitter::measure_real_time(config))
+        .spawn(move || jitter::measure_real_time_while(config, || !rmd_rig::signals::interrupted()))
         .map_err(|e| format!("cannot start the measurement: {e}"))?;
     if show {
         let progress = Progress::timer(duration, true);

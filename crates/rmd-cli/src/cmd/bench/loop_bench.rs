@@ -10,6 +10,10 @@
 //! while this thread drains its telemetry, as an application would, into the sinks of `--csv`,
 //! `--mcap` and `--foxglove` when asked (on virtual time without losing a tick: the loop waits
 //! for the sinks).
+//!
+//! Signals follow the project's policy (`rmd_rig::signals`): the first stops the loop (zero
+//! torque, motor off), the report and the telemetry files are still written, exit status 130;
+//! the second is an emergency stop.
 
 use core::time::Duration;
 use std::process::ExitCode;
@@ -41,8 +45,10 @@ use rmd_rig::telemetry::{TelemetryReport, TelemetrySinks};
     round_trip_us, controller_us, work_us as {count, min, mean, p50, p90, p99, p999, max} in \
     microseconds, per-motor and per-bus counters, the safe stop and the real-time status; plus \
     `bench` (the set-up and the controller's tracking error) and, with a telemetry sink, \
-    `telemetry` (per sink: name, written, dropped, failed, errors, first_error). Exit status 1 \
-    if the loop stopped on a fault.\n\n\
+    `telemetry` (per sink: name, written, dropped, failed, errors, first_error, note). Exit \
+    status 1 if the loop stopped on a fault or a telemetry sink failed (a full disk: the file \
+    keeps what was written before), 130 after Ctrl-C/SIGTERM/SIGHUP (the report and the files \
+    are still written; a second signal is an emergency stop).\n\n\
     Telemetry: --mcap FILE writes /joint_states (one message per tick; on --virtual-time none is \
     lost), /motor_states, /loop_timing and /diagnostics; --foxglove [ADDR] serves the same \
     channels live while it runs; --csv FILE one row per tick (docs/telemetry.md)."
@@ -112,7 +118,7 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
                 outcome
             })
     };
-    let (outcome, telemetry) = match outcome {
+    let (outcome, telemetry, interrupted) = match outcome {
         Ok(outcome) => outcome,
         Err(Failure::Usage(msg)) => return report::usage_error(msg),
         Err(Failure::Run(msg)) => return report::failure(msg),
@@ -154,11 +160,11 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
     if let Some(telemetry) = &telemetry {
         errln!("{telemetry}");
     }
-    if report.normal_stop {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(report::FAILURE)
-    }
+    ExitCode::from(rmd_rig::runner::exit_status(
+        interrupted,
+        report,
+        telemetry.as_ref(),
+    ))
 }
 
 fn show_deg(v: Option<f64>) -> String {
@@ -192,7 +198,8 @@ enum Failure {
     Run(String),
 }
 
-type Ran = (LoopOutcome<MovingTargetPd>, Option<TelemetryReport>);
+/// The outcome, what the sinks got, and whether a signal stopped the run.
+type Ran = (LoopOutcome<MovingTargetPd>, Option<TelemetryReport>, bool);
 
 fn run_on<C: Clock + Clone + 'static, B: CanBus + Send + 'static>(
     clock: C,
@@ -206,6 +213,9 @@ fn run_on<C: Clock + Clone + 'static, B: CanBus + Send + 'static>(
     let ticks = u64::try_from(args.duration.as_nanos() / period.as_nanos()).unwrap_or(u64::MAX);
     let mut rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
         .map_err(|e| Failure::Usage(e.to_string()))?;
+    // Before anything is served or recorded: a signal from now on follows the policy (one
+    // before the loop runs stops it at once).
+    let signals = rmd_rig::signals::install().map_err(|e| Failure::Run(e.to_string()))?;
     // Before the loop thread exists: the sinks' threads must not inherit its CPU.
     let mut sinks = TelemetrySinks::attach(&mut rt, &args.telemetry.outputs())
         .map_err(|e| Failure::Usage(e.to_string()))?;
@@ -216,6 +226,7 @@ fn run_on<C: Clock + Clone + 'static, B: CanBus + Send + 'static>(
     let handle = rt
         .spawn(RunLimit::Duration(args.duration))
         .map_err(|e| Failure::Run(e.to_string()))?;
+    let watch = signals.watch(handle.stopper());
     let progress = Progress::counter(ticks, "ticks", progress::shown(args.json));
     progress.set_prefix("bench loop ");
     // Drain the telemetry as an application would, so that none is dropped.
@@ -235,6 +246,7 @@ fn run_on<C: Clock + Clone + 'static, B: CanBus + Send + 'static>(
     }
     drop(progress);
     let outcome = handle.join().map_err(|e| Failure::Run(e.to_string()))?;
+    drop(watch);
     let report = sinks.map(|s| s.finish(outcome.report.stats.telemetry_drops));
-    Ok((outcome, report))
+    Ok((outcome, report, signals.interrupted()))
 }

@@ -5,6 +5,9 @@
 //! loop's work per tick (wake to the end of its work, which includes publishing the sample) is
 //! compared by its p99: the median of the rounds' p99 with sinks on over the median with sinks
 //! off. Alternating short rounds puts both under the same machine load.
+//!
+//! A signal (`rmd_rig::signals`) stops the round in progress and the rounds after it: the
+//! rounds run so far are printed, exit status 130.
 
 use core::time::Duration;
 use std::path::PathBuf;
@@ -122,14 +125,16 @@ pub(crate) fn run(args: TelemetryCostArgs) -> ExitCode {
         }
         text += &format!(
             "work p99 (median of {} rounds): sinks off {off:.1} us, on {on:.1} us: ratio {ratio:.3}\n",
-            args.rounds
+            rounds.len().div_ceil(2)
         );
         text
     };
     if let Err(code) = super::emit(&text) {
         return code;
     }
-    if rounds.iter().all(|r| r.stats.ticks > 0) {
+    if rmd_rig::signals::interrupted() {
+        ExitCode::from(rmd_rig::signals::EXIT_INTERRUPTED)
+    } else if rounds.iter().all(|r| r.stats.ticks > 0) {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(report::FAILURE)
@@ -181,8 +186,12 @@ fn rounds(args: &TelemetryCostArgs, folder: &std::path::Path) -> Result<Vec<Roun
         progress::shown(args.json),
     );
     progress.set_prefix("bench telemetry ");
+    let signals = rmd_rig::signals::install().map_err(|e| e.to_string())?;
     let mut rounds = Vec::new();
     for i in 0..args.rounds * 2 {
+        if signals.interrupted() {
+            break;
+        }
         let sinks = i % 2 == 1;
         let outputs = if sinks {
             TelemetryOutputs {
@@ -222,9 +231,11 @@ fn one_round(args: &TelemetryCostArgs, outputs: &TelemetryOutputs) -> Result<Rou
         RtLoop::new(robot, clock, buses, MovingTargetPd::new(true)).map_err(|e| e.to_string())?;
     let mut sinks = TelemetrySinks::attach(&mut rt, outputs).map_err(|e| e.to_string())?;
     let on = sinks.is_some();
+    let signals = rmd_rig::signals::install().map_err(|e| e.to_string())?;
     let handle = rt
         .spawn(RunLimit::Duration(args.duration))
         .map_err(|e| e.to_string())?;
+    let watch = signals.watch(handle.stopper());
     while handle.is_running() {
         if let Some(sinks) = &mut sinks {
             sinks.pump(|_| {});
@@ -232,6 +243,7 @@ fn one_round(args: &TelemetryCostArgs, outputs: &TelemetryOutputs) -> Result<Rou
         std::thread::sleep(Duration::from_millis(2));
     }
     let outcome = handle.join().map_err(|e| e.to_string())?;
+    drop(watch);
     let telemetry = sinks.map(|s| s.finish(outcome.report.stats.telemetry_drops));
     Ok(Round {
         sinks: on,

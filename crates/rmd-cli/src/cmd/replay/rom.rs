@@ -46,46 +46,71 @@ fn rom_command(byte: u8) -> Option<&'static str> {
     })
 }
 
-/// The frames among `records` that would write a motor's ROM, in log order.
-pub(super) fn rom_writes(records: &[LogRecord]) -> Vec<RomWrite> {
-    records
-        .iter()
-        .filter_map(|record| {
-            let id = record.frame.id().checked_sub(SINGLE_MOTOR_BASE)?;
-            let motor = MotorId::new(u8::try_from(id).ok()?).ok()?;
-            let command = *record.frame.data().first()?;
-            rom_command(command)?;
-            Some(RomWrite {
-                line: record.line,
-                motor,
-                command,
-            })
-        })
-        .collect()
+/// The ROM write `record` would be, if it is one.
+pub(super) fn rom_write(record: &LogRecord) -> Option<RomWrite> {
+    let id = record.frame.id().checked_sub(SINGLE_MOTOR_BASE)?;
+    let motor = MotorId::new(u8::try_from(id).ok()?).ok()?;
+    let command = *record.frame.data().first()?;
+    rom_command(command)?;
+    Some(RomWrite {
+        line: record.line,
+        motor,
+        command,
+    })
 }
 
-/// How many frames [`describe`] lists before summing up the rest.
+/// How many frames [`RomWrites::describe`] lists before summing up the rest.
 const LISTED: usize = 8;
 
-/// The frames in words: `line 3: 0x19 (write the position to ROM as the zero) to motor 1; ...`.
-pub(super) fn describe(writes: &[RomWrite]) -> String {
-    let mut parts: Vec<String> = writes
-        .iter()
-        .take(LISTED)
-        .map(|w| {
-            format!(
-                "line {}: 0x{:02X} ({}) to motor {}",
-                w.line,
-                w.command,
-                rom_command(w.command).unwrap_or("a ROM write"),
-                w.motor
-            )
-        })
-        .collect();
-    if writes.len() > LISTED {
-        parts.push(format!("and {} more", writes.len() - LISTED));
+/// The ROM writes of a log read line by line: the first [`LISTED`] kept, the others counted.
+#[derive(Debug, Default)]
+pub(super) struct RomWrites {
+    first: Vec<RomWrite>,
+    count: usize,
+}
+
+impl RomWrites {
+    /// Takes `record` into account.
+    pub(super) fn note(&mut self, record: &LogRecord) {
+        if let Some(write) = rom_write(record) {
+            self.count += 1;
+            if self.first.len() < LISTED {
+                self.first.push(write);
+            }
+        }
     }
-    parts.join("; ")
+
+    /// How many frames write ROM.
+    pub(super) fn count(&self) -> usize {
+        self.count
+    }
+
+    /// Whether none does.
+    pub(super) fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// The frames in words: `line 3: 0x19 (write the position to ROM as the zero) to motor 1;
+    /// ...`, the first [`LISTED`], then `and N more`.
+    pub(super) fn describe(&self) -> String {
+        let mut parts: Vec<String> = self
+            .first
+            .iter()
+            .map(|w| {
+                format!(
+                    "line {}: 0x{:02X} ({}) to motor {}",
+                    w.line,
+                    w.command,
+                    rom_command(w.command).unwrap_or("a ROM write"),
+                    w.motor
+                )
+            })
+            .collect();
+        if self.count > LISTED {
+            parts.push(format!("and {} more", self.count - LISTED));
+        }
+        parts.join("; ")
+    }
 }
 
 #[cfg(test)]
@@ -107,8 +132,9 @@ mod tests {
 (1.000800) can0 161#1900000000000000
 ";
         let records = read_log(log.as_bytes()).unwrap().records;
-        let found: Vec<(usize, u8, u8)> = rom_writes(&records)
+        let found: Vec<(usize, u8, u8)> = records
             .iter()
+            .filter_map(rom_write)
             .map(|w| (w.line, w.motor.get(), w.command))
             .collect();
         // Not: the 0x9C read, the 0x280 torque frame, a V3 reply id (0x241), an id above 32.
@@ -122,7 +148,9 @@ mod tests {
                 (8, 32, 0x63)
             ]
         );
-        let words = describe(&rom_writes(&records));
+        let mut writes = RomWrites::default();
+        records.iter().for_each(|r| writes.note(r));
+        let words = writes.describe();
         assert!(
             words.starts_with(
                 "line 1: 0x19 (write the position to ROM as the zero) to motor 1; line 3: 0x32"
@@ -137,7 +165,9 @@ mod tests {
             .map(|i| format!("({i}.000000) can0 141#3200000000000000\n"))
             .collect();
         let records = read_log(log.as_bytes()).unwrap().records;
-        let words = describe(&rom_writes(&records));
+        let mut writes = RomWrites::default();
+        records.iter().for_each(|r| writes.note(r));
+        let words = writes.describe();
         assert!(words.ends_with("; and 12 more"), "{words}");
         assert_eq!(words.matches("line ").count(), LISTED);
     }

@@ -180,6 +180,9 @@ pub(crate) fn run(mut args: RateArgs) -> ExitCode {
         errln!("{}", setup_line(&args));
     }
     let progress = Progress::timer(args.duration, progress::shown(args.json));
+    if let Err(e) = rmd_rig::signals::install() {
+        return report::failure(e);
+    }
     let mut results = Vec::new();
     let mut offset = 0;
     for &buses in &args.buses {
@@ -188,14 +191,25 @@ pub(crate) fn run(mut args: RateArgs) -> ExitCode {
             Some(rate) => search.run(rate).map(|_| ()),
             None => search.find(args.budget()).and_then(|()| search.find(0.0)),
         };
-        if let Err(e) = searched {
-            progress.clear();
-            return report::usage_error(e);
-        }
         offset += search.trials.len();
-        results.push(ByBusCount { search });
+        match searched {
+            Err(_) if rmd_rig::signals::interrupted() => {
+                // What was measured before the signal is still reported.
+                results.push(ByBusCount { search });
+                break;
+            }
+            Err(e) => {
+                progress.clear();
+                return report::usage_error(e);
+            }
+            Ok(()) => results.push(ByBusCount { search }),
+        }
     }
     progress.clear();
+    let interrupted = rmd_rig::signals::interrupted();
+    if interrupted {
+        errln!("interrupted: the search stopped; what follows is from the trials run before");
+    }
     let mut found_all = true;
     for r in &results {
         found_all &= r.headline(&args).is_some();
@@ -214,7 +228,9 @@ pub(crate) fn run(mut args: RateArgs) -> ExitCode {
     {
         return code;
     }
-    if found_all || args.rate.is_some() {
+    if interrupted {
+        ExitCode::from(rmd_rig::signals::EXIT_INTERRUPTED)
+    } else if found_all || args.rate.is_some() {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(report::FAILURE)

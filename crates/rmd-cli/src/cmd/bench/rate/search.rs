@@ -20,6 +20,9 @@ use super::trial::{Trial, trial, within};
 use super::{BITRATE, MAX_CONFIRM_RUNS, MAX_STEPS_DOWN, MAX_TURNAROUND, RateArgs};
 use crate::output::progress::Progress;
 
+/// The error of a search a signal ended (the trials run so far are kept).
+pub(super) const INTERRUPTED: &str = "interrupted";
+
 /// The trials of one bus count.
 pub(super) struct Search<'a> {
     pub(super) buses: usize,
@@ -46,8 +49,11 @@ impl<'a> Search<'a> {
         }
     }
 
-    /// Runs a trial at `rate_hz` and keeps it.
+    /// Runs a trial at `rate_hz` and keeps it. After a signal, runs none: [`INTERRUPTED`].
     pub(super) fn run(&mut self, rate_hz: f64) -> Result<&Trial, String> {
+        if rmd_rig::signals::interrupted() {
+            return Err(INTERRUPTED.to_owned());
+        }
         let n = self.offset + self.trials.len() + 1;
         self.progress.restart_timer(self.args.duration);
         self.progress.set_prefix(format!(
