@@ -1,3 +1,4 @@
+// Modified for rmd-rt (vendor/rustdds/PATCHES.md).
 use std::{cmp::min, collections::BTreeSet, io};
 
 #[allow(unused_imports)]
@@ -278,7 +279,17 @@ impl MessageBuilder {
     match cache_change.data_value {
       DDSData::Data { .. } => (), // data sample, not dispose
 
-      DDSData::DisposeByKey { .. } => {
+      DDSData::DisposeByKey { key_hash, .. } => {
+        // The key hash too, when known: eProsima Fast DDS takes a key-only payload only up
+        // to 16 bytes ("Ignoring Serialized Payload for too large key-only data") and needs
+        // PID_KEY_HASH to know which instance (e.g. which participant or endpoint of the
+        // built-in discovery topics) was disposed.
+        if let Some(key_hash) = key_hash {
+          param_list.push(Parameter {
+            parameter_id: ParameterId::PID_KEY_HASH,
+            value: key_hash.to_vec(),
+          });
+        }
         param_list.push(Parameter::create_pid_status_info_parameter(
           /* disposed */ true, /* unregistered */ true, /* filtered */ false,
         ));
