@@ -1,3 +1,4 @@
+// Modified for rmd-rt (vendor/rustdds/PATCHES.md).
 use std::{
   cell::RefCell,
   cmp::{max, min},
@@ -1285,6 +1286,32 @@ impl Writer {
                 self.endianness,
                 reader_guid.entity_id,
                 false, // final_flag: request ACKNACK
+                false, // liveliness_flag
+              )
+              .add_header_and_build(self.my_guid.prefix);
+            self.send_control_to_readers(
+              DeliveryMode::Unicast,
+              hb_message,
+              &mut std::iter::once(reader_proxy),
+            );
+          } else if an.reader_sn_state.iter().next().is_none()
+            && an.reader_sn_state.base() < SequenceNumber::from(1)
+          {
+            // A preemptive ACKNACK (base 0, as eProsima Fast DDS sends them) while the
+            // reader has everything we have, typically nothing at all: the reader repeats
+            // it (Fast DDS: every 70 ms or so, for ever) until it hears a HEARTBEAT. Tell
+            // it what we have, with the final flag: it need not answer, so no exchange
+            // follows.
+            let hb_message = MessageBuilder::new()
+              .ts_msg(self.endianness, Some(Timestamp::now()))
+              .heartbeat_msg(
+                self.entity_id(),
+                self.send_buffer.first_change_sequence_number(),
+                last_seq,
+                self.next_heartbeat_count(),
+                self.endianness,
+                reader_guid.entity_id,
+                true,  // final_flag: no answer needed
                 false, // liveliness_flag
               )
               .add_header_and_build(self.my_guid.prefix);
