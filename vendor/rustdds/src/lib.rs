@@ -1,3 +1,4 @@
+// Modified for rmd-rt (vendor/rustdds/PATCHES.md).
 //! A pure Rust implementation of Data Distribution Service (DDS).
 //!
 //! DDS is an object-oriented API [specified](https://www.omg.org/spec/DDS/) by
@@ -210,7 +211,9 @@ pub mod serialization;
 #[doc(inline)]
 pub use dds::{
   key::{Key, Keyed},
-  participant::{DomainParticipant, DomainParticipantBuilder, DomainParticipantStatusListener},
+  participant::{
+    DomainParticipant, DomainParticipantBuilder, DomainParticipantStatusListener, ParticipantTuning,
+  },
   pubsub::{Publisher, Subscriber},
   qos,
   qos::{policy, QosPolicies, QosPolicyBuilder},

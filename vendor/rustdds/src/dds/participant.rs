@@ -1,3 +1,4 @@
+// Modified for rmd-rt (vendor/rustdds/PATCHES.md).
 // use mio::Token;
 use std::{
   collections::HashMap,
@@ -64,6 +65,18 @@ use crate::{
 #[cfg(not(feature = "security"))]
 use crate::no_security::SecurityPluginsHandle;
 
+/// Settings added by rmd-rt's patches (see `vendor/rustdds/PATCHES.md`). The
+/// default of each keeps upstream RustDDS's behaviour.
+#[derive(Clone, Debug, Default)]
+pub struct ParticipantTuning {
+  /// A reliable reader acknowledges the data it receives by itself, without
+  /// waiting for the writer's next HEARTBEAT: at once, or, when it did so for
+  /// that writer less than this long ago, this long after that (at most one
+  /// ACKNACK per writer per period, whatever the data rate). `None`: only in
+  /// answer to HEARTBEATs.
+  pub acknowledge_data_within: Option<Duration>,
+}
+
 /// Builder object to create a [`DomainParticipant`] with non-default
 /// configuration.
 ///
@@ -81,6 +94,8 @@ pub struct DomainParticipantBuilder {
   socket_receive_buffer_size: usize,
   socket_send_buffer_size: usize,
 
+  tuning: ParticipantTuning,
+
   #[cfg(feature = "security")]
   security_plugins: Option<SecurityPlugins>,
   #[cfg(feature = "security")]
@@ -95,6 +110,7 @@ impl DomainParticipantBuilder {
       same_host_loopback: true,
       socket_receive_buffer_size: Self::DEFAULT_SOCKET_RECEIVE_BUFFER_SIZE,
       socket_send_buffer_size: Self::DEFAULT_SOCKET_SEND_BUFFER_SIZE,
+      tuning: ParticipantTuning::default(),
       #[cfg(feature = "security")]
       security_plugins: None,
       #[cfg(feature = "security")]
@@ -126,6 +142,12 @@ impl DomainParticipantBuilder {
   /// `src/rtps/loopback_same_host_design.md`.
   pub fn same_host_loopback(mut self, enabled: bool) -> Self {
     self.same_host_loopback = enabled;
+    self
+  }
+
+  /// rmd-rt's settings ([`ParticipantTuning`]).
+  pub fn tuning(mut self, tuning: ParticipantTuning) -> Self {
+    self.tuning = tuning;
     self
   }
 
@@ -344,6 +366,7 @@ impl DomainParticipantBuilder {
       self.socket_send_buffer_size,
       self.only_networks,
       self.same_host_loopback,
+      self.tuning,
       dp_waker,
       discovery_sample_sender,
     )?;
@@ -977,6 +1000,7 @@ impl DomainParticipantDisc {
     socket_send_buffer_size: usize,
     only_networks: Option<Vec<IpAddr>>,
     same_host_loopback: bool,
+    tuning: ParticipantTuning,
     dp_waker: LoopWaker,
     discovery_sample_sender: ReadySender<mio1::Token>,
   ) -> CreateResult<Self> {
@@ -994,6 +1018,7 @@ impl DomainParticipantDisc {
       socket_send_buffer_size,
       only_networks,
       same_host_loopback,
+      tuning,
       dp_waker,
       discovery_sample_sender,
     )?;
@@ -1236,6 +1261,7 @@ impl DomainParticipantInner {
     socket_send_buffer_size: usize,
     only_networks: Option<Vec<IpAddr>>,
     same_host_loopback: bool,
+    tuning: ParticipantTuning,
     dp_waker: LoopWaker,
     discovery_sample_sender: ReadySender<mio1::Token>,
   ) -> CreateResult<Self> {
@@ -1412,6 +1438,7 @@ impl DomainParticipantInner {
           only_networks_for_ev_loop,
           socket_send_buffer_size,
           same_host_loopback,
+          tuning,
           reader_ready_rx,
           writer_ready_rx,
           dp_waker,

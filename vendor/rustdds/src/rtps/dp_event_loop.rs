@@ -1,3 +1,4 @@
+// Modified for rmd-rt (vendor/rustdds/PATCHES.md).
 use std::{
   cell::RefCell,
   collections::{BTreeMap, BTreeSet, HashMap, VecDeque},
@@ -12,6 +13,7 @@ use log::{debug, error, info, trace, warn};
 use mio1::{Events, Interest, Poll, Token};
 
 use crate::{
+  dds::participant::ParticipantTuning,
   dds::{
     qos::policy,
     result::{CreateError, CreateResult},
@@ -140,6 +142,9 @@ pub struct DPEventLoop {
   // route same-host peers over loopback. See
   // `src/rtps/loopback_same_host_design.md`.
   same_host_loopback: bool,
+
+  // rmd-rt's settings, handed to each local reader.
+  tuning: ParticipantTuning,
 }
 
 impl DPEventLoop {
@@ -164,6 +169,7 @@ impl DPEventLoop {
     only_networks: Option<Arc<[IpAddr]>>,
     socket_send_buffer_size: usize,
     same_host_loopback: bool,
+    tuning: ParticipantTuning,
     reader_ready: ReadyReceiver<EntityId>,
     writer_ready: ReadyReceiver<EntityId>,
     waker: LoopWaker,
@@ -257,6 +263,7 @@ impl DPEventLoop {
       participant_status_sender,
       discovery_command_sender,
       same_host_loopback,
+      tuning,
     })
   }
 
@@ -1069,6 +1076,7 @@ impl DPEventLoop {
     // Reader commands share the poll waker. The ready queue records the entity
     // id, so there is nothing to register under the reader token.
     new_reader.set_requested_deadline_check_timer();
+    new_reader.set_tuning(&self.tuning);
     trace!("Add reader: {new_reader:?}");
     self.message_receiver.add_reader(new_reader);
   }

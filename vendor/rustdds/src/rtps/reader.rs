@@ -1,3 +1,4 @@
+// Modified for rmd-rt (vendor/rustdds/PATCHES.md).
 use std::{
   collections::BTreeMap,
   fmt, iter,
@@ -66,6 +67,16 @@ use crate::no_security::SecurityPluginsHandle;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum TimedEvent {
   DeadlineMissedCheck,
+  // Acknowledge the data received from writers whose acknowledgement waits.
+  AcknowledgeData,
+}
+
+// When this reader last acknowledged a writer's data by itself, and whether an
+// acknowledgement of newer data waits for the timer.
+#[derive(Default)]
+struct DataAck {
+  last_sent: Option<std::time::Instant>,
+  pending: bool,
 }
 
 // Some pieces necessary to construct a reader.
@@ -135,6 +146,10 @@ pub(crate) struct Reader {
 
   fragment_assemblers: BTreeMap<GUID, FragmentAssembler>,
   last_fragment_garbage_collect: Timestamp,
+
+  // ParticipantTuning::acknowledge_data_within, and its state per writer.
+  acknowledge_data_within: Option<StdDuration>,
+  data_acks: BTreeMap<GUID, DataAck>,
   matched_writers: BTreeMap<GUID, RtpsWriterProxy>,
   writer_match_count_total: i32, // total count, never decreases
 
@@ -202,6 +217,8 @@ impl Reader {
       received_heartbeat_count: 0,
       fragment_assemblers: BTreeMap::new(),
       last_fragment_garbage_collect: Timestamp::now(),
+      acknowledge_data_within: None,
+      data_acks: BTreeMap::new(),
       matched_writers: BTreeMap::new(),
       writer_match_count_total: 0,
       requested_deadline_missed_count: 0,
@@ -324,7 +341,84 @@ impl Reader {
         self.handle_requested_deadline_event();
         self.set_requested_deadline_check_timer(); // re-prime timer
       }
+      TimedEvent::AcknowledgeData => {
+        let due: Vec<GUID> = self
+          .data_acks
+          .iter()
+          .filter(|(_, a)| a.pending)
+          .map(|(g, _)| *g)
+          .collect();
+        for writer_guid in due {
+          self.send_data_ack(writer_guid);
+        }
+      }
     }
+  }
+
+  pub(crate) fn set_tuning(&mut self, tuning: &crate::dds::participant::ParticipantTuning) {
+    self.acknowledge_data_within = tuning.acknowledge_data_within;
+  }
+
+  // New data from a matched writer: acknowledge it now, or, if this reader did so
+  // for that writer less than `acknowledge_data_within` ago, when that much time
+  // has passed since (one timer for all the data that arrives meanwhile).
+  fn acknowledge_data_from(&mut self, writer_guid: GUID) {
+    let Some(within) = self.acknowledge_data_within else {
+      return;
+    };
+    if self.reliability == policy::Reliability::BestEffort || self.like_stateless {
+      return;
+    }
+    let ack = self.data_acks.entry(writer_guid).or_default();
+    if ack.pending {
+      return;
+    }
+    let since = ack.last_sent.map(|t| t.elapsed());
+    match since {
+      Some(since) if since < within => {
+        ack.pending = true;
+        self.timed_event_timer.borrow_mut().set_timeout(
+          within - since,
+          DpTimerEvent::Reader {
+            entity_id: self.my_guid.entity_id,
+            event: TimedEvent::AcknowledgeData,
+          },
+        );
+      }
+      _ => self.send_data_ack(writer_guid),
+    }
+  }
+
+  // An ACKNACK with the final flag acknowledging all the writer's data received
+  // in order, requesting nothing (HEARTBEATs still drive repairs).
+  fn send_data_ack(&mut self, writer_guid: GUID) {
+    if let Some(ack) = self.data_acks.get_mut(&writer_guid) {
+      ack.pending = false;
+      ack.last_sent = Some(std::time::Instant::now());
+    }
+    if !self.matched_writers.contains_key(&writer_guid) {
+      self.data_acks.remove(&writer_guid);
+      return;
+    }
+    self.with_mutable_writer_proxy(writer_guid, |this, writer_proxy| {
+      let acknack = AckNack {
+        reader_id: this.entity_id(),
+        writer_id: writer_guid.entity_id,
+        reader_sn_state: SequenceNumberSet::new_empty(writer_proxy.all_ackable_before()),
+        count: writer_proxy.next_ack_nack_sequence_number(),
+      };
+      let flags = BitFlags::<ACKNACK_Flags>::from_flag(ACKNACK_Flags::Endianness)
+        | BitFlags::<ACKNACK_Flags>::from_flag(ACKNACK_Flags::Final);
+      this.send_acknack_to(
+        flags,
+        acknack,
+        InfoDestination {
+          guid_prefix: writer_guid.prefix,
+        },
+        &writer_proxy.unicast_locator_list,
+        writer_guid,
+      );
+    });
   }
 
   pub fn process_command(&mut self) {
@@ -466,6 +560,7 @@ impl Reader {
   }
 
   pub fn remove_writer_proxy(&mut self, writer_guid: GUID) {
+    self.data_acks.remove(&writer_guid);
     if self.matched_writers.contains_key(&writer_guid) {
       self.matched_writers.remove(&writer_guid);
       self
@@ -767,6 +862,9 @@ impl Reader {
       writer_guid,
       writer_sn,
     );
+    if writer_guid.entity_id.entity_kind.is_user_defined() {
+      self.acknowledge_data_from(writer_guid);
+    }
 
     // Add to own track-keeping data structure
     #[cfg(test)]
