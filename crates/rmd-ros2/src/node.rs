@@ -7,7 +7,7 @@ use std::sync::mpsc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime};
 
-use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::dds::rustdds::{DomainParticipantBuilder, ParticipantTuning};
 use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
 use ros2_client::dds::{Context, Node, Publisher, Subscription};
 use ros2_client::{MessageTypeName, Name, NodeOptions, QosProfile};
@@ -249,7 +249,10 @@ fn subscription<M: RosMessage + DeserializeOwned + 'static>(
 
 impl Dds {
     fn open<P: RobotPort>(config: &NodeConfig, _port: &P) -> Result<Self, NodeError> {
-        let mut builder = DomainParticipantBuilder::new(config.domain_id);
+        let mut builder =
+            DomainParticipantBuilder::new(config.domain_id).tuning(ParticipantTuning {
+                acknowledge_data_within: Some(config.acknowledge_within),
+            });
         if !config.networks.is_empty() {
             builder = builder.with_only_networks(config.networks.iter().copied());
         }
