@@ -75,6 +75,14 @@ pub struct ParticipantTuning {
   /// ACKNACK per writer per period, whatever the data rate). `None`: only in
   /// answer to HEARTBEATs.
   pub acknowledge_data_within: Option<Duration>,
+  /// Bind every socket to this IPv4 address instead of the wildcard: the unicast
+  /// listeners and the sender to the address, the multicast listeners to their
+  /// group with `IP_MULTICAST_ALL` off (Linux), joined on this address's
+  /// interface only. Datagrams that reach the host by another interface reach
+  /// none of the participant's sockets. Implies `with_only_networks([address])`.
+  /// `None`: the wildcard (upstream behaviour; `with_only_networks` then filters
+  /// what is advertised and joined, not what is received).
+  pub bind_address: Option<IpAddr>,
 }
 
 /// Builder object to create a [`DomainParticipant`] with non-default
@@ -211,6 +219,9 @@ impl DomainParticipantBuilder {
   }
 
   pub fn build(#[allow(unused_mut)] mut self) -> CreateResult<DomainParticipant> {
+    if let Some(address) = self.tuning.bind_address {
+      self.only_networks = Some(vec![address]);
+    }
     // QosPolicies with possible security properties, otherwise default
     let participant_qos = QosPolicies {
       #[cfg(feature = "security")]
@@ -1270,17 +1281,33 @@ impl DomainParticipantInner {
 
     let only_networks: Option<Arc<[IpAddr]>> = only_networks.map(|v| v.into());
 
+    // The wildcard, or (ParticipantTuning::bind_address) the address for unicast
+    // and the group for multicast listeners.
+    let multicast_group = Ipv4Addr::new(239, 255, 0, 1);
+    let (unicast_host, multicast_host) = match tuning.bind_address {
+      Some(address) => (address.to_string(), multicast_group.to_string()),
+      None => ("0.0.0.0".to_string(), "0.0.0.0".to_string()),
+    };
+    let bound_multicast = |l: UDPListener| -> CreateResult<UDPListener> {
+      if tuning.bind_address.is_some() {
+        if let Err(e) = l.deliver_only_joined_groups() {
+          return create_error_out_of_resources!("Cannot restrict a multicast listener: {e:?}");
+        }
+      }
+      Ok(l)
+    };
+
     let mut listeners = HashMap::new();
 
     match UDPListener::new_multicast_with_buf_size(
-      "0.0.0.0",
+      &multicast_host,
       spdp_well_known_multicast_port(domain_id),
-      Ipv4Addr::new(239, 255, 0, 1),
+      multicast_group,
       socket_receive_buffer_size,
       only_networks.as_deref(),
     ) {
       Ok(l) => {
-        listeners.insert(DISCOVERY_MUL_LISTENER_TOKEN, l);
+        listeners.insert(DISCOVERY_MUL_LISTENER_TOKEN, bound_multicast(l)?);
       }
       Err(e) => warn!("Cannot get multicast discovery listener: {e:?}"),
     }
@@ -1293,7 +1320,7 @@ impl DomainParticipantInner {
     // Numbers"
     while discovery_listener.is_none() && participant_id < 120 {
       discovery_listener = UDPListener::new_unicast_with_buf_size(
-        "0.0.0.0",
+        &unicast_host,
         spdp_well_known_unicast_port(domain_id, participant_id),
         socket_receive_buffer_size,
       )
@@ -1315,20 +1342,20 @@ impl DomainParticipantInner {
     // Now the user traffic listeners
 
     match UDPListener::new_multicast_with_buf_size(
-      "0.0.0.0",
+      &multicast_host,
       user_traffic_multicast_port(domain_id),
-      Ipv4Addr::new(239, 255, 0, 1),
+      multicast_group,
       socket_receive_buffer_size,
       only_networks.as_deref(),
     ) {
       Ok(l) => {
-        listeners.insert(USER_TRAFFIC_MUL_LISTENER_TOKEN, l);
+        listeners.insert(USER_TRAFFIC_MUL_LISTENER_TOKEN, bound_multicast(l)?);
       }
       Err(e) => warn!("Cannot get multicast user traffic listener: {e:?}"),
     }
 
     let user_traffic_listener = UDPListener::new_unicast_with_buf_size(
-      "0.0.0.0",
+      &unicast_host,
       user_traffic_unicast_port(domain_id, participant_id),
       socket_receive_buffer_size,
     )
@@ -1336,7 +1363,7 @@ impl DomainParticipantInner {
       if matches!(e.kind(), ErrorKind::AddrInUse) {
         // If we do not get the preferred listening port,
         // try again, with "any" port number.
-        UDPListener::new_unicast_with_buf_size("0.0.0.0", 0, socket_receive_buffer_size).or_else(
+        UDPListener::new_unicast_with_buf_size(&unicast_host, 0, socket_receive_buffer_size).or_else(
           |e| {
             create_error_out_of_resources!(
               "Could not open unicast user traffic listener, any port number: {:?}",
@@ -1404,6 +1431,7 @@ impl DomainParticipantInner {
     let disc_db_clone = discovery_db.clone();
     let security_plugins_clone = security_plugins_handle.clone();
     let only_networks_for_ev_loop = only_networks.clone();
+    let tuning = tuning.clone();
     let ev_loop_handle = thread::Builder::new()
       .name(format!("RustDDS Participant {participant_id} event loop"))
       .spawn(move || {

@@ -1,3 +1,4 @@
+// Modified for rmd-rt (vendor/rustdds/PATCHES.md).
 use std::{
   collections::HashMap,
   io,
@@ -164,6 +165,20 @@ impl UDPListener {
     );
 
     Ok(mio_socket)
+  }
+
+  /// A multicast listener delivers only the groups it joined itself, on the
+  /// interfaces it joined them on (`IP_MULTICAST_ALL` off), not every group any
+  /// socket of the host joined. Linux only; elsewhere an error.
+  pub fn deliver_only_joined_groups(&self) -> io::Result<()> {
+    #[cfg(target_os = "linux")]
+    {
+      socket2::SockRef::from(&self.socket).set_multicast_all_v4(false)
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+      Err(io::Error::other("IP_MULTICAST_ALL is Linux only"))
+    }
   }
 
   pub fn to_locator_address(&self, only_networks: Option<&[IpAddr]>) -> io::Result<Vec<Locator>> {

@@ -218,7 +218,12 @@ impl DPEventLoop {
 
     // port number 0 means OS chooses an available port number.
     let udp_sender = try_init!(
-      UDPSender::new_with_networks(0, only_networks.as_deref(), socket_send_buffer_size),
+      UDPSender::new_with_networks(
+        0,
+        only_networks.as_deref(),
+        socket_send_buffer_size,
+        tuning.bind_address,
+      ),
       "UDPSender construction fail"
     );
 
