@@ -63,9 +63,12 @@ pub struct NodeConfig {
     pub command_mode: CommandMode,
     /// Topic names.
     pub topics: TopicNames,
-    /// Restrict DDS to the interfaces with these addresses (empty: all interfaces), e.g.
-    /// `127.0.0.1` to stay on loopback.
-    pub networks: Vec<IpAddr>,
+    /// DDS only on the interface with this IPv4 address (default: every interface), e.g.
+    /// `127.0.0.1` for this host only: every socket of the node is bound to it (multicast
+    /// listeners to their group, joined on that interface only), so datagrams that reach the
+    /// host by another interface reach none of them. It must be an address of one of the
+    /// host's interfaces.
+    pub network: Option<IpAddr>,
     /// How soon the node acknowledges a reliable writer's samples by itself (default 100 ms):
     /// at once when it has not acknowledged that writer within this period, else at the end
     /// of the period, so at most one ACKNACK per writer per period whatever the rate. Without
@@ -84,7 +87,7 @@ impl Default for NodeConfig {
             diagnostics_period: Duration::from_secs(1),
             command_mode: CommandMode::Auto,
             topics: TopicNames::default(),
-            networks: Vec::new(),
+            network: None,
             acknowledge_within: Duration::from_millis(100),
         }
     }
@@ -111,6 +114,21 @@ pub enum ConfigError {
     /// A zero diagnostics period.
     #[error("the diagnostics period must be positive")]
     BadDiagnosticsPeriod,
+    /// An IPv6 network address (the DDS layer binds IPv4 sockets only).
+    #[error(
+        "network address {0} is IPv6: DDS here runs over IPv4 only; give an IPv4 address (127.0.0.1 for this host only)"
+    )]
+    Ipv6Network(IpAddr),
+    /// A network address on none of the host's interfaces.
+    #[error(
+        "network address {address} is not an address of this host ({reason}): give one that `ip -4 addr` lists (127.0.0.1 for this host only)"
+    )]
+    NotLocal {
+        /// The address given.
+        address: IpAddr,
+        /// Why it cannot be bound.
+        reason: String,
+    },
     /// A zero acknowledgement period.
     #[error("the acknowledgement period must be positive")]
     BadAcknowledgePeriod,
@@ -138,6 +156,9 @@ impl NodeConfig {
         }
         if self.acknowledge_within.is_zero() {
             return Err(ConfigError::BadAcknowledgePeriod);
+        }
+        if let Some(address) = self.network {
+            check_local(address)?;
         }
         self.node_name()?;
         let t = &self.topics;
@@ -184,6 +205,19 @@ impl NodeConfig {
             Err(ConfigError::BadTopic(topic.to_owned()))
         }
     }
+}
+
+/// The address is IPv4 and one of this host's: a UDP socket can be bound to it.
+fn check_local(address: IpAddr) -> Result<(), ConfigError> {
+    if address.is_ipv6() {
+        return Err(ConfigError::Ipv6Network(address));
+    }
+    std::net::UdpSocket::bind((address, 0))
+        .map(drop)
+        .map_err(|e| ConfigError::NotLocal {
+            address,
+            reason: e.to_string(),
+        })
 }
 
 /// One component of a ROS 2 name: a letter or `_` first, then letters, digits, single `_`s.
@@ -264,6 +298,33 @@ mod tests {
         assert_eq!(
             with(&|c| c.topics.enable = "e-stop".into()),
             Err(ConfigError::BadTopic("e-stop".into()))
+        );
+        assert_eq!(
+            with(&|c| c.acknowledge_within = Duration::ZERO),
+            Err(ConfigError::BadAcknowledgePeriod)
+        );
+    }
+
+    #[test]
+    fn the_network_must_be_an_ipv4_address_of_this_host() {
+        let with = |a: &str| {
+            NodeConfig {
+                network: Some(a.parse().unwrap()),
+                ..NodeConfig::default()
+            }
+            .check()
+        };
+        assert_eq!(with("127.0.0.1"), Ok(()));
+        // TEST-NET-1 (RFC 5737): never an address of a host. Only bound to, never sent to.
+        let err = with("192.0.2.1").unwrap_err();
+        assert!(
+            matches!(err, ConfigError::NotLocal { address, .. } if address.to_string() == "192.0.2.1"),
+            "{err:?}"
+        );
+        assert!(err.to_string().contains("not an address of this host"), "{err}");
+        assert_eq!(
+            with("::1"),
+            Err(ConfigError::Ipv6Network("::1".parse().unwrap()))
         );
     }
 }

@@ -249,14 +249,11 @@ fn subscription<M: RosMessage + DeserializeOwned + 'static>(
 
 impl Dds {
     fn open<P: RobotPort>(config: &NodeConfig, _port: &P) -> Result<Self, NodeError> {
-        let mut builder =
-            DomainParticipantBuilder::new(config.domain_id).tuning(ParticipantTuning {
+        let participant = DomainParticipantBuilder::new(config.domain_id)
+            .tuning(ParticipantTuning {
                 acknowledge_data_within: Some(config.acknowledge_within),
-            });
-        if !config.networks.is_empty() {
-            builder = builder.with_only_networks(config.networks.iter().copied());
-        }
-        let participant = builder
+                bind_address: config.network,
+            })
             .build()
             .map_err(|e| dds_error("domain participant")(&e))?;
         let context = Context::from_domain_participant(participant)

@@ -44,7 +44,7 @@ fn node_publishes_takes_commands_and_rejects_bad_ones() {
             domain_id: domain,
             joint_state_rate_hz: 200.0,
             diagnostics_period: Duration::from_millis(200),
-            networks: vec![common::LOOPBACK],
+            network: Some(common::LOOPBACK),
             ..NodeConfig::default()
         },
         robot,
