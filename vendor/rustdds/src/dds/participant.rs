@@ -83,6 +83,15 @@ pub struct ParticipantTuning {
   /// `None`: the wildcard (upstream behaviour; `with_only_networks` then filters
   /// what is advertised and joined, not what is received).
   pub bind_address: Option<IpAddr>,
+  /// A reader does not reassemble a sample announced (in its DATA_FRAGs) as
+  /// larger than this many bytes: no buffer is allocated for it, it is marked
+  /// irrelevant (acknowledged like a GAP, never requested again), dropped, and
+  /// counted in `oversized_samples`. `None`: any size up to 4 GiB (upstream
+  /// behaviour, which allocates the announced size at the first fragment).
+  pub max_sample_size: Option<usize>,
+  /// Samples dropped by `max_sample_size`, by every reader of the participant
+  /// (keep a clone of the `Arc` to read it).
+  pub oversized_samples: Arc<atomic::AtomicU64>,
 }
 
 /// Builder object to create a [`DomainParticipant`] with non-default

@@ -150,6 +150,9 @@ pub(crate) struct Reader {
   // ParticipantTuning::acknowledge_data_within, and its state per writer.
   acknowledge_data_within: Option<StdDuration>,
   data_acks: BTreeMap<GUID, DataAck>,
+  // ParticipantTuning::max_sample_size and oversized_samples.
+  max_sample_size: Option<usize>,
+  oversized_samples: Arc<std::sync::atomic::AtomicU64>,
   matched_writers: BTreeMap<GUID, RtpsWriterProxy>,
   writer_match_count_total: i32, // total count, never decreases
 
@@ -219,6 +222,8 @@ impl Reader {
       last_fragment_garbage_collect: Timestamp::now(),
       acknowledge_data_within: None,
       data_acks: BTreeMap::new(),
+      max_sample_size: None,
+      oversized_samples: Arc::default(),
       matched_writers: BTreeMap::new(),
       writer_match_count_total: 0,
       requested_deadline_missed_count: 0,
@@ -357,6 +362,8 @@ impl Reader {
 
   pub(crate) fn set_tuning(&mut self, tuning: &crate::dds::participant::ParticipantTuning) {
     self.acknowledge_data_within = tuning.acknowledge_data_within;
+    self.max_sample_size = tuning.max_sample_size;
+    self.oversized_samples = Arc::clone(&tuning.oversized_samples);
   }
 
   // New data from a matched writer: acknowledge it now, or, if this reader did so
@@ -726,6 +733,33 @@ impl Reader {
         })
     {
       write_options_b = write_options_b.related_sample_identity(related_sample_identity);
+    }
+
+    // A sample over max_sample_size is not assembled: marked irrelevant (so
+    // acknowledged, never requested again) and counted once.
+    if let Some(max) = self.max_sample_size {
+      if usize::try_from(datafrag.data_size).map_or(true, |size| size > max) {
+        let first_seen = self
+          .matched_writer_mut(writer_guid)
+          .is_some_and(|writer_proxy| {
+            let first = !writer_proxy.should_ignore_change(seq_num);
+            if first {
+              writer_proxy.set_irrelevant_change(seq_num);
+            }
+            first
+          });
+        if first_seen {
+          self
+            .oversized_samples
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+          warn!(
+            "Dropping sample {seq_num:?} of {} bytes from {writer_guid:?} on topic {:?}: over \
+             the limit of {max} bytes",
+            datafrag.data_size, self.topic_name
+          );
+        }
+        return;
+      }
     }
 
     // Feed to fragment assembler ...
