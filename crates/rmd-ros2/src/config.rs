@@ -35,6 +35,34 @@ impl Default for TopicNames {
     }
 }
 
+/// Bounds on what one inbound message may carry. Each string and array is measured while the
+/// message is decoded, before anything of it is copied; a message over a limit is rejected
+/// whole (`oversized`) with a short excerpt. The DDS layer does not reassemble a sample larger
+/// than `max_sample_bytes` at all (it is acknowledged, dropped and counted as `oversized`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct InputLimits {
+    /// The longest string (joint name, frame id), in bytes (default 256).
+    pub max_string_bytes: usize,
+    /// The most names or values in one array (default 1024).
+    pub max_array_len: usize,
+    /// The most points in one trajectory (default 10 000).
+    pub max_points: usize,
+    /// The largest sample, in bytes (default 4 MiB: 10 000 points of 16 joints with
+    /// positions, velocities and accelerations fit).
+    pub max_sample_bytes: usize,
+}
+
+impl Default for InputLimits {
+    fn default() -> Self {
+        InputLimits {
+            max_string_bytes: 256,
+            max_array_len: 1024,
+            max_points: 10_000,
+            max_sample_bytes: 4 << 20,
+        }
+    }
+}
+
 /// Everything the node can be told.
 ///
 /// ```
@@ -75,6 +103,8 @@ pub struct NodeConfig {
     /// it a writer that attaches no HEARTBEAT to its data (eProsima Fast DDS with a history
     /// not full) hears of its samples' delivery only at its next periodic HEARTBEAT (3 s).
     pub acknowledge_within: Duration,
+    /// Bounds on inbound messages.
+    pub input_limits: InputLimits,
 }
 
 impl Default for NodeConfig {
@@ -89,6 +119,7 @@ impl Default for NodeConfig {
             topics: TopicNames::default(),
             network: None,
             acknowledge_within: Duration::from_millis(100),
+            input_limits: InputLimits::default(),
         }
     }
 }
@@ -114,6 +145,9 @@ pub enum ConfigError {
     /// A zero diagnostics period.
     #[error("the diagnostics period must be positive")]
     BadDiagnosticsPeriod,
+    /// An input limit of zero.
+    #[error("input limit {0} must be positive")]
+    ZeroInputLimit(&'static str),
     /// An IPv6 network address (the DDS layer binds IPv4 sockets only).
     #[error(
         "network address {0} is IPv6: DDS here runs over IPv4 only; give an IPv4 address (127.0.0.1 for this host only)"
@@ -156,6 +190,17 @@ impl NodeConfig {
         }
         if self.acknowledge_within.is_zero() {
             return Err(ConfigError::BadAcknowledgePeriod);
+        }
+        let l = &self.input_limits;
+        for (value, name) in [
+            (l.max_string_bytes, "max_string_bytes"),
+            (l.max_array_len, "max_array_len"),
+            (l.max_points, "max_points"),
+            (l.max_sample_bytes, "max_sample_bytes"),
+        ] {
+            if value == 0 {
+                return Err(ConfigError::ZeroInputLimit(name));
+            }
         }
         if let Some(address) = self.network {
             check_local(address)?;
