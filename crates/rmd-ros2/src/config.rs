@@ -366,7 +366,10 @@ mod tests {
             matches!(err, ConfigError::NotLocal { address, .. } if address.to_string() == "192.0.2.1"),
             "{err:?}"
         );
-        assert!(err.to_string().contains("not an address of this host"), "{err}");
+        assert!(
+            err.to_string().contains("not an address of this host"),
+            "{err}"
+        );
         assert_eq!(
             with("::1"),
             Err(ConfigError::Ipv6Network("::1".parse().unwrap()))

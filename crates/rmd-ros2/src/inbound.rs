@@ -60,7 +60,9 @@ where
 {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let limits = InputLimits::default();
-        Bounded::<M>::new(&limits, "message").deserialize(d).map(Inbound)
+        Bounded::<M>::new(&limits, "message")
+            .deserialize(d)
+            .map(Inbound)
     }
 }
 
@@ -129,7 +131,12 @@ impl<'a, T> Bounded<'a, T> {
 }
 
 /// The next field of a struct decoded as a tuple; a missing one is a decoding error.
-fn field<'de, A, S>(seq: &mut A, seed: S, index: usize, of: &'static str) -> Result<S::Value, A::Error>
+fn field<'de, A, S>(
+    seq: &mut A,
+    seed: S,
+    index: usize,
+    of: &'static str,
+) -> Result<S::Value, A::Error>
 where
     A: SeqAccess<'de>,
     S: DeserializeSeed<'de>,
@@ -282,8 +289,18 @@ impl<'de> Visitor<'de> for Bounded<'_, msg::Header> {
         f.write_str("std_msgs/Header")
     }
     fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
-        let stamp = take!(field(&mut seq, Plain::<msg::Time>(PhantomData), 0, "Header")?);
-        let frame_id = take!(field(&mut seq, self.field::<String>("frame_id"), 1, "Header")?);
+        let stamp = take!(field(
+            &mut seq,
+            Plain::<msg::Time>(PhantomData),
+            0,
+            "Header"
+        )?);
+        let frame_id = take!(field(
+            &mut seq,
+            self.field::<String>("frame_id"),
+            1,
+            "Header"
+        )?);
         Ok(Ok(msg::Header { stamp, frame_id }))
     }
 }
@@ -335,12 +352,7 @@ impl<'de> Visitor<'de> for Bounded<'_, msg::JointTrajectoryPoint> {
         let velocities = take!(field(&mut seq, self.numbers("velocities"), 1, OF)?);
         let accelerations = take!(field(&mut seq, self.numbers("accelerations"), 2, OF)?);
         let effort = take!(field(&mut seq, self.numbers("effort"), 3, OF)?);
-        let time_from_start = take!(field(
-            &mut seq,
-            Plain::<msg::Duration>(PhantomData),
-            4,
-            OF
-        )?);
+        let time_from_start = take!(field(&mut seq, Plain::<msg::Duration>(PhantomData), 4, OF)?);
         Ok(Ok(msg::JointTrajectoryPoint {
             positions,
             velocities,
@@ -488,7 +500,10 @@ mod tests {
         else {
             panic!()
         };
-        assert_eq!((what, excerpt.as_str()), ("frame_id", "é".repeat(16).as_str()));
+        assert_eq!(
+            (what, excerpt.as_str()),
+            ("frame_id", "é".repeat(16).as_str())
+        );
     }
 
     #[test]

@@ -7,14 +7,14 @@ use std::sync::mpsc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime};
 
-use ros2_client::dds::rustdds::{DomainParticipantBuilder, ParticipantTuning};
 use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
+use ros2_client::dds::rustdds::{DomainParticipantBuilder, ParticipantTuning};
 use ros2_client::dds::{Context, Node, Publisher, Subscription};
 use ros2_client::{MessageTypeName, Name, NodeOptions, QosProfile};
 use serde::Serialize;
 
-use crate::config::{ConfigError, NodeConfig};
 use crate::config::InputLimits;
+use crate::config::{ConfigError, NodeConfig};
 use crate::diagnostics::diagnostic_array;
 use crate::inbound::{Inbound, InboundSeed, excerpt};
 use crate::kind::RejectionKind;
@@ -468,7 +468,9 @@ impl<P: RobotPort> Worker<P> {
             let seed = InboundSeed::<msg::Bool>::new(&self.limits, "enable");
             match self.dds.enable.take_seed(seed) {
                 Ok(None) => return,
-                Ok(Some((Inbound(Err(o)), _))) => self.reject(RejectionKind::Oversized, format!("enable: {o}")),
+                Ok(Some((Inbound(Err(o)), _))) => {
+                    self.reject(RejectionKind::Oversized, format!("enable: {o}"))
+                }
                 Ok(Some((Inbound(Ok(m)), _))) => {
                     let enable = if m.data {
                         Enable::Enabled
