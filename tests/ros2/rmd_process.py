@@ -88,3 +88,13 @@ class Rmd:
         if self.proc.poll() is None:
             self.proc.kill()
             self.proc.communicate()
+
+
+def module_node(namespace, domain):
+    """A test module's `rmd ros2` (for a module-scoped fixture: `yield from`), killed at the
+    end."""
+    r = Rmd(namespace=namespace, domain=domain)
+    try:
+        yield r
+    finally:
+        r.kill()

@@ -24,7 +24,7 @@ import time
 
 import pytest
 
-from rmd_process import JOINTS, TOL, Rmd, wait_until
+from rmd_process import JOINTS, TOL, Rmd, module_node, wait_until
 
 DOMAIN = 8
 NS = "/rmd_fast"
@@ -114,9 +114,7 @@ class FastDdsPeer:
 
 @pytest.fixture(scope="module")
 def rmd():
-    r = Rmd(namespace=NS, domain=DOMAIN)
-    yield r
-    r.kill()
+    yield from module_node(NS, DOMAIN)
 
 
 @pytest.fixture(scope="module")

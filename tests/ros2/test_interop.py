@@ -23,7 +23,8 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from rmd_process import JOINTS, REJECTION_KINDS, TIMEOUT, TOL, Rmd, wait_until
+from rmd_process import (JOINTS, REJECTION_KINDS, TIMEOUT, TOL, Rmd, module_node,
+                         wait_until)
 from ros2_types import (
     NotAJointState,
     Bool,
@@ -131,9 +132,7 @@ def values(status):
 
 @pytest.fixture(scope="module")
 def rmd():
-    r = Rmd(namespace=NS, domain=DOMAIN)
-    yield r
-    r.kill()
+    yield from module_node(NS, DOMAIN)
 
 
 @pytest.fixture(scope="module")
