@@ -1,4 +1,5 @@
-//! The node's configuration: names, domain, rates, networks, and how commands are read.
+//! The node's configuration: names, domain, rates, the network, input limits, and how commands
+//! are read.
 
 use std::net::IpAddr;
 use std::time::Duration;
