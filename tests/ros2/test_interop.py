@@ -11,11 +11,7 @@ report and the node's counters. No timing is asserted beyond generous timeouts a
 rate band.
 """
 
-import json
 import math
-import os
-import signal
-import subprocess
 import threading
 import time
 
@@ -27,6 +23,8 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
+from rmd_process import (JOINTS, REJECTION_KINDS, TIMEOUT, TOL, Rmd, module_node,
+                         wait_until)
 from ros2_types import (
     NotAJointState,
     Bool,
@@ -40,75 +38,6 @@ from ros2_types import (
 DOMAIN = 7
 NS = "/rmd_test"
 NODE = f"{NS}/rmd_rt"
-JOINTS = ["hip_aa", "hip_fe", "knee", "ankle"]
-ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
-ROBOT = os.path.join(ROOT, "examples", "robots", "leg4.toml")
-SERVO = os.path.join(ROOT, "tests", "ros2", "leg4_servo.toml")
-TIMEOUT = 30.0
-# How close a joint must come to a commanded position (the servo's PD on an unloaded simulated
-# joint settles far closer; this leaves room for a loaded machine).
-TOL = 0.01
-REJECTION_KINDS = ["unknown_joint", "not_finite", "out_of_limit", "length_mismatch", "empty",
-                   "duplicate_joint", "bad_time", "unsupported", "infeasible", "malformed",
-                   "port_refused"]
-
-
-# The `rmd ros2` processes running now: a wait fails at once, with their report, when one ended
-# before its time.
-RUNNING = []
-
-
-def wait_until(what, predicate, timeout=TIMEOUT, poll=0.02):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        for r in RUNNING:
-            if r.proc.poll() is not None:
-                code, report, err = r.wait()
-                raise AssertionError(
-                    f"rmd ros2 ended (exit {code}) while waiting for {what}: "
-                    f"{report and report.get('stop_reason')}\n{err}")
-        time.sleep(poll)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
-
-
-class Rmd:
-    """`rmd ros2` as a process: the report comes as JSON on stdout when it ends."""
-
-    def __init__(self, *extra):
-        binary = os.environ["RMD_BIN"]
-        self.proc = subprocess.Popen(
-            [binary, "ros2", "--robot", ROBOT, "--sim", "--servo", SERVO,
-             "--namespace", NS, "--domain-id", str(DOMAIN), "--network", "127.0.0.1",
-             "--diagnostics-period", "300ms", "--json", *extra],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        self.result = None
-        RUNNING.append(self)
-
-    def wait(self):
-        """The exit code, the report and stderr, once the process ended by itself."""
-        if self.result is None:
-            if self in RUNNING:
-                RUNNING.remove(self)
-            out, err = self.proc.communicate(timeout=TIMEOUT)
-            report = json.loads(out) if out.strip() else None
-            self.result = (self.proc.returncode, report, err)
-        return self.result
-
-    def interrupt(self):
-        """Ctrl-C: the loop stops (zero torque, motor off), the node says goodbye."""
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-        return self.wait()
-
-    def kill(self):
-        if self in RUNNING:
-            RUNNING.remove(self)
-        if self.proc.poll() is None:
-            self.proc.kill()
-            self.proc.communicate()
 
 
 class Ros2Peer:
@@ -203,9 +132,7 @@ def values(status):
 
 @pytest.fixture(scope="module")
 def rmd():
-    r = Rmd()
-    yield r
-    r.kill()
+    yield from module_node(NS, DOMAIN)
 
 
 @pytest.fixture(scope="module")
@@ -429,6 +356,42 @@ def test_bad_messages_are_counted_and_move_nothing(peer):
         assert abs(b - a) < TOL, (before.position, after.position)
 
 
+def test_oversized_input_is_refused_bounded_and_echoed_only_in_part(peer, rmd):
+    """A joint name of 100 kB (refused while decoding, a 32-byte excerpt in diagnostics) and
+    one of 10 MB (dropped unread by DDS, over the node's 4 MiB sample limit): the node's memory
+    stays put, diagnostics keep coming, nothing moves, and commands work after."""
+    before = peer.fresh_state()
+    c0 = peer.counters(peer.fresh_diag())
+    oversized0 = int(c0.get("rejected_oversized", "0"))
+    rss0 = rmd.rss_kib()
+    peer.commands.write(JointState(name=["knee" + "x" * 100_000], position=[0.5]))
+    c = wait_until("the 100 kB name counted as oversized", lambda: (
+        (c := peer.counters()) is not None
+        and int(c.get("rejected_oversized", "0")) > oversized0 and c))
+    last = c["last_rejection"]
+    assert "name of 100004 bytes" in last and 'begins "knee' in last, last
+    assert len(last) < 300, len(last)
+    peer.commands.write(JointState(name=["a" * 10_000_000], position=[0.5]))
+    c = wait_until("the 10 MB name counted as oversized", lambda: (
+        (c := peer.counters()) is not None
+        and int(c["rejected_oversized"]) > oversized0 + 1 and c))
+    assert "dropped unread" in c["last_rejection"], c["last_rejection"]
+    # Diagnostics keep coming, none carrying the bad text.
+    for _ in range(3):
+        d = peer.fresh_diag()
+        size = sum(len(kv.value) for s in d.status for kv in s.values)
+        size += sum(len(s.message) for s in d.status)
+        assert size < 20_000, size
+    # The node holds no copy of it (it grew by ~60 MB a second when it echoed it).
+    grown_mib = (rmd.rss_kib() - rss0) / 1024
+    assert grown_mib < 30, f"rmd ros2 grew by {grown_mib:.0f} MiB"
+    after = peer.fresh_state()
+    for b, a in zip(before.position, after.position):
+        assert abs(b - a) < TOL, (before.position, after.position)
+    peer.commands.write(JointState(name=["knee"], position=[1.1]))
+    peer.wait_position("knee", 1.1)
+
+
 def test_estop_stops_the_robot_and_refuses_commands_until_enabled(peer):
     c0 = peer.counters(peer.fresh_diag())
     peer.enable.write(Bool(data=False))
@@ -474,7 +437,7 @@ def test_ctrl_c_ends_the_run_with_the_report_and_a_last_word(peer, rmd):
 
 
 def test_estop_can_end_the_run_when_asked_to():
-    r = Rmd("--estop-ends-run", "--seconds", "60")
+    r = Rmd("--estop-ends-run", "--seconds", "60", namespace=NS, domain=DOMAIN)
     try:
         p = Ros2Peer()
         p.wait_matched()

@@ -113,5 +113,5 @@ fn a_short_run_reports_the_loop_and_the_nodes_counters() {
     );
     assert_eq!(ros2["publish_errors"], 0);
     assert_eq!(ros2["rejected_total"], 0);
-    assert_eq!(ros2["rejected"].as_object().unwrap().len(), 11, "{ros2}");
+    assert_eq!(ros2["rejected"].as_object().unwrap().len(), 12, "{ros2}");
 }

@@ -42,9 +42,10 @@ struct Args {
     /// Stop after this many seconds (0: run until Ctrl-C).
     #[arg(long, default_value_t = 0.0)]
     seconds: f64,
-    /// Use only the interface with this address (repeatable), e.g. 127.0.0.1.
+    /// Use only the interface with this address, e.g. 127.0.0.1 (bound: nothing from other
+    /// interfaces reaches the node).
     #[arg(long)]
-    network: Vec<IpAddr>,
+    network: Option<IpAddr>,
     /// Start in emergency stop (publish true on `enable` to enable).
     #[arg(long)]
     estopped: bool,
@@ -59,7 +60,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         namespace: args.namespace,
         domain_id: args.domain_id,
         joint_state_rate_hz: args.rate_hz,
-        networks: args.network,
+        network: args.network,
         command_mode: match args.command_mode {
             Mode::Auto => CommandMode::Auto,
             Mode::Position => CommandMode::Position,

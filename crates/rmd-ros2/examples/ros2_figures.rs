@@ -183,7 +183,7 @@ fn command_latency(domain: u16, count: u32) {
         NodeConfig {
             namespace: "/figures".into(),
             domain_id: domain,
-            networks: vec![LOOPBACK],
+            network: Some(LOOPBACK),
             ..NodeConfig::default()
         },
         port,

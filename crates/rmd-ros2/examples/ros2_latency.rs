@@ -310,7 +310,7 @@ fn phase_on(robot: &Robot, args: &Args, domain: u16, round: u32) -> Phase {
         NodeConfig {
             namespace: ns.clone(),
             domain_id: domain,
-            networks: vec![LOOPBACK],
+            network: Some(LOOPBACK),
             ..NodeConfig::default()
         },
         port,

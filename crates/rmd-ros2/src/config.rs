@@ -1,4 +1,5 @@
-//! The node's configuration: names, domain, rates, networks, and how commands are read.
+//! The node's configuration: names, domain, rates, the network, input limits, and how commands
+//! are read.
 
 use std::net::IpAddr;
 use std::time::Duration;
@@ -35,6 +36,34 @@ impl Default for TopicNames {
     }
 }
 
+/// Bounds on what one inbound message may carry. Each string and array is measured while the
+/// message is decoded, before anything of it is copied; a message over a limit is rejected
+/// whole (`oversized`) with a short excerpt. The DDS layer does not reassemble a sample larger
+/// than `max_sample_bytes` at all (it is acknowledged, dropped and counted as `oversized`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct InputLimits {
+    /// The longest string (joint name, frame id), in bytes (default 256).
+    pub max_string_bytes: usize,
+    /// The most names or values in one array (default 1024).
+    pub max_array_len: usize,
+    /// The most points in one trajectory (default 10 000).
+    pub max_points: usize,
+    /// The largest sample, in bytes (default 4 MiB: 10 000 points of 16 joints with
+    /// positions, velocities and accelerations fit).
+    pub max_sample_bytes: usize,
+}
+
+impl Default for InputLimits {
+    fn default() -> Self {
+        InputLimits {
+            max_string_bytes: 256,
+            max_array_len: 1024,
+            max_points: 10_000,
+            max_sample_bytes: 4 << 20,
+        }
+    }
+}
+
 /// Everything the node can be told.
 ///
 /// ```
@@ -63,9 +92,20 @@ pub struct NodeConfig {
     pub command_mode: CommandMode,
     /// Topic names.
     pub topics: TopicNames,
-    /// Restrict DDS to the interfaces with these addresses (empty: all interfaces), e.g.
-    /// `127.0.0.1` to stay on loopback.
-    pub networks: Vec<IpAddr>,
+    /// DDS only on the interface with this IPv4 address (default: every interface), e.g.
+    /// `127.0.0.1` for this host only: every socket of the node is bound to it (multicast
+    /// listeners to their group, joined on that interface only), so datagrams that reach the
+    /// host by another interface reach none of them. It must be an address of one of the
+    /// host's interfaces.
+    pub network: Option<IpAddr>,
+    /// How soon the node acknowledges a reliable writer's samples by itself (default 100 ms):
+    /// at once when it has not acknowledged that writer within this period, else at the end
+    /// of the period, so at most one ACKNACK per writer per period whatever the rate. Without
+    /// it a writer that attaches no HEARTBEAT to its data (eProsima Fast DDS with a history
+    /// not full) hears of its samples' delivery only at its next periodic HEARTBEAT (3 s).
+    pub acknowledge_within: Duration,
+    /// Bounds on inbound messages.
+    pub input_limits: InputLimits,
 }
 
 impl Default for NodeConfig {
@@ -78,7 +118,9 @@ impl Default for NodeConfig {
             diagnostics_period: Duration::from_secs(1),
             command_mode: CommandMode::Auto,
             topics: TopicNames::default(),
-            networks: Vec::new(),
+            network: None,
+            acknowledge_within: Duration::from_millis(100),
+            input_limits: InputLimits::default(),
         }
     }
 }
@@ -104,6 +146,27 @@ pub enum ConfigError {
     /// A zero diagnostics period.
     #[error("the diagnostics period must be positive")]
     BadDiagnosticsPeriod,
+    /// An input limit of zero.
+    #[error("input limit {0} must be positive")]
+    ZeroInputLimit(&'static str),
+    /// An IPv6 network address (the DDS layer binds IPv4 sockets only).
+    #[error(
+        "network address {0} is IPv6: DDS here runs over IPv4 only; give an IPv4 address (127.0.0.1 for this host only)"
+    )]
+    Ipv6Network(IpAddr),
+    /// A network address on none of the host's interfaces.
+    #[error(
+        "network address {address} is not an address of this host ({reason}): give one that `ip -4 addr` lists (127.0.0.1 for this host only)"
+    )]
+    NotLocal {
+        /// The address given.
+        address: IpAddr,
+        /// Why it cannot be bound.
+        reason: String,
+    },
+    /// A zero acknowledgement period.
+    #[error("the acknowledgement period must be positive")]
+    BadAcknowledgePeriod,
 }
 
 impl NodeConfig {
@@ -125,6 +188,23 @@ impl NodeConfig {
         }
         if self.diagnostics_period.is_zero() {
             return Err(ConfigError::BadDiagnosticsPeriod);
+        }
+        if self.acknowledge_within.is_zero() {
+            return Err(ConfigError::BadAcknowledgePeriod);
+        }
+        let l = &self.input_limits;
+        for (value, name) in [
+            (l.max_string_bytes, "max_string_bytes"),
+            (l.max_array_len, "max_array_len"),
+            (l.max_points, "max_points"),
+            (l.max_sample_bytes, "max_sample_bytes"),
+        ] {
+            if value == 0 {
+                return Err(ConfigError::ZeroInputLimit(name));
+            }
+        }
+        if let Some(address) = self.network {
+            check_local(address)?;
         }
         self.node_name()?;
         let t = &self.topics;
@@ -171,6 +251,19 @@ impl NodeConfig {
             Err(ConfigError::BadTopic(topic.to_owned()))
         }
     }
+}
+
+/// The address is IPv4 and one of this host's: a UDP socket can be bound to it.
+fn check_local(address: IpAddr) -> Result<(), ConfigError> {
+    if address.is_ipv6() {
+        return Err(ConfigError::Ipv6Network(address));
+    }
+    std::net::UdpSocket::bind((address, 0))
+        .map(drop)
+        .map_err(|e| ConfigError::NotLocal {
+            address,
+            reason: e.to_string(),
+        })
 }
 
 /// One component of a ROS 2 name: a letter or `_` first, then letters, digits, single `_`s.
@@ -251,6 +344,36 @@ mod tests {
         assert_eq!(
             with(&|c| c.topics.enable = "e-stop".into()),
             Err(ConfigError::BadTopic("e-stop".into()))
+        );
+        assert_eq!(
+            with(&|c| c.acknowledge_within = Duration::ZERO),
+            Err(ConfigError::BadAcknowledgePeriod)
+        );
+    }
+
+    #[test]
+    fn the_network_must_be_an_ipv4_address_of_this_host() {
+        let with = |a: &str| {
+            NodeConfig {
+                network: Some(a.parse().unwrap()),
+                ..NodeConfig::default()
+            }
+            .check()
+        };
+        assert_eq!(with("127.0.0.1"), Ok(()));
+        // TEST-NET-1 (RFC 5737): never an address of a host. Only bound to, never sent to.
+        let err = with("192.0.2.1").unwrap_err();
+        assert!(
+            matches!(err, ConfigError::NotLocal { address, .. } if address.to_string() == "192.0.2.1"),
+            "{err:?}"
+        );
+        assert!(
+            err.to_string().contains("not an address of this host"),
+            "{err}"
+        );
+        assert_eq!(
+            with("::1"),
+            Err(ConfigError::Ipv6Network("::1".parse().unwrap()))
         );
     }
 }

@@ -30,11 +30,15 @@ pub enum RejectionKind {
     Malformed,
     /// A valid input the port refused ([`crate::PortError`]).
     PortRefused,
+    /// A sample over the node's [`crate::InputLimits`]: a string or array too long (refused
+    /// while decoding, [`crate::Oversize`]), or a sample too large (dropped by the DDS layer
+    /// before it was reassembled).
+    Oversized,
 }
 
 impl RejectionKind {
     /// Every kind, in a fixed order (the order of [`crate::NodeStats::rejections`]).
-    pub const ALL: [RejectionKind; 11] = [
+    pub const ALL: [RejectionKind; 12] = [
         RejectionKind::Empty,
         RejectionKind::UnknownJoint,
         RejectionKind::DuplicateJoint,
@@ -46,6 +50,7 @@ impl RejectionKind {
         RejectionKind::Infeasible,
         RejectionKind::Malformed,
         RejectionKind::PortRefused,
+        RejectionKind::Oversized,
     ];
 
     /// A short snake_case name (the key in diagnostics).
@@ -62,6 +67,7 @@ impl RejectionKind {
             RejectionKind::Infeasible => "infeasible",
             RejectionKind::Malformed => "malformed",
             RejectionKind::PortRefused => "port_refused",
+            RejectionKind::Oversized => "oversized",
         }
     }
 

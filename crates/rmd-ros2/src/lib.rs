@@ -39,6 +39,7 @@ mod config;
 pub mod diagnostics;
 #[cfg(feature = "fake-robot")]
 pub mod fake;
+mod inbound;
 mod kind;
 pub mod msg;
 mod node;
@@ -48,7 +49,8 @@ pub mod servo;
 mod stats;
 mod validate;
 
-pub use config::{ConfigError, NodeConfig, TopicNames};
+pub use config::{ConfigError, InputLimits, NodeConfig, TopicNames};
+pub use inbound::Oversize;
 pub use kind::RejectionKind;
 pub use node::{DdsNames, NodeError, Ros2Node};
 pub use port::{

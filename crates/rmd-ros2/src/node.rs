@@ -2,20 +2,21 @@
 //! hands it validated commands.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime};
 
-use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
+use ros2_client::dds::rustdds::{DomainParticipantBuilder, ParticipantTuning};
 use ros2_client::dds::{Context, Node, Publisher, Subscription};
 use ros2_client::{MessageTypeName, Name, NodeOptions, QosProfile};
 use serde::Serialize;
-use serde::de::DeserializeOwned;
 
+use crate::config::InputLimits;
 use crate::config::{ConfigError, NodeConfig};
 use crate::diagnostics::diagnostic_array;
+use crate::inbound::{Inbound, InboundSeed, excerpt};
 use crate::kind::RejectionKind;
 use crate::msg::{self, RosMessage};
 use crate::port::{Enable, RobotPort};
@@ -200,6 +201,10 @@ const FINAL_LINGER: Duration = Duration::from_millis(100);
 /// starve publishing.
 const MAX_TAKES_PER_WAKE: usize = 256;
 
+/// The longest rejection text kept for diagnostics, in bytes: a rejection never republishes
+/// more of a bad message than this.
+const MAX_REJECTION_TEXT: usize = 400;
+
 /// The DDS entities of the node.
 struct Dds {
     // Keeps the participant and the ROS graph entry alive.
@@ -207,10 +212,12 @@ struct Dds {
     fqn: String,
     joint_states: Publisher<msg::JointState>,
     diagnostics: Publisher<msg::DiagnosticArray>,
-    commands: Subscription<msg::JointState>,
-    trajectory: Subscription<msg::JointTrajectory>,
-    enable: Subscription<msg::Bool>,
+    commands: Subscription<Inbound<msg::JointState>>,
+    trajectory: Subscription<Inbound<msg::JointTrajectory>>,
+    enable: Subscription<Inbound<msg::Bool>>,
     poll: Poll,
+    // Samples the DDS layer dropped as larger than InputLimits::max_sample_bytes.
+    oversized_samples: Arc<AtomicU64>,
 }
 
 fn topic<M: RosMessage>(
@@ -236,12 +243,14 @@ fn publisher<M: RosMessage + Serialize>(
         .map_err(|e| dds_error(format!("publisher {name}"))(&e))
 }
 
-fn subscription<M: RosMessage + DeserializeOwned + 'static>(
+/// A subscription whose samples are decoded within the input limits (`take_seed` with an
+/// [`InboundSeed`]).
+fn subscription<M: RosMessage + 'static>(
     node: &mut Node,
     config: &NodeConfig,
     name: &str,
     qos: QosProfile,
-) -> Result<Subscription<M>, NodeError> {
+) -> Result<Subscription<Inbound<M>>, NodeError> {
     let t = topic::<M>(node, config, name, &qos)?;
     node.create_subscription(&t, Some(qos))
         .map_err(|e| dds_error(format!("subscription {name}"))(&e))
@@ -249,11 +258,14 @@ fn subscription<M: RosMessage + DeserializeOwned + 'static>(
 
 impl Dds {
     fn open<P: RobotPort>(config: &NodeConfig, _port: &P) -> Result<Self, NodeError> {
-        let mut builder = DomainParticipantBuilder::new(config.domain_id);
-        if !config.networks.is_empty() {
-            builder = builder.with_only_networks(config.networks.iter().copied());
-        }
-        let participant = builder
+        let oversized_samples = Arc::new(AtomicU64::new(0));
+        let participant = DomainParticipantBuilder::new(config.domain_id)
+            .tuning(ParticipantTuning {
+                acknowledge_data_within: Some(config.acknowledge_within),
+                bind_address: config.network,
+                max_sample_size: Some(config.input_limits.max_sample_bytes),
+                oversized_samples: Arc::clone(&oversized_samples),
+            })
             .build()
             .map_err(|e| dds_error("domain participant")(&e))?;
         let context = Context::from_domain_participant(participant)
@@ -290,6 +302,7 @@ impl Dds {
             trajectory,
             enable,
             poll,
+            oversized_samples,
         })
     }
 }
@@ -302,6 +315,9 @@ struct Worker<P> {
     counters: Arc<Counters>,
     names: Vec<String>,
     last_rejection: Option<String>,
+    limits: InputLimits,
+    // How many of the DDS layer's oversized samples are counted already.
+    oversized_seen: u64,
 }
 
 impl<P: RobotPort> Worker<P> {
@@ -315,6 +331,8 @@ impl<P: RobotPort> Worker<P> {
             counters,
             names,
             last_rejection: None,
+            limits: config.input_limits,
+            oversized_seen: 0,
         }
     }
 
@@ -361,6 +379,7 @@ impl<P: RobotPort> Worker<P> {
             if e {
                 self.take_enables();
             }
+            self.count_dropped_samples();
             let now = Instant::now();
             if now >= next_js {
                 self.publish_joint_state();
@@ -380,14 +399,39 @@ impl<P: RobotPort> Worker<P> {
 
     fn reject(&mut self, kind: RejectionKind, text: String) {
         self.counters.rejected(kind);
+        let mut text = text;
+        if text.len() > MAX_REJECTION_TEXT {
+            text = format!("{}...", excerpt(&text, MAX_REJECTION_TEXT));
+        }
         self.last_rejection = Some(text);
+    }
+
+    /// Counts the samples the DDS layer dropped as too large since the last call.
+    fn count_dropped_samples(&mut self) {
+        let dropped = self.dds.oversized_samples.load(Ordering::Relaxed);
+        if dropped > self.oversized_seen {
+            let limit = self.limits.max_sample_bytes;
+            for _ in self.oversized_seen..dropped {
+                self.reject(
+                    RejectionKind::Oversized,
+                    format!(
+                        "a sample larger than the node's limit of {limit} bytes was dropped unread by DDS"
+                    ),
+                );
+            }
+            self.oversized_seen = dropped;
+        }
     }
 
     fn take_commands(&mut self) {
         for _ in 0..MAX_TAKES_PER_WAKE {
-            match self.dds.commands.take() {
+            let seed = InboundSeed::<msg::JointState>::new(&self.limits, "joint_commands");
+            match self.dds.commands.take_seed(seed) {
                 Ok(None) => return,
-                Ok(Some((m, _))) => match self.validator.joint_command(&m) {
+                Ok(Some((Inbound(Err(o)), _))) => {
+                    self.reject(RejectionKind::Oversized, format!("joint_commands: {o}"))
+                }
+                Ok(Some((Inbound(Ok(m)), _))) => match self.validator.joint_command(&m) {
                     Ok(s) => match self.port.send_setpoints(&s) {
                         Ok(()) => self.counters.accepted(Input::JointCommands),
                         Err(e) => self.reject(e.kind(), format!("joint_commands: {e}")),
@@ -401,9 +445,13 @@ impl<P: RobotPort> Worker<P> {
 
     fn take_trajectories(&mut self) {
         for _ in 0..MAX_TAKES_PER_WAKE {
-            match self.dds.trajectory.take() {
+            let seed = InboundSeed::<msg::JointTrajectory>::new(&self.limits, "joint_trajectory");
+            match self.dds.trajectory.take_seed(seed) {
                 Ok(None) => return,
-                Ok(Some((m, _))) => match self.validator.trajectory(&m) {
+                Ok(Some((Inbound(Err(o)), _))) => {
+                    self.reject(RejectionKind::Oversized, format!("joint_trajectory: {o}"))
+                }
+                Ok(Some((Inbound(Ok(m)), _))) => match self.validator.trajectory(&m) {
                     Ok(t) => match self.port.send_trajectory(&t) {
                         Ok(()) => self.counters.accepted(Input::JointTrajectory),
                         Err(e) => self.reject(e.kind(), format!("joint_trajectory: {e}")),
@@ -417,9 +465,13 @@ impl<P: RobotPort> Worker<P> {
 
     fn take_enables(&mut self) {
         for _ in 0..MAX_TAKES_PER_WAKE {
-            match self.dds.enable.take() {
+            let seed = InboundSeed::<msg::Bool>::new(&self.limits, "enable");
+            match self.dds.enable.take_seed(seed) {
                 Ok(None) => return,
-                Ok(Some((m, _))) => {
+                Ok(Some((Inbound(Err(o)), _))) => {
+                    self.reject(RejectionKind::Oversized, format!("enable: {o}"))
+                }
+                Ok(Some((Inbound(Ok(m)), _))) => {
                     let enable = if m.data {
                         Enable::Enabled
                     } else {

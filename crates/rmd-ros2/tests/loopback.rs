@@ -44,7 +44,7 @@ fn node_publishes_takes_commands_and_rejects_bad_ones() {
             domain_id: domain,
             joint_state_rate_hz: 200.0,
             diagnostics_period: Duration::from_millis(200),
-            networks: vec![common::LOOPBACK],
+            network: Some(common::LOOPBACK),
             ..NodeConfig::default()
         },
         robot,
@@ -93,7 +93,7 @@ fn node_publishes_takes_commands_and_rejects_bad_ones() {
     let before = h.positions();
     let mut nan = command(&["knee"], &[f64::NAN]);
     nan.velocity = vec![];
-    let bad: [(msg::JointState, RejectionKind); 5] = [
+    let bad: [(msg::JointState, RejectionKind); 6] = [
         (command(&["elbow"], &[0.1]), RejectionKind::UnknownJoint),
         (nan, RejectionKind::NotFinite),
         (command(&["knee"], &[9.0]), RejectionKind::OutOfLimit),
@@ -102,6 +102,11 @@ fn node_publishes_takes_commands_and_rejects_bad_ones() {
             RejectionKind::LengthMismatch,
         ),
         (command(&[], &[]), RejectionKind::Empty),
+        // Over the node's 256-byte string limit: refused while decoding.
+        (
+            command(&[&"k".repeat(5000)], &[0.1]),
+            RejectionKind::Oversized,
+        ),
     ];
     for (m, kind) in bad {
         let n = node.stats().rejected(kind);
@@ -172,16 +177,26 @@ fn node_publishes_takes_commands_and_rejects_bad_ones() {
     wait_for("the knee at -0.25 rad", || near(&h, 1, -0.25));
 
     // Diagnostics carry the counters.
+    let mut with_counters = None;
     wait_for("diagnostics with the rejections", || {
-        latest(&diagnostics).is_some_and(|d| {
+        with_counters = latest(&diagnostics).filter(|d| {
             d.status.iter().any(|s| {
                 s.name == format!("{ns}/rmd_rt: ros2 inputs")
                     && s.values
                         .iter()
                         .any(|kv| kv.key == "rejected_unknown_joint" && kv.value == "1")
             })
-        })
+        });
+        with_counters.is_some()
     });
+    // The oversized name was echoed only in part.
+    let text: usize = with_counters
+        .unwrap()
+        .status
+        .iter()
+        .map(|s| s.message.len() + s.values.iter().map(|kv| kv.value.len()).sum::<usize>())
+        .sum();
+    assert!(text < 4000, "{text} bytes of diagnostics text");
     let s = node.stats();
     assert!(s.joint_states_published > 0 && s.diagnostics_published > 0);
     assert_eq!(s.publish_errors, 0);

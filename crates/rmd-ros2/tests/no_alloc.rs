@@ -7,7 +7,7 @@
 //! thread's allocations and frees (and only that thread's: DDS, the node and the planning of
 //! trajectories allocate on their own threads, which is allowed).
 //!
-//! DDS here: RustDDS restricted to 127.0.0.1 (`NodeConfig::networks`), a domain id of this
+//! DDS here: RustDDS restricted to 127.0.0.1 (`NodeConfig::network`), a domain id of this
 //! process's own; its discovery reaches same-host peers by unicast to the well-known local
 //! ports, so no network namespace is needed.
 //!
@@ -196,7 +196,7 @@ fn the_loop_thread_allocates_nothing_while_the_node_publishes_and_takes_commands
             domain_id: domain,
             joint_state_rate_hz: 500.0,
             diagnostics_period: Duration::from_millis(100),
-            networks: vec![LOOPBACK],
+            network: Some(LOOPBACK),
             ..NodeConfig::default()
         },
         port,

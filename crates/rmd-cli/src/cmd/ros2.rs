@@ -89,10 +89,11 @@ pub(crate) struct Ros2Args {
     /// How joint_commands become setpoints.
     #[arg(long, value_enum, default_value_t = Mode::Auto)]
     command_mode: Mode,
-    /// Use only the network interface with this address for DDS (repeatable), e.g. 127.0.0.1
-    /// for this host only. Default: every interface.
+    /// Use only the network interface with this IPv4 address for DDS, e.g. 127.0.0.1 for this
+    /// host only: every DDS socket is bound to it, so nothing arriving by another interface
+    /// reaches the node. It must be an address of this host. Default: every interface.
     #[arg(long = "network", value_name = "ADDR")]
-    networks: Vec<IpAddr>,
+    network: Option<IpAddr>,
     /// `false` on the enable topic ends the run (emergency stop, motors off) instead of
     /// disabling the servo (zero torque until `true`).
     #[arg(long)]
@@ -165,7 +166,7 @@ fn run_node(args: &Ros2Args) -> Result<ExitCode, CliError> {
             Mode::Velocity => CommandMode::Velocity,
             Mode::Effort => CommandMode::Effort,
         },
-        networks: args.networks.clone(),
+        network: args.network,
         ..NodeConfig::default()
     };
     node_config.check().map_err(usage)?;
