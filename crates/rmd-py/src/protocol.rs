@@ -17,7 +17,7 @@ use rmd_protocol::{
 };
 
 use crate::args;
-use crate::errors::ProtocolError;
+use crate::errors::{ProtocolError, guard};
 use crate::fields::Fields;
 
 /// Every command `encode` (and `Bus.request`) knows, as `rmd encode` names it.
@@ -251,11 +251,13 @@ pub(crate) fn encode(
     lk_series: Option<&str>,
     fields: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<String> {
-    let built = args::dialect(protocol, lk_series)
-        .and_then(|dialect| build_frame(command_name(command)?, id, fields, dialect));
-    built
-        .map(|frame| frame.to_string())
-        .map_err(ProtocolError::new_err)
+    guard(|| {
+        let built = args::dialect(protocol, lk_series)
+            .and_then(|dialect| build_frame(command_name(command)?, id, fields, dialect));
+        built
+            .map(|frame| frame.to_string())
+            .map_err(ProtocolError::new_err)
+    })
 }
 
 /// One candump line (any of candump's formats) read as `direction` (`"request"`, `"reply"`, or
@@ -265,6 +267,17 @@ pub(crate) fn encode(
 #[pyfunction]
 #[pyo3(signature = (line, direction="auto", protocol="v1.61", lk_series=None, encoder_bits=14))]
 pub(crate) fn decode<'py>(
+    py: Python<'py>,
+    line: &str,
+    direction: &str,
+    protocol: &str,
+    lk_series: Option<&str>,
+    encoder_bits: i64,
+) -> PyResult<Bound<'py, PyAny>> {
+    guard(|| decode_line(py, line, direction, protocol, lk_series, encoder_bits))
+}
+
+fn decode_line<'py>(
     py: Python<'py>,
     line: &str,
     direction: &str,

@@ -1,7 +1,7 @@
 //! `Robot`: a robot description, checked, and the start of its loop with the joint servo.
 
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -10,10 +10,15 @@ use rmd_rig::placement::Overrides;
 use rmd_rig::{PlacementDefault, Rig, sim};
 use rmd_servo::{ServoConfig, ServoController};
 
-use crate::errors::{ConfigError, LoopError};
+use crate::args;
+use crate::errors::{ConfigError, LoopError, guard};
 use crate::running::{LoopInner, RobotLoop};
 use crate::sim::SimBusView;
 use crate::telemetry::{TelemetryWorker, layout};
+use crate::wait::interruptible;
+
+/// The longest `start` waits for the loop's first state, s.
+const MAX_START_TIMEOUT_S: f64 = 600.0;
 
 /// A robot description (the TOML of `examples/robots/`), checked: its buses, joints and loop
 /// settings. `Robot.from_toml(path)`, then `start(...)` runs its loop.
@@ -44,22 +49,26 @@ impl Robot {
     /// Reads and checks the robot description at `path` (TOML).
     #[staticmethod]
     fn from_toml(path: PathBuf) -> PyResult<Self> {
-        let robot = rmd_loop::Robot::from_file(&path)
-            .map_err(|e| ConfigError::new_err(format!("{}: {e}", path.display())))?;
-        Ok(Self {
-            robot,
-            source: path.display().to_string(),
+        guard(|| {
+            let robot = rmd_loop::Robot::from_file(&path)
+                .map_err(|e| ConfigError::new_err(format!("{}: {e}", path.display())))?;
+            Ok(Self {
+                robot,
+                source: path.display().to_string(),
+            })
         })
     }
 
     /// Checks the robot description `text` (TOML).
     #[staticmethod]
     fn from_toml_str(text: &str) -> PyResult<Self> {
-        let robot =
-            rmd_loop::Robot::from_toml(text).map_err(|e| ConfigError::new_err(e.to_string()))?;
-        Ok(Self {
-            robot,
-            source: "<string>".to_owned(),
+        guard(|| {
+            let robot = rmd_loop::Robot::from_toml(text)
+                .map_err(|e| ConfigError::new_err(e.to_string()))?;
+            Ok(Self {
+                robot,
+                source: "<string>".to_owned(),
+            })
         })
     }
 
@@ -111,7 +120,8 @@ impl Robot {
     /// (TOML text) or `servo_file` (a path), else the defaults (docs/servo.md). `seed` seeds the
     /// simulator; `sim_initial_deg` (`{"knee": 55.0}`) powers simulated joints up elsewhere in
     /// their window. Raises `ConfigError` for a bad description, placement or servo file,
-    /// `LoopError` if the loop does not start within `start_timeout_s`.
+    /// `LoopError` if the loop does not start within `start_timeout_s` (0..=600 s). Ctrl-C while
+    /// it waits stops the loop (motors made safe) and raises `KeyboardInterrupt`.
     #[pyo3(signature = (
         sim=false, iface=None, virtual_time=false, servo_toml=None, servo_file=None, seed=1,
         sim_initial_deg=None, start_timeout_s=5.0
@@ -129,6 +139,46 @@ impl Robot {
         sim_initial_deg: Option<std::collections::HashMap<String, f64>>,
         start_timeout_s: f64,
     ) -> PyResult<RobotLoop> {
+        guard(|| {
+            self.start_loop(
+                py,
+                sim,
+                iface,
+                virtual_time,
+                servo_toml,
+                servo_file,
+                seed,
+                sim_initial_deg,
+                start_timeout_s,
+            )
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<rmd_rt.Robot {} joints={:?}>",
+            self.source,
+            self.joint_names()
+        )
+    }
+}
+
+impl Robot {
+    /// `start`'s body.
+    #[allow(clippy::too_many_arguments)]
+    fn start_loop(
+        &self,
+        py: Python<'_>,
+        sim: bool,
+        iface: Option<&Bound<'_, PyAny>>,
+        virtual_time: bool,
+        servo_toml: Option<&str>,
+        servo_file: Option<PathBuf>,
+        seed: u64,
+        sim_initial_deg: Option<std::collections::HashMap<String, f64>>,
+        start_timeout_s: f64,
+    ) -> PyResult<RobotLoop> {
+        let start_timeout = args::seconds("start_timeout_s", start_timeout_s, MAX_START_TIMEOUT_S)?;
         let robot = &self.robot;
         let overrides = Overrides {
             simulate: sim,
@@ -151,6 +201,7 @@ impl Robot {
         let mut sims = sim::sim_configs(robot, seed);
         sim::power_up_centred(robot, &mut sims);
         for (name, deg) in sim_initial_deg.unwrap_or_default() {
+            let deg = args::finite(&format!("sim_initial_deg[{name:?}]"), deg)?;
             let joint = robot
                 .joint(&name)
                 .map_err(|e| ConfigError::new_err(format!("sim_initial_deg: {e}")))?;
@@ -205,21 +256,33 @@ impl Robot {
             placement_text,
         );
         // Wait for the servo's first state, or the loop's end (the motors did not answer).
-        let give_up = Instant::now() + Duration::from_secs_f64(start_timeout_s.clamp(0.0, 600.0));
-        let started = py.detach(|| {
+        let give_up = Instant::now() + start_timeout;
+        let started = interruptible(py, |until| {
             loop {
                 if inner.servo().state().is_some() {
-                    return Ok(());
+                    return Some(Ok(()));
                 }
                 if !inner.is_running() {
-                    return Err(None);
+                    return Some(Err(None));
                 }
-                if Instant::now() >= give_up {
-                    return Err(Some(start_timeout_s));
+                let now = Instant::now();
+                if now >= give_up {
+                    return Some(Err(Some(start_timeout_s)));
                 }
-                std::thread::sleep(Duration::from_millis(1));
+                if now >= until {
+                    return None;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(1));
             }
         });
+        let started = match started {
+            Ok(started) => started,
+            Err(interrupt) => {
+                // Ctrl-C: the loop stops (its motors made safe) before the interrupt goes on.
+                py.detach(|| inner.stop());
+                return Err(interrupt);
+            }
+        };
         match started {
             Ok(()) => Ok(RobotLoop::new(inner)),
             Err(timeout) => {
@@ -232,20 +295,12 @@ impl Robot {
                     .unwrap_or_else(|| "no report".to_owned());
                 Err(LoopError::new_err(match timeout {
                     Some(s) => format!(
-                        "the loop did not start within {s} s (the servo published no state); \
+                        "the loop did not start within {s:?} s (the servo published no state); \
                          stopped: {why}"
                     ),
                     None => format!("the loop ended at start: {why}"),
                 }))
             }
         }
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "<rmd_rt.Robot {} joints={:?}>",
-            self.source,
-            self.joint_names()
-        )
     }
 }

@@ -11,6 +11,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use crate::process::Owner;
 use rmd_bus::Timestamp;
 use rmd_loop::{Freshness, Robot, TelemetryReceiver, TelemetrySample};
 use rmd_telemetry::{
@@ -65,6 +66,7 @@ pub(crate) struct SinkStatus {
 
 /// The telemetry thread of one loop and its switchable sinks.
 pub(crate) struct TelemetryWorker {
+    owner: Owner,
     control: Arc<Control>,
     thread: Option<JoinHandle<()>>,
 }
@@ -100,6 +102,7 @@ impl TelemetryWorker {
                 move || run(&samples, &control)
             })?;
         Ok(Self {
+            owner: Owner::here(),
             control,
             thread: Some(thread),
         })
@@ -185,7 +188,13 @@ impl TelemetryWorker {
 
 impl Drop for TelemetryWorker {
     fn drop(&mut self) {
-        self.finish();
+        if self.owner.is_here() {
+            self.finish();
+        } else {
+            // A forked child's copy: the thread and the sinks' threads are the parent's;
+            // joining them here would wait forever.
+            std::mem::forget(self.thread.take());
+        }
     }
 }
 

@@ -87,9 +87,9 @@ def test_setpoints_by_name_and_refusals(leg4):
         assert positions["knee"] == pytest.approx(1.3, abs=0.02)
         assert positions["ankle"] == pytest.approx(-0.2, abs=0.02)
         assert positions["hip_aa"] == pytest.approx(0.1, abs=0.02)
-        with pytest.raises(rmd_rt.ServoError, match="toe"):
+        with pytest.raises(rmd_rt.SetpointError, match="toe"):
             loop.set_position("toe", 0.0)
-        with pytest.raises(rmd_rt.ServoError, match="knee"):
+        with pytest.raises(rmd_rt.LimitError, match="knee"):
             loop.set_position("knee", 3.0)  # beyond position_max_rad
         with pytest.raises(rmd_rt.ServoError):
             loop.send_trajectory(["knee"], [0.5, 0.4], [[1.0], [1.1]])  # times not increasing
@@ -121,7 +121,7 @@ def test_estop_ends_the_loop_with_the_motors_off(leg4):
     assert "emergency stop" in reason or "estop" in reason, reason
     assert sim.all_safe()
     assert [m["mode"] for m in sim.motors()] == ["off"] * 4
-    with pytest.raises(rmd_rt.ServoError):
+    with pytest.raises(rmd_rt.LoopStoppedError):
         loop.set_position("knee", 1.0)
     assert loop.stop() == report  # the same report again
 
