@@ -615,24 +615,26 @@ impl RobotLoop {
         })
     }
 
-    /// Starts writing the telemetry to an MCAP file at `path` (every tick: joint states, motor
-    /// states, loop timing, the servo's signals, diagnostics; see docs/telemetry.md).
+    /// Starts writing the telemetry to an MCAP file at `path`: every tick from now on (joint
+    /// states, motor states, loop timing, the servo's signals, diagnostics; see
+    /// docs/telemetry.md).
     #[pyo3(signature = (path, compress=true))]
     fn record_mcap(&self, path: std::path::PathBuf, compress: bool) -> PyResult<()> {
         guard(|| {
             self.inner.running()?;
             self.telemetry()
-                .start_mcap(path, compress)
+                .start_mcap(path, compress, self.now_s())
                 .map_err(TelemetryError::new_err)
         })
     }
 
-    /// Stops the MCAP file (closed with its summary and index); its counts (`offered`,
-    /// `written`, `dropped`, `errors`, `first_error`), or None if none was being written.
+    /// Stops the MCAP file after every tick up to now (closed with its summary and index); its
+    /// counts (`offered`, `written`, `dropped`, `errors`, `first_error`), or None if none was
+    /// being written.
     fn stop_mcap<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         guard(|| {
             self.inner.usable()?;
-            let stats = py.detach(|| self.telemetry().stop_mcap());
+            let stats = py.detach(|| self.telemetry().stop_mcap(self.now_s()));
             stats.map(|s| stats_dict(py, &s)).transpose()
         })
     }
@@ -655,7 +657,7 @@ impl RobotLoop {
             })?;
             self.inner.running()?;
             self.telemetry()
-                .start_live(addr, rate_hz)
+                .start_live(addr, rate_hz, self.now_s())
                 .map(|a| a.to_string())
                 .map_err(TelemetryError::new_err)
         })
@@ -665,7 +667,7 @@ impl RobotLoop {
     fn stop_live<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         guard(|| {
             self.inner.usable()?;
-            let stats = py.detach(|| self.telemetry().stop_live());
+            let stats = py.detach(|| self.telemetry().stop_live(self.now_s()));
             stats.map(|s| stats_dict(py, &s)).transpose()
         })
     }
@@ -782,6 +784,11 @@ fn trajectory(
 }
 
 impl RobotLoop {
+    /// The loop time of the latest tick (before the first: any time at all).
+    fn now_s(&self) -> f64 {
+        self.inner.servo.loop_time_s().unwrap_or(f64::NEG_INFINITY)
+    }
+
     fn telemetry(&self) -> std::sync::MutexGuard<'_, TelemetryWorker> {
         self.inner
             .telemetry

@@ -33,21 +33,22 @@ atexit.register(after_rmd_rt)
 import rmd_rt
 
 sent = []
+ready = threading.Event()  # set just before the blocking call
 
 def ctrl_c():
-    time.sleep(0.3)
+    ready.wait()
+    time.sleep(0.2)
     sent.append(time.monotonic())
     os.kill(os.getpid(), signal.SIGINT)
 
 {setup}
 threading.Thread(target=ctrl_c, daemon=True).start()
-began = time.monotonic()
 try:
     {call}
     print("RETURNED", flush=True)
 except KeyboardInterrupt:
     now = time.monotonic()
-    print("INTERRUPTED " + json.dumps({{"after_s": now - sent[0], "call_s": now - began}}),
+    print("INTERRUPTED " + json.dumps({{"after_s": now - sent[0], "call_s": now - began[0]}}),
           flush=True)
     raise
 """
@@ -55,26 +56,29 @@ except KeyboardInterrupt:
 SETUPS = {
     # The loop holds the knee moving; the interrupt escapes the script: the exit hook stops it.
     "loop.sleep": (
-        f"loop = rmd_rt.Robot.from_toml({str(LEG4)!r}).start(sim=True)\n"
+        f"loop = rmd_rt.Robot.from_toml({str(LEG4)!r}).start(sim=True, virtual_time=True)\n"
         "sim = loop.simulator()\n"
         "loop.set_velocity('knee', 0.4)\n"
         "loop.sleep(0.05)\n"
         "assert not sim.all_safe()",
-        "loop.sleep(60.0)",
+        "ready.set(); began = [time.monotonic()]\n"
+        "    loop.sleep(1e5)",
     ),
     # The same inside a `with` block: its end stops the loop.
     "with loop.sleep": (
         f"robot = rmd_rt.Robot.from_toml({str(LEG4)!r})",
-        "with robot.start(sim=True) as loop:\n"
+        "with robot.start(sim=True, virtual_time=True) as loop:\n"
         "        sim = loop.simulator()\n"
         "        loop.set_velocity('knee', 0.4)\n"
-        "        loop.sleep(60.0)",
+        "        ready.set(); began = [time.monotonic()]\n"
+        "        loop.sleep(1e5)",
     ),
     # A request to a motor that is not there: 60 s of waiting for its reply.
     "bus request": (
         "bus = rmd_rt.Bus.simulated([1], timeout_s=30.0, retries=1)\n"
         "sim = bus.simulator()",
-        "bus.read_status_1(7)",
+        "ready.set(); began = [time.monotonic()]\n"
+        "    bus.read_status_1(7)",
     ),
 }
 
@@ -117,7 +121,7 @@ FORK = """
 import json, os, sys, time
 import rmd_rt
 
-loop = rmd_rt.Robot.from_toml({leg4!r}).start(sim=True)
+loop = rmd_rt.Robot.from_toml({leg4!r}).start(sim=True, virtual_time=True)
 sim = loop.simulator()
 bus = rmd_rt.Bus.simulated([1])
 loop.set_velocity("knee", 0.3)
