@@ -274,29 +274,20 @@ pub(crate) fn decode<'py>(
     lk_series: Option<&str>,
     encoder_bits: i64,
 ) -> PyResult<Bound<'py, PyAny>> {
-    guard(|| decode_line(py, line, direction, protocol, lk_series, encoder_bits))
-}
-
-fn decode_line<'py>(
-    py: Python<'py>,
-    line: &str,
-    direction: &str,
-    protocol: &str,
-    lk_series: Option<&str>,
-    encoder_bits: i64,
-) -> PyResult<Bound<'py, PyAny>> {
-    let decoded = (|| {
-        let dialect = args::dialect(protocol, lk_series)?;
-        let width = args::encoder_width(encoder_bits)?;
-        let line = candump::parse_line(line).map_err(|e| e.to_string())?;
-        match direction {
-            "auto" | "request" => rmd_frames::decode::request(&line, width, dialect),
-            "reply" => rmd_frames::decode::reply(&line, None, width, dialect),
-            other => Err(format!(
-                "unknown direction `{other}`: expected auto, request or reply"
-            )),
-        }
-    })()
-    .map_err(ProtocolError::new_err)?;
-    Ok(pythonize::pythonize(py, &decoded.value)?)
+    guard(|| {
+        let decoded = (|| {
+            let dialect = args::dialect(protocol, lk_series)?;
+            let width = args::encoder_width(encoder_bits)?;
+            let line = candump::parse_line(line).map_err(|e| e.to_string())?;
+            match direction {
+                "auto" | "request" => rmd_frames::decode::request(&line, width, dialect),
+                "reply" => rmd_frames::decode::reply(&line, None, width, dialect),
+                other => Err(format!(
+                    "unknown direction `{other}`: expected auto, request or reply"
+                )),
+            }
+        })()
+        .map_err(ProtocolError::new_err)?;
+        Ok(pythonize::pythonize(py, &decoded.value)?)
+    })
 }

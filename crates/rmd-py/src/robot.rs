@@ -140,17 +140,133 @@ impl Robot {
         start_timeout_s: f64,
     ) -> PyResult<RobotLoop> {
         guard(|| {
-            self.start_loop(
-                py,
-                sim,
-                iface,
+            let start_timeout =
+                args::seconds("start_timeout_s", start_timeout_s, MAX_START_TIMEOUT_S)?;
+            let robot = &self.robot;
+            let overrides = Overrides {
+                simulate: sim,
+                interfaces: interfaces(iface)?,
                 virtual_time,
-                servo_toml,
-                servo_file,
-                seed,
-                sim_initial_deg,
-                start_timeout_s,
-            )
+            };
+            let placement =
+                rmd_rig::Placement::resolve(robot, &overrides, PlacementDefault::Described)
+                    .map_err(|e| ConfigError::new_err(e.to_string()))?;
+            let config = match (servo_toml, servo_file) {
+                (Some(_), Some(_)) => {
+                    return Err(ConfigError::new_err(
+                        "give servo_toml or servo_file, not both".to_owned(),
+                    ));
+                }
+                (Some(text), None) => ServoConfig::from_toml(robot, text),
+                (None, Some(path)) => ServoConfig::from_file(robot, path),
+                (None, None) => ServoConfig::defaults(robot),
+            }
+            .map_err(|e| ConfigError::new_err(e.to_string()))?;
+            let mut sims = sim::sim_configs(robot, seed);
+            sim::power_up_centred(robot, &mut sims);
+            for (name, deg) in sim_initial_deg.unwrap_or_default() {
+                let deg = args::finite(&format!("sim_initial_deg[{name:?}]"), deg)?;
+                let joint = robot
+                    .joint(&name)
+                    .map_err(|e| ConfigError::new_err(format!("sim_initial_deg: {e}")))?;
+                let spec = robot.spec(joint);
+                let bus = &robot.buses()[spec.bus];
+                let k = bus
+                    .joint_range()
+                    .position(|j| j == joint.index())
+                    .unwrap_or(0);
+                if let Some(motor) = sims.get_mut(spec.bus).and_then(|s| s.motors.get_mut(k)) {
+                    motor.initial_output_angle_deg = sim::sim_output_angle_deg(spec, deg);
+                }
+            }
+            let (servo, handle) = ServoController::new(config);
+            let signals = servo.signals();
+            let layout = layout(robot, &signals).map_err(ConfigError::new_err)?;
+            let rig = Rig::open(robot, &placement, sims)
+                .map_err(|e| ConfigError::new_err(e.to_string()))?;
+            let views: Vec<SimBusView> = rig
+                .buses
+                .iter()
+                .zip(robot.buses())
+                .filter_map(|(bus, spec)| {
+                    bus.sim().map(|s| SimBusView {
+                        bus: s.clone(),
+                        joints: spec
+                            .joints()
+                            .map(|j| {
+                                let joint = robot.spec(j);
+                                (joint.motor, joint.name.clone())
+                            })
+                            .collect(),
+                    })
+                })
+                .collect();
+            let placement_text = placement.to_string();
+            let mut rt = rig
+                .into_loop(robot.clone(), servo)
+                .map_err(|e| ConfigError::new_err(e.to_string()))?;
+            let samples = rt.telemetry();
+            let running = rt
+                .spawn(RunLimit::Forever)
+                .map_err(|e| LoopError::new_err(e.to_string()))?;
+            let telemetry = TelemetryWorker::start(samples, layout).map_err(|e| {
+                LoopError::new_err(format!("cannot start the telemetry thread: {e}"))
+            })?;
+            let inner = LoopInner::new(
+                running,
+                handle,
+                robot.joints().iter().map(|j| j.name.clone()).collect(),
+                (!views.is_empty()).then_some(views),
+                telemetry,
+                placement_text,
+            );
+            // Wait for the servo's first state, or the loop's end (the motors did not answer).
+            let give_up = Instant::now() + start_timeout;
+            let started = interruptible(py, |until| {
+                loop {
+                    if inner.servo().state().is_some() {
+                        return Some(Ok(()));
+                    }
+                    if !inner.is_running() {
+                        return Some(Err(None));
+                    }
+                    let now = Instant::now();
+                    if now >= give_up {
+                        return Some(Err(Some(start_timeout_s)));
+                    }
+                    if now >= until {
+                        return None;
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(1));
+                }
+            });
+            let started = match started {
+                Ok(started) => started,
+                Err(interrupt) => {
+                    // Ctrl-C: the loop stops (its motors made safe) before the interrupt goes on.
+                    py.detach(|| inner.stop());
+                    return Err(interrupt);
+                }
+            };
+            match started {
+                Ok(()) => Ok(RobotLoop::new(inner)),
+                Err(timeout) => {
+                    let report = py.detach(|| inner.stop());
+                    let why = report
+                        .as_ref()
+                        .and_then(|r| r.get("stop_reason"))
+                        .and_then(|v| v.as_str())
+                        .map(str::to_owned)
+                        .unwrap_or_else(|| "no report".to_owned());
+                    Err(LoopError::new_err(match timeout {
+                        Some(s) => format!(
+                            "the loop did not start within {s:?} s (the servo published no state); \
+                             stopped: {why}"
+                        ),
+                        None => format!("the loop ended at start: {why}"),
+                    }))
+                }
+            }
         })
     }
 
@@ -160,147 +276,5 @@ impl Robot {
             self.source,
             self.joint_names()
         )
-    }
-}
-
-impl Robot {
-    /// `start`'s body.
-    #[allow(clippy::too_many_arguments)]
-    fn start_loop(
-        &self,
-        py: Python<'_>,
-        sim: bool,
-        iface: Option<&Bound<'_, PyAny>>,
-        virtual_time: bool,
-        servo_toml: Option<&str>,
-        servo_file: Option<PathBuf>,
-        seed: u64,
-        sim_initial_deg: Option<std::collections::HashMap<String, f64>>,
-        start_timeout_s: f64,
-    ) -> PyResult<RobotLoop> {
-        let start_timeout = args::seconds("start_timeout_s", start_timeout_s, MAX_START_TIMEOUT_S)?;
-        let robot = &self.robot;
-        let overrides = Overrides {
-            simulate: sim,
-            interfaces: interfaces(iface)?,
-            virtual_time,
-        };
-        let placement = rmd_rig::Placement::resolve(robot, &overrides, PlacementDefault::Described)
-            .map_err(|e| ConfigError::new_err(e.to_string()))?;
-        let config = match (servo_toml, servo_file) {
-            (Some(_), Some(_)) => {
-                return Err(ConfigError::new_err(
-                    "give servo_toml or servo_file, not both".to_owned(),
-                ));
-            }
-            (Some(text), None) => ServoConfig::from_toml(robot, text),
-            (None, Some(path)) => ServoConfig::from_file(robot, path),
-            (None, None) => ServoConfig::defaults(robot),
-        }
-        .map_err(|e| ConfigError::new_err(e.to_string()))?;
-        let mut sims = sim::sim_configs(robot, seed);
-        sim::power_up_centred(robot, &mut sims);
-        for (name, deg) in sim_initial_deg.unwrap_or_default() {
-            let deg = args::finite(&format!("sim_initial_deg[{name:?}]"), deg)?;
-            let joint = robot
-                .joint(&name)
-                .map_err(|e| ConfigError::new_err(format!("sim_initial_deg: {e}")))?;
-            let spec = robot.spec(joint);
-            let bus = &robot.buses()[spec.bus];
-            let k = bus
-                .joint_range()
-                .position(|j| j == joint.index())
-                .unwrap_or(0);
-            if let Some(motor) = sims.get_mut(spec.bus).and_then(|s| s.motors.get_mut(k)) {
-                motor.initial_output_angle_deg = sim::sim_output_angle_deg(spec, deg);
-            }
-        }
-        let (servo, handle) = ServoController::new(config);
-        let signals = servo.signals();
-        let layout = layout(robot, &signals).map_err(ConfigError::new_err)?;
-        let rig =
-            Rig::open(robot, &placement, sims).map_err(|e| ConfigError::new_err(e.to_string()))?;
-        let views: Vec<SimBusView> = rig
-            .buses
-            .iter()
-            .zip(robot.buses())
-            .filter_map(|(bus, spec)| {
-                bus.sim().map(|s| SimBusView {
-                    bus: s.clone(),
-                    joints: spec
-                        .joints()
-                        .map(|j| {
-                            let joint = robot.spec(j);
-                            (joint.motor, joint.name.clone())
-                        })
-                        .collect(),
-                })
-            })
-            .collect();
-        let placement_text = placement.to_string();
-        let mut rt = rig
-            .into_loop(robot.clone(), servo)
-            .map_err(|e| ConfigError::new_err(e.to_string()))?;
-        let samples = rt.telemetry();
-        let running = rt
-            .spawn(RunLimit::Forever)
-            .map_err(|e| LoopError::new_err(e.to_string()))?;
-        let telemetry = TelemetryWorker::start(samples, layout)
-            .map_err(|e| LoopError::new_err(format!("cannot start the telemetry thread: {e}")))?;
-        let inner = LoopInner::new(
-            running,
-            handle,
-            robot.joints().iter().map(|j| j.name.clone()).collect(),
-            (!views.is_empty()).then_some(views),
-            telemetry,
-            placement_text,
-        );
-        // Wait for the servo's first state, or the loop's end (the motors did not answer).
-        let give_up = Instant::now() + start_timeout;
-        let started = interruptible(py, |until| {
-            loop {
-                if inner.servo().state().is_some() {
-                    return Some(Ok(()));
-                }
-                if !inner.is_running() {
-                    return Some(Err(None));
-                }
-                let now = Instant::now();
-                if now >= give_up {
-                    return Some(Err(Some(start_timeout_s)));
-                }
-                if now >= until {
-                    return None;
-                }
-                std::thread::sleep(std::time::Duration::from_millis(1));
-            }
-        });
-        let started = match started {
-            Ok(started) => started,
-            Err(interrupt) => {
-                // Ctrl-C: the loop stops (its motors made safe) before the interrupt goes on.
-                py.detach(|| inner.stop());
-                return Err(interrupt);
-            }
-        };
-        match started {
-            Ok(()) => Ok(RobotLoop::new(inner)),
-            Err(timeout) => {
-                let report = py.detach(|| inner.stop());
-                let why = report
-                    .as_ref()
-                    .and_then(|r| r.get("stop_reason"))
-                    .and_then(|v| v.as_str())
-                    .map(str::to_owned)
-                    .unwrap_or_else(|| "no report".to_owned());
-                Err(LoopError::new_err(match timeout {
-                    Some(s) => format!(
-                        "the loop did not start within {s:?} s (the servo published no state); \
-                         stopped: {why}"
-                    ),
-                    None => format!("the loop ended at start: {why}"),
-                }))
-            }
-        }
     }
 }
