@@ -71,6 +71,7 @@ def main() -> None:
         if args.mcap:
             loop.record_mcap(args.mcap)
         start = loop.positions()
+        assert start is not None  # the loop has published its first state: start() waits for it
         times, points = wave(start, args.cycles, args.period, args.amplitude)
         receipt = loop.send_trajectory(loop.joint_names, times, points)
         print(f"trajectory: {len(times)} points, {receipt['duration_s']:.2f} s")
@@ -78,12 +79,16 @@ def main() -> None:
         while elapsed < receipt["duration_s"] + 0.3:
             loop.sleep(0.5)
             elapsed += 0.5
-            joints = loop.state()["joints"]
+            state = loop.state()
+            assert state is not None
+            joints = state["joints"]
             line = "  ".join(
                 f"{name} {math.degrees(j['position_rad']):+6.1f}°" for name, j in joints.items()
             )
             print(f"t={loop.loop_time_s():6.2f} s  {line}")
-        error = np.abs(loop.positions() - start).max()
+        end = loop.positions()
+        assert end is not None
+        error = np.abs(end - start).max()
         print(f"back at the start within {math.degrees(error):.2f}°")
         stats = loop.stats()
         if stats:
@@ -93,7 +98,8 @@ def main() -> None:
             )
         if args.mcap:
             counts = loop.stop_mcap()
-            print(f"{args.mcap}: {counts['written']} ticks written")
+            written = counts["written"] if counts else 0
+            print(f"{args.mcap}: {written} ticks written")
         report = loop.stop()
     print(f"stopped: {report['stop_reason']}; every motor off: "
           f"{all(m['off_confirmed'] for m in report['safe_stop']['motors'])}")

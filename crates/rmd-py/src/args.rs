@@ -1,7 +1,13 @@
-//! Keyword arguments shared by several functions: the protocol dialect and the encoder width,
-//! checked into rmd-protocol's types with messages that name the Python arguments.
+//! Arguments shared by several functions: the protocol dialect and the encoder width, checked
+//! into rmd-protocol's types, and numbers and durations, refused unless finite and in range;
+//! every message names the Python argument.
 
+use std::time::Duration;
+
+use pyo3::PyResult;
 use rmd_protocol::{Dialect, EncoderWidth, LkSeries, ProtocolFamily};
+
+use crate::errors::ArgumentError;
 
 /// The dialect of `protocol` (`"v1.61"` or `"lk-v2.3x"`) and `lk_series` (`"mf"` / `"mg"`,
 /// required with `"lk-v2.3x"` only).
@@ -50,4 +56,25 @@ pub(crate) fn encoder_width(bits: i64) -> Result<EncoderWidth, String> {
     let bits =
         u8::try_from(bits).map_err(|_| format!("encoder width {bits} bits: must be 12..=18"))?;
     EncoderWidth::new(bits).map_err(|e| e.to_string())
+}
+
+/// `value` if it is a finite number; else `ArgumentError` naming `name`.
+pub(crate) fn finite(name: &str, value: f64) -> PyResult<f64> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(ArgumentError::new_err(format!(
+            "{name} = {value:?}: must be a finite number"
+        )))
+    }
+}
+
+/// A duration `value` in seconds, `0..=max_s`; else `ArgumentError` naming `name`.
+pub(crate) fn seconds(name: &str, value: f64, max_s: f64) -> PyResult<Duration> {
+    if !(value.is_finite() && (0.0..=max_s).contains(&value)) {
+        return Err(ArgumentError::new_err(format!(
+            "{name} = {value:?} s: must be a finite number of seconds, 0..={max_s}"
+        )));
+    }
+    Ok(Duration::from_secs_f64(value))
 }

@@ -1,8 +1,10 @@
 //! `Bus`'s native side: a SocketCAN interface or simulated motors behind a mutex, one
-//! request and its reply at a time, with the GIL released while waiting.
+//! request and its reply at a time, with the GIL released while waiting; Ctrl-C interrupts the
+//! wait (Python's signal handlers run every few milliseconds meanwhile). A bus belongs to the
+//! process that opened it: a forked child shares its socket, and requests from there would
+//! take the parent's replies.
 
 use std::sync::{Mutex, PoisonError};
-use std::time::Duration;
 
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -13,10 +15,19 @@ use rmd_rig::{AnyBus, AnyClock, SharedSim, SimTime};
 use rmd_sim::{FirmwareFamily, MotorConfig, SimBus, SimConfig};
 
 use crate::args;
-use crate::errors::{BusError, ConfigError, NoReplyError, ProtocolError, RomWriteNotConfirmed};
+use crate::errors::{
+    ArgumentError, BusError, ConfigError, NoReplyError, ProtocolError, RomWriteNotConfirmed, guard,
+};
 use crate::exchange::{ExchangeError, Policy, Replies, exchange};
+use crate::process::Owner;
 use crate::protocol::{build_frame, command_name, writes_rom};
 use crate::sim::{SimBusView, Simulator};
+use crate::wait::signals_raised;
+
+/// The longest wait for one reply, s.
+const MAX_TIMEOUT_S: f64 = 60.0;
+/// The most retries of one request.
+const MAX_RETRIES: u32 = 100;
 
 /// The bus and its clock: what the mutex guards.
 struct Link {
@@ -28,6 +39,7 @@ struct Link {
 /// Build it with `Bus.socketcan(...)` or `Bus.simulated(...)` (the Python class wraps this).
 #[pyclass(module = "rmd_rt._native", frozen)]
 pub(crate) struct NativeBus {
+    owner: Owner,
     link: Mutex<Link>,
     policy: Policy,
     width: EncoderWidth,
@@ -41,16 +53,23 @@ fn policy(
     protocol: &str,
     lk_series: Option<&str>,
     timeout_s: f64,
-    retries: u32,
+    retries: i64,
 ) -> PyResult<Policy> {
     let dialect = args::dialect(protocol, lk_series).map_err(ConfigError::new_err)?;
-    if !(timeout_s.is_finite() && timeout_s > 0.0 && timeout_s <= 60.0) {
-        return Err(ConfigError::new_err(format!(
-            "timeout {timeout_s} s must be within 0..=60 s (above 0)"
-        )));
+    let timeout = args::seconds("timeout_s", timeout_s, MAX_TIMEOUT_S)?;
+    if timeout.is_zero() {
+        return Err(ArgumentError::new_err(
+            "timeout_s = 0: give the wait for each reply, above 0".to_owned(),
+        ));
     }
+    let retries = u32::try_from(retries)
+        .ok()
+        .filter(|&r| r <= MAX_RETRIES)
+        .ok_or_else(|| {
+            ArgumentError::new_err(format!("retries = {retries}: must be 0..={MAX_RETRIES}"))
+        })?;
     Ok(Policy {
-        timeout: Duration::from_secs_f64(timeout_s),
+        timeout,
         retries,
         dialect,
     })
@@ -73,7 +92,11 @@ fn reply_dict<'py>(
 fn exchange_error(error: ExchangeError) -> PyErr {
     match error {
         ExchangeError::NoReply { .. } => NoReplyError::new_err(error.to_string()),
-        other => BusError::new_err(other.to_string()),
+        ExchangeError::Bus(_)
+        | ExchangeError::BusOff { .. }
+        | ExchangeError::V3 { .. }
+        | ExchangeError::NotARequest(_)
+        | ExchangeError::Interrupted => BusError::new_err(error.to_string()),
     }
 }
 
@@ -88,25 +111,28 @@ impl NativeBus {
         lk_series: Option<&str>,
         encoder_bits: i64,
         timeout_s: f64,
-        retries: u32,
+        retries: i64,
     ) -> PyResult<Self> {
-        let policy = policy(protocol, lk_series, timeout_s, retries)?;
-        let width = args::encoder_width(encoder_bits).map_err(ConfigError::new_err)?;
-        let bus = open_socketcan(iface)?;
-        Ok(Self {
-            link: Mutex::new(Link {
-                bus,
-                clock: AnyClock::new(SimTime::Real),
-            }),
-            policy,
-            width,
-            sim: None,
-            advice: format!(
-                "check that the motor is powered and wired to {iface}, that its CAN id is the \
+        guard(|| {
+            let policy = policy(protocol, lk_series, timeout_s, retries)?;
+            let width = args::encoder_width(encoder_bits).map_err(ConfigError::new_err)?;
+            let bus = open_socketcan(iface)?;
+            Ok(Self {
+                owner: Owner::here(),
+                link: Mutex::new(Link {
+                    bus,
+                    clock: AnyClock::new(SimTime::Real),
+                }),
+                policy,
+                width,
+                sim: None,
+                advice: format!(
+                    "check that the motor is powered and wired to {iface}, that its CAN id is the \
                  one asked, and that {iface} runs at the motor's bit rate (1 Mbit/s by default; \
                  `ip -details link show {iface}`)"
-            ),
-            name: iface.to_owned(),
+                ),
+                name: iface.to_owned(),
+            })
         })
     }
 
@@ -123,52 +149,55 @@ impl NativeBus {
         lk_series: Option<&str>,
         encoder_bits: i64,
         timeout_s: f64,
-        retries: u32,
+        retries: i64,
     ) -> PyResult<Self> {
-        let policy = policy(protocol, lk_series, timeout_s, retries)?;
-        let width = args::encoder_width(encoder_bits).map_err(ConfigError::new_err)?;
-        let family = match policy.dialect {
-            rmd_protocol::Dialect::V161 => FirmwareFamily::V161,
-            rmd_protocol::Dialect::LkV23x(series) => FirmwareFamily::LkV23x(series),
-        };
-        let mut config = SimConfig::with_motors(0).seed(seed);
-        for id in &ids {
-            let motor = u8::try_from(*id)
-                .ok()
-                .and_then(|id| MotorId::new(id).ok())
-                .ok_or_else(|| {
-                    ConfigError::new_err(format!("invalid motor id {id}: must be 1..=32"))
-                })?;
-            let mut sim = MotorConfig::new(motor);
-            sim.firmware.encoder_width = width;
-            sim.firmware.family = family;
-            config.motors.push(sim);
-        }
-        let time = if virtual_time {
-            SimTime::Virtual
-        } else {
-            SimTime::Real
-        };
-        let clock = AnyClock::new(time);
-        let sim = SharedSim::new(
-            SimBus::new(clock.clone(), config)
-                .map_err(|e| ConfigError::new_err(format!("simulator: {e}")))?,
-        );
-        let list = ids
-            .iter()
-            .map(i64::to_string)
-            .collect::<Vec<_>>()
-            .join(", ");
-        Ok(Self {
-            link: Mutex::new(Link {
-                bus: AnyBus::Sim(sim.clone()),
-                clock,
-            }),
-            policy,
-            width,
-            sim: Some(sim),
-            advice: format!("the simulated motors are {list}"),
-            name: "simulated".to_owned(),
+        guard(|| {
+            let policy = policy(protocol, lk_series, timeout_s, retries)?;
+            let width = args::encoder_width(encoder_bits).map_err(ConfigError::new_err)?;
+            let family = match policy.dialect {
+                rmd_protocol::Dialect::V161 => FirmwareFamily::V161,
+                rmd_protocol::Dialect::LkV23x(series) => FirmwareFamily::LkV23x(series),
+            };
+            let mut config = SimConfig::with_motors(0).seed(seed);
+            for id in &ids {
+                let motor = u8::try_from(*id)
+                    .ok()
+                    .and_then(|id| MotorId::new(id).ok())
+                    .ok_or_else(|| {
+                        ConfigError::new_err(format!("invalid motor id {id}: must be 1..=32"))
+                    })?;
+                let mut sim = MotorConfig::new(motor);
+                sim.firmware.encoder_width = width;
+                sim.firmware.family = family;
+                config.motors.push(sim);
+            }
+            let time = if virtual_time {
+                SimTime::Virtual
+            } else {
+                SimTime::Real
+            };
+            let clock = AnyClock::new(time);
+            let sim = SharedSim::new(
+                SimBus::new(clock.clone(), config)
+                    .map_err(|e| ConfigError::new_err(format!("simulator: {e}")))?,
+            );
+            let list = ids
+                .iter()
+                .map(i64::to_string)
+                .collect::<Vec<_>>()
+                .join(", ");
+            Ok(Self {
+                owner: Owner::here(),
+                link: Mutex::new(Link {
+                    bus: AnyBus::Sim(sim.clone()),
+                    clock,
+                }),
+                policy,
+                width,
+                sim: Some(sim),
+                advice: format!("the simulated motors are {list}"),
+                name: "simulated".to_owned(),
+            })
         })
     }
 
@@ -185,55 +214,69 @@ impl NativeBus {
         fields: Option<&Bound<'py, PyDict>>,
         confirm_rom_write: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let command = command_name(command).map_err(ProtocolError::new_err)?;
-        let frame = build_frame(command, id, fields, self.policy.dialect)
-            .map_err(ProtocolError::new_err)?;
-        if writes_rom(command, self.policy.dialect) && !confirm_rom_write {
-            return Err(RomWriteNotConfirmed::new_err(format!(
-                "{command} writes the motor's ROM (flash, which wears out{}): nothing was sent; \
+        guard(|| {
+            self.owner.check("bus")?;
+            let command = command_name(command).map_err(ProtocolError::new_err)?;
+            let frame = build_frame(command, id, fields, self.policy.dialect)
+                .map_err(ProtocolError::new_err)?;
+            if writes_rom(command, self.policy.dialect) && !confirm_rom_write {
+                return Err(RomWriteNotConfirmed::new_err(format!(
+                    "{command} writes the motor's ROM (flash, which wears out{}): nothing was sent; \
                  pass confirm_rom_write=True to do it",
-                if command == "write-zero-rom" {
-                    "; the new zero takes effect after a power cycle"
-                } else {
-                    ""
-                }
-            )));
-        }
-        let replies = py
-            .detach(|| self.exchange(&frame))
-            .map_err(exchange_error)?;
-        match replies {
-            Replies::One(motor, reply) => reply_dict(py, motor.can_id(), &reply, self.width),
-            Replies::Multi(replies) => {
-                let list = PyList::empty(py);
-                for (k, reply) in replies.iter().enumerate() {
-                    match reply {
-                        Some(reply) => {
-                            let can_id = FIRST_MOTOR_CAN_ID + k as u16;
-                            list.append(reply_dict(py, can_id, reply, self.width)?)?;
-                        }
-                        None => list.append(py.None())?,
+                    if command == "write-zero-rom" {
+                        "; the new zero takes effect after a power cycle"
+                    } else {
+                        ""
                     }
-                }
-                Ok(list.into_any())
+                )));
             }
-        }
-    }
-
-    /// The simulated motors (ground truth), or None on SocketCAN.
-    fn simulator(&self) -> Option<Simulator> {
-        self.sim.as_ref().map(|bus| {
-            Simulator::new(vec![SimBusView {
-                bus: bus.clone(),
-                joints: Vec::new(),
-            }])
+            let mut raised = None;
+            let replies = py.detach(|| {
+                self.exchange(&frame, &mut || {
+                    raised = signals_raised();
+                    raised.is_some()
+                })
+            });
+            if let Some(error) = raised {
+                return Err(error); // Ctrl-C: KeyboardInterrupt
+            }
+            let replies = replies.map_err(exchange_error)?;
+            match replies {
+                Replies::One(motor, reply) => reply_dict(py, motor.can_id(), &reply, self.width),
+                Replies::Multi(replies) => {
+                    let list = PyList::empty(py);
+                    for (k, reply) in replies.iter().enumerate() {
+                        match reply {
+                            Some(reply) => {
+                                let can_id = FIRST_MOTOR_CAN_ID + k as u16;
+                                list.append(reply_dict(py, can_id, reply, self.width)?)?;
+                            }
+                            None => list.append(py.None())?,
+                        }
+                    }
+                    Ok(list.into_any())
+                }
+            }
         })
     }
 
+    /// The simulated motors (ground truth), or None on SocketCAN.
+    fn simulator(&self) -> PyResult<Option<Simulator>> {
+        self.owner.check("bus")?;
+        Ok(self.sim.as_ref().map(|bus| {
+            let view = SimBusView {
+                bus: bus.clone(),
+                joints: Vec::new(),
+            };
+            Simulator::new(vec![view], self.owner)
+        }))
+    }
+
     /// The clock of the bus, seconds (the simulator's in virtual time).
-    fn now_s(&self) -> f64 {
+    fn now_s(&self) -> PyResult<f64> {
+        self.owner.check("bus")?;
         let link = self.link.lock().unwrap_or_else(PoisonError::into_inner);
-        link.clock.now().as_nanos() as f64 * 1e-9
+        Ok(link.clock.now().as_nanos() as f64 * 1e-9)
     }
 
     fn __repr__(&self) -> String {
@@ -242,10 +285,14 @@ impl NativeBus {
 }
 
 impl NativeBus {
-    fn exchange(&self, frame: &CanFrame) -> Result<Replies, ExchangeError> {
+    fn exchange(
+        &self,
+        frame: &CanFrame,
+        interrupted: &mut impl FnMut() -> bool,
+    ) -> Result<Replies, ExchangeError> {
         let mut link = self.link.lock().unwrap_or_else(PoisonError::into_inner);
         let Link { bus, clock } = &mut *link;
-        exchange(bus, &*clock, frame, &self.policy, &self.advice)
+        exchange(bus, &*clock, frame, &self.policy, &self.advice, interrupted)
     }
 }
 

@@ -1,90 +1,82 @@
-//! The exceptions of `rmd_rt`: one base, `RmdError`, and one class per kind of failure. Every
-//! message is the Rust error's `Display`, which says what is wrong and what to do.
+//! The exceptions of `rmd_rt`, and the one place where Rust failures become them.
+//!
+//! The classes are defined in Python (`python/rmd_rt/_errors.py`: several derive from two
+//! bases, e.g. `SetpointError(ServoError, ArgumentError)`, which pyo3's `create_exception!`
+//! cannot make) and imported here. Every message is the Rust error's `Display`, which says what
+//! is wrong and what to do.
+//!
+//! [`guard`] runs the body of every exported function and method: a panic there (a bug) becomes
+//! `InternalError`, an `RmdError`, never pyo3's `PanicException` (a `BaseException` that
+//! `except Exception` does not catch).
 
-use pyo3::create_exception;
-use pyo3::exceptions::PyException;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+
 use pyo3::prelude::*;
 
-create_exception!(
-    rmd_rt,
-    RmdError,
-    PyException,
-    "Base class of every error rmd_rt raises."
-);
-create_exception!(
-    rmd_rt,
-    ProtocolError,
-    RmdError,
-    "A value that does not fit the protocol (encode), or a frame that cannot be read (decode); \
-     the message is the one `rmd encode` / `rmd decode` prints."
-);
-create_exception!(
-    rmd_rt,
-    BusError,
-    RmdError,
-    "The bus failed: it could not be opened, a frame could not be sent, or a motor answered \
-     with something unexpected."
-);
-create_exception!(
-    rmd_rt,
-    NoReplyError,
-    BusError,
-    "A motor did not answer within the timeout, after every retry."
-);
-create_exception!(
-    rmd_rt,
-    RomWriteNotConfirmed,
-    RmdError,
-    "A command that writes the motor's ROM (flash) was asked for without \
-     confirm_rom_write=True; nothing was sent."
-);
-create_exception!(
-    rmd_rt,
-    ConfigError,
-    RmdError,
-    "A robot description, servo configuration or placement (sim / iface) is not valid."
-);
-create_exception!(
-    rmd_rt,
-    ServoError,
-    RmdError,
-    "The servo refused a setpoint or a trajectory (unknown joint, beyond a limit, disabled, \
-     e-stopped, queue full, ...); nothing was sent."
-);
-create_exception!(
-    rmd_rt,
-    LoopError,
-    RmdError,
-    "The real-time loop could not start, or is no longer running."
-);
-create_exception!(
-    rmd_rt,
-    TrajectoryError,
-    RmdError,
-    "rmd-traj could not calculate a trajectory for the input (the message names the axis and \
-     the reason)."
-);
-create_exception!(
-    rmd_rt,
-    TelemetryError,
-    RmdError,
-    "A telemetry sink (MCAP file, live Foxglove server) could not be started."
-);
+pyo3::import_exception!(rmd_rt._errors, RmdError);
+pyo3::import_exception!(rmd_rt._errors, ArgumentError);
+pyo3::import_exception!(rmd_rt._errors, ProtocolError);
+pyo3::import_exception!(rmd_rt._errors, TrajectoryError);
+pyo3::import_exception!(rmd_rt._errors, ConfigError);
+pyo3::import_exception!(rmd_rt._errors, BusError);
+pyo3::import_exception!(rmd_rt._errors, NoReplyError);
+pyo3::import_exception!(rmd_rt._errors, RomWriteNotConfirmed);
+pyo3::import_exception!(rmd_rt._errors, ServoError);
+pyo3::import_exception!(rmd_rt._errors, SetpointError);
+pyo3::import_exception!(rmd_rt._errors, LimitError);
+pyo3::import_exception!(rmd_rt._errors, LoopError);
+pyo3::import_exception!(rmd_rt._errors, LoopStoppedError);
+pyo3::import_exception!(rmd_rt._errors, ForkedProcessError);
+pyo3::import_exception!(rmd_rt._errors, TelemetryError);
+pyo3::import_exception!(rmd_rt._errors, InternalError);
 
-/// Adds the exception classes to the module.
-pub(crate) fn register(py: Python<'_>, m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add("RmdError", py.get_type::<RmdError>())?;
-    m.add("ProtocolError", py.get_type::<ProtocolError>())?;
-    m.add("BusError", py.get_type::<BusError>())?;
-    m.add("NoReplyError", py.get_type::<NoReplyError>())?;
-    m.add(
-        "RomWriteNotConfirmed",
-        py.get_type::<RomWriteNotConfirmed>(),
-    )?;
-    m.add("ConfigError", py.get_type::<ConfigError>())?;
-    m.add("ServoError", py.get_type::<ServoError>())?;
-    m.add("LoopError", py.get_type::<LoopError>())?;
-    m.add("TrajectoryError", py.get_type::<TrajectoryError>())?;
-    m.add("TelemetryError", py.get_type::<TelemetryError>())?;
-    Ok(())
+/// Runs `body`, turning a panic into `InternalError` (the panic's message, and that it is a bug).
+pub(crate) fn guard<T>(body: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
+    catch_unwind(AssertUnwindSafe(body)).unwrap_or_else(|payload| {
+        let message = payload
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_owned())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "no message".to_owned());
+        Err(InternalError::new_err(format!(
+            "rmd_rt hit a bug (a Rust panic: {message}); the call did nothing more. Please \
+             report it with the call that raised this"
+        )))
+    })
+}
+
+/// The exception of a refusal by the servo: the request itself wrong (`SetpointError`, and
+/// `LimitError` for a value outside a joint's limits), the loop ended (`LoopStoppedError`), or
+/// the servo unable to take it now (`ServoError`).
+pub(crate) fn servo_error(error: rmd_servo::ServoError) -> PyErr {
+    use rmd_servo::{ServoError as E, TrajectoryRefusal as T};
+    let message = error.to_string();
+    match error {
+        E::OutOfLimit { .. }
+        | E::Trajectory(T::OutOfLimit { .. } | T::LeavesPositionLimits { .. }) => {
+            LimitError::new_err(message)
+        }
+        E::UnknownJoint { .. }
+        | E::UnknownJointId { .. }
+        | E::NotFinite { .. }
+        | E::DuplicateJoint { .. }
+        | E::Trajectory(
+            T::NoJoints
+            | T::NoPoints
+            | T::TooManyPoints { .. }
+            | T::LengthMismatch { .. }
+            | T::TimeNotIncreasing { .. }
+            | T::StartNotFinite(_)
+            | T::NotFinite { .. }
+            | T::EndsMoving { .. }
+            | T::Plan { .. },
+        ) => SetpointError::new_err(message),
+        E::EStopped | E::Stopped => LoopStoppedError::new_err(format!(
+            "{message} (the loop has ended and its motors were made safe: stop() returns its \
+             report; start a new loop to go on)"
+        )),
+        E::Disabled | E::QueueFull { .. } | E::NoTrajectoryBuffer { .. } | E::NoState => {
+            ServoError::new_err(message)
+        }
+    }
 }

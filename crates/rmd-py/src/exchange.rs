@@ -5,15 +5,18 @@
 //! other motors are ignored; a reply to another command, or a malformed one, is remembered and
 //! reported if no good reply comes; an answer on `0x240 + id` (MyActuator V3 firmware, which
 //! rmd-rt does not drive) is its own error. After a timeout the request is sent again, up to
-//! `retries` times. Bus-off ends the exchange at once.
+//! `retries` times. Bus-off ends the exchange at once, and so does the caller's `interrupted`
+//! (asked at least every [`SIGNAL_CHECK`] of the bus clock while waiting: Ctrl-C).
 
 use std::time::Duration;
 
-use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock};
+use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock, Received, Timestamp};
 use rmd_protocol::{
     Command, Dialect, DialectReply, FIRST_MOTOR_CAN_ID, MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS,
     MotorId, decode_reply_to_with, v3,
 };
+
+use crate::wait::SIGNAL_CHECK;
 
 /// How long to wait, how often to try, which dialect to read.
 #[derive(Copy, Clone, Debug)]
@@ -76,6 +79,9 @@ pub(crate) enum ExchangeError {
     /// The frame is not a request to a motor.
     #[error("0x{0:03X} is not a request to a motor (0x141..=0x160 or 0x280)")]
     NotARequest(u16),
+    /// The caller's `interrupted` said to stop waiting (its own error says why).
+    #[error("interrupted while waiting for the reply")]
+    Interrupted,
 }
 
 /// The replies of one exchange: one motor's, or motors 1..=4 of a 0x280 frame (`None` for a
@@ -95,18 +101,42 @@ fn drain(bus: &mut impl CanBus, clock: &impl Clock) -> Result<(), BusError> {
     Ok(())
 }
 
+/// The next message until `deadline`, in waits of at most [`SIGNAL_CHECK`], asking
+/// `interrupted` after each wait that ended with nothing.
+fn recv(
+    bus: &mut impl CanBus,
+    clock: &impl Clock,
+    deadline: Timestamp,
+    interrupted: &mut impl FnMut() -> bool,
+) -> Result<Option<Received>, ExchangeError> {
+    loop {
+        let slice_end = deadline.min(clock.now() + SIGNAL_CHECK);
+        if let Some(received) = bus.recv_until(slice_end)? {
+            return Ok(Some(received));
+        }
+        if interrupted() {
+            return Err(ExchangeError::Interrupted);
+        }
+        if clock.now() >= deadline {
+            return Ok(None);
+        }
+    }
+}
+
 /// Sends `frame` and waits for its reply (or, for a 0x280 frame, for motors 1..=4) as the
-/// module docs say. `advice` says what to check when nobody answers.
+/// module docs say. `advice` says what to check when nobody answers; `interrupted` ends the
+/// wait when it returns true.
 pub(crate) fn exchange(
     bus: &mut impl CanBus,
     clock: &impl Clock,
     frame: &CanFrame,
     policy: &Policy,
     advice: &str,
+    interrupted: &mut impl FnMut() -> bool,
 ) -> Result<Replies, ExchangeError> {
     let attempts = policy.retries.saturating_add(1);
     if frame.id() == MULTI_TORQUE_CAN_ID {
-        return exchange_multi(bus, clock, frame, policy, advice, attempts);
+        return exchange_multi(bus, clock, frame, policy, advice, attempts, interrupted);
     }
     let motor =
         MotorId::from_can_id(frame.id()).map_err(|_| ExchangeError::NotARequest(frame.id()))?;
@@ -120,7 +150,7 @@ pub(crate) fn exchange(
         drain(bus, clock)?;
         bus.send(frame)?;
         let deadline = clock.now() + policy.timeout;
-        while let Some(received) = bus.recv_until(deadline)? {
+        while let Some(received) = recv(bus, clock, deadline, interrupted)? {
             let reply = match received.message {
                 BusMessage::Frame(reply) => reply,
                 BusMessage::Event(BusEvent::BusOff) => {
@@ -162,6 +192,7 @@ fn exchange_multi(
     policy: &Policy,
     advice: &str,
     attempts: u32,
+    interrupted: &mut impl FnMut() -> bool,
 ) -> Result<Replies, ExchangeError> {
     let mut last = None;
     for _ in 0..attempts {
@@ -170,7 +201,7 @@ fn exchange_multi(
         bus.send(frame)?;
         let deadline = clock.now() + policy.timeout;
         while replies.iter().any(Option::is_none) {
-            let Some(received) = bus.recv_until(deadline)? else {
+            let Some(received) = recv(bus, clock, deadline, interrupted)? else {
                 break;
             };
             let reply = match received.message {

@@ -30,6 +30,8 @@ mod traj;
 
 mod args;
 mod fields;
+mod process;
+mod wait;
 
 use pyo3::prelude::*;
 
@@ -37,8 +39,8 @@ use pyo3::prelude::*;
 #[pymodule]
 #[pyo3(name = "_native")]
 fn native(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    let py = m.py();
-    errors::register(py, m)?;
+    // The wheel's version is the crate's too (maturin takes it from Cargo.toml).
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(protocol::encode, m)?)?;
     m.add_function(wrap_pyfunction!(protocol::decode, m)?)?;
     m.add_function(wrap_pyfunction!(traj::plan, m)?)?;

@@ -17,7 +17,7 @@ use rmd_protocol::{
 };
 
 use crate::args;
-use crate::errors::ProtocolError;
+use crate::errors::{ProtocolError, guard};
 use crate::fields::Fields;
 
 /// Every command `encode` (and `Bus.request`) knows, as `rmd encode` names it.
@@ -251,11 +251,13 @@ pub(crate) fn encode(
     lk_series: Option<&str>,
     fields: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<String> {
-    let built = args::dialect(protocol, lk_series)
-        .and_then(|dialect| build_frame(command_name(command)?, id, fields, dialect));
-    built
-        .map(|frame| frame.to_string())
-        .map_err(ProtocolError::new_err)
+    guard(|| {
+        let built = args::dialect(protocol, lk_series)
+            .and_then(|dialect| build_frame(command_name(command)?, id, fields, dialect));
+        built
+            .map(|frame| frame.to_string())
+            .map_err(ProtocolError::new_err)
+    })
 }
 
 /// One candump line (any of candump's formats) read as `direction` (`"request"`, `"reply"`, or
@@ -272,18 +274,20 @@ pub(crate) fn decode<'py>(
     lk_series: Option<&str>,
     encoder_bits: i64,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let decoded = (|| {
-        let dialect = args::dialect(protocol, lk_series)?;
-        let width = args::encoder_width(encoder_bits)?;
-        let line = candump::parse_line(line).map_err(|e| e.to_string())?;
-        match direction {
-            "auto" | "request" => rmd_frames::decode::request(&line, width, dialect),
-            "reply" => rmd_frames::decode::reply(&line, None, width, dialect),
-            other => Err(format!(
-                "unknown direction `{other}`: expected auto, request or reply"
-            )),
-        }
-    })()
-    .map_err(ProtocolError::new_err)?;
-    Ok(pythonize::pythonize(py, &decoded.value)?)
+    guard(|| {
+        let decoded = (|| {
+            let dialect = args::dialect(protocol, lk_series)?;
+            let width = args::encoder_width(encoder_bits)?;
+            let line = candump::parse_line(line).map_err(|e| e.to_string())?;
+            match direction {
+                "auto" | "request" => rmd_frames::decode::request(&line, width, dialect),
+                "reply" => rmd_frames::decode::reply(&line, None, width, dialect),
+                other => Err(format!(
+                    "unknown direction `{other}`: expected auto, request or reply"
+                )),
+            }
+        })()
+        .map_err(ProtocolError::new_err)?;
+        Ok(pythonize::pythonize(py, &decoded.value)?)
+    })
 }

@@ -7,6 +7,9 @@ use rmd_protocol::{MotorId, PidParams};
 use rmd_rig::SharedSim;
 use rmd_sim::{ControlMode, MotorSnapshot};
 
+use crate::errors::guard;
+use crate::process::Owner;
+
 /// One simulated bus and the joint names of its motors (none for a plain `Bus`).
 #[derive(Clone, Debug)]
 pub(crate) struct SimBusView {
@@ -22,12 +25,14 @@ pub(crate) struct SimBusView {
 #[pyclass(module = "rmd_rt._native", frozen)]
 pub(crate) struct Simulator {
     buses: Vec<SimBusView>,
+    /// The process whose threads drive the buses (a lock they held at a fork stays held).
+    owner: Owner,
 }
 
 impl Simulator {
-    /// A view of `buses`, in bus order.
-    pub(crate) fn new(buses: Vec<SimBusView>) -> Self {
-        Self { buses }
+    /// A view of `buses`, in bus order, driven by `owner`'s threads.
+    pub(crate) fn new(buses: Vec<SimBusView>, owner: Owner) -> Self {
+        Self { buses, owner }
     }
 }
 
@@ -88,6 +93,29 @@ impl Simulator {
     /// `energising` (applies or is commanded torque), `safe` (applies none and is commanded
     /// none: off, stopped, tripped or at zero torque), `pid_ram`, `pid_rom`.
     fn motors<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        guard(|| self.snapshots(py))
+    }
+
+    /// Whether every simulated motor is safe now (see `motors()`).
+    fn all_safe(&self, py: Python<'_>) -> PyResult<bool> {
+        guard(|| {
+            Ok(self.snapshots(py)?.iter().all(|d| {
+                d.get_item("safe")
+                    .ok()
+                    .flatten()
+                    .is_some_and(|v| v.is_truthy().unwrap_or(false))
+            }))
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!("<rmd_rt.Simulator of {} bus(es)>", self.buses.len())
+    }
+}
+
+impl Simulator {
+    fn snapshots<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.owner.check("simulator")?;
         let mut snapshots = Vec::new();
         for (b, view) in self.buses.iter().enumerate() {
             let taken: Vec<MotorSnapshot> = py.detach(|| {
@@ -105,19 +133,5 @@ impl Simulator {
             }
         }
         Ok(snapshots)
-    }
-
-    /// Whether every simulated motor is safe now (see `motors()`).
-    fn all_safe(&self, py: Python<'_>) -> PyResult<bool> {
-        Ok(self.motors(py)?.iter().all(|d| {
-            d.get_item("safe")
-                .ok()
-                .flatten()
-                .is_some_and(|v| v.is_truthy().unwrap_or(false))
-        }))
-    }
-
-    fn __repr__(&self) -> String {
-        format!("<rmd_rt.Simulator of {} bus(es)>", self.buses.len())
     }
 }

@@ -3,14 +3,20 @@
 //! `TickRecord`, and pushes it into whichever sinks Python switched on: an MCAP file, a live
 //! Foxglove server, each its own rmd-telemetry pipeline that can start and stop while the loop
 //! runs. With no sink on, the samples are taken and dropped.
+//!
+//! A sink takes the ticks of a window of loop time: from the loop time when it was switched
+//! on, to the loop time when it was switched off. Switching off waits for the thread to have
+//! taken every tick up to then (the loop may publish faster than the thread takes, in virtual
+//! time or on a busy machine), so a file ends exactly where it was stopped.
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
+use crate::process::Owner;
 use rmd_bus::Timestamp;
 use rmd_loop::{Freshness, Robot, TelemetryReceiver, TelemetrySample};
 use rmd_telemetry::{
@@ -20,20 +26,37 @@ use rmd_telemetry::{
 
 /// How often the thread looks for new samples.
 const POLL: Duration = Duration::from_millis(2);
+/// The longest a switch-off waits for the thread to take the ticks up to it (the thread is
+/// stuck, or the OS does not run it).
+const SWITCH_OFF_WAIT: Duration = Duration::from_secs(5);
 
-/// One sink's pipeline while it is on.
+/// One sink's pipeline while it is on, and its window of loop time.
 struct Active {
     producer: Producer,
     pipeline: Pipeline,
+    /// Ticks from this loop time on.
+    from_s: f64,
+    /// Ticks up to this loop time (set when it is switched off).
+    until_s: Option<f64>,
 }
 
 impl Active {
-    fn start(sink: impl rmd_telemetry::Sink) -> Result<Self, String> {
+    fn start(sink: impl rmd_telemetry::Sink, from_s: f64) -> Result<Self, String> {
         let (producer, pipeline) = Telemetry::builder()
             .sink(sink)
             .start()
             .map_err(|e| e.to_string())?;
-        Ok(Self { producer, pipeline })
+        Ok(Self {
+            producer,
+            pipeline,
+            from_s,
+            until_s: None,
+        })
+    }
+
+    /// Whether the tick at loop time `time_s` is in the window.
+    fn takes(&self, time_s: f64) -> bool {
+        time_s >= self.from_s && self.until_s.is_none_or(|until| time_s <= until)
     }
 }
 
@@ -47,6 +70,10 @@ struct Control {
     stop: AtomicBool,
     sinks: Mutex<Sinks>,
     layout: RunLayout,
+    /// The loop time of the latest sample taken (`f64` bits).
+    taken_s: AtomicU64,
+    /// How often the thread found no sample left.
+    idle_passes: AtomicU64,
 }
 
 impl Control {
@@ -65,6 +92,7 @@ pub(crate) struct SinkStatus {
 
 /// The telemetry thread of one loop and its switchable sinks.
 pub(crate) struct TelemetryWorker {
+    owner: Owner,
     control: Arc<Control>,
     thread: Option<JoinHandle<()>>,
 }
@@ -92,6 +120,8 @@ impl TelemetryWorker {
             stop: AtomicBool::new(false),
             sinks: Mutex::new(Sinks::default()),
             layout,
+            taken_s: AtomicU64::new(f64::NEG_INFINITY.to_bits()),
+            idle_passes: AtomicU64::new(0),
         });
         let thread = std::thread::Builder::new()
             .name("rmd-py-telemetry".to_owned())
@@ -100,13 +130,20 @@ impl TelemetryWorker {
                 move || run(&samples, &control)
             })?;
         Ok(Self {
+            owner: Owner::here(),
             control,
             thread: Some(thread),
         })
     }
 
-    /// Starts writing an MCAP file at `path` (replacing the file), unless one is being written.
-    pub(crate) fn start_mcap(&self, path: PathBuf, compress: bool) -> Result<(), String> {
+    /// Starts writing an MCAP file at `path` (replacing the file) with the ticks from loop time
+    /// `from_s` on, unless one is being written.
+    pub(crate) fn start_mcap(
+        &self,
+        path: PathBuf,
+        compress: bool,
+        from_s: f64,
+    ) -> Result<(), String> {
         let mut sinks = self.control.sinks();
         if let Some((current, _)) = &sinks.mcap {
             return Err(format!(
@@ -120,20 +157,27 @@ impl TelemetryWorker {
         };
         let sink =
             McapSink::create(&path, &self.control.layout, options).map_err(|e| e.to_string())?;
-        sinks.mcap = Some((path, Active::start(sink)?));
+        sinks.mcap = Some((path, Active::start(sink, from_s)?));
         Ok(())
     }
 
-    /// Stops the MCAP file (closed with its summary and index); its counts, or `None` if none
-    /// was being written.
-    pub(crate) fn stop_mcap(&self) -> Option<PipelineStats> {
+    /// Stops the MCAP file after the ticks up to loop time `until_s` (closed with its summary
+    /// and index); its counts, or `None` if none was being written.
+    pub(crate) fn stop_mcap(&self, until_s: f64) -> Option<PipelineStats> {
+        self.control.sinks().mcap.as_mut()?.1.until_s = Some(until_s);
+        self.wait_for_ticks_until(until_s);
         let active = self.control.sinks().mcap.take();
         active.map(|(_, active)| active.pipeline.shutdown())
     }
 
-    /// Starts the live Foxglove server on `addr` (port 0: any free port); the address it
-    /// listens on.
-    pub(crate) fn start_live(&self, addr: SocketAddr, rate_hz: f64) -> Result<SocketAddr, String> {
+    /// Starts the live Foxglove server on `addr` (port 0: any free port) with the ticks from
+    /// loop time `from_s` on; the address it listens on.
+    pub(crate) fn start_live(
+        &self,
+        addr: SocketAddr,
+        rate_hz: f64,
+        from_s: f64,
+    ) -> Result<SocketAddr, String> {
         let mut sinks = self.control.sinks();
         if let Some((current, _)) = &sinks.live {
             return Err(format!(
@@ -147,14 +191,33 @@ impl TelemetryWorker {
         };
         let sink = LiveSink::start(&self.control.layout, options).map_err(|e| e.to_string())?;
         let bound = sink.local_addr();
-        sinks.live = Some((bound, Active::start(sink)?));
+        sinks.live = Some((bound, Active::start(sink, from_s)?));
         Ok(bound)
     }
 
-    /// Stops the live server; its counts, or `None` if it was not running.
-    pub(crate) fn stop_live(&self) -> Option<PipelineStats> {
+    /// Stops the live server after the ticks up to loop time `until_s`; its counts, or `None`
+    /// if it was not running.
+    pub(crate) fn stop_live(&self, until_s: f64) -> Option<PipelineStats> {
+        self.control.sinks().live.as_mut()?.1.until_s = Some(until_s);
+        self.wait_for_ticks_until(until_s);
         let active = self.control.sinks().live.take();
         active.map(|(_, active)| active.pipeline.shutdown())
+    }
+
+    /// Waits until the thread has taken the samples up to loop time `until_s`, or has found the
+    /// queue empty twice since the call (the loop published nothing later), or the thread has
+    /// ended; at most [`SWITCH_OFF_WAIT`].
+    fn wait_for_ticks_until(&self, until_s: f64) {
+        let control = &self.control;
+        let idle_before = control.idle_passes.load(Ordering::Acquire);
+        let give_up = Instant::now() + SWITCH_OFF_WAIT;
+        while f64::from_bits(control.taken_s.load(Ordering::Acquire)) < until_s
+            && control.idle_passes.load(Ordering::Acquire) < idle_before + 2
+            && self.thread.as_ref().is_some_and(|t| !t.is_finished())
+            && Instant::now() < give_up
+        {
+            std::thread::sleep(POLL / 2);
+        }
     }
 
     /// The sinks that are on, and their counts so far.
@@ -178,14 +241,21 @@ impl TelemetryWorker {
         if let Some(thread) = self.thread.take() {
             let _ = thread.join();
         }
-        let _ = self.stop_mcap();
-        let _ = self.stop_live();
+        // Every sample was taken: nothing is left to wait for.
+        let _ = self.stop_mcap(f64::NEG_INFINITY);
+        let _ = self.stop_live(f64::NEG_INFINITY);
     }
 }
 
 impl Drop for TelemetryWorker {
     fn drop(&mut self) {
-        self.finish();
+        if self.owner.is_here() {
+            self.finish();
+        } else {
+            // A forked child's copy: the thread and the sinks' threads are the parent's;
+            // joining them here would wait forever.
+            std::mem::forget(self.thread.take());
+        }
     }
 }
 
@@ -206,10 +276,15 @@ fn run(samples: &TelemetryReceiver, control: &Control) {
             ]
             .into_iter()
             .flatten()
+            .filter(|a| a.takes(sample.time_s))
             {
                 let _ = active.producer.push(&record);
             }
+            control
+                .taken_s
+                .store(sample.time_s.to_bits(), Ordering::Release);
         }
+        control.idle_passes.fetch_add(1, Ordering::AcqRel);
         if stopping {
             return;
         }

@@ -10,7 +10,7 @@ use rmd_traj::{
     Trajectory as Traj, calculate,
 };
 
-use crate::errors::TrajectoryError;
+use crate::errors::{TrajectoryError, guard};
 
 /// The most axes `plan` takes.
 const MAX_AXES: usize = 16;
@@ -130,6 +130,44 @@ impl Trajectory {
     /// target state): a dict of NumPy arrays `time` (T,) and `position`, `velocity`,
     /// `acceleration`, `jerk`, each (T, dofs).
     fn sample<'py>(&self, py: Python<'py>, times: Vec<f64>) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| self.sampled(py, times))
+    }
+
+    /// The states every `dt` s from 0 to the duration (both included), as `sample` returns
+    /// them.
+    fn sample_every<'py>(&self, py: Python<'py>, dt: f64) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let duration = self.axes.duration();
+            if !(dt.is_finite() && dt > 0.0) {
+                return Err(TrajectoryError::new_err(format!(
+                    "dt {dt:?} must be a finite number above 0"
+                )));
+            }
+            let steps = (duration / dt).floor();
+            if steps > 10_000_000.0 {
+                return Err(TrajectoryError::new_err(format!(
+                    "dt {dt:?} s over {duration} s is more than 10 million samples"
+                )));
+            }
+            let mut times: Vec<f64> = (0..=steps as usize).map(|k| k as f64 * dt).collect();
+            if times.last().is_none_or(|&t| t < duration) {
+                times.push(duration);
+            }
+            self.sampled(py, times)
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<rmd_rt.Trajectory dofs={} duration={:.6} s>",
+            self.dofs,
+            self.axes.duration()
+        )
+    }
+}
+
+impl Trajectory {
+    fn sampled<'py>(&self, py: Python<'py>, times: Vec<f64>) -> PyResult<Bound<'py, PyDict>> {
         let n = self.dofs;
         let count = times.len();
         let mut kinds = [
@@ -165,36 +203,6 @@ impl Trajectory {
             d.set_item(name, array)?;
         }
         Ok(d)
-    }
-
-    /// The states every `dt` s from 0 to the duration (both included), as `sample` returns
-    /// them.
-    fn sample_every<'py>(&self, py: Python<'py>, dt: f64) -> PyResult<Bound<'py, PyDict>> {
-        let duration = self.axes.duration();
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(TrajectoryError::new_err(format!(
-                "dt {dt} must be a finite number above 0"
-            )));
-        }
-        let steps = (duration / dt).floor();
-        if steps > 10_000_000.0 {
-            return Err(TrajectoryError::new_err(format!(
-                "dt {dt} s over {duration} s is more than 10 million samples"
-            )));
-        }
-        let mut times: Vec<f64> = (0..=steps as usize).map(|k| k as f64 * dt).collect();
-        if times.last().is_none_or(|&t| t < duration) {
-            times.push(duration);
-        }
-        self.sample(py, times)
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "<rmd_rt.Trajectory dofs={} duration={:.6} s>",
-            self.dofs,
-            self.axes.duration()
-        )
     }
 }
 
@@ -245,79 +253,81 @@ pub(crate) fn plan(
     minimum_duration: Option<f64>,
     period: Option<f64>,
 ) -> PyResult<Trajectory> {
-    let dofs = current_position.len();
-    let zeros = || vec![0.0; dofs];
-    let problem = (|| {
-        let problem = Problem {
-            current: [
-                current_position,
-                current_velocity.unwrap_or_else(zeros),
-                current_acceleration.unwrap_or_else(zeros),
-            ],
-            target: [
-                target_position,
-                target_velocity.unwrap_or_else(zeros),
-                target_acceleration.unwrap_or_else(zeros),
-            ],
-            limits: [max_velocity, max_acceleration, max_jerk],
-            min_velocity,
-            min_acceleration,
-            synchronization: match synchronization {
-                "time" => Synchronization::Time,
-                "time-if-necessary" => Synchronization::TimeIfNecessary,
-                "phase" => Synchronization::Phase,
-                "none" => Synchronization::None,
-                other => {
-                    return Err(format!(
-                        "unknown synchronization `{other}`: expected time, time-if-necessary, \
-                         phase or none"
-                    ));
+    guard(|| {
+        let dofs = current_position.len();
+        let zeros = || vec![0.0; dofs];
+        let problem = (|| {
+            let problem = Problem {
+                current: [
+                    current_position,
+                    current_velocity.unwrap_or_else(zeros),
+                    current_acceleration.unwrap_or_else(zeros),
+                ],
+                target: [
+                    target_position,
+                    target_velocity.unwrap_or_else(zeros),
+                    target_acceleration.unwrap_or_else(zeros),
+                ],
+                limits: [max_velocity, max_acceleration, max_jerk],
+                min_velocity,
+                min_acceleration,
+                synchronization: match synchronization {
+                    "time" => Synchronization::Time,
+                    "time-if-necessary" => Synchronization::TimeIfNecessary,
+                    "phase" => Synchronization::Phase,
+                    "none" => Synchronization::None,
+                    other => {
+                        return Err(format!(
+                            "unknown synchronization `{other}`: expected time, time-if-necessary, \
+                             phase or none"
+                        ));
+                    }
+                },
+                interface: match control_interface {
+                    "position" => ControlInterface::Position,
+                    "velocity" => ControlInterface::Velocity,
+                    other => {
+                        return Err(format!(
+                            "unknown control_interface `{other}`: expected position or velocity"
+                        ));
+                    }
+                },
+                discretization: match period {
+                    None => DurationDiscretization::Continuous,
+                    Some(period) => DurationDiscretization::Discrete { period },
+                },
+                minimum_duration,
+            };
+            let names = [
+                [
+                    "current_position",
+                    "current_velocity",
+                    "current_acceleration",
+                ],
+                ["target_position", "target_velocity", "target_acceleration"],
+                ["max_velocity", "max_acceleration", "max_jerk"],
+            ];
+            for (group, names) in [&problem.current, &problem.target, &problem.limits]
+                .into_iter()
+                .zip(names)
+            {
+                for (v, name) in group.iter().zip(names) {
+                    same_length(name, v, dofs)?;
                 }
-            },
-            interface: match control_interface {
-                "position" => ControlInterface::Position,
-                "velocity" => ControlInterface::Velocity,
-                other => {
-                    return Err(format!(
-                        "unknown control_interface `{other}`: expected position or velocity"
-                    ));
-                }
-            },
-            discretization: match period {
-                None => DurationDiscretization::Continuous,
-                Some(period) => DurationDiscretization::Discrete { period },
-            },
-            minimum_duration,
-        };
-        let names = [
-            [
-                "current_position",
-                "current_velocity",
-                "current_acceleration",
-            ],
-            ["target_position", "target_velocity", "target_acceleration"],
-            ["max_velocity", "max_acceleration", "max_jerk"],
-        ];
-        for (group, names) in [&problem.current, &problem.target, &problem.limits]
-            .into_iter()
-            .zip(names)
-        {
-            for (v, name) in group.iter().zip(names) {
-                same_length(name, v, dofs)?;
             }
-        }
-        if let Some(v) = &problem.min_velocity {
-            same_length("min_velocity", v, dofs)?;
-        }
-        if let Some(v) = &problem.min_acceleration {
-            same_length("min_acceleration", v, dofs)?;
-        }
-        Ok(problem)
-    })()
-    .map_err(TrajectoryError::new_err)?;
-    let axes = dispatch!(
-        &problem, dofs, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16
-    )
-    .map_err(TrajectoryError::new_err)?;
-    Ok(Trajectory { axes, dofs })
+            if let Some(v) = &problem.min_velocity {
+                same_length("min_velocity", v, dofs)?;
+            }
+            if let Some(v) = &problem.min_acceleration {
+                same_length("min_acceleration", v, dofs)?;
+            }
+            Ok(problem)
+        })()
+        .map_err(TrajectoryError::new_err)?;
+        let axes = dispatch!(
+            &problem, dofs, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16
+        )
+        .map_err(TrajectoryError::new_err)?;
+        Ok(Trajectory { axes, dofs })
+    })
 }

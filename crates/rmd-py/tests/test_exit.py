@@ -27,7 +27,7 @@ atexit.register(after_rmd_rt)
 
 import rmd_rt
 
-loop = rmd_rt.Robot.from_toml({leg4!r}).start(sim=True)
+loop = rmd_rt.Robot.from_toml({leg4!r}).start(sim=True, virtual_time=True)
 sim = loop.simulator()
 loop.set_velocity("knee", 0.4)
 loop.sleep(0.1)
@@ -62,7 +62,7 @@ def test_exiting_without_stopping_turns_the_motors_off(leg4, ending):
 
 
 def test_dropping_the_loop_turns_the_motors_off(leg4):
-    loop = rmd_rt.Robot.from_toml(leg4).start(sim=True)
+    loop = rmd_rt.Robot.from_toml(leg4).start(sim=True, virtual_time=True)
     sim = loop.simulator()
     loop.set_velocity("knee", 0.4)
     loop.sleep(0.05)

@@ -270,3 +270,13 @@ def test_decode_refuses_bad_arguments():
         rmd_rt.decode("141#9C00000000000000", encoder_bits=40)
     with pytest.raises(rmd_rt.ProtocolError):
         rmd_rt.decode("not a frame")
+
+
+def test_the_guides_reply_example_decodes_in_range():
+    # docs/python.md's example of a read-status-2 reply (little-endian fields: iq 100 is 64 00).
+    reply = rmd_rt.decode("(1700000000.25) can0 141#9C1E64000A000010", direction="reply")
+    assert "errors" not in reply, reply
+    assert (reply["command"], reply["iq"], reply["speed_dps"], reply["encoder"]) == (
+        "read-status-2", 100, 10.0, 4096,
+    )
+    assert reply["iq_amps"] == pytest.approx(100 * 33 / 2048)

@@ -193,17 +193,18 @@ impl Decimator {
         match self.next_ns {
             Some(next) if since_start_ns < next => false,
             Some(next) => {
-                // Stay on the grid unless the records jumped past a whole period.
-                let on_grid = next + self.period_ns;
+                // Stay on the grid unless the records jumped past a whole period. Saturating: a
+                // rate of almost nothing makes a period of centuries (u64::MAX ns at most).
+                let on_grid = next.saturating_add(self.period_ns);
                 self.next_ns = Some(if on_grid > since_start_ns {
                     on_grid
                 } else {
-                    since_start_ns + self.period_ns
+                    since_start_ns.saturating_add(self.period_ns)
                 });
                 true
             }
             None => {
-                self.next_ns = Some(since_start_ns + self.period_ns);
+                self.next_ns = Some(since_start_ns.saturating_add(self.period_ns));
                 true
             }
         }
@@ -383,5 +384,13 @@ mod tests {
         assert!(d.keep(95_000_000)); // a gap: restart the grid from here
         assert!(!d.keep(104_999_999));
         assert!(d.keep(105_000_000));
+    }
+
+    #[test]
+    fn a_rate_of_almost_nothing_keeps_the_first_record_and_never_overflows() {
+        let mut d = Decimator::new(1e-300); // a period beyond u64::MAX ns
+        assert!(d.keep(5));
+        assert!(!d.keep(6));
+        assert!(!d.keep(u64::MAX - 1));
     }
 }

@@ -10,7 +10,9 @@ in Rust.
 - :func:`plan`: time-optimal, jerk-limited trajectories sampled into NumPy arrays.
 
 Every running loop is stopped, and its motors made safe, when its object is dropped or the
-interpreter exits (an ``atexit`` hook registered on import). See docs/python.md.
+interpreter exits (an ``atexit`` hook registered on import). Every blocking call lets Ctrl-C
+through (``KeyboardInterrupt``); every failure is an :class:`RmdError` (the hierarchy is in
+``rmd_rt._errors``). See docs/python.md.
 """
 
 from __future__ import annotations
@@ -19,32 +21,48 @@ import atexit
 
 from . import _native
 from ._bus import AsyncBus, Bus, Reply
-from ._native import (
+from ._errors import (
+    ArgumentError,
     BusError,
     ConfigError,
+    ForkedProcessError,
+    InternalError,
+    LimitError,
     LoopError,
+    LoopStoppedError,
     NoReplyError,
     ProtocolError,
     RmdError,
-    Robot,
-    RobotLoop,
     RomWriteNotConfirmed,
     ServoError,
-    Simulator,
+    SetpointError,
     TelemetryError,
-    Trajectory,
     TrajectoryError,
+)
+from ._native import (
+    Robot,
+    RobotLoop,
+    Simulator,
+    Trajectory,
     decode,
     encode,
     plan,
 )
 
+__version__: str = _native.__version__
+"""The package's version: the rmd-rt workspace's (the crate's Cargo version)."""
+
 __all__ = [
+    "ArgumentError",
     "AsyncBus",
     "Bus",
     "BusError",
     "ConfigError",
+    "ForkedProcessError",
+    "InternalError",
+    "LimitError",
     "LoopError",
+    "LoopStoppedError",
     "NoReplyError",
     "ProtocolError",
     "Reply",
@@ -53,10 +71,12 @@ __all__ = [
     "RobotLoop",
     "RomWriteNotConfirmed",
     "ServoError",
+    "SetpointError",
     "Simulator",
     "TelemetryError",
     "Trajectory",
     "TrajectoryError",
+    "__version__",
     "decode",
     "encode",
     "plan",

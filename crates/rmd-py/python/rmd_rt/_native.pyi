@@ -1,21 +1,29 @@
 """Type stubs of the native module (Rust, pyo3). Import ``rmd_rt``, not this."""
 
 from os import PathLike
-from typing import Any, Dict, List, Literal, Mapping, Optional, Sequence, TypedDict, Union
+from typing import Any, Dict, List, Literal, Mapping, Optional, Sequence, TypedDict, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
-class RmdError(Exception): ...
-class ProtocolError(RmdError): ...
-class BusError(RmdError): ...
-class NoReplyError(BusError): ...
-class RomWriteNotConfirmed(RmdError): ...
-class ConfigError(RmdError): ...
-class ServoError(RmdError): ...
-class LoopError(RmdError): ...
-class TrajectoryError(RmdError): ...
-class TelemetryError(RmdError): ...
+# The exceptions are rmd_rt._errors' (Python classes the native module raises). The TypedDicts
+# and aliases below describe the dicts the module returns: they exist for type checkers only
+# (tests/python/stubtest-allowlist.txt names them for mypy's stubtest).
+
+__all__ = [
+    "__version__",
+    "NativeBus",
+    "Robot",
+    "RobotLoop",
+    "Simulator",
+    "Trajectory",
+    "decode",
+    "encode",
+    "plan",
+    "stop_all_loops",
+]
+
+__version__: str
 
 Direction = Literal["auto", "request", "reply"]
 
@@ -43,6 +51,7 @@ def decode(
     own is a request; ``"reply"`` for a motor's answer). Fields out of range are left out and
     named under ``"errors"``; an unreadable frame raises :class:`ProtocolError`."""
 
+@final
 class NativeBus:
     @staticmethod
     def socketcan(
@@ -94,6 +103,7 @@ class SimMotor(TypedDict):
     pid_ram: Dict[str, int]
     pid_rom: Dict[str, int]
 
+@final
 class Simulator:
     """The simulated motors' ground truth (not what the bus reports)."""
     def motors(self) -> List[SimMotor]:
@@ -107,6 +117,7 @@ class BusInfo(TypedDict):
     bitrate: int
     joints: List[str]
 
+@final
 class Robot:
     """A robot description (TOML), checked."""
     @staticmethod
@@ -180,6 +191,7 @@ class SinkCounts(TypedDict, total=False):
     path: str
     addr: str
 
+@final
 class RobotLoop:
     """A running loop (from :meth:`Robot.start`); stopped with the motors made safe by
     ``stop()``, ``estop()``, dropping it, a ``with`` block's end, or the interpreter's exit."""
@@ -229,6 +241,7 @@ class Samples(TypedDict):
     acceleration: npt.NDArray[np.float64]
     jerk: npt.NDArray[np.float64]
 
+@final
 class Trajectory:
     """A trajectory calculated by :func:`plan`."""
     @property
