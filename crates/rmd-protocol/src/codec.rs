@@ -102,6 +102,23 @@ impl Dialect {
         Ok(CanFrame::rmd(motor.can_id(), request.to_data()))
     }
 
+    /// The motor-off frame (0x80, no fields) to `motor`: every family has it, in the same bytes,
+    /// so it cannot fail (v1.61 "motor off"; LK-TECH V2.35 motor off; V3 V4.3 §2.17, V4.4
+    /// §2.16). What a safe stop sends.
+    ///
+    /// ```
+    /// use rmd_protocol::{Dialect, MotorId, Request, V3Firmware};
+    /// let m = MotorId::new(3)?;
+    /// for d in [Dialect::V161, Dialect::MyActuatorV3(V3Firmware::default())] {
+    ///     assert_eq!(Ok(d.motor_off(m)), d.encode(m, &Request::MotorOff));
+    /// }
+    /// # Ok::<(), rmd_protocol::ProtocolError>(())
+    /// ```
+    #[inline]
+    pub const fn motor_off(self, motor: MotorId) -> CanFrame {
+        CanFrame::rmd(motor.can_id(), Request::MotorOff.to_data())
+    }
+
     /// The MyActuator V3 0x280 frame that has every motor of the bus execute `request` (V4.3
     /// §3, V4.4 §3: "multiple motors respond to the same command at the same time"; each
     /// answers on its own `0x240 + id`). Motors with the CAN ID filter on (0x20 index 2) do not

@@ -14,11 +14,11 @@ pub const MULTI_TORQUE_CAN_ID: u16 = 0x280;
 pub const MULTI_TORQUE_MOTORS: usize = 4;
 /// Base of MyActuator V3's reply identifiers: motor `n` replies on `0x240 + n` (V4.3 / V4.4
 /// §1.1.2).
-pub(crate) const V3_REPLY_BASE_ID: u16 = 0x240;
+pub const V3_REPLY_BASE_ID: u16 = 0x240;
 /// Base of MyActuator V3's motion-mode identifiers: `0x400 + n` (V4.3 §5, V4.4 §4).
-pub(crate) const V3_MOTION_BASE_ID: u16 = 0x400;
+pub const V3_MOTION_BASE_ID: u16 = 0x400;
 /// Base of MyActuator V3's motion-mode reply identifiers: `0x500 + n` (V4.3 §5, V4.4 §4).
-pub(crate) const V3_MOTION_REPLY_BASE_ID: u16 = 0x500;
+pub const V3_MOTION_REPLY_BASE_ID: u16 = 0x500;
 
 /// The id of one motor on a bus, 1..=32 (spec: "0x140 + ID(1~32)").
 ///

@@ -165,7 +165,7 @@ pub use identify::{
 };
 pub use ids::{
     FIRST_MOTOR_CAN_ID, LAST_MOTOR_CAN_ID, MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS, MotorId,
-    SINGLE_MOTOR_BASE_ID,
+    SINGLE_MOTOR_BASE_ID, V3_MOTION_BASE_ID, V3_MOTION_REPLY_BASE_ID, V3_REPLY_BASE_ID,
 };
 pub use lk::{LkBusCurrent, LkCircleAngle, LkMotorState, LkStatus1, LkVoltage};
 pub use mit::{MitCommand, MitFeedback};

@@ -3,7 +3,8 @@
 use core::time::Duration;
 
 use rmd_protocol::{
-    Accel, EncoderValue, EncoderWidth, FirmwareDate, MotorId, MotorMaxTorque, PidParams, V3Firmware,
+    Accel, Dialect, EncoderValue, EncoderWidth, FirmwareDate, MotorId, MotorMaxTorque, PidParams,
+    V3Firmware,
 };
 
 use crate::error::ConfigError;
@@ -165,6 +166,33 @@ impl Default for FirmwareParams {
 }
 
 impl FirmwareParams {
+    /// Makes the firmware speak `dialect`: its family, and for MyActuator V3 its firmware date
+    /// and maximum torque when the dialect knows them.
+    ///
+    /// ```
+    /// use rmd_protocol::{Dialect, FirmwareDate, V3Firmware};
+    /// use rmd_sim::{FirmwareFamily, FirmwareParams};
+    /// let mut firmware = FirmwareParams::default();
+    /// firmware.speak(Dialect::MyActuatorV3(V3Firmware::dated(FirmwareDate::from_raw(2026042402))));
+    /// assert_eq!(firmware.family, FirmwareFamily::MyActuatorV3);
+    /// assert_eq!(firmware.v3.firmware_date.raw(), 2026042402);
+    /// ```
+    pub fn speak(&mut self, dialect: Dialect) {
+        self.family = match dialect {
+            Dialect::V161 => FirmwareFamily::V161,
+            Dialect::LkV23x(series) => FirmwareFamily::LkV23x(series),
+            Dialect::MyActuatorV3(firmware) => {
+                if let Some(date) = firmware.date {
+                    self.v3.firmware_date = date;
+                }
+                if let Some(max) = firmware.max_torque {
+                    self.v3.max_torque_nm = max.nm();
+                }
+                FirmwareFamily::MyActuatorV3
+            }
+        };
+    }
+
     /// Checks every value is meaningful.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.encoder_offset.check(self.encoder_width).map_err(|_| {
