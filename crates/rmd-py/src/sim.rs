@@ -48,6 +48,7 @@ fn mode_name(mode: ControlMode) -> &'static str {
         ControlMode::Torque { .. } => "torque",
         ControlMode::Speed { .. } => "speed",
         ControlMode::Position { .. } => "position",
+        ControlMode::Motion { .. } => "motion",
     }
 }
 

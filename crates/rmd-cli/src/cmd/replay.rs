@@ -20,7 +20,7 @@ use rmd_bus::candump::{Direction, LogLine};
 use rmd_bus::record::wall_clock_offset;
 use rmd_bus::replay::{LogRecord, Pace, ReplaySchedule, read_log};
 use rmd_bus::{BusMessage, Clock, Timestamp};
-use rmd_protocol::{DecodedRequest, MotorId, Request, decode_request};
+use rmd_protocol::{DecodedRequest, Dialect, MotorId, Request};
 
 use crate::args::bus::BusArgs;
 use crate::args::timing;
@@ -135,7 +135,7 @@ fn select(records: Vec<LogRecord>, selection: Frames) -> Vec<LogRecord> {
 fn motors_moved(records: &[LogRecord]) -> Vec<MotorId> {
     let mut moved = Vec::new();
     for record in records {
-        match decode_request(&record.frame) {
+        match Dialect::V161.decode_request(&record.frame) {
             Ok(DecodedRequest::Single { motor, request }) if moves(&request) => moved.push(motor),
             Ok(DecodedRequest::Multi(_)) => {
                 moved.extend((1..=4).filter_map(|id| MotorId::new(id).ok()))
