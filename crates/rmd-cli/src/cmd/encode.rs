@@ -148,7 +148,7 @@ struct SpeedArgs {
     /// Speed in degrees per second (rounded to 0.01 dps).
     #[arg(long, value_parser = parse::speed_dps, allow_hyphen_values = true)]
     dps: Option<SpeedControl>,
-    /// MyActuator V3: torque limit (maxTorque, DATA[1]) in percent of the rated current,
+    /// MyActuator V3: torque limit (maxTorque, byte 1) in percent of the rated current,
     /// 1..=255; 0 or absent, none.
     #[arg(long, value_name = "PERCENT")]
     max_torque: Option<u8>,
@@ -217,10 +217,10 @@ impl From<Function> for V3Function {
 struct FunctionArgs {
     #[command(flatten)]
     target: Target,
-    /// The function (DATA[1]).
+    /// The function (byte 1).
     #[arg(long, value_enum)]
     function: Function,
-    /// Its value (DATA[4..=7], u32).
+    /// Its value (bytes 4..=7, u32).
     #[arg(long, default_value = "0")]
     value: u32,
 }
