@@ -5,6 +5,7 @@ use core::fmt;
 use crate::command::Command;
 use crate::family::ProtocolFamily;
 use crate::field::Field;
+use crate::milli::Milli;
 use crate::mit_ranges::MitRanges;
 use crate::scale::CurrentScale;
 
@@ -257,26 +258,5 @@ impl fmt::Display for FrameKind {
             FrameKind::Broadcast => "the 0x280 frame of one command for every motor",
             FrameKind::Motion => "the motion-mode (MIT) frame on 0x400 + id",
         })
-    }
-}
-
-/// A number given in thousandths, formatted as a decimal without trailing zeros (`12.5`, `-3`).
-struct Milli(i64);
-
-impl fmt::Display for Milli {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let sign = if self.0 < 0 { "-" } else { "" };
-        let abs = self.0.unsigned_abs();
-        let (whole, mut frac) = (abs / 1000, abs % 1000);
-        write!(f, "{sign}{whole}")?;
-        if frac != 0 {
-            let mut digits = 3;
-            while frac % 10 == 0 {
-                frac /= 10;
-                digits -= 1;
-            }
-            write!(f, ".{frac:0digits$}")?;
-        }
-        Ok(())
     }
 }

@@ -135,6 +135,7 @@ mod frame;
 mod identify;
 mod ids;
 mod lk;
+mod milli;
 mod mit;
 mod mit_ranges;
 mod models;

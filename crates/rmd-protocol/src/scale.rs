@@ -3,6 +3,7 @@
 use core::fmt;
 
 use crate::field::Field;
+use crate::milli::Milli;
 use crate::round::round_half_away;
 
 /// Current scales as data, and current values that carry the scale they assume.
@@ -141,16 +142,7 @@ impl CurrentScale {
 /// Formats as e.g. `33 A per 2048 LSB (-2048..=2048)` or `0.01 A per LSB (-32768..=32767)`.
 impl fmt::Display for CurrentScale {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let (whole, mut frac) = (self.milliamps / 1000, self.milliamps % 1000);
-        write!(f, "{whole}")?;
-        if frac != 0 {
-            let mut digits = 3;
-            while frac % 10 == 0 {
-                frac /= 10;
-                digits -= 1;
-            }
-            write!(f, ".{frac:0digits$}")?;
-        }
+        write!(f, "{}", Milli(i64::from(self.milliamps)))?;
         if self.per_raw == 1 {
             write!(f, " A per LSB")?;
         } else {

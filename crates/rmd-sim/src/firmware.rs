@@ -438,16 +438,7 @@ impl Firmware {
                 Reply::MotorRun
             }
             Request::Torque { iq_control } => self.torque(iq_control, plant),
-            Request::Speed { speed_control, .. } => {
-                let reply = Reply::Speed(self.status2(plant));
-                self.command(
-                    ControlMode::Speed {
-                        target_dps: speed_control.dps(),
-                    },
-                    plant,
-                );
-                reply
-            }
+            Request::Speed { speed_control, .. } => self.speed(speed_control.dps(), plant),
             Request::Position1 { angle_control } => {
                 let reply = Reply::Position1(self.status2(plant));
                 let target = self.clamp_to_max_angle(angle_control.degrees());
@@ -457,12 +448,7 @@ impl Firmware {
             Request::Position2 {
                 max_speed,
                 angle_control,
-            } => {
-                let reply = Reply::Position2(self.status2(plant));
-                let target = self.clamp_to_max_angle(angle_control.degrees());
-                self.command(self.position(target, max_speed.dps()), plant);
-                reply
-            }
+            } => self.position_2(angle_control.degrees(), max_speed.dps(), plant),
             Request::Position3 {
                 spin_direction,
                 angle_control,
@@ -491,6 +477,29 @@ impl Firmware {
             | Request::BrakeRelease
             | Request::BrakeLock => return None,
         })
+    }
+
+    /// A speed command (0xA2) to `target_dps` at the motor: the status-2 reply sampled before
+    /// the command, then the command.
+    pub(super) fn speed(&mut self, target_dps: f64, plant: &Plant) -> Reply {
+        let reply = Reply::Speed(self.status2(plant));
+        self.command(ControlMode::Speed { target_dps }, plant);
+        reply
+    }
+
+    /// A position command with a speed limit (0xA4) to `target_deg` at the motor (within the
+    /// maximum angle) at up to `max_speed_dps`: the status-2 reply sampled before the command,
+    /// then the command.
+    pub(super) fn position_2(
+        &mut self,
+        target_deg: f64,
+        max_speed_dps: f64,
+        plant: &Plant,
+    ) -> Reply {
+        let reply = Reply::Position2(self.status2(plant));
+        let target = self.clamp_to_max_angle(target_deg);
+        self.command(self.position(target, max_speed_dps), plant);
+        reply
     }
 
     /// A torque command (0xA1, or this motor's slot of a 0x280 frame): the status-2 reply

@@ -120,13 +120,7 @@ impl Firmware {
                 speed_control,
                 max_torque,
             } => {
-                let reply = Reply::Speed(self.status2(plant));
-                self.command(
-                    ControlMode::Speed {
-                        target_dps: speed_control.dps() * ratio,
-                    },
-                    plant,
-                );
+                let reply = self.speed(speed_control.dps() * ratio, plant);
                 let limit = f64::from(max_torque.raw()) / 100.0 * self.params.v3.rated_current_a;
                 if max_torque.is_set() && limit <= self.params.max_torque_current_a {
                     self.command_limit_a = Some(limit);
@@ -136,12 +130,11 @@ impl Firmware {
             Request::Position2 {
                 max_speed,
                 angle_control,
-            } => {
-                let reply = Reply::Position2(self.status2(plant));
-                let target = self.clamp_to_max_angle(angle_control.degrees() * ratio);
-                self.command(self.position(target, max_speed.dps() * ratio), plant);
-                reply
-            }
+            } => self.position_2(
+                angle_control.degrees() * ratio,
+                max_speed.dps() * ratio,
+                plant,
+            ),
             Request::ReadFirmwareDate => Reply::ReadFirmwareDate(self.params.v3.firmware_date),
             Request::ReadModel { part } => Reply::ReadModel(model_text(&self.params.v3, part)),
             Request::SetWatchdog { timeout } => {
