@@ -34,7 +34,8 @@ use rmd_rt::bus::{
     BusError, BusMessage, CanBus, Clock, Readiness, Received, Timestamp, VirtualClock, WaitOn,
 };
 use rmd_rt::protocol::{
-    CanFrame, EncoderValue, Iq, IqControl, MotorId, MultiTorque, Reply, Speed, Status2, Temperature,
+    CanFrame, Dialect, EncoderValue, Iq, IqControl, MotorId, MultiTorque, Reply, Speed, Status2,
+    StatusPosition, Temperature,
 };
 use rmd_rt::rt::robot::{BusConfig, MotorConfig, RobotConfig};
 use rmd_rt::rt::{Running, TelemetryReceiver};
@@ -89,12 +90,14 @@ impl CannedBus {
         let replies = core::array::from_fn(|i| {
             let status = Status2 {
                 temperature: Temperature::saturating(30),
-                iq: Iq::saturating(40 * i as i64 - 60),
+                iq: Iq::saturating(40 * i as i64 - 60).into(),
                 speed: Speed::saturating(12 - 5 * i as i64),
-                encoder: EncoderValue::from_raw(4000 * i as u16 + 17),
+                position: StatusPosition::Encoder(EncoderValue::from_raw(4000 * i as u16 + 17)),
             };
             let motor = MotorId::new(i as u8 + 1).expect("ids 1..=4 are valid");
-            Reply::Torque(status).encode(motor)
+            Dialect::V161
+                .encode_reply(motor, &Reply::Torque(status))
+                .unwrap()
         });
         Self {
             clock,
@@ -224,7 +227,7 @@ fn tick(c: &mut Criterion) {
 
         let clock = VirtualClock::new();
         let mut sims = sim_buses(&clock, buses);
-        let frame = MultiTorque::new([IqControl::default(); 4]).encode();
+        let frame = MultiTorque::new([IqControl::default().into(); 4]).encode();
         let period = Duration::from_secs_f64(1.0 / RATE_HZ);
         group.bench_function(format!("sim alone {label}"), |b| {
             b.iter(|| {

@@ -517,9 +517,79 @@ fn protocol_options_are_checked() {
         "{:?}",
         run.stderr
     );
-    let run = decode(&["--protocol", "myactuator-v3"], "");
+    let run = decode(&["--firmware-date", "2026042402"], "");
     assert_eq!(run.code, Some(2));
-    assert!(run.stderr[0].contains("does not speak myactuator-v3"));
+    assert!(
+        run.stderr[0].contains("add --protocol myactuator-v3"),
+        "{:?}",
+        run.stderr
+    );
+}
+
+/// MyActuator V3 (V4.3 / V4.4 manuals): replies on `0x240 + id` in SI units, from the manuals'
+/// own example frames.
+#[test]
+fn myactuator_v3_frames_in_si_units() {
+    let input = "\
+141#A100000064000000
+241#A13264001E000001
+241#9A320001E5010400
+241#9C326400F4012D00
+241#B20000002E893401
+241#B501015838533256
+241#9400000000004C1D
+401#E66682E052333B55
+501#01E66682EB550000
+280#8000000000000000
+241#8000000000000000
+";
+    let out = ok(&["--protocol", "myactuator-v3"], input);
+    assert_eq!(out.len(), 11);
+    // V4.3 §2.19: 0.01 A per LSB.
+    assert_eq!(out[0]["direction"], "request");
+    assert_eq!(out[0]["iq_control_amps"], 1.0);
+    // Its reply: status 2 with the output shaft's speed and angle.
+    assert_eq!(out[1]["direction"], "reply");
+    assert_eq!(out[1]["can_id"], "0x241");
+    assert_eq!(out[1]["iq"], 100);
+    assert_eq!(out[1]["iq_amps"], 1.0);
+    assert_eq!(out[1]["speed_dps"], 30.0);
+    assert_eq!(out[1]["output_angle_degrees"], 256.0);
+    // V4.3 §2.14: 50 °C, brake released, 48.5 V, low-voltage flag.
+    assert_eq!(out[2]["temperature_celsius"], 50.0);
+    assert_eq!(out[2]["brake_released"], true);
+    assert_eq!(out[2]["voltage_volts"], 48.5);
+    assert_eq!(out[2]["error_names"], json!(["low_voltage"]));
+    // V4.3 §2.15: 50 °C, 1 A, 500 dps, 45 degrees.
+    assert_eq!(out[3]["iq_amps"], 1.0);
+    assert_eq!(out[3]["speed_dps"], 500.0);
+    assert_eq!(out[3]["output_angle_degrees"], 45.0);
+    // V4.3 §2.30: firmware 20220206; V4.4 §2.34: model part 1.
+    assert_eq!(out[4]["firmware_date"], 20220206);
+    assert_eq!(out[5]["model"], "X8S2V");
+    // V4.3 §2.13: the single-turn angle, u16 0.01 degree in DATA[6..=7].
+    assert_eq!(out[6]["circle_angle_degrees"], 75.0);
+    // V4.3 §5.4: the motion-mode command and its reply.
+    assert_eq!(out[7]["command"], "motion");
+    assert_eq!(out[7]["p_des"], 0xE666);
+    assert!((out[7]["p_des_rad"].as_f64().unwrap() - 10.0).abs() < 1e-3);
+    assert_eq!(out[8]["direction"], "reply");
+    assert!((out[8]["t_nm"].as_f64().unwrap() - 10.004).abs() < 1e-3);
+    // V4.3 §3: one command for every motor, answered by each on its own 0x240 + id.
+    assert_eq!(out[9]["broadcast"], true);
+    assert_eq!(out[10]["command"], "motor-off");
+
+    // V4.4 firmware: 0x94 is an i32 in DATA[4..=7] (V4.4 §2.12: 75 degrees).
+    let out = ok(
+        &[
+            "--protocol",
+            "myactuator-v3",
+            "--firmware-date",
+            "2026042402",
+        ],
+        "241#940000004C1D0000\n",
+    );
+    assert_eq!(out[0]["circle_angle_degrees"], 75.0);
 }
 
 /// The peak resident memory of a running process, from /proc (kB).

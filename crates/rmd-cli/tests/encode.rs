@@ -340,8 +340,8 @@ fn lk_tech_ranges_and_options_are_checked() {
             "expected mf or mg",
         ),
         (
-            "--protocol myactuator-v3 torque --id 1 --amps 1",
-            "does not speak myactuator-v3",
+            "--protocol lk-v2.3x --lk-series mf read-model --id 1",
+            "read-model (0xB5) is not a command of protocol lk-v2.3x",
         ),
     ];
     for (args, needle) in cases {
@@ -363,5 +363,128 @@ fn help_says_which_scale_each_current_option_assumes() {
         "33/2048 A (LK MG)",
     ] {
         assert!(help.contains(needle), "{needle} missing from {help}");
+    }
+}
+
+/// MyActuator V3 (V4.3 / V4.4 manuals): the manuals' own example frames, byte for byte, and the
+/// line scripts rely on.
+#[test]
+fn myactuator_v3_frames_are_the_manuals_examples() {
+    let v3 = "--protocol myactuator-v3";
+    let cases = [
+        // Stable for scripts (issue 25): 1 A at 0.01 A/LSB (V4.3 §2.19 example 1).
+        ("torque --id 1 --amps 1", "141#A100000064000000"),
+        // V4.3 §2.19 example 2: -1 A.
+        ("torque --id 1 --amps -1", "141#A10000009CFF0000"),
+        // V4.3 §2.20: 100 dps at the output shaft, then with a 50 % torque limit.
+        ("speed --id 1 --dps 100", "141#A200000010270000"),
+        (
+            "speed --id 1 --dps 100 --max-torque 50",
+            "141#A232000010270000",
+        ),
+        // V4.3 §2.21: 360 degrees at 500 dps, and -360.
+        (
+            "position-2 --id 1 --max-speed 500 --deg 360",
+            "141#A400F401A08C0000",
+        ),
+        (
+            "position-2 --id 1 --max-speed 500 --deg -360",
+            "141#A400F4016073FFFF",
+        ),
+        ("read-status-1 --id 1", "141#9A00000000000000"),
+        ("read-status-2 --id 1", "141#9C00000000000000"),
+        ("read-multi-turn-angle --id 1", "141#9200000000000000"),
+        ("read-single-turn-angle --id 1", "141#9400000000000000"),
+        ("motor-off --id 1", "141#8000000000000000"),
+        ("motor-stop --id 1", "141#8100000000000000"),
+        // V4.3 §2.30, §2.33 / V4.4 §2.34 (the indexed form).
+        ("read-firmware-date --id 1", "141#B200000000000000"),
+        ("read-model --id 1", "141#B500000000000000"),
+        ("read-model --id 1 --index 1", "141#B501010000000000"),
+        // V4.3 §2.31: 1000 ms, u32 in DATA[4..=7].
+        (
+            "set-watchdog --id 1 --timeout-ms 1000",
+            "141#B3000000E8030000",
+        ),
+        // V4.3 §2.35: index 2 (CAN ID filter), value 1.
+        (
+            "function-control --id 1 --function can-id-filter --value 1",
+            "141#2002000001000000",
+        ),
+        ("reset --id 1", "141#7600000000000000"),
+        ("brake-release --id 1", "141#7700000000000000"),
+        ("brake-lock --id 1", "141#7800000000000000"),
+        // V4.3 §3: one command for every motor on 0x280.
+        ("motor-off --broadcast", "280#8000000000000000"),
+        ("torque --broadcast --amps 1", "280#A100000064000000"),
+        // V4.3 §5.4: the motion-mode example, with its values (p 10 rad, v 1.021 rad/s,
+        // kp 10.012, kd 1, t 10.004 N·m).
+        (
+            "motion --id 1 --p-des 10 --v-des 1.021 --kp 10.012 --kd 1 --t-ff 10.004",
+            "401#E66682E052333B55",
+        ),
+        (
+            "motion --id 32 --p-des 0 --v-des 0 --kp 0 --kd 0 --t-ff 0",
+            "420#8000800000000800",
+        ),
+    ];
+    for (args, frame) in cases {
+        let args = format!("{v3} {args}");
+        assert_eq!(encode(&args), format!("{frame}\n"), "rmd encode {args}");
+    }
+    // V4.4 firmware: the motion-mode torque range is the motor's maximum torque.
+    assert_eq!(
+        encode(&format!(
+            "{v3} --firmware-date 2026042402 --motor-max-torque 60 \
+             motion --id 1 --p-des 0 --v-des 0 --kp 0 --kd 0 --t-ff 0"
+        )),
+        "401#8000800000000800\n"
+    );
+}
+
+#[test]
+fn myactuator_v3_refuses_what_it_does_not_speak() {
+    let cases = [
+        (
+            "--protocol myactuator-v3 multi-torque --amps 1,1,1,1",
+            "not part of protocol myactuator-v3",
+        ),
+        (
+            "--protocol myactuator-v3 read-status-3 --id 1",
+            "read-status-3 (0x9D) is not a command of protocol myactuator-v3",
+        ),
+        (
+            "--protocol myactuator-v3 torque --id 1 --amps 400",
+            "myactuator-v3 takes -327.68..=327.67 A",
+        ),
+        (
+            "--protocol myactuator-v3 --firmware-date 2026042402 \
+             motion --id 1 --p-des 0 --v-des 0 --kp 0 --kd 0 --t-ff 0",
+            "--motor-max-torque",
+        ),
+        (
+            "--protocol myactuator-v3 motion --id 1 --p-des 13 --v-des 0 --kp 0 --kd 0 --t-ff 0",
+            "p_des",
+        ),
+        (
+            "read-model --id 1",
+            "read-model (0xB5) is not a command of protocol v1.61",
+        ),
+        (
+            "motion --id 1 --p-des 0 --v-des 0 --kp 0 --kd 0 --t-ff 0",
+            "v1.61",
+        ),
+        ("torque --broadcast --amps 1", "v1.61"),
+        (
+            "--firmware-date 2026042402 read-status-1 --id 1",
+            "--protocol myactuator-v3",
+        ),
+    ];
+    for (args, needle) in cases {
+        let stderr = encode_error(args);
+        assert!(
+            stderr.contains(needle),
+            "{args}: {stderr:?} lacks {needle:?}"
+        );
     }
 }

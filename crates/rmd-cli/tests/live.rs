@@ -8,7 +8,7 @@ use std::process::{Child, Command as StdCommand, Stdio};
 use std::time::{Duration, Instant};
 
 use rmd_bus::candump::{Direction, parse_line};
-use rmd_protocol::{Command as Cmd, DecodedRequest, Reply, decode_request};
+use rmd_protocol::{Command as Cmd, DecodedRequest, Dialect, Reply};
 use serde_json::Value;
 
 mod support;
@@ -52,7 +52,7 @@ fn read_log(path: &Path) -> Vec<Logged> {
 fn host_commands(log: &[Logged]) -> Vec<(u8, Cmd)> {
     log.iter()
         .filter(|l| l.direction == Direction::Tx)
-        .filter_map(|l| match decode_request(&l.frame) {
+        .filter_map(|l| match Dialect::V161.decode_request(&l.frame) {
             Ok(DecodedRequest::Single { motor, request }) => Some((motor.get(), request.command())),
             _ => None,
         })
@@ -853,7 +853,7 @@ fn a_recorded_session_decodes_and_replays() {
         .iter()
         .filter(|l| l.direction == Some(Direction::Rx))
         .map(|l| {
-            let (motor, reply) = rmd_protocol::decode_reply(&l.frame).unwrap();
+            let (motor, reply) = rmd_protocol::Dialect::V161.decode_reply(&l.frame).unwrap();
             (motor.get(), reply)
         })
         .collect();
@@ -1010,7 +1010,7 @@ fn move_by_joint_name_in_joint_degrees_and_monitor_by_joint() {
     let sent: Vec<_> = read_log(&log)
         .into_iter()
         .filter(|l| l.direction == Direction::Tx)
-        .filter_map(|l| match decode_request(&l.frame) {
+        .filter_map(|l| match Dialect::V161.decode_request(&l.frame) {
             Ok(DecodedRequest::Single {
                 motor,
                 request:
@@ -1045,7 +1045,7 @@ fn move_by_joint_name_in_joint_degrees_and_monitor_by_joint() {
     let speeds: Vec<f64> = read_log(&log)
         .into_iter()
         .filter(|l| l.direction == Direction::Tx)
-        .filter_map(|l| match decode_request(&l.frame) {
+        .filter_map(|l| match Dialect::V161.decode_request(&l.frame) {
             Ok(DecodedRequest::Single {
                 request: rmd_protocol::Request::Position2 { max_speed, .. },
                 ..

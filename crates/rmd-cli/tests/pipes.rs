@@ -12,7 +12,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use rmd_bus::candump::{Direction, parse_line};
-use rmd_protocol::{Command as Cmd, DecodedRequest, decode_request};
+use rmd_protocol::{Command as Cmd, DecodedRequest, Dialect};
 
 /// The longest a command may take (a hang is a failure, not a timing goal).
 const LIMIT: Duration = Duration::from_secs(60);
@@ -125,7 +125,7 @@ fn last_command_to(log: &Path, motor: u8) -> Option<Cmd> {
         .rev()
         .filter_map(|l| parse_line(l).ok())
         .filter(|l| l.direction == Some(Direction::Tx))
-        .filter_map(|l| match decode_request(&l.frame) {
+        .filter_map(|l| match Dialect::V161.decode_request(&l.frame) {
             Ok(DecodedRequest::Single { motor: m, request }) if m.get() == motor => {
                 Some(request.command())
             }

@@ -172,6 +172,22 @@ fn protocol_and_firmware_options_are_checked() {
         err.contains("expected v1.61, lk-v2.3x or myactuator-v3"),
         "{err}"
     );
+    // The live commands do not drive V3 motors yet: refused before anything is sent.
+    for command in [&["status", "2"][..], &["torque", "2", "--amps", "1"][..]] {
+        let mut args = command.to_vec();
+        args.extend([
+            "--sim",
+            "--sim-firmware",
+            "myactuator-v3",
+            "--protocol",
+            "myactuator-v3",
+        ]);
+        let err = fails(2, &args);
+        assert!(
+            err.contains("the live commands do not drive MyActuator V3 motors yet"),
+            "{err}"
+        );
+    }
 }
 
 /// `rmd scan ARGS --json`: the array's objects.

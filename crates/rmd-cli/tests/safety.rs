@@ -15,7 +15,7 @@ use std::process::{Child, Command as StdCommand, Stdio};
 use std::time::{Duration, Instant};
 
 use rmd_bus::candump::{Direction, parse_line};
-use rmd_protocol::{Command as Cmd, DecodedRequest, decode_request};
+use rmd_protocol::{Command as Cmd, DecodedRequest, Dialect};
 
 mod support;
 use support::{fails, ok, rmd, text};
@@ -52,7 +52,7 @@ fn host_commands(path: &Path) -> Vec<(u8, Cmd)> {
         .lines()
         .map(|line| parse_line(line).unwrap())
         .filter(|l| l.direction == Some(Direction::Tx))
-        .filter_map(|l| match decode_request(&l.frame) {
+        .filter_map(|l| match Dialect::V161.decode_request(&l.frame) {
             Ok(DecodedRequest::Single { motor, request }) => Some((motor.get(), request.command())),
             _ => None,
         })

@@ -25,9 +25,8 @@ use rmd_bus::{BusMessage, CanBus, CanFrame, Clock, MonotonicClock};
 use rmd_loop::robot::{BusConfig, MotorConfig, ReplyMode, RobotConfig};
 use rmd_loop::{Commands, Controller, Feedback, Flow, RtLoop, RunLimit, StopReason, TickContext};
 use rmd_protocol::{
-    Accel, AngleControl, Command as Cmd, DecodedRequest, EncoderValue, IqControl, MaxSpeed,
-    MotorId, PidParams, Request, SingleTurnAngle, SpeedControl, SpinDirection, decode_reply_to,
-    decode_request,
+    Accel, AngleControl, Command as Cmd, DecodedRequest, Dialect, EncoderValue, IqControl,
+    MaxSpeed, MotorId, PidParams, Request, SingleTurnAngle, SpeedControl, SpinDirection,
 };
 
 /// The `rmd` binary under test.
@@ -219,10 +218,11 @@ fn every_request() -> Vec<Request> {
                     encoder_offset: EncoderValue::from_raw(100),
                 },
                 Cmd::Torque => Request::Torque {
-                    iq_control: IqControl::from_amps(0.2).unwrap(),
+                    iq_control: IqControl::from_amps(0.2).unwrap().into(),
                 },
                 Cmd::Speed => Request::Speed {
                     speed_control: SpeedControl::from_dps(90.0).unwrap(),
+                    max_torque: rmd_protocol::MaxTorquePercent::NONE,
                 },
                 Cmd::Position1 => Request::Position1 {
                     angle_control: AngleControl::from_degrees(10.0).unwrap(),
@@ -301,7 +301,7 @@ fn rmd_sim_answers_every_command() {
             "--iq-pid-ki",
             "10"
         ]),
-        requests[2].encode(one)
+        Dialect::V161.encode(one, &requests[2]).unwrap()
     );
     assert_eq!(
         encode(&[
@@ -315,15 +315,17 @@ fn rmd_sim_answers_every_command() {
             "--deg",
             "40"
         ]),
-        requests[22].encode(one)
+        Dialect::V161.encode(one, &requests[22]).unwrap()
     );
     for request in requests {
         let command = request.command();
-        host.send(&request.encode(one)).unwrap();
+        host.send(&Dialect::V161.encode(one, &request).unwrap())
+            .unwrap();
         // A duplicate or stray frame would show up in the next command's replies.
         let replies = frames(&mut host, 1, Duration::ZERO);
         assert_eq!(replies.len(), 1, "{command}: {replies:?}");
-        let (motor, reply) = decode_reply_to(&replies[0], command)
+        let (motor, reply) = Dialect::V161
+            .decode_reply_to(&replies[0], command)
             .unwrap_or_else(|e| panic!("{command}: {e} ({})", replies[0]));
         assert_eq!((motor, reply.command()), (one, command));
     }
@@ -335,20 +337,28 @@ fn rmd_sim_answers_every_command() {
     let ids: Vec<u16> = replies.iter().map(CanFrame::id).collect();
     assert_eq!(ids, [0x141, 0x142, 0x143, 0x144]);
     for reply in &replies {
-        decode_reply_to(reply, Cmd::Torque).unwrap();
+        Dialect::V161.decode_reply_to(reply, Cmd::Torque).unwrap();
     }
 
     // A motor that is not simulated does not answer; nor does a malformed request.
-    host.send(&Request::ReadStatus1.encode(MotorId::new(9).unwrap()))
-        .unwrap();
+    host.send(
+        &Dialect::V161
+            .encode(MotorId::new(9).unwrap(), &Request::ReadStatus1)
+            .unwrap(),
+    )
+    .unwrap();
     host.send(&CanFrame::new(0x141, &[0x9A, 0]).unwrap())
         .unwrap();
     assert!(frames(&mut host, 0, Duration::from_millis(500)).is_empty());
 
     // Leave the motors off, then stop the simulator: it reports what it did.
     for id in 1..=4 {
-        host.send(&Request::MotorOff.encode(MotorId::new(id).unwrap()))
-            .unwrap();
+        host.send(
+            &Dialect::V161
+                .encode(MotorId::new(id).unwrap(), &Request::MotorOff)
+                .unwrap(),
+        )
+        .unwrap();
     }
     assert_eq!(frames(&mut host, 4, quiet).len(), 4);
     let (code, stderr) = sim.stop();
@@ -498,7 +508,7 @@ fn host_commands(path: &Path) -> Vec<(u8, Cmd)> {
         .lines()
         .map(|l| parse_line(l).unwrap())
         .filter(|l| l.direction == Some(Direction::Tx))
-        .filter_map(|l| match decode_request(&l.frame) {
+        .filter_map(|l| match Dialect::V161.decode_request(&l.frame) {
             Ok(DecodedRequest::Single { motor, request }) => Some((motor.get(), request.command())),
             _ => None,
         })

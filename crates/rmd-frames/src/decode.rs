@@ -8,8 +8,7 @@
 
 use rmd_bus::candump::CandumpLine;
 use rmd_protocol::{
-    Command, DecodedRequest, Dialect, DialectRequest, EncoderWidth, ProtocolError,
-    decode_reply_to_with, decode_reply_with, decode_request_with,
+    Command, DecodedRequest, Dialect, EncoderWidth, ProtocolError, V3_MOTION_REPLY_BASE_ID,
 };
 use serde_json::Value;
 
@@ -45,6 +44,9 @@ fn finish(json: FrameJson) -> Decoded {
     }
 }
 
+/// The `command` of a MyActuator V3 motion-mode frame.
+const MOTION: &str = "motion";
+
 /// Reads `line`'s frame as a request in `dialect`; encoder values are checked against `width`.
 /// The error is the one line `rmd decode` prints for it.
 pub fn request(
@@ -52,21 +54,21 @@ pub fn request(
     width: EncoderWidth,
     dialect: Dialect,
 ) -> Result<Decoded, String> {
-    let request = decode_request_with(dialect, &line.frame).map_err(|e| e.to_string())?;
+    let request = dialect
+        .decode_request(&line.frame)
+        .map_err(|e| e.to_string())?;
     let command = match &request {
-        DialectRequest::Torque { .. } => Command::Torque.name(),
-        DialectRequest::MultiTorque(_) | DialectRequest::Common(DecodedRequest::Multi(_)) => {
-            "multi-torque"
-        }
-        DialectRequest::Common(DecodedRequest::Single { request, .. }) => {
+        DecodedRequest::Multi(_) => "multi-torque",
+        DecodedRequest::Single { request, .. } | DecodedRequest::Broadcast(request) => {
             request
                 .check_encoder_width(width)
                 .map_err(|e| encoder_hint(e, width))?;
             request.command().name()
         }
+        DecodedRequest::Mit { .. } => MOTION,
     };
     Ok(finish(
-        header(line, "request", command, width).dialect_request(&request),
+        header(line, "request", command, width).decoded_request(&request),
     ))
 }
 
@@ -80,14 +82,22 @@ pub fn reply(
     dialect: Dialect,
 ) -> Result<Decoded, String> {
     let frame = &line.frame;
+    if matches!(dialect, Dialect::MyActuatorV3(_))
+        && (V3_MOTION_REPLY_BASE_ID + 1..=V3_MOTION_REPLY_BASE_ID + 32).contains(&frame.id())
+    {
+        let (_, feedback) = dialect.decode_mit_reply(frame).map_err(|e| e.to_string())?;
+        return Ok(finish(
+            header(line, "reply", MOTION, width).mit_feedback(&feedback),
+        ));
+    }
     let decoded = match pending {
-        Some(command) => decode_reply_to_with(dialect, frame, command),
-        None => decode_reply_with(dialect, frame),
+        Some(command) => dialect.decode_reply_to(frame, command),
+        None => dialect.decode_reply(frame),
     };
     let json = match decoded {
         Ok((_, reply)) => header(line, "reply", reply.command().name(), width)
             .checking_encoder_width()
-            .dialect_reply(&reply),
+            .reply(&reply),
         // Identifier, DLC, command byte and pairing passed: one field is out of range.
         Err(error @ ProtocolError::ValueOutOfRange { .. }) => {
             let command = frame

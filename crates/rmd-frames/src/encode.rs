@@ -1,5 +1,6 @@
 //! The values of `rmd encode` whose range depends on more than their own type: the torque
-//! current (on the protocol dialect's scale) and the encoder offset (on the encoder's width).
+//! current (on the protocol dialect's scale: v1.61, LK-TECH's series, MyActuator V3's 0.01 A)
+//! and the encoder offset (on the encoder's width).
 //! Their messages name the `rmd encode` flags (`--iq-control`, `--amps`, `--encoder-offset`,
 //! `--encoder-bits`); the Python package's keyword arguments have the same names in snake case.
 //!
@@ -10,6 +11,9 @@
 //! assert_eq!(torque_current(Dialect::V161, None, Some(1.6))?.raw(), 100);
 //! let error = torque_current(Dialect::LkV23x(LkSeries::Mf), None, Some(20.0)).unwrap_err();
 //! assert!(error.starts_with("--amps 20: lk-v2.3x (MF) takes -16.5..=16.5 A"), "{error}");
+//! // MyActuator V3: 0.01 A per step, 1 A is 100.
+//! let v3 = Dialect::MyActuatorV3(Default::default());
+//! assert_eq!(torque_current(v3, None, Some(1.0))?.raw(), 100);
 //! assert!(encoder_offset(4096, EncoderWidth::new(12)?).is_err());
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

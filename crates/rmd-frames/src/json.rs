@@ -11,15 +11,24 @@
 //!
 //! The same keys in every protocol: an LK-TECH reply (`--protocol lk-v2.3x`) has its own raw
 //! values (`voltage` in 0.01 V, `iq` in the series' steps) and physical values, plus the fields
-//! v1.61 lacks (`bus_current`, `motor_state`).
+//! v1.61 lacks (`bus_current`, `motor_state`). A MyActuator V3 reply (`--protocol
+//! myactuator-v3`, on `0x240 + id`) has V3's: `iq` in 0.01 A, the output shaft's `speed` and
+//! `output_angle` (whole degrees) where v1.61 has the encoder, `mos_temperature`, `brake`, the
+//! u16 `error_state` with its flags' names under `error_names`, and the fields of V3's own
+//! commands (`firmware_date`, `model`, `timeout_ms`, `function`, `value`); its motion-mode frames
+//! (`command` `motion`, on `0x400 + id` / `0x500 + id`) carry each packed field raw and in SI
+//! units (`p_des` and `p_des_rad`, `v_des` and `v_des_rad_s`, `kp`, `kd`, `t_ff` and `t_ff_nm`;
+//! the reply's `p`, `v`, `t`). A 0x280 frame that V3 reads as one command for every motor has
+//! `broadcast: true`.
 
 use std::time::Duration;
 
 use rmd_protocol::{
-    DialectReply, DialectRequest, DialectStatus1, EncoderValue, EncoderWidth, LkStatus1,
-    MULTI_TORQUE_CAN_ID, MotorId, MultiTorque, PidParams, ProtocolError, Reply, Request,
-    ScaledCurrent, ScaledMultiTorque, ScaledStatus2, SpinDirection, Status1, Status2, Temperature,
-    v3::V3Status1,
+    DecodedRequest, EncoderValue, EncoderWidth, FunctionControl, LkStatus1, MULTI_TORQUE_CAN_ID,
+    MitCommand, MitFeedback, ModelPart, ModelText, MotorId, MultiTorque, PidParams, ProtocolError,
+    Reply, Request, ScaledCurrent, SpinDirection, Status1, Status2, StatusPosition, Temperature,
+    V3_MOTION_BASE_ID, V3_MOTION_REPLY_BASE_ID, V3_REPLY_BASE_ID, V3ErrorState, V3Revision,
+    V3Status1, V161Status1,
 };
 use serde_json::{Map, Value, json};
 
@@ -97,7 +106,7 @@ impl FrameJson {
             map.insert("interface".into(), json!(i));
         }
         if can_id != MULTI_TORQUE_CAN_ID
-            && let Ok(motor) = MotorId::from_can_id(can_id)
+            && let Some(motor) = motor_of(can_id)
         {
             map.insert("id".into(), json!(motor.get()));
         }
@@ -185,6 +194,14 @@ impl FrameJson {
     }
 
     fn status1(&mut self, s: &Status1) {
+        match s {
+            Status1::V161(s) => self.v161_status1(s),
+            Status1::Lk(s) => self.lk_status1(s),
+            Status1::V3(s) => self.v3_status1_fields(s),
+        }
+    }
+
+    fn v161_status1(&mut self, s: &V161Status1) {
         self.temperature("temperature", s.temperature);
         self.put("voltage", json!(s.voltage.raw()));
         self.put("voltage_volts", json!(s.voltage.volts()));
@@ -194,11 +211,7 @@ impl FrameJson {
     }
 
     fn status2(&mut self, s: &Status2) {
-        self.scaled_status2(&ScaledStatus2::from(*s));
-    }
-
-    fn scaled_status2(&mut self, s: &ScaledStatus2) {
-        self.partial_status2(s.temperature, Ok(s.iq), s.speed, s.encoder);
+        self.partial_status2(s.temperature, Ok(s.iq), s.speed, s.position);
     }
 
     /// Status 2 with `iq` that may have failed its range check.
@@ -207,7 +220,7 @@ impl FrameJson {
         temperature: Temperature,
         iq: Result<ScaledCurrent, FieldError>,
         speed: rmd_protocol::Speed,
-        encoder: EncoderValue,
+        position: StatusPosition,
     ) {
         self.temperature("temperature", temperature);
         match iq {
@@ -216,7 +229,13 @@ impl FrameJson {
         }
         self.put("speed", json!(speed.raw()));
         self.put("speed_dps", json!(speed.dps()));
-        self.encoder("encoder", encoder);
+        match position {
+            StatusPosition::Encoder(encoder) => self.encoder("encoder", encoder),
+            StatusPosition::OutputDegrees(angle) => {
+                self.put("output_angle", json!(angle.raw()));
+                self.put("output_angle_degrees", json!(angle.degrees()));
+            }
+        }
     }
 
     fn lk_status1(&mut self, s: &LkStatus1) {
@@ -241,57 +260,72 @@ impl FrameJson {
 
     /// Adds the fields of a MyActuator V3 status 1 (0x9A on `0x240 + id`).
     pub fn v3_status1(mut self, s: &V3Status1) -> Self {
+        self.v3_status1_fields(s);
+        self
+    }
+
+    fn v3_status1_fields(&mut self, s: &V3Status1) {
         self.temperature("temperature", s.temperature);
         self.temperature("mos_temperature", s.mos_temperature);
-        self.put("brake_released", json!(s.brake_released));
+        self.put("brake", json!(s.brake.raw()));
+        self.put("brake_released", json!(s.brake.is_released()));
         self.put("voltage", json!(s.voltage.raw()));
         self.put("voltage_volts", json!(s.voltage.volts()));
         self.put("error_state", json!(s.error_state.raw()));
+        let names: Vec<&str> = V3_ERRORS
+            .iter()
+            .filter(|(flag, _)| s.error_state.contains(*flag))
+            .map(|(_, name)| *name)
+            .collect();
+        self.put("error_names", json!(names));
+    }
+
+    fn function(&mut self, f: &FunctionControl) {
+        self.put("function_index", json!(f.function.index()));
+        self.put("function", json!(f.function.name()));
+        self.put("value", json!(f.value));
+    }
+
+    /// Adds the fields of a MyActuator V3 motion-mode command (`0x400 + id`).
+    pub fn mit_command(mut self, c: &MitCommand) -> Self {
+        let [p, v, kp, kd, t] = c.raw();
+        self.put("p_des", json!(p));
+        self.put("p_des_rad", json!(c.position_rad()));
+        self.put("v_des", json!(v));
+        self.put("v_des_rad_s", json!(c.velocity_rad_s()));
+        self.put("kp", json!(kp));
+        self.put("kp_nm_per_rad", json!(c.kp()));
+        self.put("kd", json!(kd));
+        self.put("kd_nm_s_per_rad", json!(c.kd()));
+        self.put("t_ff", json!(t));
+        self.put("t_ff_nm", json!(c.torque_nm()));
         self
     }
 
-    /// Adds the fields of a reply decoded in a dialect.
-    pub fn dialect_reply(mut self, reply: &DialectReply) -> Self {
-        match reply {
-            DialectReply::Status1 {
-                status: DialectStatus1::V161(s),
-                ..
-            } => self.status1(s),
-            DialectReply::Status1 {
-                status: DialectStatus1::Lk(s),
-                ..
-            } => self.lk_status1(s),
-            DialectReply::Status2 { status, .. } => self.scaled_status2(status),
-            DialectReply::LkSingleTurnAngle { circle_angle } => {
-                self.put("circle_angle", json!(circle_angle.raw()));
-                self.put("circle_angle_degrees", json!(circle_angle.degrees()));
-            }
-            DialectReply::Common(reply) => return self.reply(reply),
-        }
+    /// Adds the fields of a MyActuator V3 motion-mode reply (`0x500 + id`).
+    pub fn mit_feedback(mut self, f: &MitFeedback) -> Self {
+        let [p, v, t] = f.raw();
+        self.put("p", json!(p));
+        self.put("p_rad", json!(f.position_rad()));
+        self.put("v", json!(v));
+        self.put("v_rad_s", json!(f.velocity_rad_s()));
+        self.put("t", json!(t));
+        self.put("t_nm", json!(f.torque_nm()));
         self
     }
 
-    /// Adds the fields of a request decoded in a dialect.
-    pub fn dialect_request(mut self, request: &DialectRequest) -> Self {
+    /// Adds the fields of any decoded host frame.
+    pub fn decoded_request(self, request: &DecodedRequest) -> Self {
         match request {
-            DialectRequest::Torque { iq_control, .. } => {
-                self.current("iq_control", *iq_control);
-                self
+            DecodedRequest::Single { request, .. } => self.request(request),
+            DecodedRequest::Multi(m) => self.multi(m),
+            DecodedRequest::Broadcast(request) => {
+                let mut json = self.request(request);
+                json.put("broadcast", json!(true));
+                json
             }
-            DialectRequest::MultiTorque(m) => self.scaled_multi(m),
-            DialectRequest::Common(rmd_protocol::DecodedRequest::Single { request, .. }) => {
-                self.request(request)
-            }
-            DialectRequest::Common(rmd_protocol::DecodedRequest::Multi(m)) => self.multi(m),
+            DecodedRequest::Mit { command, .. } => self.mit_command(command),
         }
-    }
-
-    fn scaled_multi(mut self, m: &ScaledMultiTorque) -> Self {
-        let raw: Vec<i16> = m.iq_control.iter().map(|v| v.raw()).collect();
-        let amps: Vec<f64> = m.iq_control.iter().map(|v| v.amps()).collect();
-        self.put("iq_control", json!(raw));
-        self.put("iq_control_amps", json!(amps));
-        self
     }
 
     /// Adds the fields of a single-motor request.
@@ -305,10 +339,16 @@ impl FrameJson {
             Request::WriteEncoderOffset { encoder_offset } => {
                 self.encoder("encoder_offset", *encoder_offset)
             }
-            Request::Torque { iq_control } => self.current("iq_control", (*iq_control).into()),
-            Request::Speed { speed_control } => {
+            Request::Torque { iq_control } => self.current("iq_control", *iq_control),
+            Request::Speed {
+                speed_control,
+                max_torque,
+            } => {
                 self.put("speed_control", json!(speed_control.raw()));
                 self.put("speed_control_dps", json!(speed_control.dps()));
+                if max_torque.is_set() {
+                    self.put("max_torque", json!(max_torque.raw()));
+                }
             }
             Request::Position1 { angle_control } => {
                 self.put("angle_control", json!(angle_control.raw()));
@@ -342,15 +382,42 @@ impl FrameJson {
                 self.put("angle_control", json!(angle_control.raw()));
                 self.put("angle_control_degrees", json!(angle_control.degrees()));
             }
-            // The remaining requests carry no fields.
-            _ => {}
+            Request::ReadModel {
+                part: ModelPart::Chars(index),
+            } => self.put("model_index", json!(index.get())),
+            Request::SetWatchdog { timeout } => self.put("timeout_ms", json!(timeout.millis())),
+            Request::FunctionControl(f) => self.function(f),
+            Request::ReadPid
+            | Request::ReadAccel
+            | Request::ReadEncoder
+            | Request::WriteZeroRom
+            | Request::ReadMultiTurnAngle
+            | Request::ReadSingleTurnAngle
+            | Request::ReadStatus1
+            | Request::ClearError
+            | Request::ReadStatus2
+            | Request::ReadStatus3
+            | Request::MotorOff
+            | Request::MotorStop
+            | Request::MotorRun
+            | Request::ReadFirmwareDate
+            | Request::ReadModel {
+                part: ModelPart::Whole,
+            }
+            | Request::Reset
+            | Request::BrakeRelease
+            | Request::BrakeLock => {}
         }
         self
     }
 
-    /// Adds the fields of the 0x280 frame.
-    pub fn multi(self, m: &MultiTorque) -> Self {
-        self.scaled_multi(&ScaledMultiTorque::from(*m))
+    /// Adds the fields of the v1.61 / LK-TECH 0x280 torque frame.
+    pub fn multi(mut self, m: &MultiTorque) -> Self {
+        let raw: Vec<i16> = m.iq_control.iter().map(|v| v.raw()).collect();
+        let amps: Vec<f64> = m.iq_control.iter().map(|v| v.amps()).collect();
+        self.put("iq_control", json!(raw));
+        self.put("iq_control_amps", json!(amps));
+        self
     }
 
     /// The single-turn angle of v1.61's 0x94 reply, which may have failed its range check.
@@ -390,6 +457,14 @@ impl FrameJson {
                 self.put("motor_angle_degrees", json!(motor_angle.degrees()));
             }
             Reply::ReadSingleTurnAngle { circle_angle } => self.circle_angle(Ok(*circle_angle)),
+            Reply::LkSingleTurnAngle { circle_angle } => {
+                self.put("circle_angle", json!(circle_angle.raw()));
+                self.put("circle_angle_degrees", json!(circle_angle.degrees()));
+            }
+            Reply::V3SingleTurnAngle { circle_angle } => {
+                self.put("circle_angle", json!(circle_angle.raw()));
+                self.put("circle_angle_degrees", json!(circle_angle.degrees()));
+            }
             Reply::ReadStatus1(s) | Reply::ClearError(s) => self.status1(s),
             Reply::ReadStatus3(s) => {
                 for (key, current) in [("i_a", s.i_a), ("i_b", s.i_b), ("i_c", s.i_c)] {
@@ -397,7 +472,30 @@ impl FrameJson {
                     self.put(&format!("{key}_amps"), json!(current.amps()));
                 }
             }
-            Reply::MotorOff | Reply::MotorStop | Reply::MotorRun => {}
+            Reply::MotorOff
+            | Reply::MotorStop
+            | Reply::MotorRun
+            | Reply::BrakeRelease
+            | Reply::BrakeLock => {}
+            Reply::ReadFirmwareDate(date) => {
+                self.put("firmware_date", json!(date.raw()));
+                let revision = match date.revision() {
+                    V3Revision::V4_3 => "V4.3",
+                    V3Revision::V4_4 => "V4.4",
+                };
+                self.put("firmware_revision", json!(revision));
+            }
+            Reply::ReadModel(text) => {
+                if let ModelText::Chars { index, .. } = text {
+                    self.put("model_index", json!(index.get()));
+                }
+                match text.text() {
+                    Some(model) => self.put("model", json!(model)),
+                    None => self.put("model", Value::Null),
+                }
+            }
+            Reply::SetWatchdog { timeout } => self.put("timeout_ms", json!(timeout.millis())),
+            Reply::FunctionControl(f) => self.function(f),
             Reply::ReadStatus2(s)
             | Reply::Torque(s)
             | Reply::Speed(s)
@@ -409,3 +507,42 @@ impl FrameJson {
         self
     }
 }
+
+/// The motor of a frame on any of the families' per-motor identifiers (`0x140`, `0x240`,
+/// `0x400`, `0x500` + id).
+fn motor_of(can_id: u16) -> Option<MotorId> {
+    [
+        rmd_protocol::SINGLE_MOTOR_BASE_ID,
+        V3_REPLY_BASE_ID,
+        V3_MOTION_BASE_ID,
+        V3_MOTION_REPLY_BASE_ID,
+    ]
+    .into_iter()
+    .find_map(|base| {
+        can_id
+            .checked_sub(base)
+            .and_then(|n| u8::try_from(n).ok())
+            .and_then(|n| MotorId::new(n).ok())
+    })
+}
+
+/// V3's error flags and the names `error_names` gives them (V4.4 §2.13).
+const V3_ERRORS: [(V3ErrorState, &str); 11] = [
+    (V3ErrorState::STALL, "stall"),
+    (V3ErrorState::LOW_VOLTAGE, "low_voltage"),
+    (V3ErrorState::OVER_VOLTAGE, "over_voltage"),
+    (V3ErrorState::OVER_CURRENT, "over_current"),
+    (V3ErrorState::POWER_OVERRUN, "power_overrun"),
+    (V3ErrorState::CALIBRATION_WRITE, "calibration_write"),
+    (V3ErrorState::OVER_SPEED, "over_speed"),
+    (
+        V3ErrorState::COMPONENT_OVER_TEMPERATURE,
+        "component_over_temperature",
+    ),
+    (
+        V3ErrorState::MOTOR_OVER_TEMPERATURE,
+        "motor_over_temperature",
+    ),
+    (V3ErrorState::ENCODER_CALIBRATION, "encoder_calibration"),
+    (V3ErrorState::ENCODER_DATA, "encoder_data"),
+];

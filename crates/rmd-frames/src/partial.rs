@@ -8,17 +8,18 @@
 //! documents:
 //!
 //! - status 2 (0x9C and the control replies 0xA1..=0xA6), every dialect: DATA\[1\] temperature,
-//!   DATA\[2..=3\] `iq` (±2048 in the dialect's scale), DATA\[4..=5\] speed, DATA\[6..=7\] encoder
-//!   (`rmd_protocol::ScaledStatus2`);
-//! - v1.61's single-turn angle (0x94): DATA\[6..=7\] `circleAngle`, 0..=35999
-//!   (`rmd_protocol::CircleAngle`).
+//!   DATA\[2..=3\] `iq` (±2048 in v1.61's and LK-TECH's scales), DATA\[4..=5\] speed,
+//!   DATA\[6..=7\] the encoder (V3: the output angle) (`rmd_protocol::Status2`);
+//! - the u16 single-turn angle (0x94) of v1.61 and V4.3 firmware: DATA\[6..=7\] `circleAngle`,
+//!   0..=35999 (`rmd_protocol::CircleAngle`).
 //!
 //! The identifier, the DLC, the command byte and the pairing with the pending request are
 //! checked by the strict decoder before any field, so a frame reaching this module has passed
 //! them.
 
 use rmd_protocol::{
-    CanFrame, CircleAngle, Command, Dialect, EncoderValue, ScaledCurrent, Speed, Temperature,
+    CanFrame, CircleAngle, Command, Dialect, EncoderValue, OutputAngle, ScaledCurrent, Speed,
+    StatusPosition, Temperature, V3Revision,
 };
 
 use crate::json::{FieldError, FrameJson};
@@ -45,10 +46,23 @@ pub fn partial_reply(
             let temperature = Temperature::new(i64::from(d[1] as i8)).ok()?;
             let iq = ScaledCurrent::new(i64::from(i16_at(d, 2)), dialect.iq_scale());
             let speed = Speed::new(i64::from(i16_at(d, 4))).ok()?;
-            let encoder = EncoderValue::from_raw(u16_at(d, 6));
-            json.partial_status2(temperature, iq.map_err(field), speed, encoder);
+            let position = match dialect {
+                Dialect::MyActuatorV3(_) => {
+                    StatusPosition::OutputDegrees(OutputAngle::new(i64::from(i16_at(d, 6))).ok()?)
+                }
+                Dialect::V161 | Dialect::LkV23x(_) => {
+                    StatusPosition::Encoder(EncoderValue::from_raw(u16_at(d, 6)))
+                }
+            };
+            json.partial_status2(temperature, iq.map_err(field), speed, position);
         }
-        Command::ReadSingleTurnAngle if dialect == Dialect::V161 => {
+        Command::ReadSingleTurnAngle
+            if match dialect {
+                Dialect::V161 => true,
+                Dialect::MyActuatorV3(f) => f.revision() == V3Revision::V4_3,
+                Dialect::LkV23x(_) => false,
+            } =>
+        {
             json.circle_angle(CircleAngle::new(i64::from(u16_at(d, 6))).map_err(field));
         }
         _ => return None,
@@ -76,7 +90,7 @@ fn u16_at(d: &[u8; 8], at: usize) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rmd_protocol::{EncoderWidth, LkSeries, decode_reply_with};
+    use rmd_protocol::{EncoderWidth, LkSeries};
     use serde_json::json;
 
     fn header() -> FrameJson {
@@ -88,7 +102,7 @@ mod tests {
     fn status2_keeps_every_field_but_iq() {
         // iq = 0x0900 = 2304, beyond ±2048; 30 °C, -10 dps, encoder 0x1000.
         let frame = CanFrame::new(0x141, &[0x9C, 30, 0x00, 0x09, 0xF6, 0xFF, 0x00, 0x10]).unwrap();
-        assert!(decode_reply_with(Dialect::V161, &frame).is_err());
+        assert!(Dialect::V161.decode_reply(&frame).is_err());
         let json = partial_reply(header(), Dialect::V161, Command::ReadStatus2, &frame).unwrap();
         assert_eq!(json.errors().len(), 1);
         let v = json.into_value();

@@ -4,8 +4,7 @@ use core::fmt;
 use core::time::Duration;
 
 use rmd_bus::BusError;
-use rmd_protocol::identify::Finding;
-use rmd_protocol::{MotorId, ProtocolFamily};
+use rmd_protocol::{Finding, MotorId, ProtocolFamily};
 use serde::Serialize;
 
 use crate::commands::Rejection;

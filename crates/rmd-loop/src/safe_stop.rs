@@ -18,7 +18,7 @@ use core::fmt;
 use core::time::Duration;
 
 use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, Clock, Timestamp};
-use rmd_protocol::{Command, MotorId, Reply, Request};
+use rmd_protocol::{Command, Dialect, MotorId, Reply};
 use serde::Serialize;
 
 use crate::bus_link::BusLink;
@@ -349,7 +349,7 @@ fn step_bus<B: CanBus>(
                     stop.phase = Phase::Off { next: next + 1 };
                     continue;
                 }
-                match link.bus.send(&Request::MotorOff.encode(ids[next])) {
+                match link.bus.send(&Dialect::V161.motor_off(ids[next])) {
                     Ok(()) => {
                         report.motors[next].off_attempts += 1;
                         stop.phase = Phase::Off { next: next + 1 };
@@ -390,7 +390,7 @@ fn receive<B: CanBus>(
                 BusMessage::Frame(frame) => {
                     // Motor-off's echo has the same layout in every dialect rmd-rt drives.
                     if let Ok((id, Reply::MotorOff)) =
-                        rmd_protocol::decode_reply_to(&frame, Command::MotorOff)
+                        Dialect::V161.decode_reply_to(&frame, Command::MotorOff)
                         && let Some(m) = link.joints().find(|&m| ids[m] == id)
                     {
                         report.motors[m].off_confirmed = true;

@@ -6,8 +6,10 @@
 use core::time::Duration;
 
 use rmd_bus::{BusMessage, CanBus, Clock};
-use rmd_protocol::identify::{Finding, Identification, ProbeAnswers, identify, probe_requests};
-use rmd_protocol::{MULTI_TORQUE_MOTORS, MotorId, ProtocolFamily};
+use rmd_protocol::{
+    Finding, Identification, MULTI_TORQUE_MOTORS, MotorId, ProbeAnswers, ProtocolFamily, identify,
+    probe_requests,
+};
 
 use crate::engine::Parts;
 use crate::exchange::frames::ZERO_TORQUE;

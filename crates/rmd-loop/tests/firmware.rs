@@ -12,7 +12,7 @@ use rmd_loop::{
     Commands, Controller, Fault, Feedback, Flow, Robot, RtLoop, RunLimit, StopReason, TickContext,
 };
 use rmd_protocol::{
-    AngleControl, LkSeries, MULTI_TORQUE_CAN_ID, MaxSpeed, ProtocolFamily, Request,
+    AngleControl, Dialect, LkSeries, MULTI_TORQUE_CAN_ID, MaxSpeed, ProtocolFamily, Request,
 };
 use rmd_sim::{ControlMode, FirmwareFamily, Node, SimBus, SimConfig};
 
@@ -149,7 +149,8 @@ fn an_undescribed_motor_stops_the_start_and_keeps_its_own_state() {
         angle_control: AngleControl::from_degrees(90.0).unwrap(),
     };
     use rmd_bus::CanBus as _;
-    bus.send(&hold.encode(id(3))).unwrap();
+    bus.send(&Dialect::V161.encode(id(3), &hold).unwrap())
+        .unwrap();
     let robot = robot_of(
         BusConfig::new("can0")
             .with_motor(MotorConfig::new(1))

@@ -14,7 +14,8 @@ use rmd_bus::{
 };
 use rmd_loop::{RtLoop, RunLimit};
 use rmd_protocol::{
-    CanFrame, EncoderValue, Iq, MULTI_TORQUE_CAN_ID, MotorId, Reply, Speed, Status2, Temperature,
+    CanFrame, Dialect, EncoderValue, Iq, MULTI_TORQUE_CAN_ID, MotorId, Reply, Speed, Status2,
+    Temperature,
 };
 
 /// When each reply was taken by the loop, and when it had arrived.
@@ -46,11 +47,15 @@ impl TimedBus {
     fn reply(id: u8) -> CanFrame {
         let status = Status2 {
             temperature: Temperature::saturating(30),
-            iq: Iq::saturating(0),
+            iq: Iq::saturating(0).into(),
             speed: Speed::saturating(0),
-            encoder: EncoderValue::from_raw(1000 * u16::from(id)),
+            position: rmd_protocol::StatusPosition::Encoder(EncoderValue::from_raw(
+                1000 * u16::from(id),
+            )),
         };
-        Reply::Torque(status).encode(MotorId::new(id).unwrap())
+        Dialect::V161
+            .encode_reply(MotorId::new(id).unwrap(), &Reply::Torque(status))
+            .unwrap()
     }
 
     fn take(&mut self) -> Option<Received> {

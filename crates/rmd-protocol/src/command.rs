@@ -1,11 +1,14 @@
-//! The 23 single-motor commands of protocol v1.61, by command byte (DATA\[0\]).
+//! The single-motor commands of every family rmd-rt speaks, by command byte (DATA\[0\]): the 23
+//! of protocol v1.61 (which LK-TECH V2.3x shares) and the MyActuator V3 commands rmd-rt
+//! implements beyond them. No two families give one byte different meanings among these, so one
+//! enum names them all; which family has which is [`Dialect::commands`](crate::Dialect::commands).
 
 use core::fmt;
 
 macro_rules! commands {
     ($( $(#[$doc:meta])* $variant:ident = $code:literal, $name:literal; )*) => {
-        /// One of the 23 single-motor commands (the command byte in DATA\[0\] of requests and
-        /// replies). The 0x280 multi-motor torque frame has no command byte and is modelled by
+        /// A single-motor command (the command byte in DATA\[0\] of requests and replies). The
+        /// v1.61 0x280 multi-motor torque frame has no command byte and is modelled by
         /// [`MultiTorque`](crate::MultiTorque); its replies are [`Command::Torque`] replies.
         ///
         /// ```
@@ -14,7 +17,8 @@ macro_rules! commands {
         /// assert_eq!(Command::from_code(0x9C), Some(Command::ReadStatus2));
         /// assert_eq!(Command::Position4.name(), "position-4");
         /// assert_eq!(Command::from_name("read-pid"), Some(Command::ReadPid));
-        /// assert_eq!(Command::ALL.len(), 23);
+        /// assert_eq!(Command::ALL.len(), 30);
+        /// assert_eq!(Command::ReadFirmwareDate.code(), 0xB2);
         /// ```
         #[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
         #[repr(u8)]
@@ -23,8 +27,9 @@ macro_rules! commands {
         }
 
         impl Command {
-            /// Every command, in the order of the spec's command list.
-            pub const ALL: [Command; 23] = [$(Command::$variant),*];
+            /// Every command: v1.61's in the order of its spec's command list, then MyActuator
+            /// V3's own.
+            pub const ALL: [Command; 30] = [$(Command::$variant),*];
 
             /// The command byte (DATA\[0\]).
             pub const fn code(self) -> u8 {
@@ -105,13 +110,34 @@ commands! {
     Position3 = 0xA5, "position-3";
     /// 0xA6: position closed loop 4 (`spinDirection`, `maxSpeed`, single-turn `angleControl`).
     Position4 = 0xA6, "position-4";
+    /// 0xB2 (MyActuator V3): read the firmware version date (V4.3 §2.30, V4.4 §2.31).
+    ReadFirmwareDate = 0xB2, "read-firmware-date";
+    /// 0xB5 (MyActuator V3): read the motor model (V4.3 §2.33, V4.4 §2.34).
+    ReadModel = 0xB5, "read-model";
+    /// 0xB3 (MyActuator V3): set the communication-interruption protection time, stored in ROM
+    /// (V4.3 §2.31, V4.4 §2.32). Ask before sending.
+    SetWatchdog = 0xB3, "set-watchdog";
+    /// 0x20 (MyActuator V3): function control, by index (V4.3 §2.35, V4.4 §2.36); most indexes
+    /// write ROM.
+    FunctionControl = 0x20, "function-control";
+    /// 0x76 (MyActuator V3): system reset; the motor reboots and does not answer (V4.3 §2.26,
+    /// V4.4 §2.27).
+    Reset = 0x76, "reset";
+    /// 0x77 (MyActuator V3): release the holding brake (V4.3 §2.27, V4.4 §2.28).
+    BrakeRelease = 0x77, "brake-release";
+    /// 0x78 (MyActuator V3): lock the holding brake (V4.3 §2.28, V4.4 §2.29).
+    BrakeLock = 0x78, "brake-lock";
 }
 
 impl Command {
-    /// Whether the command writes the motor's flash (0x19, 0x32): a user-facing tool must ask
-    /// before sending it.
+    /// Whether the command writes the motor's flash whatever its fields (0x19, 0x32, V3's 0xB3):
+    /// a user-facing tool must ask before sending it. V3's 0x20 writes ROM for most function
+    /// indexes: see [`Request::writes_flash`](crate::Request::writes_flash).
     pub const fn writes_flash(self) -> bool {
-        matches!(self, Command::WriteZeroRom | Command::WritePidRom)
+        matches!(
+            self,
+            Command::WriteZeroRom | Command::WritePidRom | Command::SetWatchdog
+        )
     }
 }
 

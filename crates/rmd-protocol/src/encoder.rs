@@ -1,29 +1,32 @@
 //! Encoder values and the per-motor encoder width they are checked against.
-//!
-//! The spec describes a 14-bit encoder (values 0..=16383), but its last note says motors ship
-//! with 12- to 18-bit encoders. The width is therefore a per-motor setting, [`EncoderWidth`]
-//! (default 14), and encoder values are checked against it where the width is known: when a
-//! value is constructed for a request ([`EncoderValue::new`]), and by the simulator or loop on
-//! decoded frames ([`Request::check_encoder_width`](crate::Request::check_encoder_width),
-//! [`Reply::check_encoder_width`](crate::Reply::check_encoder_width)). Decoding alone cannot
-//! know the motor's width, so it accepts every value the u16 field can carry.
-//!
-//! Encoders wider than 16 bits: the wire fields (`encoder`, `encoderRaw`, `encoderOffset`) are
-//! uint16_t, so they cannot carry 17 or 18 bits. The document gives no layout for those motors;
-//! rmd-rt assumes the motor reports the position scaled into the 16-bit field (one turn = 65536
-//! counts). For such widths every u16 value is valid and [`EncoderValue::degrees`] uses 65536
-//! counts per turn. Check this against your motor before relying on encoder angles above 16 bits.
 
-use crate::error::{Field, ProtocolError};
+use crate::error::ProtocolError;
+use crate::field::Field;
 use crate::round::round_half_away;
 
+/// Encoder values and the per-motor encoder width they are checked against.
+///
+/// The spec describes a 14-bit encoder (values 0..=16383), but its last note says motors ship
+/// with 12- to 18-bit encoders. The width is therefore a per-motor setting, [`EncoderWidth`]
+/// (default 14), and encoder values are checked against it where the width is known: when a
+/// value is constructed for a request ([`EncoderValue::new`]), and by the simulator or loop on
+/// decoded frames ([`Request::check_encoder_width`](crate::Request::check_encoder_width),
+/// [`Reply::check_encoder_width`](crate::Reply::check_encoder_width)). Decoding alone cannot
+/// know the motor's width, so it accepts every value the u16 field can carry.
+///
+/// Encoders wider than 16 bits: the wire fields (`encoder`, `encoderRaw`, `encoderOffset`) are
+/// uint16_t, so they cannot carry 17 or 18 bits. The document gives no layout for those motors;
+/// rmd-rt assumes the motor reports the position scaled into the 16-bit field (one turn = 65536
+/// counts). For such widths every u16 value is valid and [`EncoderValue::degrees`] uses 65536
+/// counts per turn. Check this against your motor before relying on encoder angles above 16 bits.
+///
 /// The resolution of a motor's encoder in bits, 12..=18 (default 14, the spec's).
 ///
 /// ```
 /// use rmd_protocol::EncoderWidth;
 /// let w = EncoderWidth::new(14).unwrap();
 /// assert_eq!(w.max_value(), 16_383);
-/// assert_eq!(EncoderWidth::new(18).unwrap().max_value(), u16::MAX); // see the module docs
+/// assert_eq!(EncoderWidth::new(18).unwrap().max_value(), u16::MAX); // see above
 /// assert!(EncoderWidth::new(11).is_err());
 /// assert_eq!(EncoderWidth::default(), w);
 /// ```
@@ -105,7 +108,7 @@ impl EncoderValue {
     }
 
     /// The value as read off the wire, not checked against any width (decoding cannot know the
-    /// motor's width; see the module docs).
+    /// motor's width; see [`EncoderWidth`]).
     pub const fn from_raw(raw: u16) -> Self {
         Self(raw)
     }

@@ -3,6 +3,10 @@
 use core::fmt;
 
 use crate::command::Command;
+use crate::family::ProtocolFamily;
+use crate::field::Field;
+use crate::milli::Milli;
+use crate::mit_ranges::MitRanges;
 use crate::scale::CurrentScale;
 
 /// Everything that can be wrong with a frame or a value of the RMD protocol.
@@ -44,7 +48,7 @@ pub enum ProtocolError {
         /// Which identifiers were acceptable.
         expected: ExpectedIds,
     },
-    /// DATA\[0\] is not one of the 23 command bytes of the protocol.
+    /// DATA\[0\] is not a command byte of the protocol (as rmd-rt implements it).
     #[error("CAN ID 0x{can_id:03X}: unknown command byte 0x{code:02X}")]
     UnknownCommand {
         /// Identifier of the offending frame.
@@ -79,6 +83,24 @@ pub enum ProtocolError {
         /// Largest allowed raw value.
         max: i64,
     },
+    /// A physical value outside the range of its field (given in thousandths: milli-rad,
+    /// milli-N·m, ...).
+    #[error(
+        "{field} {} is out of range {}..={}",
+        Milli(*value_milli),
+        Milli(*min_milli),
+        Milli(*max_milli)
+    )]
+    OutOfRangeMilli {
+        /// Which field.
+        field: Field,
+        /// The value given, in thousandths of its unit (rounded).
+        value_milli: i64,
+        /// The smallest allowed value, in thousandths.
+        min_milli: i64,
+        /// The largest allowed value, in thousandths.
+        max_milli: i64,
+    },
     /// A physical value that is NaN or infinite.
     #[error("{field} must be a finite number")]
     NotFinite {
@@ -90,6 +112,79 @@ pub enum ProtocolError {
     InvalidMotorId {
         /// The id as given.
         id: u8,
+    },
+    /// A request of a command the protocol family does not have (or rmd-rt does not implement
+    /// for it): e.g. v1.61's 0x9B clear-error to a MyActuator V3 motor, V3's 0xB2 to a v1.61
+    /// motor.
+    #[error(
+        "{command} (0x{code:02X}) is not a command of protocol {family} as rmd-rt speaks it",
+        code = command.code()
+    )]
+    UnsupportedCommand {
+        /// The command.
+        command: Command,
+        /// The family the frame was for.
+        family: ProtocolFamily,
+    },
+    /// A kind of frame the protocol family does not have: the 0x280 torque frame on MyActuator
+    /// V3 (where 0x280 carries one command for every motor), a V3 broadcast or motion-mode
+    /// frame on v1.61 or LK-TECH.
+    #[error("{kind} is not part of protocol {family}")]
+    UnsupportedFrame {
+        /// The kind of frame.
+        kind: FrameKind,
+        /// The family the frame was for.
+        family: ProtocolFamily,
+    },
+    /// A field another family has, given a value here (e.g. V3's `maxTorque` of 0xA2 to a
+    /// v1.61 motor, where DATA\[1\] is reserved).
+    #[error("{field} is not a field of protocol {family}: leave it unset")]
+    UnsupportedField {
+        /// The field.
+        field: Field,
+        /// The family the frame was for.
+        family: ProtocolFamily,
+    },
+    /// A motion-mode (MIT) value scaled with other ranges than the firmware's: the ranges of
+    /// V4.3 and V4.4 firmware differ (kd, t_ff, p_des), and a value packed for one reads as
+    /// another on the other (a t_ff for ±24 N·m reads 2.5 times larger on ±60 N·m).
+    #[error(
+        "the motion-mode value was scaled for {got}, but this motor's firmware uses {expected}: \
+         scale it with the motor's own ranges"
+    )]
+    MitRangesMismatch {
+        /// The ranges the dialect uses.
+        expected: MitRanges,
+        /// The ranges of the value given.
+        got: MitRanges,
+    },
+    /// V4.4 firmware scales the motion-mode torque by the motor's maximum torque, which is not
+    /// known.
+    #[error(
+        "MyActuator V3 firmware of protocol V4.4 scales the motion-mode torque by the motor's \
+         maximum torque: give it (the motor model's value, or set it)"
+    )]
+    MissingMaxTorque,
+    /// A reply that another family can carry only with a loss, asked for exactly.
+    #[error(
+        "a {command} reply of protocol {from} has no exact form in protocol {to}: use the \
+         nearest form, or keep it in {from}"
+    )]
+    NotRepresentable {
+        /// The reply's command.
+        command: Command,
+        /// The family it was decoded in.
+        from: ProtocolFamily,
+        /// The family asked for.
+        to: ProtocolFamily,
+    },
+    /// A motion-mode reply on `0x500 + id` whose DATA\[0\] names another motor.
+    #[error("CAN ID 0x{can_id:03X}: DATA[0] names motor {data_id}, not the sender")]
+    MotorIdMismatch {
+        /// Identifier of the offending frame.
+        can_id: u16,
+        /// The motor id in DATA\[0\].
+        data_id: u8,
     },
     /// A current value built for another scale than the one the dialect uses for this field
     /// (e.g. a v1.61 `iqControl` sent to an LK-TECH MF motor).
@@ -116,118 +211,52 @@ pub enum ExpectedIds {
     MotorOrMultiTorque,
     /// A MyActuator V3 reply identifier, 0x241..=0x260 (`0x240 + id`).
     MyActuatorV3Reply,
+    /// A MyActuator V3 request identifier: 0x141..=0x160, 0x280 or 0x401..=0x420.
+    MyActuatorV3Request,
+    /// A MyActuator V3 motion-mode reply identifier, 0x501..=0x520 (`0x500 + id`).
+    MyActuatorV3MotionReply,
+    /// The reply identifier of the motor asked.
+    ReplyOf(u16),
 }
 
 impl fmt::Display for ExpectedIds {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let ExpectedIds::ReplyOf(id) = self {
+            return write!(f, "reply of the motor asked (0x{id:03X})");
+        }
         f.write_str(match self {
             ExpectedIds::Motor => "motor ID (0x141..=0x160)",
             ExpectedIds::MotorOrMultiTorque => "ID (0x141..=0x160 or 0x280)",
             ExpectedIds::MyActuatorV3Reply => "MyActuator V3 reply ID (0x241..=0x260)",
+            ExpectedIds::MyActuatorV3Request => {
+                "MyActuator V3 request ID (0x141..=0x160, 0x280 or 0x401..=0x420)"
+            }
+            ExpectedIds::MyActuatorV3MotionReply => {
+                "MyActuator V3 motion-mode reply ID (0x501..=0x520)"
+            }
+            ExpectedIds::ReplyOf(_) => "reply of the motor asked",
         })
     }
 }
 
-/// A field of the protocol, named in errors after the spec's variable (in snake_case).
+/// A kind of frame that is not a single-motor request or reply, in
+/// [`ProtocolError::UnsupportedFrame`].
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
-#[non_exhaustive]
-pub enum Field {
-    /// `iqControl` of 0xA1 and 0x280.
-    IqControl,
-    /// `speedControl` of 0xA2.
-    SpeedControl,
-    /// `angleControl` of 0xA3 / 0xA4 (multi-turn, i32).
-    AngleControl,
-    /// `angleControl` of 0xA5 / 0xA6 (single-turn, 0..=35999).
-    SingleTurnAngleControl,
-    /// `maxSpeed` of 0xA4 / 0xA6.
-    MaxSpeed,
-    /// `spinDirection` of 0xA5 / 0xA6.
-    SpinDirection,
-    /// `Accel` of 0x33 / 0x34.
-    Accel,
-    /// An encoder value (`encoder`, `encoderRaw`, `encoderOffset`), checked against the width.
-    EncoderValue,
-    /// An encoder width in bits.
-    EncoderWidth,
-    /// `iq`, the torque current in replies.
-    Iq,
-    /// `speed`, the speed in replies.
-    Speed,
-    /// `temperature`.
-    Temperature,
-    /// `voltage`.
-    Voltage,
-    /// A phase current (`iA`, `iB`, `iC`).
-    PhaseCurrent,
-    /// `motorAngle` of the 0x92 reply.
-    MotorAngle,
-    /// `circleAngle` of the 0x94 reply.
-    CircleAngle,
-    /// `current`, the bus current of LK-TECH's 0x9A reply.
-    BusCurrent,
+pub enum FrameKind {
+    /// The v1.61 / LK-TECH 0x280 frame of four torque currents.
+    MultiTorque,
+    /// A MyActuator V3 0x280 frame: one command for every motor.
+    Broadcast,
+    /// A MyActuator V3 motion-mode (MIT) frame on `0x400 + id` / `0x500 + id`.
+    Motion,
 }
 
-impl Field {
-    /// The field's name as used in messages and in the CLI's JSON (snake_case spec name).
-    pub const fn name(self) -> &'static str {
-        match self {
-            Field::IqControl => "iq_control",
-            Field::SpeedControl => "speed_control",
-            Field::AngleControl | Field::SingleTurnAngleControl => "angle_control",
-            Field::MaxSpeed => "max_speed",
-            Field::SpinDirection => "spin_direction",
-            Field::Accel => "accel",
-            Field::EncoderValue => "encoder value",
-            Field::EncoderWidth => "encoder width (bits)",
-            Field::Iq => "iq",
-            Field::Speed => "speed",
-            Field::Temperature => "temperature",
-            Field::Voltage => "voltage",
-            Field::PhaseCurrent => "phase current",
-            Field::MotorAngle => "motor_angle",
-            Field::CircleAngle => "circle_angle",
-            Field::BusCurrent => "bus_current",
-        }
-    }
-}
-
-impl fmt::Display for Field {
+impl fmt::Display for FrameKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
+        f.write_str(match self {
+            FrameKind::MultiTorque => "the 0x280 frame of four torque currents",
+            FrameKind::Broadcast => "the 0x280 frame of one command for every motor",
+            FrameKind::Motion => "the motion-mode (MIT) frame on 0x400 + id",
+        })
     }
-}
-
-/// A name that is not one of the stable names rmd-rt accepts (protocol families, dialects, LK
-/// motor series, motor models). `Copy` and allocation-free: the text lists the accepted names.
-///
-/// ```
-/// use rmd_protocol::{NameError, ProtocolFamily};
-/// let err = "v2".parse::<ProtocolFamily>().unwrap_err();
-/// assert_eq!(err, NameError::Family);
-/// assert_eq!(
-///     err.to_string(),
-///     "unknown protocol family: expected one of v1.61, lk-v2.3x, myactuator-v3, unknown"
-/// );
-/// ```
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, thiserror::Error)]
-#[non_exhaustive]
-pub enum NameError {
-    /// Not a protocol family name.
-    #[error("unknown protocol family: expected one of v1.61, lk-v2.3x, myactuator-v3, unknown")]
-    Family,
-    /// Not a dialect rmd-rt can speak.
-    #[error("unknown protocol: expected v1.61 or lk-v2.3x")]
-    Dialect,
-    /// Not an LK-TECH motor series with a known current scale.
-    #[error("unknown LK-TECH motor series: expected mf or mg")]
-    LkSeries,
-    /// `lk-v2.3x` without the motor series its current scale depends on.
-    #[error(
-        "protocol lk-v2.3x needs the LK-TECH motor series (mf or mg): its current scale depends on it"
-    )]
-    MissingLkSeries,
-    /// Not a motor model of the table.
-    #[error("unknown motor model: see rmd_protocol::models::MODELS for the known names")]
-    Model,
 }

@@ -1,25 +1,26 @@
 //! Protocol families: which firmware a motor runs, as far as the bus can tell.
-//!
-//! Motors sold as "RMD" or under the LK-TECH name run one of three firmware families that share
-//! command bytes but not layouts, scales or identifiers. The differences that matter before any
-//! torque is sent:
-//!
-//! | family | requests | replies | 0x280 frame | source |
-//! |---|---|---|---|---|
-//! | [`V161`](ProtocolFamily::V161) (GYEMS / MyActuator RMD v1.61, v1.62) | `0x140 + id` | `0x140 + id` | four `iqControl` values: per-motor torque for ids 1..=4 | gyems-can-v1.61, "multi motor torque closed loop control" |
-//! | [`LkV23x`](ProtocolFamily::LkV23x) (LK-TECH MF/MG/MS, protocol V2.3x) | `0x140 + id` | `0x140 + id` | four `iqControl` values (LK scale): per-motor torque for ids 1..=4 | drivers of LK-built motors, e.g. github.com/Jason0-0/logging_car_pro_plus `Core/Bsp/RMD_L_Motor/RMD_protocol.h` (0x280, replies 0xA1 on 0x141..0x144, "-2048~2048 -> -33A~33A"); the LK V2.35 document's multi-motor section was not available as text |
-//! | [`MyActuatorV3`](ProtocolFamily::MyActuatorV3) (RMD-X V3, protocol V3.x / V4.x) | `0x140 + id` | **`0x240 + id`** | **a command byte in DATA\[0\], executed by every motor on the bus** (`280#80..` = all motors off) | MyActuator "Servo Motor Control Protocol" V4.3 (applicable driver V3), §1.1.2 and §3; github.com/2b-t/myactuator_rmd `include/myactuator_rmd/driver/can_address_offset.hpp` (request 0x140, response 0x240) |
-//!
-//! rmd-rt's control loop drives motors with 0x280 frames, so it must know a motor's family before
-//! its first torque frame: see [`ProtocolFamily::multi_torque_is_per_motor_torque`] and the
-//! [`identify`](mod@crate::identify) module for how the family is told from a motor's answers.
 
 use core::fmt;
 use core::str::FromStr;
 
-use crate::error::NameError;
-use crate::ids::MotorId;
+use crate::names::NameError;
 
+/// Protocol families: which firmware a motor runs, as far as the bus can tell.
+///
+/// Motors sold as "RMD" or under the LK-TECH name run one of three firmware families that share
+/// command bytes but not layouts, scales or identifiers. The differences that matter before any
+/// torque is sent:
+///
+/// | family | requests | replies | 0x280 frame | source |
+/// |---|---|---|---|---|
+/// | [`V161`](ProtocolFamily::V161) (GYEMS / MyActuator RMD v1.61, v1.62) | `0x140 + id` | `0x140 + id` | four `iqControl` values: per-motor torque for ids 1..=4 | gyems-can-v1.61, "multi motor torque closed loop control" |
+/// | [`LkV23x`](ProtocolFamily::LkV23x) (LK-TECH MF/MG/MS, protocol V2.3x) | `0x140 + id` | `0x140 + id` | four `iqControl` values (LK scale): per-motor torque for ids 1..=4 | drivers of LK-built motors, e.g. github.com/Jason0-0/logging_car_pro_plus `Core/Bsp/RMD_L_Motor/RMD_protocol.h` (0x280, replies 0xA1 on 0x141..0x144, "-2048~2048 -> -33A~33A"); the LK V2.35 document's multi-motor section was not available as text |
+/// | [`MyActuatorV3`](ProtocolFamily::MyActuatorV3) (RMD-X V3, protocol V3.x / V4.x) | `0x140 + id` | **`0x240 + id`** | **a command byte in DATA\[0\], executed by every motor on the bus** (`280#80..` = all motors off) | MyActuator "Servo Motor Control Protocol" V4.3 (applicable driver V3), §1.1.2 and §3; github.com/2b-t/myactuator_rmd `include/myactuator_rmd/driver/can_address_offset.hpp` (request 0x140, response 0x240) |
+///
+/// rmd-rt's control loop drives motors with 0x280 frames, so it must know a motor's family before
+/// its first torque frame: see [`ProtocolFamily::multi_torque_is_per_motor_torque`] and the
+/// [`identify`](crate::identify()) module for how the family is told from a motor's answers.
+///
 /// The firmware family a motor speaks, with the stable names rmd-rt uses in its CLI and JSON.
 ///
 /// ```
@@ -72,7 +73,7 @@ impl ProtocolFamily {
     /// Whether a 0x280 frame means "one torque current per motor, motors 1..=4" to this family.
     ///
     /// `true` for v1.61 (gyems-can-v1.61, multi-motor torque command) and LK-TECH V2.3x (as LK
-    /// drivers use it; see the module table). `false` for MyActuator V3, where DATA\[0\]
+    /// drivers use it; see the table above). `false` for MyActuator V3, where DATA\[0\]
     /// of a 0x280 frame is a command byte executed by every motor on the bus (MyActuator Servo
     /// Motor Control Protocol V4.3, §3: "Sending to ID 0x280 addresses all motors on the bus
     /// simultaneously with the same command"; its example `280#80..` shuts every motor down), and
@@ -89,14 +90,6 @@ impl ProtocolFamily {
             Self::V161 | Self::LkV23x => Some(0x140),
             Self::MyActuatorV3 => Some(0x240),
             Self::Unknown => None,
-        }
-    }
-
-    /// The identifier `motor` replies on in this family; `None` for an unknown family.
-    pub const fn reply_can_id(self, motor: MotorId) -> Option<u16> {
-        match self.reply_base_id() {
-            Some(base) => Some(base + motor.get() as u16),
-            None => None,
         }
     }
 }
@@ -127,14 +120,5 @@ mod tests {
         }
         assert_eq!(ProtocolFamily::from_name("V1.61"), Err(NameError::Family));
         assert_eq!(ProtocolFamily::from_name(""), Err(NameError::Family));
-    }
-
-    #[test]
-    fn reply_ids() {
-        let m = MotorId::new(3).unwrap();
-        assert_eq!(ProtocolFamily::V161.reply_can_id(m), Some(0x143));
-        assert_eq!(ProtocolFamily::LkV23x.reply_can_id(m), Some(0x143));
-        assert_eq!(ProtocolFamily::MyActuatorV3.reply_can_id(m), Some(0x243));
-        assert_eq!(ProtocolFamily::Unknown.reply_can_id(m), None);
     }
 }

@@ -1,79 +1,11 @@
 //! Telling a motor's protocol family from its answers to two read requests.
-//!
-//! # How
-//!
-//! 1. Send the two [`probe_requests`] to the motor: 0x9A (read status 1) and 0x9C (read status 2)
-//!    on `0x140 + id`. Both are read-only in all three families (gyems-can-v1.61; LK-TECH CAN
-//!    protocol V2.35 §1 and §3; MyActuator Servo Motor Control Protocol V4.3 §2.14 and §2.15),
-//!    so probing cannot move or reconfigure a motor of any of them.
-//! 2. Collect what comes back on `0x140 + id` **and** `0x240 + id` for a while (a motor answers
-//!    within 0.25 ms per LK's document; allow a few ms), offering every received frame to
-//!    [`ProbeAnswers::offer`].
-//! 3. If the motor answered on `0x240 + id` it is MyActuator V3: optionally send
-//!    [`model_request`] (0xB5, a V3 read command, §2.33) and offer its answer too, to learn the
-//!    model string.
-//! 4. [`identify`] decides:
-//!    - no answer at all: [`ProtocolFamily::Unknown`];
-//!    - answers on both `0x140 + id` and `0x240 + id`: `Unknown` (two devices share the id, or
-//!      firmware this module does not know);
-//!    - answers on `0x240 + id` only: [`ProtocolFamily::MyActuatorV3`] (V4.3 §1.1.2: "Reply:
-//!      0x240 + ID"; v1.61 and LK-TECH reply on `0x140 + id`);
-//!    - answers on `0x140 + id`: the 0x9A answer decides between v1.61 and LK-TECH. It is read
-//!      both ways: v1.61 puts the voltage in DATA\[3..=4\] at 0.1 V and leaves DATA\[2\], DATA\[5\]
-//!      and DATA\[6\] reserved; LK-TECH V2.3x puts it in DATA\[2..=3\] at 0.01 V and the motor state
-//!      (0x00 on, 0x10 off) in DATA\[6\] (see [`lk`](crate::lk)). A reading is *plausible* when
-//!      its voltage is within [`MIN_SUPPLY_VOLTS`]..=[`MAX_SUPPLY_VOLTS`] (and, for LK, DATA\[6\]
-//!      is 0x00 or 0x10). Exactly one plausible reading names the family. If both are plausible,
-//!      DATA\[2\] decides: 0 (reserved in v1.61) means v1.61, anything else LK-TECH; the
-//!      [`Finding`] records the ambiguity. Neither plausible, or no 0x9A answer: `Unknown`.
-//!
-//! Example: issue 14's LK capture of 48.7 V has DATA\[2..=3\] = `06 13`; the LK reading is 48.7 V
-//! (plausible), the v1.61 reading 1.9 V (not): LK-TECH.
-//!
-//! # What it cannot tell
-//!
-//! - **v1.61 from v1.62**: their frames are the same; both are reported as `v1.61`.
-//! - **LK-TECH firmware that answers 0x9A in the v1.61 layout** (older LK firmware: e.g.
-//!   github.com/offisaac/23_Balance_Second, MF9025 v2 driver, reads DATA\[3..=4\] at 0.1 V) is
-//!   reported as `v1.61`, and its current scale is then wrong (an MF motor runs v1.61's
-//!   `iqControl` at about half the current). Name the protocol and model in the robot
-//!   description for such motors.
-//! - **The LK-TECH motor series** (MF or MG): the frames do not carry it; it comes from the model.
-//! - **Hybrid firmware** (LK-built motors sold under other names with mixed layouts): reported by
-//!   what their 0x9A answer looks like, which may not hold for other commands.
-//! - **Ambiguous voltages**: a v1.61 motor at 25.9..=28.7 V (or 51.5..=54.3, 77.1..=79.9 V) also
-//!   has a plausible LK reading; DATA\[2\] = 0 resolves it to v1.61. An LK motor with a non-zero
-//!   low byte of bus current can have a plausible v1.61 reading; a voltage whose low byte is 0
-//!   (1 in 256) then resolves it wrongly to v1.61. Probing while the motors are off (bus current
-//!   0, as at start-up) avoids this case: with a zero bus current an LK answer never has a
-//!   plausible v1.61 reading.
-//! - **Motors that do not answer 0x9A** (some firmware, a V3 motor with "active reply" set for
-//!   0x9A (V4.3 §2.34), a busy bus): `Unknown` even if 0x9C was answered.
-//! - **An all-zero 0x9A / 0x9C answer** on `0x140 + id` is indistinguishable from the request
-//!   itself (another program's, or our own looped back) and is ignored; such an answer (0 °C,
-//!   0 V) would be implausible anyway.
-//!
-//! ```
-//! use rmd_protocol::{CanFrame, MotorId, ProtocolFamily, identify::{ProbeAnswers, identify, probe_requests}};
-//! let m1 = MotorId::new(1)?;
-//! assert_eq!(probe_requests(m1).map(|f| f.to_string()), ["141#9A00000000000000", "141#9C00000000000000"]);
-//! let mut answers = ProbeAnswers::new();
-//! // A v1.61 motor at 24 V, 30 °C.
-//! answers.offer(m1, &CanFrame::new(0x141, &[0x9A, 30, 0, 0xF0, 0, 0, 0, 0])?);
-//! answers.offer(m1, &CanFrame::new(0x141, &[0x9C, 30, 0, 0, 0, 0, 0x34, 0x12])?);
-//! let id = identify(m1, &answers);
-//! assert_eq!(id.family, ProtocolFamily::V161);
-//! assert_eq!(id.evidence.reply_id, Some(0x141));
-//! # Ok::<(), rmd_protocol::ProtocolError>(())
-//! ```
 
 use core::fmt;
 
+use crate::command::Command;
 use crate::family::ProtocolFamily;
 use crate::frame::CanFrame;
-use crate::ids::MotorId;
-use crate::request::Request;
-use crate::v3::{self, V3Command, V3Request};
+use crate::ids::{MotorId, V3_REPLY_BASE_ID};
 use crate::wire::u16_at;
 
 /// Lowest supply voltage a plausible status-1 reading may show, V. Below every motor's
@@ -83,18 +15,31 @@ pub const MIN_SUPPLY_VOLTS: f64 = 6.0;
 /// motors take (48 V nominal, drivers rated to about 60 V).
 pub const MAX_SUPPLY_VOLTS: f64 = 80.0;
 
+/// A request without fields: `code` in DATA\[0\], zeros after, on `0x140 + id`. The same bytes
+/// in every family.
+const fn bare(motor: MotorId, command: Command) -> CanFrame {
+    CanFrame::rmd(motor.can_id(), [command.code(), 0, 0, 0, 0, 0, 0, 0])
+}
+
+/// The identifier a V3 motor replies on.
+const fn v3_reply_id(motor: MotorId) -> u16 {
+    V3_REPLY_BASE_ID + motor.get() as u16
+}
+
 /// The two probe requests for `motor`: 0x9A then 0x9C on `0x140 + id`.
 pub const fn probe_requests(motor: MotorId) -> [CanFrame; 2] {
     [
-        Request::ReadStatus1.encode(motor),
-        Request::ReadStatus2.encode(motor),
+        bare(motor, Command::ReadStatus1),
+        bare(motor, Command::ReadStatus2),
     ]
 }
 
-/// The V3 model request (0xB5) for `motor`. Send it only to a motor [`identify`] found to be
-/// MyActuator V3: 0xB5 is not a command of v1.61 or LK-TECH.
+/// The V3 model request (0xB5, in the V4.3 form `B5 00 ..`, V4.3 §2.33) for `motor`. Send it
+/// only to a motor [`identify`] found to be MyActuator V3: 0xB5 is not a command of v1.61 or
+/// LK-TECH. A V4.4 motor may answer in its own form (index and five characters, V4.4 §2.34):
+/// both are read.
 pub const fn model_request(motor: MotorId) -> CanFrame {
-    V3Request::ReadModel.encode(motor)
+    bare(motor, Command::ReadModel)
 }
 
 /// Which probe a frame answers.
@@ -134,7 +79,7 @@ impl ProbeAnswers {
     /// identifier marks the answers as conflicting.
     pub fn offer(&mut self, motor: MotorId, frame: &CanFrame) -> bool {
         let single = motor.can_id();
-        let v3_id = v3::reply_can_id(motor);
+        let v3_id = v3_reply_id(motor);
         if frame.id() != single && frame.id() != v3_id {
             return false;
         }
@@ -296,7 +241,8 @@ pub struct Evidence {
     pub answered_status2: bool,
     /// The 0x9A answer read both ways (answers on `0x140 + id` only).
     pub status1: Option<Status1Readings>,
-    /// The V3 model string (0xB5 answer), 7 ASCII bytes.
+    /// The V3 model string (0xB5 answer): 7 ASCII bytes (V4.3 form), or 5 and two NULs (the
+    /// first part of the V4.4 form).
     pub model: Option<[u8; 7]>,
     /// What decided.
     pub finding: Finding,
@@ -334,7 +280,74 @@ impl fmt::Display for Identification {
     }
 }
 
-/// Decides `motor`'s family from its answers to the probes (see the module docs). Pure: no I/O.
+/// Decides `motor`'s family from its answers to two read requests. Pure: no I/O.
+///
+/// # How
+///
+/// 1. Send the two [`probe_requests`] to the motor: 0x9A (read status 1) and 0x9C (read status 2)
+///    on `0x140 + id`. Both are read-only in all three families (gyems-can-v1.61; LK-TECH CAN
+///    protocol V2.35 §1 and §3; MyActuator Servo Motor Control Protocol V4.3 §2.14 and §2.15),
+///    so probing cannot move or reconfigure a motor of any of them.
+/// 2. Collect what comes back on `0x140 + id` **and** `0x240 + id` for a while (a motor answers
+///    within 0.25 ms per LK's document; allow a few ms), offering every received frame to
+///    [`ProbeAnswers::offer`].
+/// 3. If the motor answered on `0x240 + id` it is MyActuator V3: optionally send
+///    [`model_request`] (0xB5, a V3 read command, §2.33) and offer its answer too, to learn the
+///    model string.
+/// 4. [`identify`] decides:
+///    - no answer at all: [`ProtocolFamily::Unknown`];
+///    - answers on both `0x140 + id` and `0x240 + id`: `Unknown` (two devices share the id, or
+///      firmware this module does not know);
+///    - answers on `0x240 + id` only: [`ProtocolFamily::MyActuatorV3`] (V4.3 §1.1.2: "Reply:
+///      0x240 + ID"; v1.61 and LK-TECH reply on `0x140 + id`);
+///    - answers on `0x140 + id`: the 0x9A answer decides between v1.61 and LK-TECH. It is read
+///      both ways: v1.61 puts the voltage in DATA\[3..=4\] at 0.1 V and leaves DATA\[2\], DATA\[5\]
+///      and DATA\[6\] reserved; LK-TECH V2.3x puts it in DATA\[2..=3\] at 0.01 V and the motor state
+///      (0x00 on, 0x10 off) in DATA\[6\] (see [`LkStatus1`](crate::LkStatus1)). A reading is *plausible* when
+///      its voltage is within [`MIN_SUPPLY_VOLTS`]..=[`MAX_SUPPLY_VOLTS`] (and, for LK, DATA\[6\]
+///      is 0x00 or 0x10). Exactly one plausible reading names the family. If both are plausible,
+///      DATA\[2\] decides: 0 (reserved in v1.61) means v1.61, anything else LK-TECH; the
+///      [`Finding`] records the ambiguity. Neither plausible, or no 0x9A answer: `Unknown`.
+///
+/// Example: issue 14's LK capture of 48.7 V has DATA\[2..=3\] = `06 13`; the LK reading is 48.7 V
+/// (plausible), the v1.61 reading 1.9 V (not): LK-TECH.
+///
+/// # What it cannot tell
+///
+/// - **v1.61 from v1.62**: their frames are the same; both are reported as `v1.61`.
+/// - **LK-TECH firmware that answers 0x9A in the v1.61 layout** (older LK firmware: e.g.
+///   github.com/offisaac/23_Balance_Second, MF9025 v2 driver, reads DATA\[3..=4\] at 0.1 V) is
+///   reported as `v1.61`, and its current scale is then wrong (an MF motor runs v1.61's
+///   `iqControl` at about half the current). Name the protocol and model in the robot
+///   description for such motors.
+/// - **The LK-TECH motor series** (MF or MG): the frames do not carry it; it comes from the model.
+/// - **Hybrid firmware** (LK-built motors sold under other names with mixed layouts): reported by
+///   what their 0x9A answer looks like, which may not hold for other commands.
+/// - **Ambiguous voltages**: a v1.61 motor at 25.9..=28.7 V (or 51.5..=54.3, 77.1..=79.9 V) also
+///   has a plausible LK reading; DATA\[2\] = 0 resolves it to v1.61. An LK motor with a non-zero
+///   low byte of bus current can have a plausible v1.61 reading; a voltage whose low byte is 0
+///   (1 in 256) then resolves it wrongly to v1.61. Probing while the motors are off (bus current
+///   0, as at start-up) avoids this case: with a zero bus current an LK answer never has a
+///   plausible v1.61 reading.
+/// - **Motors that do not answer 0x9A** (some firmware, a V3 motor with "active reply" set for
+///   0x9A (V4.3 §2.34), a busy bus): `Unknown` even if 0x9C was answered.
+/// - **An all-zero 0x9A / 0x9C answer** on `0x140 + id` is indistinguishable from the request
+///   itself (another program's, or our own looped back) and is ignored; such an answer (0 °C,
+///   0 V) would be implausible anyway.
+///
+/// ```
+/// use rmd_protocol::{CanFrame, MotorId, ProbeAnswers, ProtocolFamily, identify, probe_requests};
+/// let m1 = MotorId::new(1)?;
+/// assert_eq!(probe_requests(m1).map(|f| f.to_string()), ["141#9A00000000000000", "141#9C00000000000000"]);
+/// let mut answers = ProbeAnswers::new();
+/// // A v1.61 motor at 24 V, 30 °C.
+/// answers.offer(m1, &CanFrame::new(0x141, &[0x9A, 30, 0, 0xF0, 0, 0, 0, 0])?);
+/// answers.offer(m1, &CanFrame::new(0x141, &[0x9C, 30, 0, 0, 0, 0, 0x34, 0x12])?);
+/// let id = identify(m1, &answers);
+/// assert_eq!(id.family, ProtocolFamily::V161);
+/// assert_eq!(id.evidence.reply_id, Some(0x141));
+/// # Ok::<(), rmd_protocol::ProtocolError>(())
+/// ```
 pub fn identify(motor: MotorId, answers: &ProbeAnswers) -> Identification {
     let mut evidence = Evidence {
         reply_id: answers.answers().next().map(|f| f.id()),
@@ -374,14 +387,18 @@ fn decide(
             },
         );
     }
-    if first.id() == v3::reply_can_id(motor) {
+    if first.id() == v3_reply_id(motor) {
         evidence.model = answers
             .model
             .and_then(|f| f.data8().copied())
-            .filter(|d| d[0] == V3Command::ReadModel.code())
+            .filter(|d| d[0] == Command::ReadModel.code())
             .map(|d| {
                 let mut m = [0u8; 7];
-                m.copy_from_slice(&d[1..]);
+                if d[1] == 0x01 {
+                    m[..5].copy_from_slice(&d[3..]);
+                } else {
+                    m.copy_from_slice(&d[1..]);
+                }
                 m
             });
         return (ProtocolFamily::MyActuatorV3, Finding::V3ReplyId);

@@ -12,6 +12,13 @@ pub const LAST_MOTOR_CAN_ID: u16 = SINGLE_MOTOR_BASE_ID + MotorId::MAX as u16;
 pub const MULTI_TORQUE_CAN_ID: u16 = 0x280;
 /// Number of motors one 0x280 frame drives (ids 1..=4).
 pub const MULTI_TORQUE_MOTORS: usize = 4;
+/// Base of MyActuator V3's reply identifiers: motor `n` replies on `0x240 + n` (V4.3 / V4.4
+/// §1.1.2).
+pub const V3_REPLY_BASE_ID: u16 = 0x240;
+/// Base of MyActuator V3's motion-mode identifiers: `0x400 + n` (V4.3 §5, V4.4 §4).
+pub const V3_MOTION_BASE_ID: u16 = 0x400;
+/// Base of MyActuator V3's motion-mode reply identifiers: `0x500 + n` (V4.3 §5, V4.4 §4).
+pub const V3_MOTION_REPLY_BASE_ID: u16 = 0x500;
 
 /// The id of one motor on a bus, 1..=32 (spec: "0x140 + ID(1~32)").
 ///
@@ -74,6 +81,20 @@ impl MotorId {
         } else {
             None
         }
+    }
+}
+
+/// The motor whose identifier is `can_id` on the identifiers `base + 1 ..= base + 32`; else
+/// [`ProtocolError::UnexpectedCanId`] with `expected`.
+pub(crate) const fn motor_on(
+    can_id: u16,
+    base: u16,
+    expected: ExpectedIds,
+) -> Result<MotorId, ProtocolError> {
+    if can_id > base && can_id <= base + MotorId::MAX as u16 {
+        Ok(MotorId((can_id - base) as u8))
+    } else {
+        Err(ProtocolError::UnexpectedCanId { can_id, expected })
     }
 }
 

@@ -1,25 +1,8 @@
 //! LK-TECH V2.3x layouts that differ from v1.61: status 1 (0x9A / 0x9B) and the single-turn
 //! angle (0x94).
-//!
-//! Sources:
-//!
-//! - `[LK235-CN]`: LK-TECH "电机CAN总线通讯协议（V2.35）" (motor CAN bus protocol V2.35), a
-//!   Markdown transcription of the manufacturer's document found in the public code index
-//!   (repository not named by the index; the transcription says parts may be machine-generated),
-//!   §二.1 "读取电机状态1和错误标志命令" (read motor status 1 and error flags) and §二.27 "读取单圈角度命令"
-//!   (read single-turn angle).
-//! - `[pyLKMotor]`: github.com/han-xudong/pyLKMotor `pylkmotor/LKMotor.py`, `_parse_response_1`:
-//!   the same status-1 layout, read by a driver for real motors.
-//! - `[issue14]`: rmd-rt issue 14: captures from real LK motors of 48.7 V read as 1.9 V by a v1.61
-//!   decoder, which is what the layout below predicts (0x1306 = 4870 in DATA\[2..=3\]; v1.61 reads
-//!   DATA\[3..=4\] = 0x0013 = 19 × 0.1 V).
-//!
-//! Older LK firmware answers 0x9A with v1.61's layout (voltage in DATA\[3..=4\] at 0.1 V: e.g.
-//! github.com/offisaac/23_Balance_Second `digital_chassis/USP/Drivers/MF9025_v2/MF9025_v2.cpp`,
-//! `updateMotorState1`). Such a motor cannot be told from a v1.61 motor by its status 1; see
-//! [`identify`](mod@crate::identify).
 
-use crate::error::{Field, ProtocolError};
+use crate::error::ProtocolError;
+use crate::field::Field;
 use crate::status::ErrorState;
 use crate::values::{Temperature, wire_value};
 use crate::wire::{i16_at, put_i16, put_u16, u16_at};
@@ -110,6 +93,27 @@ impl LkMotorState {
     }
 }
 
+/// LK-TECH V2.3x layouts that differ from v1.61: status 1 (0x9A / 0x9B) and the single-turn
+/// angle (0x94).
+///
+/// Sources:
+///
+/// - `[LK235-CN]`: LK-TECH "电机CAN总线通讯协议（V2.35）" (motor CAN bus protocol V2.35), a
+///   Markdown transcription of the manufacturer's document found in the public code index
+///   (repository not named by the index; the transcription says parts may be machine-generated),
+///   §二.1 "读取电机状态1和错误标志命令" (read motor status 1 and error flags) and §二.27 "读取单圈角度命令"
+///   (read single-turn angle).
+/// - `[pyLKMotor]`: github.com/han-xudong/pyLKMotor `pylkmotor/LKMotor.py`, `_parse_response_1`:
+///   the same status-1 layout, read by a driver for real motors.
+/// - `[issue14]`: rmd-rt issue 14: captures from real LK motors of 48.7 V read as 1.9 V by a v1.61
+///   decoder, which is what the layout below predicts (0x1306 = 4870 in DATA\[2..=3\]; v1.61 reads
+///   DATA\[3..=4\] = 0x0013 = 19 × 0.1 V).
+///
+/// Older LK firmware answers 0x9A with v1.61's layout (voltage in DATA\[3..=4\] at 0.1 V: e.g.
+/// github.com/offisaac/23_Balance_Second `digital_chassis/USP/Drivers/MF9025_v2/MF9025_v2.cpp`,
+/// `updateMotorState1`). Such a motor cannot be told from a v1.61 motor by its status 1; see
+/// [`identify`](crate::identify()).
+///
 /// LK-TECH status 1: the reply to 0x9A and 0x9B (`[LK235-CN]` §二.1 and §二.2, `[pyLKMotor]`).
 ///
 /// Layout: DATA\[1\] temperature (int8, 1 °C/LSB), DATA\[2..=3\] voltage (0.01 V/LSB),

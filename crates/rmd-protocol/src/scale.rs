@@ -1,37 +1,39 @@
-//! Current scales as data, and current values that carry the scale they assume.
-//!
-//! Protocol v1.61 has two fixed current scales ([`IqControl`]: 32/2000 A per
-//! LSB; [`Iq`]: 33/2048 A per LSB). Other firmware families use other scales for the
-//! same wire fields, and LK-TECH's depend on the motor series (see [`Dialect`](crate::Dialect)):
-//!
-//! | scale | field | A per LSB | raw range | source |
-//! |---|---|---|---|---|
-//! | [`CurrentScale::V161_IQ_CONTROL`] | `iqControl` | 32/2000 | ±2000 | gyems-can-v1.61, 0xA1 / 0x280 |
-//! | [`CurrentScale::V161_IQ`] | `iq` | 33/2048 | ±2048 | gyems-can-v1.61, 0x9C |
-//! | [`CurrentScale::LK_MF_IQ_CONTROL`], [`CurrentScale::LK_MF_IQ`] | both | 16.5/2048 | ±2048 | LK-TECH CAN protocol V2.35, torque closed-loop command (0xA1): "MF ... -16.5A~16.5A" |
-//! | [`CurrentScale::LK_MG_IQ_CONTROL`], [`CurrentScale::LK_MG_IQ`] | both | 33/2048 | ±2048 | same section: "MG ... -33A~33A" |
-//! | [`CurrentScale::MYACTUATOR_V3_IQ_CONTROL`], [`CurrentScale::MYACTUATOR_V3_IQ`] | both | 0.01 | i16 | MyActuator Servo Motor Control Protocol V4.3 (driver V3), §2.19 (0xA1), §2.15 (0x9C) |
-//!
-//! A [`ScaledCurrent`] is a raw wire value together with its [`CurrentScale`], so a value can
-//! never be read with the wrong scale: `amps()` always uses the scale it was built with.
-//!
-//! ```
-//! use rmd_protocol::{CurrentScale, ScaledCurrent};
-//! let mf = ScaledCurrent::from_amps(8.25, CurrentScale::LK_MF_IQ_CONTROL)?;
-//! assert_eq!(mf.raw(), 1024);
-//! let mg = ScaledCurrent::new(1024, CurrentScale::LK_MG_IQ_CONTROL)?;
-//! assert_eq!(mg.amps(), 16.5);
-//! // The same raw value means 16.38 A under v1.61's iqControl scale.
-//! assert!((ScaledCurrent::new(1024, CurrentScale::V161_IQ_CONTROL)?.amps() - 16.384).abs() < 1e-12);
-//! # Ok::<(), rmd_protocol::ProtocolError>(())
-//! ```
+//! Current scales as data.
 
 use core::fmt;
 
-use crate::error::{Field, ProtocolError};
+use crate::field::Field;
+use crate::milli::Milli;
 use crate::round::round_half_away;
-use crate::values::{Iq, IqControl};
 
+/// Current scales as data, and current values that carry the scale they assume.
+///
+/// Protocol v1.61 has two fixed current scales (`IqControl`: 32/2000 A per
+/// LSB; `Iq`: 33/2048 A per LSB). Other firmware families use other scales for the
+/// same wire fields, and LK-TECH's depend on the motor series:
+///
+/// | scale | field | A per LSB | raw range | source |
+/// |---|---|---|---|---|
+/// | [`CurrentScale::V161_IQ_CONTROL`] | `iqControl` | 32/2000 | ±2000 | gyems-can-v1.61, 0xA1 / 0x280 |
+/// | [`CurrentScale::V161_IQ`] | `iq` | 33/2048 | ±2048 | gyems-can-v1.61, 0x9C |
+/// | [`CurrentScale::LK_MF_IQ_CONTROL`], [`CurrentScale::LK_MF_IQ`] | both | 16.5/2048 | ±2048 | LK-TECH CAN protocol V2.35, torque closed-loop command (0xA1): "MF ... -16.5A~16.5A" |
+/// | [`CurrentScale::LK_MG_IQ_CONTROL`], [`CurrentScale::LK_MG_IQ`] | both | 33/2048 | ±2048 | same section: "MG ... -33A~33A" |
+/// | [`CurrentScale::MYACTUATOR_V3_IQ_CONTROL`], [`CurrentScale::MYACTUATOR_V3_IQ`] | both | 0.01 | i16 | MyActuator Servo Motor Control Protocol V4.3 (driver V3), §2.19 (0xA1), §2.15 (0x9C) |
+///
+/// A `ScaledCurrent` is a raw wire value together with its [`CurrentScale`], so a value can
+/// never be read with the wrong scale: `amps()` always uses the scale it was built with.
+///
+/// ```
+/// use rmd_protocol::{CurrentScale, ScaledCurrent};
+/// let mf = ScaledCurrent::from_amps(8.25, CurrentScale::LK_MF_IQ_CONTROL)?;
+/// assert_eq!(mf.raw(), 1024);
+/// let mg = ScaledCurrent::new(1024, CurrentScale::LK_MG_IQ_CONTROL)?;
+/// assert_eq!(mg.amps(), 16.5);
+/// // The same raw value means 16.38 A under v1.61's iqControl scale.
+/// assert!((ScaledCurrent::new(1024, CurrentScale::V161_IQ_CONTROL)?.amps() - 16.384).abs() < 1e-12);
+/// # Ok::<(), rmd_protocol::ProtocolError>(())
+/// ```
+///
 /// How a current field's raw integer maps to amperes, and which raw values it allows:
 /// `amps = raw * milliamps / per_raw / 1000`, `min_raw <= raw <= max_raw`.
 ///
@@ -132,7 +134,7 @@ impl CurrentScale {
     }
 
     /// The raw value nearest to `amps` (half away from zero), unclamped; NaN gives 0.
-    fn raw_of(self, amps: f64) -> i64 {
+    pub(crate) fn raw_of(self, amps: f64) -> i64 {
         round_half_away(amps * 1000.0 * f64::from(self.per_raw) / f64::from(self.milliamps))
     }
 }
@@ -140,16 +142,7 @@ impl CurrentScale {
 /// Formats as e.g. `33 A per 2048 LSB (-2048..=2048)` or `0.01 A per LSB (-32768..=32767)`.
 impl fmt::Display for CurrentScale {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let (whole, mut frac) = (self.milliamps / 1000, self.milliamps % 1000);
-        write!(f, "{whole}")?;
-        if frac != 0 {
-            let mut digits = 3;
-            while frac % 10 == 0 {
-                frac /= 10;
-                digits -= 1;
-            }
-            write!(f, ".{frac:0digits$}")?;
-        }
+        write!(f, "{}", Milli(i64::from(self.milliamps)))?;
         if self.per_raw == 1 {
             write!(f, " A per LSB")?;
         } else {
@@ -159,138 +152,19 @@ impl fmt::Display for CurrentScale {
     }
 }
 
-/// A current on the wire: the raw integer and the [`CurrentScale`] it is read with.
-///
-/// ```
-/// use rmd_protocol::{CurrentScale, IqControl, ScaledCurrent};
-/// let v161: ScaledCurrent = IqControl::new(100)?.into();
-/// assert_eq!(v161.scale(), CurrentScale::V161_IQ_CONTROL);
-/// assert_eq!(v161.amps(), 1.6);
-/// assert!(ScaledCurrent::new(2049, CurrentScale::LK_MG_IQ).is_err());
-/// assert_eq!(ScaledCurrent::from_amps_saturating(50.0, CurrentScale::LK_MF_IQ_CONTROL).raw(), 2048);
-/// # Ok::<(), rmd_protocol::ProtocolError>(())
-/// ```
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
-pub struct ScaledCurrent {
-    raw: i16,
-    scale: CurrentScale,
-}
-
-impl ScaledCurrent {
-    /// A value from its raw integer; [`ProtocolError::ValueOutOfRange`] (naming the scale's
-    /// field) outside the scale's range.
-    pub const fn new(raw: i64, scale: CurrentScale) -> Result<Self, ProtocolError> {
-        if raw < scale.min_raw as i64 || raw > scale.max_raw as i64 {
-            Err(ProtocolError::ValueOutOfRange {
-                field: scale.field,
-                value: raw,
-                min: scale.min_raw as i64,
-                max: scale.max_raw as i64,
-            })
-        } else {
-            Ok(Self {
-                raw: raw as i16,
-                scale,
-            })
-        }
+impl CurrentScale {
+    /// Whether `self` and `other` are the same scale of the same field (a `const` `==`).
+    pub const fn same_as(self, other: Self) -> bool {
+        self.field as u8 == other.field as u8
+            && self.milliamps == other.milliamps
+            && self.per_raw == other.per_raw
+            && self.min_raw == other.min_raw
+            && self.max_raw == other.max_raw
     }
 
-    /// A value from a raw integer, clamped into the scale's range.
-    pub fn saturating(raw: i64, scale: CurrentScale) -> Self {
-        Self {
-            raw: raw.clamp(i64::from(scale.min_raw), i64::from(scale.max_raw)) as i16,
-            scale,
-        }
-    }
-
-    /// A value from amperes, rounded half away from zero to the nearest raw step. Errors:
-    /// [`ProtocolError::NotFinite`], [`ProtocolError::ValueOutOfRange`] (with the rounded raw
-    /// value) outside the range.
-    pub fn from_amps(amps: f64, scale: CurrentScale) -> Result<Self, ProtocolError> {
-        if !amps.is_finite() {
-            return Err(ProtocolError::NotFinite { field: scale.field });
-        }
-        Self::new(scale.raw_of(amps), scale)
-    }
-
-    /// A value from amperes, rounded and clamped into the range; NaN gives zero.
-    pub fn from_amps_saturating(amps: f64, scale: CurrentScale) -> Self {
-        Self::saturating(scale.raw_of(amps), scale)
-    }
-
-    /// The raw wire integer.
-    pub const fn raw(self) -> i16 {
-        self.raw
-    }
-
-    /// The scale this value is read with.
-    pub const fn scale(self) -> CurrentScale {
-        self.scale
-    }
-
-    /// The current in amperes, with this value's own scale.
-    pub fn amps(self) -> f64 {
-        self.scale.amps(self.raw)
-    }
-
-    /// The same raw value checked against `expected`:
-    /// [`ProtocolError::ScaleMismatch`] unless this value uses exactly that scale.
-    pub const fn expect_scale(self, expected: CurrentScale) -> Result<Self, ProtocolError> {
-        if scales_equal(self.scale, expected) {
-            Ok(self)
-        } else {
-            Err(ProtocolError::ScaleMismatch {
-                field: expected.field,
-                expected,
-                got: self.scale,
-            })
-        }
-    }
-}
-
-const fn scales_equal(a: CurrentScale, b: CurrentScale) -> bool {
-    a.field as u8 == b.field as u8
-        && a.milliamps == b.milliamps
-        && a.per_raw == b.per_raw
-        && a.min_raw == b.min_raw
-        && a.max_raw == b.max_raw
-}
-
-impl From<IqControl> for ScaledCurrent {
-    fn from(v: IqControl) -> Self {
-        Self {
-            raw: v.raw(),
-            scale: CurrentScale::V161_IQ_CONTROL,
-        }
-    }
-}
-
-impl From<Iq> for ScaledCurrent {
-    fn from(v: Iq) -> Self {
-        Self {
-            raw: v.raw(),
-            scale: CurrentScale::V161_IQ,
-        }
-    }
-}
-
-impl TryFrom<ScaledCurrent> for IqControl {
-    type Error = ProtocolError;
-    /// The v1.61 `iqControl` of a value with scale [`CurrentScale::V161_IQ_CONTROL`];
-    /// [`ProtocolError::ScaleMismatch`] for any other scale.
-    fn try_from(v: ScaledCurrent) -> Result<Self, ProtocolError> {
-        let v = v.expect_scale(CurrentScale::V161_IQ_CONTROL)?;
-        IqControl::new(i64::from(v.raw))
-    }
-}
-
-impl TryFrom<ScaledCurrent> for Iq {
-    type Error = ProtocolError;
-    /// The v1.61 `iq` of a value with scale [`CurrentScale::V161_IQ`];
-    /// [`ProtocolError::ScaleMismatch`] for any other scale.
-    fn try_from(v: ScaledCurrent) -> Result<Self, ProtocolError> {
-        let v = v.expect_scale(CurrentScale::V161_IQ)?;
-        Iq::new(i64::from(v.raw))
+    /// The field.
+    pub(crate) const fn field_of(self) -> Field {
+        self.field
     }
 }
 
@@ -333,33 +207,5 @@ mod tests {
             CurrentScale::MYACTUATOR_V3_IQ.to_string(),
             "0.01 A per LSB (-32768..=32767)"
         );
-    }
-
-    #[test]
-    fn conversions_round_and_check() {
-        let s = CurrentScale::LK_MF_IQ_CONTROL;
-        assert_eq!(ScaledCurrent::from_amps(16.5, s).unwrap().raw(), 2048);
-        assert_eq!(
-            ScaledCurrent::from_amps(16.51, s),
-            Err(ProtocolError::ValueOutOfRange {
-                field: Field::IqControl,
-                value: 2049,
-                min: -2048,
-                max: 2048
-            })
-        );
-        assert_eq!(
-            ScaledCurrent::from_amps(f64::NAN, s),
-            Err(ProtocolError::NotFinite {
-                field: Field::IqControl
-            })
-        );
-        assert_eq!(ScaledCurrent::from_amps_saturating(f64::NAN, s).raw(), 0);
-        assert_eq!(ScaledCurrent::from_amps_saturating(-1e9, s).raw(), -2048);
-        let v3 = ScaledCurrent::from_amps(1.0, CurrentScale::MYACTUATOR_V3_IQ_CONTROL).unwrap();
-        assert_eq!(v3.raw(), 100);
-        assert!(IqControl::try_from(v3).is_err());
-        let v161 = ScaledCurrent::new(100, CurrentScale::V161_IQ_CONTROL).unwrap();
-        assert_eq!(IqControl::try_from(v161), IqControl::new(100));
     }
 }

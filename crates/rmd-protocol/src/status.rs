@@ -1,11 +1,14 @@
-//! The status replies (0x9A/0x9B, 0x9C and the control replies, 0x9D), the error-state bitfield,
-//! the spin direction and the PID parameters.
+//! The status replies of v1.61 (0x9A/0x9B, 0x9D), status 2 of every family (0x9C and the
+//! control replies), the error-state bitfield, the spin direction and the PID parameters.
 
 use core::ops::BitOr;
 
+use crate::current::ScaledCurrent;
 use crate::encoder::EncoderValue;
-use crate::error::{Field, ProtocolError};
-use crate::values::{Iq, PhaseCurrent, Speed, Temperature, Voltage};
+use crate::error::ProtocolError;
+use crate::field::Field;
+use crate::v3::OutputAngle;
+use crate::values::{PhaseCurrent, Speed, Temperature, Voltage};
 
 /// The error-state byte of the 0x9A / 0x9B replies (DATA\[7\]).
 ///
@@ -161,11 +164,11 @@ impl PidParams {
     }
 }
 
-/// Status 1: the reply to 0x9A (read status 1) and 0x9B (clear error).
+/// v1.61 status 1: the reply to 0x9A (read status 1) and 0x9B (clear error).
 ///
 /// Layout: DATA\[1\] temperature, DATA\[3..=4\] voltage, DATA\[7\] error state.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
-pub struct Status1 {
+pub struct V161Status1 {
     /// Motor temperature (`temperature`, int8_t, 1 °C/LSB).
     pub temperature: Temperature,
     /// Supply voltage (`voltage`, 0.1 V/LSB).
@@ -174,20 +177,46 @@ pub struct Status1 {
     pub error_state: ErrorState,
 }
 
-/// Status 2: the reply to 0x9C and to every control command 0xA1..=0xA6 (also the replies to a
-/// 0x280 multi-motor torque frame, which carry DATA\[0\] = 0xA1).
+/// Status 2: the reply to 0x9C and to the control commands (0xA1..=0xA6; also each reply to a
+/// v1.61 / LK-TECH 0x280 torque frame, which carries DATA\[0\] = 0xA1), in every family.
 ///
-/// Layout: DATA\[1\] temperature, DATA\[2..=3\] iq, DATA\[4..=5\] speed, DATA\[6..=7\] encoder.
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+/// Layout: DATA\[1\] temperature (int8, 1 °C/LSB), DATA\[2..=3\] `iq` (int16, the family's
+/// scale), DATA\[4..=5\] speed (int16, 1 dps/LSB), DATA\[6..=7\] a position whose meaning
+/// depends on the family ([`StatusPosition`]).
+///
+/// v1.61 and LK-TECH report the motor's (rotor's) speed and encoder; MyActuator V3 reports the
+/// output shaft's speed and angle ("motor output shaft speed", "motor output shaft angle",
+/// V4.3 §2.15, V4.4 §2.14).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Status2 {
     /// Motor temperature (`temperature`, int8_t, 1 °C/LSB).
     pub temperature: Temperature,
-    /// Torque current (`iq`, 33/2048 A/LSB).
-    pub iq: Iq,
-    /// Motor speed (`speed`, 1 dps/LSB).
+    /// Torque current (`iq`): 33/2048 A/LSB in v1.61, the series' scale in LK-TECH, 0.01 A/LSB
+    /// in MyActuator V3.
+    pub iq: ScaledCurrent,
+    /// Speed (`speed`, 1 dps/LSB): the motor's in v1.61 and LK-TECH, the output shaft's in V3.
     pub speed: Speed,
-    /// Encoder position (`encoder`, offset applied).
-    pub encoder: EncoderValue,
+    /// The position in DATA\[6..=7\].
+    pub position: StatusPosition,
+}
+
+impl Status2 {
+    /// The encoder value, for v1.61 and LK-TECH (`None` for V3's output angle).
+    pub const fn encoder(&self) -> Option<EncoderValue> {
+        match self.position {
+            StatusPosition::Encoder(e) => Some(e),
+            StatusPosition::OutputDegrees(_) => None,
+        }
+    }
+}
+
+/// DATA\[6..=7\] of status 2.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum StatusPosition {
+    /// v1.61 and LK-TECH: `encoder` (u16, the motor encoder with the offset applied).
+    Encoder(EncoderValue),
+    /// MyActuator V3: the output shaft's angle in whole degrees (int16).
+    OutputDegrees(OutputAngle),
 }
 
 /// Status 3: the reply to 0x9D, the three phase currents (1 A / 64 LSB).

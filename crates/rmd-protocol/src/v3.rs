@@ -1,127 +1,237 @@
-//! The few frames of MyActuator's "V3" firmware rmd-rt needs to recognise it, and the simulator
-//! to emulate it. rmd-rt does not drive V3 motors (their 0x280 frame is not a torque frame: see
-//! [`ProtocolFamily::MyActuatorV3`](crate::ProtocolFamily::MyActuatorV3)).
-//!
-//! Source of every layout below, unless said otherwise: MyActuator "Servo Motor Control Protocol",
-//! version V4.3 (2025.05), applicable driver V3, a Markdown rendering of the manufacturer's PDF in
-//! the public code index (the repository is not named by the index), cross-checked with the V4.2
-//! rendering ("Motor Motion Protocol V4.2-250208.pdf") and with github.com/2b-t/myactuator_rmd
-//! (`include/myactuator_rmd/driver/can_address_offset.hpp`, `src/protocol/requests.cpp`,
-//! `src/protocol/responses.cpp`, `include/myactuator_rmd/protocol/responses.hpp`).
-//!
-//! - §1.1.2: requests on `0x140 + id`, the multi-motor command on 0x280, replies on `0x240 + id`.
-//! - §2.14 (0x9A): DATA\[1\] motor temperature, DATA\[2\] MOS temperature, DATA\[3\] brake
-//!   release state, DATA\[4..=5\] voltage (0.1 V), DATA\[6..=7\] error state (u16).
-//! - §2.15 (0x9C; also the reply of 0xA1, §2.19): DATA\[1\] temperature, DATA\[2..=3\] iq (0.01 A),
-//!   DATA\[4..=5\] output-shaft speed (1 dps), DATA\[6..=7\] output-shaft angle (1°, int16).
-//! - §2.12 (0x92): `motorAngle`, int32 in DATA\[4..=7\], 0.01°.
-//! - §2.17, §2.18 (0x80 shutdown, 0x81 stop): the reply echoes the request.
-//! - §2.19 (0xA1): `iqControl`, int16 in DATA\[4..=5\], 0.01 A.
-//! - §2.33 (0xB5): the motor model, 7 ASCII bytes in DATA\[1..=7\] (example: `X8S2V10`).
-//! - §3: a frame on 0x280 carries an ordinary single-motor command that every motor on the bus
-//!   executes; each replies on its own `0x240 + id` (example: `280#8000000000000000` shuts every
-//!   motor down).
-//!
-//! ```
-//! use rmd_protocol::{CanFrame, MotorId};
-//! use rmd_protocol::v3::{V3Reply, V3Request};
-//! // The document's 0x9C example reply: 50 °C, 1 A, 500 dps, 45°.
-//! let frame = CanFrame::new(0x241, &[0x9C, 0x32, 0x64, 0x00, 0xF4, 0x01, 0x2D, 0x00])?;
-//! let (motor, reply) = V3Reply::decode(&frame)?;
-//! assert_eq!(motor, MotorId::new(1)?);
-//! let V3Reply::Status2 { status, .. } = reply else { unreachable!() };
-//! assert_eq!(status.iq.amps(), 1.0);
-//! // "All motors off" on a V3 bus.
-//! assert_eq!(V3Request::MotorOff.encode_broadcast().to_string(), "280#8000000000000000");
-//! # Ok::<(), rmd_protocol::ProtocolError>(())
-//! ```
+//! MyActuator V3 values: the firmware date and what depends on it, status 1 and its error
+//! flags, the watchdog, function control, the model string, and V3's fields of shared commands.
 
-use crate::error::{ExpectedIds, ProtocolError};
-use crate::frame::CanFrame;
-use crate::ids::{MULTI_TORQUE_CAN_ID, MotorId};
-use crate::scale::{CurrentScale, ScaledCurrent};
-use crate::values::{Speed, Temperature, Voltage};
-use crate::wire::{i16_at, i32_at, put_i16, put_i32, put_u16, u16_at};
+use core::fmt;
 
-/// Base of the V3 reply identifiers: motor `n` replies on `0x240 + n` (§1.1.2).
-pub const REPLY_BASE_ID: u16 = 0x240;
+use crate::error::ProtocolError;
+use crate::field::Field;
+use crate::mit_ranges::{MitRanges, MotorMaxTorque};
+use crate::values::{Temperature, Voltage, wire_value};
 
-/// The identifier `motor` replies on under V3 firmware, `0x240 + id`.
-pub const fn reply_can_id(motor: MotorId) -> u16 {
-    REPLY_BASE_ID + motor.get() as u16
-}
+/// The firmware version date a V3 motor reports to 0xB2 (`VersionDate`, u32 in DATA\[4..=7\];
+/// V4.3 §2.30, V4.4 §2.31), kept as received.
+///
+/// The manuals write it `YYYYMMDD` (example reply `0x0134892E` = 20220206); motors in the field
+/// report ten digits, `YYYYMMDDNN` (2025070202: github.com/2b-t/myactuator_rmd issue 24, an
+/// X4-64, and issue 28, an X4-36). Comparisons use ten digits: an eight-digit date is read as
+/// `YYYYMMDD00`.
+///
+/// ```
+/// use rmd_protocol::{FirmwareDate, V3Revision};
+/// assert_eq!(FirmwareDate::from_raw(2025070202).revision(), V3Revision::V4_3);
+/// assert_eq!(FirmwareDate::from_raw(2026042402).revision(), V3Revision::V4_4);
+/// assert_eq!(FirmwareDate::from_raw(20220206).ten_digits(), 2022020600);
+/// ```
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct FirmwareDate(u32);
 
-/// The motor whose V3 reply identifier is `can_id`; [`ProtocolError::UnexpectedCanId`] outside
-/// 0x241..=0x260.
-pub const fn motor_from_reply_id(can_id: u16) -> Result<MotorId, ProtocolError> {
-    if can_id > REPLY_BASE_ID && can_id <= REPLY_BASE_ID + MotorId::MAX as u16 {
-        MotorId::new((can_id - REPLY_BASE_ID) as u8)
-    } else {
-        Err(ProtocolError::UnexpectedCanId {
-            can_id,
-            expected: ExpectedIds::MyActuatorV3Reply,
-        })
+impl FirmwareDate {
+    /// The first firmware that packs the motion-mode command with V4.4's ranges: 2026042402.
+    /// Source: github.com/almond-bot/axol `almond_axol/motor/myactuator.py` (HEAD 3d3c09c),
+    /// `_MA_FW_V44_VERSION = 2026042402`: "MyActuator firmware dated 2026042402 (VersionDate)
+    /// and later implements protocol V4.4, which widened several MIT-command ranges". The
+    /// manuals themselves name no firmware date.
+    pub const FIRST_V4_4: Self = Self(2_026_042_402);
+
+    /// The date as 0xB2 carries it.
+    pub const fn from_raw(raw: u32) -> Self {
+        Self(raw)
+    }
+
+    /// The raw `VersionDate`.
+    pub const fn raw(self) -> u32 {
+        self.0
+    }
+
+    /// The date as ten digits `YYYYMMDDNN` (an eight-digit `YYYYMMDD` gets `00`).
+    pub const fn ten_digits(self) -> u64 {
+        if self.0 < 100_000_000 {
+            self.0 as u64 * 100
+        } else {
+            self.0 as u64
+        }
+    }
+
+    /// Which manual revision this firmware follows where V4.3 and V4.4 differ: V4.4 from
+    /// [`FIRST_V4_4`](Self::FIRST_V4_4) on.
+    ///
+    /// Only the motion-mode ranges are documented to change with this date (axol, above). That
+    /// V4.4's other changes (0x94 as a signed i32, 0xB5 read in three parts) come with the same
+    /// firmware is an assumption: the manuals give no firmware date for any change.
+    pub const fn revision(self) -> V3Revision {
+        if self.ten_digits() >= Self::FIRST_V4_4.ten_digits() {
+            V3Revision::V4_4
+        } else {
+            V3Revision::V4_3
+        }
     }
 }
 
-/// The V3 command bytes rmd-rt knows (a small subset of the document's).
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
-#[repr(u8)]
-pub enum V3Command {
-    /// 0x9A: read status 1 and error flags (§2.14).
-    ReadStatus1 = 0x9A,
-    /// 0x9C: read status 2 (§2.15).
-    ReadStatus2 = 0x9C,
-    /// 0x92: read the multi-turn angle (§2.12).
-    ReadMultiTurnAngle = 0x92,
-    /// 0x80: motor shutdown (§2.17).
-    MotorOff = 0x80,
-    /// 0x81: motor stop (§2.18).
-    MotorStop = 0x81,
-    /// 0xA1: torque closed loop (§2.19).
-    Torque = 0xA1,
-    /// 0xB5: read the motor model (§2.33).
-    ReadModel = 0xB5,
-}
-
-impl V3Command {
-    /// The command byte.
-    pub const fn code(self) -> u8 {
-        self as u8
-    }
-
-    /// The command with byte `code`, if rmd-rt knows it.
-    pub const fn from_code(code: u8) -> Option<Self> {
-        Some(match code {
-            0x9A => Self::ReadStatus1,
-            0x9C => Self::ReadStatus2,
-            0x92 => Self::ReadMultiTurnAngle,
-            0x80 => Self::MotorOff,
-            0x81 => Self::MotorStop,
-            0xA1 => Self::Torque,
-            0xB5 => Self::ReadModel,
-            _ => return None,
-        })
+impl fmt::Display for FirmwareDate {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.0)
     }
 }
 
-/// V3 error state (u16, DATA\[6..=7\] of 0x9A): a bit mask (§2.14, "System_errorState").
+/// The manual revision a V3 firmware follows where the V4.3 and V4.4 manuals differ.
+///
+/// | | V4.3 (and V4.2) | V4.4 |
+/// |---|---|---|
+/// | 0x94 reply | u16 in DATA\[6..=7\], 0..=35999 (V4.3 §2.13) | i32 in DATA\[4..=7\], ±18000 (±180°, V4.4 §2.12) |
+/// | 0xB5 | 7 characters in DATA\[1..=7\] (V4.3 §2.33) | index 1..=3 in DATA\[2\], 5 characters in DATA\[3..=7\] (V4.4 §2.34) |
+/// | motion mode | [`MitRanges::V4_3`] | [`MitRanges::v4_4`] |
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[allow(non_camel_case_types)]
+pub enum V3Revision {
+    /// Manual V4.3 (2025.05) and V4.2 (2024.05).
+    V4_3,
+    /// Manual V4.4 (2025.09, revised 2026.03.25).
+    V4_4,
+}
+
+/// MyActuator V3 values: the firmware date and what depends on it, status 1 and its error
+/// flags, the watchdog, function control, the model string, and the fields V3 adds to commands
+/// v1.61 also has.
+///
+/// Sources, cited at each item as `V4.3 §n` / `V4.4 §n`: MyActuator "Servo Motor Control
+/// Protocol", applicable driver V3, version V4.3 (2025.05) and version V4.4 (2025.09, changelog
+/// revision 2026.03.25), public Markdown transcriptions of the manufacturer's PDFs (the V4.4 one
+/// made from `CAN BUS Motor Motion Protocol V4.4 260425.pdf`), cross-checked with V4.2
+/// (2024.05, "Motor Motion Protocol V4.2-250208.pdf"). Section numbers differ between the two:
+/// V4.4 removed 0x90, so most of its §2 numbers are V4.3's minus one.
+///
+/// What rmd-rt knows of one V3 motor's firmware: its date (which decides the V4.3 / V4.4
+/// layouts and ranges) and its maximum torque (V4.4's motion-mode torque range).
+///
+/// Without a date the V4.3 layouts and ranges are assumed: every firmware reported in the
+/// field so far (2025070202) predates V4.4. Read the date with 0xB2 before relying on it.
+///
+/// ```
+/// use rmd_protocol::{FirmwareDate, MitRanges, MotorMaxTorque, V3Firmware, V3Revision};
+/// assert_eq!(V3Firmware::default().revision(), V3Revision::V4_3);
+/// assert_eq!(V3Firmware::default().mit_ranges(), Ok(MitRanges::V4_3));
+/// let v44 = V3Firmware::dated(FirmwareDate::from_raw(2026050101));
+/// assert!(v44.mit_ranges().is_err()); // the maximum torque is missing
+/// let x6 = v44.with_max_torque(MotorMaxTorque::from_milli_nm(60_000));
+/// assert_eq!(x6.mit_ranges()?.torque_nm(), 60.0);
+/// # Ok::<(), rmd_protocol::ProtocolError>(())
+/// ```
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct V3Firmware {
+    /// The firmware date, if known.
+    pub date: Option<FirmwareDate>,
+    /// The motor's maximum torque, if known.
+    pub max_torque: Option<MotorMaxTorque>,
+}
+
+impl V3Firmware {
+    /// Firmware of date `date`, maximum torque unknown.
+    pub const fn dated(date: FirmwareDate) -> Self {
+        Self {
+            date: Some(date),
+            max_torque: None,
+        }
+    }
+
+    /// The same firmware on a motor of maximum torque `max_torque`.
+    pub const fn with_max_torque(mut self, max_torque: MotorMaxTorque) -> Self {
+        self.max_torque = Some(max_torque);
+        self
+    }
+
+    /// The manual revision it follows (V4.3 without a date).
+    pub const fn revision(self) -> V3Revision {
+        match self.date {
+            Some(date) => date.revision(),
+            None => V3Revision::V4_3,
+        }
+    }
+
+    /// The motion-mode ranges; [`ProtocolError::MissingMaxTorque`] for V4.4 firmware without
+    /// the maximum torque.
+    pub const fn mit_ranges(self) -> Result<MitRanges, ProtocolError> {
+        match (self.revision(), self.max_torque) {
+            (V3Revision::V4_3, _) => Ok(MitRanges::V4_3),
+            (V3Revision::V4_4, Some(max)) => Ok(MitRanges::v4_4(max)),
+            (V3Revision::V4_4, None) => Err(ProtocolError::MissingMaxTorque),
+        }
+    }
+}
+
+impl MotorMaxTorque {
+    /// A maximum torque in N·m, rounded to the milli-N·m; [`ProtocolError::NotFinite`], or
+    /// [`ProtocolError::ValueOutOfRange`] unless above 0 and at most 4 000 000 N·m.
+    pub fn from_nm(nm: f64) -> Result<Self, ProtocolError> {
+        if !nm.is_finite() {
+            return Err(ProtocolError::NotFinite {
+                field: Field::MotorMaxTorque,
+            });
+        }
+        let milli = crate::round::round_half_away(nm * 1000.0);
+        if !(1..=4_000_000_000).contains(&milli) {
+            return Err(ProtocolError::ValueOutOfRange {
+                field: Field::MotorMaxTorque,
+                value: milli,
+                min: 1,
+                max: 4_000_000_000,
+            });
+        }
+        Ok(Self::from_milli_nm(milli as u32))
+    }
+}
+
+/// V3's error flags (`errorState`, u16 in DATA\[6..=7\] of 0x9A; V4.3 §2.14, V4.4 §2.13),
+/// OR-combined ("0x0016 = stall + low voltage + over current"). Every bit is kept as received.
+///
+/// ```
+/// use rmd_protocol::V3ErrorState;
+/// let e = V3ErrorState::from_raw(0x0016);
+/// assert!(e.contains(V3ErrorState::STALL | V3ErrorState::LOW_VOLTAGE | V3ErrorState::OVER_CURRENT));
+/// assert_eq!(V3ErrorState::from_raw(0x8001).unknown_bits(), 0x8001);
+/// ```
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct V3ErrorState(u16);
 
 impl V3ErrorState {
-    /// 0x0002: motor stall.
+    /// No flag.
+    pub const NONE: Self = Self(0);
+    /// 0x0002: motor stall (current above the stall current for the stall time); not
+    /// auto-recoverable (V4.4 §2.13), level 1.
     pub const STALL: Self = Self(0x0002);
-    /// 0x0004: low voltage.
+    /// 0x0004: low voltage; clears itself above the undervoltage threshold (V4.4 §2.13).
     pub const LOW_VOLTAGE: Self = Self(0x0004);
-    /// 0x0008: over voltage.
+    /// 0x0008: over voltage; clears itself below the overvoltage threshold (V4.4 §2.13).
     pub const OVER_VOLTAGE: Self = Self(0x0008);
-    /// 0x0010: over current.
+    /// 0x0010: phase over current; latched (V4.4 §2.13).
     pub const OVER_CURRENT: Self = Self(0x0010);
-    /// 0x1000: motor over-temperature.
+    /// 0x0040: power overrun.
+    pub const POWER_OVERRUN: Self = Self(0x0040);
+    /// 0x0080: calibration parameter writing error.
+    pub const CALIBRATION_WRITE: Self = Self(0x0080);
+    /// 0x0100: over speed; clears itself below the maximum speed (V4.4 §2.13).
+    pub const OVER_SPEED: Self = Self(0x0100);
+    /// 0x0800: component (PCB) over-temperature, above 110 °C; clears below 90 °C (V4.4 §2.13).
+    pub const COMPONENT_OVER_TEMPERATURE: Self = Self(0x0800);
+    /// 0x1000: motor (stator) over-temperature; clears below the recovery temperature
+    /// (V4.4 §2.13).
     pub const MOTOR_OVER_TEMPERATURE: Self = Self(0x1000);
+    /// 0x2000: encoder calibration error; not auto-recoverable (V4.4 §2.13).
+    pub const ENCODER_CALIBRATION: Self = Self(0x2000);
+    /// 0x4000: encoder data error; not auto-recoverable (V4.4 §2.13; added in V4.3, §9).
+    pub const ENCODER_DATA: Self = Self(0x4000);
+    const KNOWN: u16 = 0x0002
+        | 0x0004
+        | 0x0008
+        | 0x0010
+        | 0x0040
+        | 0x0080
+        | 0x0100
+        | 0x0800
+        | 0x1000
+        | 0x2000
+        | 0x4000;
 
-    /// The state from its raw value (every bit kept).
+    /// The flags from their raw value.
     pub const fn from_raw(raw: u16) -> Self {
         Self(raw)
     }
@@ -135,309 +245,322 @@ impl V3ErrorState {
     pub const fn contains(self, other: Self) -> bool {
         self.0 & other.0 == other.0
     }
+
+    /// Whether no bit is set.
+    pub const fn is_clear(self) -> bool {
+        self.0 == 0
+    }
+
+    /// The bits the manuals give no meaning to.
+    pub const fn unknown_bits(self) -> u16 {
+        self.0 & !Self::KNOWN
+    }
 }
 
-/// V3 status 1 (§2.14).
+impl core::ops::BitOr for V3ErrorState {
+    type Output = Self;
+    fn bitor(self, rhs: Self) -> Self {
+        Self(self.0 | rhs.0)
+    }
+}
+
+/// DATA\[3\] of V3's 0x9A: the brake command last executed, "1 represents the brake release
+/// command, 0 represents the brake lock command" (V4.3 §2.14, V4.4 §2.13). Kept as received.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct BrakeState(u8);
+
+impl BrakeState {
+    /// 0: the brake is locked.
+    pub const LOCKED: Self = Self(0);
+    /// 1: the brake is released.
+    pub const RELEASED: Self = Self(1);
+
+    /// The state from its raw byte.
+    pub const fn from_raw(raw: u8) -> Self {
+        Self(raw)
+    }
+
+    /// The raw byte.
+    pub const fn raw(self) -> u8 {
+        self.0
+    }
+
+    /// Whether the byte says released (1).
+    pub const fn is_released(self) -> bool {
+        self.0 == 1
+    }
+}
+
+/// V3 status 1, the reply to 0x9A (V4.3 §2.14, V4.4 §2.13; identical in both): DATA\[1\] motor
+/// temperature, DATA\[2\] MOS temperature, DATA\[3\] brake, DATA\[4..=5\] voltage (0.1 V),
+/// DATA\[6..=7\] error flags.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct V3Status1 {
-    /// Motor temperature, DATA\[1\].
+    /// Motor temperature, DATA\[1\], int8, 1 °C/LSB.
     pub temperature: Temperature,
     /// Driver (MOS) temperature, DATA\[2\].
     pub mos_temperature: Temperature,
-    /// Brake release state, DATA\[3\] (1: released).
-    pub brake_released: bool,
+    /// The brake command last executed, DATA\[3\].
+    pub brake: BrakeState,
     /// Supply voltage, DATA\[4..=5\], 0.1 V/LSB.
     pub voltage: Voltage,
-    /// Error state, DATA\[6..=7\].
+    /// Error flags, DATA\[6..=7\].
     pub error_state: V3ErrorState,
 }
 
-/// V3 status 2 (§2.15): note that speed and angle are the output shaft's.
+/// `maxTorque` of V3's 0xA2 (DATA\[1\]): the torque limit in percent of the rated current,
+/// 0..=255 (V4.3 §2.20, V4.4 §2.19). 0 (or a value above the stall current) sets no limit: the
+/// configured stall current applies. v1.61 and LK-TECH have no such field (DATA\[1\] is
+/// reserved): a request for them must leave it at [`NONE`](Self::NONE).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct MaxTorquePercent(u8);
+
+impl MaxTorquePercent {
+    /// No limit (0).
+    pub const NONE: Self = Self(0);
+
+    /// A limit of `percent` % of the rated current (0: none).
+    pub const fn new(percent: u8) -> Self {
+        Self(percent)
+    }
+
+    /// The raw byte (percent).
+    pub const fn raw(self) -> u8 {
+        self.0
+    }
+
+    /// Whether a limit is set.
+    pub const fn is_set(self) -> bool {
+        self.0 != 0
+    }
+}
+
+/// The communication-interruption protection time of 0xB3 (`CanRecvTime_MS`, u32 ms in
+/// DATA\[4..=7\]; V4.3 §2.31, V4.4 §2.32): when no frame arrives for longer, "the drive cuts off
+/// the output and locks the brake. To run again, stable and continuous communication must first
+/// be re-established" (V4.4). 0 disables it. Stored in ROM; "avoid writing this parameter right
+/// when the motor has just started or is in motion".
+///
+/// ```
+/// use rmd_protocol::WatchdogTimeout;
+/// assert_eq!(WatchdogTimeout::from_millis(1000).millis(), 1000);
+/// assert!(WatchdogTimeout::OFF.is_off());
+/// ```
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct WatchdogTimeout(u32);
+
+impl WatchdogTimeout {
+    /// Protection off (0).
+    pub const OFF: Self = Self(0);
+
+    /// A protection time of `ms` milliseconds (0: off).
+    pub const fn from_millis(ms: u32) -> Self {
+        Self(ms)
+    }
+
+    /// The time in milliseconds (0: off).
+    pub const fn millis(self) -> u32 {
+        self.0
+    }
+
+    /// Whether the protection is off.
+    pub const fn is_off(self) -> bool {
+        self.0 == 0
+    }
+}
+
+/// A function of V3's 0x20 function control command, by index (DATA\[1\]; V4.3 §2.35, V4.4
+/// §2.36). "The parameter can only be successfully saved to ROM while the motor is disabled."
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
-pub struct V3Status2 {
-    /// Motor temperature, DATA\[1\].
-    pub temperature: Temperature,
-    /// Torque current, DATA\[2..=3\], 0.01 A/LSB.
-    pub iq: ScaledCurrent,
-    /// Output-shaft speed, DATA\[4..=5\], 1 dps/LSB.
-    pub speed: Speed,
-    /// Output-shaft angle, DATA\[6..=7\], 1°/LSB (int16).
-    pub shaft_degrees: i16,
+#[repr(u8)]
+pub enum V3Function {
+    /// 0x01: clear the multi-turn value, update the zero point and save it; after a restart.
+    ClearMultiTurn = 0x01,
+    /// 0x02: CAN ID filter, 1 on, 0 off; saved to flash. With the filter on, 0x280 (and 0x300)
+    /// frames are not received.
+    CanIdFilter = 0x02,
+    /// 0x03: error-status transmission, 1 on: a motor in error sends 0x9A every 100 ms.
+    ErrorStatusTransmission = 0x03,
+    /// 0x04: save the multi-turn value at power-off (0: single-turn mode); after a restart.
+    SaveMultiTurnAtPowerOff = 0x04,
+    /// 0x05: set the CAN ID (1..=32), saved to ROM, effective after a reboot.
+    SetCanId = 0x05,
+    /// 0x06: maximum positive angle of position mode, saved to ROM.
+    MaxPositiveAngle = 0x06,
+    /// 0x07: maximum negative angle of position mode, saved to ROM.
+    MaxNegativeAngle = 0x07,
+    /// 0x08 (V4.4 only): over/under-voltage and over-speed errors recover automatically.
+    ErrorAutoRecovery = 0x08,
 }
 
-/// The V3 requests rmd-rt knows.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
-pub enum V3Request {
-    /// 0x9A.
-    ReadStatus1,
-    /// 0x9C.
-    ReadStatus2,
-    /// 0x92.
-    ReadMultiTurnAngle,
-    /// 0xB5.
-    ReadModel,
-    /// 0x80.
-    MotorOff,
-    /// 0x81.
-    MotorStop,
-    /// 0xA1 with `iqControl` (0.01 A/LSB).
-    Torque {
-        /// `iqControl`, DATA\[4..=5\].
-        iq_control: ScaledCurrent,
-    },
-}
+impl V3Function {
+    /// Every function, by index.
+    pub const ALL: [Self; 8] = [
+        Self::ClearMultiTurn,
+        Self::CanIdFilter,
+        Self::ErrorStatusTransmission,
+        Self::SaveMultiTurnAtPowerOff,
+        Self::SetCanId,
+        Self::MaxPositiveAngle,
+        Self::MaxNegativeAngle,
+        Self::ErrorAutoRecovery,
+    ];
 
-impl V3Request {
-    /// The command byte.
-    pub const fn command(&self) -> V3Command {
-        match self {
-            Self::ReadStatus1 => V3Command::ReadStatus1,
-            Self::ReadStatus2 => V3Command::ReadStatus2,
-            Self::ReadMultiTurnAngle => V3Command::ReadMultiTurnAngle,
-            Self::ReadModel => V3Command::ReadModel,
-            Self::MotorOff => V3Command::MotorOff,
-            Self::MotorStop => V3Command::MotorStop,
-            Self::Torque { .. } => V3Command::Torque,
-        }
-    }
-
-    /// The 8 data bytes.
-    pub const fn to_data(&self) -> [u8; 8] {
-        let mut d = [0u8; 8];
-        d[0] = self.command().code();
-        if let Self::Torque { iq_control } = self {
-            put_i16::<4>(&mut d, iq_control.raw());
-        }
-        d
-    }
-
-    /// The frame to one motor, on `0x140 + id`.
-    pub const fn encode(&self, motor: MotorId) -> CanFrame {
-        CanFrame::rmd(motor.can_id(), self.to_data())
-    }
-
-    /// The frame to every motor of the bus, on 0x280 (§3).
-    pub const fn encode_broadcast(&self) -> CanFrame {
-        CanFrame::rmd(MULTI_TORQUE_CAN_ID, self.to_data())
-    }
-
-    /// The request carried by 8 data bytes, or `None` for a command rmd-rt does not know.
-    /// Reserved bytes are ignored.
-    pub const fn from_data(d: &[u8; 8]) -> Option<Self> {
-        Some(match V3Command::from_code(d[0]) {
-            Some(V3Command::ReadStatus1) => Self::ReadStatus1,
-            Some(V3Command::ReadStatus2) => Self::ReadStatus2,
-            Some(V3Command::ReadMultiTurnAngle) => Self::ReadMultiTurnAngle,
-            Some(V3Command::ReadModel) => Self::ReadModel,
-            Some(V3Command::MotorOff) => Self::MotorOff,
-            Some(V3Command::MotorStop) => Self::MotorStop,
-            Some(V3Command::Torque) => Self::Torque {
-                iq_control: match ScaledCurrent::new(
-                    i16_at::<4>(d) as i64,
-                    CurrentScale::MYACTUATOR_V3_IQ_CONTROL,
-                ) {
-                    Ok(v) => v,
-                    Err(_) => return None,
-                },
-            },
-            None => return None,
-        })
-    }
-}
-
-/// The V3 replies rmd-rt knows.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
-pub enum V3Reply {
-    /// 0x9A.
-    Status1(V3Status1),
-    /// 0x9C or 0xA1.
-    Status2 {
-        /// [`V3Command::ReadStatus2`] or [`V3Command::Torque`].
-        command: V3Command,
-        /// The status.
-        status: V3Status2,
-    },
-    /// 0x92: the multi-turn angle, 0.01°/LSB.
-    MultiTurnAngle {
-        /// `motorAngle`, DATA\[4..=7\].
-        centidegrees: i32,
-    },
-    /// 0xB5: the model, 7 ASCII bytes.
-    Model([u8; 7]),
-    /// 0x80 echo.
-    MotorOff,
-    /// 0x81 echo.
-    MotorStop,
-}
-
-impl V3Reply {
-    /// The command this reply answers.
-    pub const fn command(&self) -> V3Command {
-        match self {
-            Self::Status1(_) => V3Command::ReadStatus1,
-            Self::Status2 { command, .. } => *command,
-            Self::MultiTurnAngle { .. } => V3Command::ReadMultiTurnAngle,
-            Self::Model(_) => V3Command::ReadModel,
-            Self::MotorOff => V3Command::MotorOff,
-            Self::MotorStop => V3Command::MotorStop,
-        }
-    }
-
-    /// The 8 data bytes.
-    pub const fn to_data(&self) -> [u8; 8] {
-        let mut d = [0u8; 8];
-        d[0] = self.command().code();
-        match *self {
-            Self::Status1(s) => {
-                d[1] = s.temperature.raw() as u8;
-                d[2] = s.mos_temperature.raw() as u8;
-                d[3] = s.brake_released as u8;
-                put_u16::<4>(&mut d, s.voltage.raw());
-                put_u16::<6>(&mut d, s.error_state.raw());
-            }
-            Self::Status2 { status, .. } => {
-                d[1] = status.temperature.raw() as u8;
-                put_i16::<2>(&mut d, status.iq.raw());
-                put_i16::<4>(&mut d, status.speed.raw());
-                put_i16::<6>(&mut d, status.shaft_degrees);
-            }
-            Self::MultiTurnAngle { centidegrees } => put_i32::<4>(&mut d, centidegrees),
-            Self::Model(m) => {
-                let mut i = 0;
-                while i < 7 {
-                    d[1 + i] = m[i];
-                    i += 1;
-                }
-            }
-            Self::MotorOff | Self::MotorStop => {}
-        }
-        d
-    }
-
-    /// The frame `motor` sends with this reply, on `0x240 + id`.
-    pub const fn encode(&self, motor: MotorId) -> CanFrame {
-        CanFrame::rmd(reply_can_id(motor), self.to_data())
-    }
-
-    /// Decodes a V3 reply: the identifier (0x241..=0x260), DLC 8, a known command byte.
-    pub fn decode(frame: &CanFrame) -> Result<(MotorId, Self), ProtocolError> {
-        let motor = motor_from_reply_id(frame.id())?;
-        let d = frame.data8().ok_or(ProtocolError::WrongDlc {
-            can_id: frame.id(),
-            dlc: frame.dlc(),
-        })?;
-        let unknown = ProtocolError::UnknownCommand {
-            can_id: frame.id(),
-            code: d[0],
-        };
-        let temperature = |i: usize| Temperature::new(i64::from(d[i] as i8));
-        let reply = match V3Command::from_code(d[0]).ok_or(unknown)? {
-            V3Command::ReadStatus1 => Self::Status1(V3Status1 {
-                temperature: temperature(1)?,
-                mos_temperature: temperature(2)?,
-                brake_released: d[3] != 0,
-                voltage: Voltage::new(i64::from(u16_at::<4>(d)))?,
-                error_state: V3ErrorState::from_raw(u16_at::<6>(d)),
+    /// The function of index `index`; [`ProtocolError::ValueOutOfRange`] for another index.
+    pub const fn from_index(index: u8) -> Result<Self, ProtocolError> {
+        match index {
+            0x01 => Ok(Self::ClearMultiTurn),
+            0x02 => Ok(Self::CanIdFilter),
+            0x03 => Ok(Self::ErrorStatusTransmission),
+            0x04 => Ok(Self::SaveMultiTurnAtPowerOff),
+            0x05 => Ok(Self::SetCanId),
+            0x06 => Ok(Self::MaxPositiveAngle),
+            0x07 => Ok(Self::MaxNegativeAngle),
+            0x08 => Ok(Self::ErrorAutoRecovery),
+            _ => Err(ProtocolError::ValueOutOfRange {
+                field: Field::FunctionIndex,
+                value: index as i64,
+                min: 1,
+                max: 8,
             }),
-            command @ (V3Command::ReadStatus2 | V3Command::Torque) => Self::Status2 {
-                command,
-                status: V3Status2 {
-                    temperature: temperature(1)?,
-                    iq: ScaledCurrent::new(
-                        i64::from(i16_at::<2>(d)),
-                        CurrentScale::MYACTUATOR_V3_IQ,
-                    )?,
-                    speed: Speed::new(i64::from(i16_at::<4>(d)))?,
-                    shaft_degrees: i16_at::<6>(d),
-                },
-            },
-            V3Command::ReadMultiTurnAngle => Self::MultiTurnAngle {
-                centidegrees: i32_at::<4>(d),
-            },
-            V3Command::ReadModel => {
-                let mut m = [0u8; 7];
-                m.copy_from_slice(&d[1..]);
-                Self::Model(m)
-            }
-            V3Command::MotorOff => Self::MotorOff,
-            V3Command::MotorStop => Self::MotorStop,
-        };
-        Ok((motor, reply))
+        }
+    }
+
+    /// The index (DATA\[1\]).
+    pub const fn index(self) -> u8 {
+        self as u8
+    }
+
+    /// The kebab-case name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::ClearMultiTurn => "clear-multi-turn",
+            Self::CanIdFilter => "can-id-filter",
+            Self::ErrorStatusTransmission => "error-status-transmission",
+            Self::SaveMultiTurnAtPowerOff => "save-multi-turn-at-power-off",
+            Self::SetCanId => "set-can-id",
+            Self::MaxPositiveAngle => "max-positive-angle",
+            Self::MaxNegativeAngle => "max-negative-angle",
+            Self::ErrorAutoRecovery => "error-auto-recovery",
+        }
+    }
+
+    /// Whether the function writes ROM (flash) per the manuals: 0x01, 0x02, 0x04..=0x07.
+    pub const fn writes_flash(self) -> bool {
+        !matches!(
+            self,
+            Self::ErrorStatusTransmission | Self::ErrorAutoRecovery
+        )
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+/// A 0x20 function control command or its echo: a function and its value (DATA\[4..=7\], u32).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub struct FunctionControl {
+    /// The function (DATA\[1\]).
+    pub function: V3Function,
+    /// Its value (DATA\[4..=7\]).
+    pub value: u32,
+}
 
-    fn frame(id: u16, d: [u8; 8]) -> CanFrame {
-        CanFrame::new(id, &d).unwrap()
+/// Which part of the model string a 0xB5 request asks for.
+///
+/// V4.3 (§2.33): `B5 00 ..`, answered with seven characters. V4.4 (§2.34): `B5 01 idx ..`
+/// with index 1..=3, answered with five characters of the up to fifteen (indexes 1, 2, 3:
+/// characters 1..=5, 6..=10, 11..=15).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum ModelPart {
+    /// The V4.3 form: the whole (seven-character) model.
+    Whole,
+    /// The V4.4 form: characters `5 (index - 1) + 1 ..= 5 index`, index 1..=3.
+    Chars(ModelIndex),
+}
+
+/// The index 1..=3 of the V4.4 0xB5 form.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct ModelIndex(u8);
+
+impl ModelIndex {
+    /// Index `index`; [`ProtocolError::ValueOutOfRange`] outside 1..=3.
+    pub const fn new(index: u8) -> Result<Self, ProtocolError> {
+        if index >= 1 && index <= 3 {
+            Ok(Self(index))
+        } else {
+            Err(ProtocolError::ValueOutOfRange {
+                field: Field::ModelIndex,
+                value: index as i64,
+                min: 1,
+                max: 3,
+            })
+        }
     }
 
-    /// The communication examples of the V4.3 document, both ways.
-    #[test]
-    fn document_examples() {
-        let m1 = MotorId::new(1).unwrap();
-        // §2.14: 50 °C, brake released, 48.5 V, low voltage.
-        let f = frame(0x241, [0x9A, 0x32, 0x00, 0x01, 0xE5, 0x01, 0x04, 0x00]);
-        let (m, r) = V3Reply::decode(&f).unwrap();
-        let V3Reply::Status1(s) = r else {
-            panic!("{r:?}")
+    /// The index.
+    pub const fn get(self) -> u8 {
+        self.0
+    }
+}
+
+/// The model characters of a 0xB5 reply, in either manual's form.
+///
+/// ```
+/// use rmd_protocol::ModelText;
+/// // V4.3 §2.33: "X8S2V10"; V4.4 §2.34: "X8S2V", characters 1..=5.
+/// assert_eq!(ModelText::Whole(*b"X8S2V10").text(), Some("X8S2V10"));
+/// ```
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum ModelText {
+    /// V4.3: seven ASCII characters in DATA\[1..=7\].
+    Whole([u8; 7]),
+    /// V4.4: DATA\[1\] = 1, DATA\[2\] = the index, five ASCII characters in DATA\[3..=7\].
+    Chars {
+        /// Which five characters.
+        index: ModelIndex,
+        /// The characters.
+        chars: [u8; 5],
+    },
+}
+
+impl ModelText {
+    /// The characters as text, without trailing NUL or space; `None` unless ASCII.
+    pub fn text(&self) -> Option<&str> {
+        let bytes: &[u8] = match self {
+            Self::Whole(b) => b,
+            Self::Chars { chars, .. } => chars,
         };
-        assert_eq!(
-            (m, s.temperature.celsius(), s.voltage.volts()),
-            (m1, 50.0, 48.5)
-        );
-        assert!(s.brake_released && s.error_state.contains(V3ErrorState::LOW_VOLTAGE));
-        assert_eq!(r.encode(m1), f);
-        // §2.19: 0xA1 request of 1 A and its reply (-1 A example too).
-        let iq = ScaledCurrent::new(100, CurrentScale::MYACTUATOR_V3_IQ_CONTROL).unwrap();
-        let req = V3Request::Torque { iq_control: iq };
-        assert_eq!(req.encode(m1), frame(0x141, [0xA1, 0, 0, 0, 0x64, 0, 0, 0]));
-        assert_eq!(V3Request::from_data(&req.to_data()), Some(req));
-        let f = frame(0x241, [0xA1, 0x32, 0x9C, 0xFF, 0x0C, 0xFE, 0xD3, 0xFF]);
-        let (_, r) = V3Reply::decode(&f).unwrap();
-        let V3Reply::Status2 { status, .. } = r else {
-            panic!("{r:?}")
-        };
-        assert_eq!(
-            (status.iq.amps(), status.speed.dps(), status.shaft_degrees),
-            (-1.0, -500.0, -45)
-        );
-        assert_eq!(r.encode(m1), f);
-        // §2.12: 360°.
-        let f = frame(0x241, [0x92, 0, 0, 0, 0xA0, 0x8C, 0, 0]);
-        assert_eq!(
-            V3Reply::decode(&f).unwrap().1,
-            V3Reply::MultiTurnAngle {
-                centidegrees: 36_000
-            }
-        );
-        // §2.33: "X8S2V10".
-        let f = frame(0x241, [0xB5, 0x58, 0x38, 0x53, 0x32, 0x56, 0x31, 0x30]);
-        assert_eq!(V3Reply::decode(&f).unwrap().1, V3Reply::Model(*b"X8S2V10"));
-        // §3: broadcast shutdown.
-        assert_eq!(
-            V3Request::MotorOff.encode_broadcast(),
-            frame(0x280, [0x80, 0, 0, 0, 0, 0, 0, 0])
-        );
+        if !bytes.is_ascii() {
+            return None;
+        }
+        core::str::from_utf8(bytes)
+            .ok()
+            .map(|s| s.trim_end_matches(['\0', ' ']))
     }
+}
 
-    #[test]
-    fn rejects_other_ids_and_commands() {
-        let f = frame(0x141, [0x9A, 0, 0, 0, 0, 0, 0, 0]);
-        assert!(matches!(
-            V3Reply::decode(&f),
-            Err(ProtocolError::UnexpectedCanId { .. })
-        ));
-        let f = frame(0x241, [0x33, 0, 0, 0, 0, 0, 0, 0]);
-        assert!(matches!(
-            V3Reply::decode(&f),
-            Err(ProtocolError::UnknownCommand { code: 0x33, .. })
-        ));
-        assert!(motor_from_reply_id(0x240).is_err());
-        assert!(motor_from_reply_id(0x261).is_err());
-        assert_eq!(motor_from_reply_id(0x260).unwrap().get(), 32);
-        assert_eq!(V3Request::from_data(&[0x30, 0, 0, 0, 0, 0, 0, 0]), None);
-    }
+wire_value! {
+    /// V4.4's single-turn angle of 0x94: i32 in DATA\[4..=7\], 0.01°/LSB, the output shaft's,
+    /// "-180° to +180°" (V4.4 §2.12; the §8 changelog: "range of ±180°, data type int32_t").
+    /// V4.3 firmware sends v1.61's u16 0..=35999 in DATA\[6..=7\] instead (V4.3 §2.13).
+    ///
+    /// ```
+    /// use rmd_protocol::V3CircleAngle;
+    /// assert_eq!(V3CircleAngle::new(7500).unwrap().degrees(), 75.0);
+    /// assert!(V3CircleAngle::new(18_001).is_err());
+    /// ```
+    V3CircleAngle(i32), field Field::CircleAngle, range -18_000, 18_000,
+    unit degrees / from_degrees / from_degrees_saturating ("degrees"), scale 1 / 100
+}
+
+wire_value! {
+    /// The output-shaft angle of V3's status 2 (DATA\[6..=7\] of 0x9C and of the replies to
+    /// 0xA1, 0xA2, 0xA4): int16, 1°/LSB, from the zero position, "maximum range ±32767 degree"
+    /// (V4.3 §2.15, V4.4 §2.14: the example `0x002D` is +45°, `0xFFD3` -45°). v1.61 and
+    /// LK-TECH send the motor's encoder there instead.
+    ///
+    /// ```
+    /// use rmd_protocol::OutputAngle;
+    /// assert_eq!(OutputAngle::new(-45).unwrap().degrees(), -45.0);
+    /// ```
+    OutputAngle(i16), field Field::OutputAngle, range i16::MIN, i16::MAX,
+    unit degrees / from_degrees / from_degrees_saturating ("degrees"), scale 1 / 1
 }

@@ -13,7 +13,8 @@
 //!   rounded half away from zero to the nearest raw step. `from_<unit>` rejects NaN and
 //!   infinities; `from_<unit>_saturating` maps NaN to zero and infinities to the range ends.
 
-use crate::error::{Field, ProtocolError};
+use crate::error::ProtocolError;
+use crate::field::Field;
 use crate::round::round_half_away;
 
 macro_rules! wire_value {

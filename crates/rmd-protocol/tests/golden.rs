@@ -5,6 +5,8 @@
 
 use rmd_protocol::*;
 
+const V161: Dialect = Dialect::V161;
+
 fn frame(id: u16, data: [u8; 8]) -> CanFrame {
     CanFrame::new(id, &data).unwrap()
 }
@@ -16,9 +18,13 @@ fn motor(id: u8) -> MotorId {
 /// Checks a request vector both ways.
 fn request_vector(id: u16, data: [u8; 8], motor_id: u8, request: Request) {
     let f = frame(id, data);
-    assert_eq!(request.encode(motor(motor_id)), f, "encode {request:?}");
     assert_eq!(
-        decode_request(&f),
+        V161.encode(motor(motor_id), &request),
+        Ok(f),
+        "encode {request:?}"
+    );
+    assert_eq!(
+        V161.decode_request(&f),
         Ok(DecodedRequest::Single {
             motor: motor(motor_id),
             request
@@ -30,10 +36,18 @@ fn request_vector(id: u16, data: [u8; 8], motor_id: u8, request: Request) {
 /// Checks a reply vector both ways (with and without the pending command).
 fn reply_vector(id: u16, data: [u8; 8], motor_id: u8, reply: Reply) {
     let f = frame(id, data);
-    assert_eq!(reply.encode(motor(motor_id)), f, "encode {reply:?}");
-    assert_eq!(decode_reply(&f), Ok((motor(motor_id), reply)), "decode {f}");
     assert_eq!(
-        decode_reply_to(&f, reply.command()),
+        V161.encode_reply(motor(motor_id), &reply),
+        Ok(f),
+        "encode {reply:?}"
+    );
+    assert_eq!(
+        V161.decode_reply(&f),
+        Ok((motor(motor_id), reply)),
+        "decode {f}"
+    );
+    assert_eq!(
+        V161.decode_reply_to(&f, reply.command()),
         Ok((motor(motor_id), reply)),
         "decode_reply_to {f}"
     );
@@ -53,18 +67,21 @@ fn pid(v: [u8; 6]) -> PidParams {
 fn status2(temperature: i64, iq: i64, speed: i64, encoder: u16) -> Status2 {
     Status2 {
         temperature: Temperature::new(temperature).unwrap(),
-        iq: Iq::new(iq).unwrap(),
+        iq: Iq::new(iq).unwrap().into(),
         speed: Speed::new(speed).unwrap(),
-        encoder: EncoderValue::from_raw(encoder),
+        position: StatusPosition::Encoder(EncoderValue::from_raw(encoder)),
     }
 }
 
 #[test]
 fn issue_example_torque_request() {
     let req = Request::Torque {
-        iq_control: IqControl::new(100).unwrap(),
+        iq_control: IqControl::new(100).unwrap().into(),
     };
-    assert_eq!(req.encode(motor(1)).to_string(), "141#A100000064000000");
+    assert_eq!(
+        V161.encode(motor(1), &req).unwrap().to_string(),
+        "141#A100000064000000"
+    );
 }
 
 #[test]
@@ -141,7 +158,7 @@ fn torque_requests() {
         [0xA1, 0, 0, 0, 0x64, 0x00, 0, 0],
         1,
         Request::Torque {
-            iq_control: IqControl::new(100).unwrap(),
+            iq_control: IqControl::new(100).unwrap().into(),
         },
     );
     request_vector(
@@ -149,7 +166,7 @@ fn torque_requests() {
         [0xA1, 0, 0, 0, 0x9C, 0xFF, 0, 0],
         32,
         Request::Torque {
-            iq_control: IqControl::new(-100).unwrap(),
+            iq_control: IqControl::new(-100).unwrap().into(),
         },
     );
     request_vector(
@@ -157,7 +174,7 @@ fn torque_requests() {
         [0xA1, 0, 0, 0, 0x30, 0xF8, 0, 0],
         1,
         Request::Torque {
-            iq_control: IqControl::MIN,
+            iq_control: IqControl::MIN.into(),
         },
     );
 }
@@ -171,6 +188,7 @@ fn speed_request() {
         1,
         Request::Speed {
             speed_control: SpeedControl::from_dps(360.0).unwrap(),
+            max_torque: MaxTorquePercent::NONE,
         },
     );
     request_vector(
@@ -179,6 +197,7 @@ fn speed_request() {
         1,
         Request::Speed {
             speed_control: SpeedControl::new(-1).unwrap(),
+            max_torque: MaxTorquePercent::NONE,
         },
     );
 }
@@ -230,7 +249,7 @@ fn position_requests() {
 
 #[test]
 fn multi_torque_request() {
-    let iq = |raw| IqControl::new(raw).unwrap();
+    let iq = |raw| ScaledCurrent::from(IqControl::new(raw).unwrap());
     let cases = [
         // 100 = 0x0064, -100 = 0xFF9C, 0, 2000 = 0x07D0.
         (
@@ -246,12 +265,12 @@ fn multi_torque_request() {
     for (data, iq_control) in cases {
         let f = frame(0x280, data);
         let m = MultiTorque::new(iq_control);
-        assert_eq!(m.encode(), f);
-        assert_eq!(decode_request(&f), Ok(DecodedRequest::Multi(m)));
+        assert_eq!(V161.encode_multi_torque(&m), Ok(f));
+        assert_eq!(V161.decode_request(&f), Ok(DecodedRequest::Multi(m)));
     }
     assert_eq!(
-        MultiTorque::new([iq(100), iq(-100), iq(0), iq(2000)])
-            .encode()
+        V161.encode_multi_torque(&MultiTorque::new([iq(100), iq(-100), iq(0), iq(2000)]))
+            .unwrap()
             .to_string(),
         "280#64009CFF0000D007"
     );
@@ -327,11 +346,12 @@ fn angle_replies() {
         },
     );
     // motorAngle = -36000 (-360°): 56-bit two's complement 0xFF_FFFF_FFFF_7360, sign-extended.
-    let (_, reply) = decode_reply(&frame(
-        0x141,
-        [0x92, 0x60, 0x73, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF],
-    ))
-    .unwrap();
+    let (_, reply) = V161
+        .decode_reply(&frame(
+            0x141,
+            [0x92, 0x60, 0x73, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF],
+        ))
+        .unwrap();
     let Reply::ReadMultiTurnAngle { motor_angle } = reply else {
         panic!("{reply:?}")
     };
@@ -376,14 +396,14 @@ fn status1_replies() {
     // temperature 45 °C = 0x2D in DATA[1], voltage 24.2 V = 242 = 0x00F2 in DATA[3..=4],
     // errorState 0x09 (low voltage + over temperature) in DATA[7].
     let f = [0x9A, 0x2D, 0x00, 0xF2, 0x00, 0x00, 0x00, 0x09];
-    let s = Status1 {
+    let s = V161Status1 {
         temperature: Temperature::new(45).unwrap(),
         voltage: Voltage::from_volts(24.2).unwrap(),
         error_state: ErrorState::LOW_VOLTAGE | ErrorState::OVER_TEMPERATURE,
     };
-    reply_vector(0x141, f, 1, Reply::ReadStatus1(s));
+    reply_vector(0x141, f, 1, Reply::ReadStatus1(Status1::V161(s)));
     // Negative temperature (int8_t, reading notes): -10 °C = 0xF6; 48.0 V = 480 = 0x01E0.
-    let s = Status1 {
+    let s = V161Status1 {
         temperature: Temperature::new(-10).unwrap(),
         voltage: Voltage::new(480).unwrap(),
         error_state: ErrorState::NONE,
@@ -392,12 +412,12 @@ fn status1_replies() {
         0x141,
         [0x9A, 0xF6, 0x00, 0xE0, 0x01, 0x00, 0x00, 0x00],
         1,
-        Reply::ReadStatus1(s),
+        Reply::ReadStatus1(Status1::V161(s)),
     );
     assert_eq!(s.temperature.celsius(), -10.0);
     assert_eq!(s.voltage.volts(), 48.0);
     // 0x9B reply with its own command byte (echo of the request).
-    let s = Status1 {
+    let s = V161Status1 {
         temperature: Temperature::new(30).unwrap(),
         voltage: Voltage::new(240).unwrap(),
         error_state: ErrorState::from_raw(0x80),
@@ -406,15 +426,18 @@ fn status1_replies() {
         0x141,
         [0x9B, 0x1E, 0x00, 0xF0, 0x00, 0x00, 0x00, 0x80],
         1,
-        Reply::ClearError(s),
+        Reply::ClearError(Status1::V161(s)),
     );
     // The spec's table for the 0x9B reply shows DATA[0] = 0x9A: tolerated as the reply to 0x9B.
     let as_9a = frame(0x141, [0x9A, 0x1E, 0x00, 0xF0, 0x00, 0x00, 0x00, 0x80]);
     assert_eq!(
-        decode_reply_to(&as_9a, Command::ClearError),
-        Ok((motor(1), Reply::ClearError(s)))
+        V161.decode_reply_to(&as_9a, Command::ClearError),
+        Ok((motor(1), Reply::ClearError(Status1::V161(s))))
     );
-    assert_eq!(decode_reply(&as_9a), Ok((motor(1), Reply::ReadStatus1(s))));
+    assert_eq!(
+        V161.decode_reply(&as_9a),
+        Ok((motor(1), Reply::ReadStatus1(Status1::V161(s))))
+    );
 }
 
 #[test]
@@ -483,7 +506,7 @@ fn echo_replies() {
 fn multi_torque_exchange() {
     // One 0x280 frame, then motors 1..=4 answer on 0x141..=0x144 with the 0xA1 layout.
     let request = frame(0x280, [0x64, 0x00, 0x9C, 0xFF, 0x00, 0x00, 0xD0, 0x07]);
-    let DecodedRequest::Multi(m) = decode_request(&request).unwrap() else {
+    let DecodedRequest::Multi(m) = V161.decode_request(&request).unwrap() else {
         panic!()
     };
     assert_eq!(m.iq_control_for(motor(4)).unwrap().amps(), 32.0);
@@ -502,7 +525,7 @@ fn multi_torque_exchange() {
     ];
     for (f, (id, s)) in replies.iter().zip(expected) {
         assert_eq!(
-            decode_reply_to(f, Command::Torque),
+            V161.decode_reply_to(f, Command::Torque),
             Ok((motor(id), Reply::Torque(s)))
         );
     }

@@ -5,6 +5,8 @@ use proptest::prelude::*;
 use proptest::sample::select;
 use rmd_protocol::*;
 
+const V161: Dialect = Dialect::V161;
+
 fn motor() -> impl Strategy<Value = MotorId> {
     (1u8..=32).prop_map(|id| MotorId::new(id).unwrap())
 }
@@ -40,7 +42,7 @@ fn spin() -> impl Strategy<Value = SpinDirection> {
 
 fn request() -> impl Strategy<Value = Request> {
     (
-        select(Command::ALL.to_vec()),
+        select(V161.commands().to_vec()),
         pid(),
         any::<i32>(),
         any::<u16>(),
@@ -63,9 +65,12 @@ fn request() -> impl Strategy<Value = Request> {
                 Command::WriteEncoderOffset => Request::WriteEncoderOffset {
                     encoder_offset: EncoderValue::from_raw(enc),
                 },
-                Command::Torque => Request::Torque { iq_control: iq },
+                Command::Torque => Request::Torque {
+                    iq_control: iq.into(),
+                },
                 Command::Speed => Request::Speed {
                     speed_control: SpeedControl::new(int.into()).unwrap(),
+                    max_torque: MaxTorquePercent::NONE,
                 },
                 Command::Position1 => Request::Position1 {
                     angle_control: AngleControl::new(angle.into()).unwrap(),
@@ -89,19 +94,21 @@ fn request() -> impl Strategy<Value = Request> {
 }
 
 fn status1() -> impl Strategy<Value = Status1> {
-    (any::<i8>(), any::<u16>(), any::<u8>()).prop_map(|(t, v, e)| Status1 {
-        temperature: Temperature::new(t.into()).unwrap(),
-        voltage: Voltage::new(v.into()).unwrap(),
-        error_state: ErrorState::from_raw(e),
+    (any::<i8>(), any::<u16>(), any::<u8>()).prop_map(|(t, v, e)| {
+        Status1::V161(V161Status1 {
+            temperature: Temperature::new(t.into()).unwrap(),
+            voltage: Voltage::new(v.into()).unwrap(),
+            error_state: ErrorState::from_raw(e),
+        })
     })
 }
 
 fn status2() -> impl Strategy<Value = Status2> {
     (any::<i8>(), -2048i64..=2048, any::<i16>(), any::<u16>()).prop_map(|(t, iq, s, e)| Status2 {
         temperature: Temperature::new(t.into()).unwrap(),
-        iq: Iq::new(iq).unwrap(),
+        iq: Iq::new(iq).unwrap().into(),
         speed: Speed::new(s.into()).unwrap(),
-        encoder: EncoderValue::from_raw(e),
+        position: StatusPosition::Encoder(EncoderValue::from_raw(e)),
     })
 }
 
@@ -115,7 +122,7 @@ fn status3() -> impl Strategy<Value = Status3> {
 
 fn reply() -> impl Strategy<Value = Reply> {
     (
-        select(Command::ALL.to_vec()),
+        select(V161.commands().to_vec()),
         pid(),
         any::<i32>(),
         any::<[u16; 3]>(),
@@ -164,6 +171,7 @@ fn reply() -> impl Strategy<Value = Reply> {
                 Command::Position2 => Reply::Position2(s2),
                 Command::Position3 => Reply::Position3(s2),
                 Command::Position4 => Reply::Position4(s2),
+                other => unreachable!("{other} is not a v1.61 command"),
             }
         })
 }
@@ -184,28 +192,29 @@ proptest! {
 
     #[test]
     fn every_request_round_trips(m in motor(), req in request()) {
-        let frame = req.encode(m);
+        let frame = V161.encode(m, &req).unwrap();
         prop_assert_eq!(frame.id(), 0x140 + u16::from(m.get()));
         prop_assert_eq!(frame.dlc(), 8);
         prop_assert_eq!(frame.data()[0], req.command().code());
-        prop_assert_eq!(decode_request(&frame), Ok(DecodedRequest::Single { motor: m, request: req }));
+        prop_assert_eq!(V161.decode_request(&frame), Ok(DecodedRequest::Single { motor: m, request: req }));
     }
 
     #[test]
     fn every_reply_round_trips(m in motor(), reply in reply()) {
-        let frame = reply.encode(m);
+        let frame = V161.encode_reply(m, &reply).unwrap();
         prop_assert_eq!(frame.id(), m.can_id());
         prop_assert_eq!(frame.data()[0], reply.command().code());
-        prop_assert_eq!(decode_reply(&frame), Ok((m, reply)));
-        prop_assert_eq!(decode_reply_to(&frame, reply.command()), Ok((m, reply)));
+        prop_assert_eq!(V161.decode_reply(&frame), Ok((m, reply)));
+        prop_assert_eq!(V161.decode_reply_to(&frame, reply.command()), Ok((m, reply)));
     }
 
     #[test]
     fn multi_torque_round_trips(iq in proptest::array::uniform4(iq_control())) {
+        let iq = iq.map(ScaledCurrent::from);
         let m = MultiTorque::new(iq);
-        let frame = m.encode();
+        let frame = V161.encode_multi_torque(&m).unwrap();
         prop_assert_eq!(frame.id(), MULTI_TORQUE_CAN_ID);
-        prop_assert_eq!(decode_request(&frame), Ok(DecodedRequest::Multi(m)));
+        prop_assert_eq!(V161.decode_request(&frame), Ok(DecodedRequest::Multi(m)));
         for (slot, id) in (1u8..=4).enumerate() {
             prop_assert_eq!(m.iq_control_for(MotorId::new(id).unwrap()), Some(iq[slot]));
         }
@@ -213,18 +222,19 @@ proptest! {
 
     #[test]
     fn decoding_never_panics_and_valid_frames_round_trip(frame in any_frame()) {
-        if let Ok(decoded) = decode_request(&frame) {
+        if let Ok(decoded) = V161.decode_request(&frame) {
             // Re-encoding normalises reserved bytes only: decoding again gives the same value.
-            prop_assert_eq!(decode_request(&decoded.encode()), Ok(decoded));
+            prop_assert_eq!(V161.decode_request(&V161.encode_request(&decoded).unwrap()), Ok(decoded));
         }
-        if let Ok((m, reply)) = decode_reply(&frame) {
+        if let Ok((m, reply)) = V161.decode_reply(&frame) {
             prop_assert_eq!(m.can_id(), frame.id());
-            prop_assert_eq!(decode_reply(&reply.encode(m)), Ok((m, reply)));
+            prop_assert_eq!(V161.decode_reply(&V161.encode_reply(m, &reply).unwrap()), Ok((m, reply)));
         }
         for pending in Command::ALL {
-            if let Ok((m, reply)) = decode_reply_to(&frame, pending) {
+            if let Ok((m, reply)) = V161.decode_reply_to(&frame, pending) {
                 prop_assert_eq!(reply.command(), pending);
-                prop_assert_eq!(decode_reply_to(&reply.encode(m), pending), Ok((m, reply)));
+                let again = V161.encode_reply(m, &reply).unwrap();
+                prop_assert_eq!(V161.decode_reply_to(&again, pending), Ok((m, reply)));
             }
         }
         // Display never panics either.

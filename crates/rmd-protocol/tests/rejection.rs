@@ -2,6 +2,8 @@
 
 use rmd_protocol::*;
 
+const V161: Dialect = Dialect::V161;
+
 fn frame(id: u16, data: &[u8]) -> CanFrame {
     CanFrame::new(id, data).unwrap()
 }
@@ -27,12 +29,12 @@ fn wrong_dlc() {
             can_id: 0x141,
             dlc: len as u8,
         };
-        assert_eq!(decode_request(&f), Err(err));
-        assert_eq!(decode_reply(&f), Err(err));
-        assert_eq!(decode_reply_to(&f, Command::ReadStatus2), Err(err));
+        assert_eq!(V161.decode_request(&f), Err(err));
+        assert_eq!(V161.decode_reply(&f), Err(err));
+        assert_eq!(V161.decode_reply_to(&f, Command::ReadStatus2), Err(err));
     }
     assert_eq!(
-        decode_request(&frame(0x280, &[0; 6])),
+        V161.decode_request(&frame(0x280, &[0; 6])),
         Err(ProtocolError::WrongDlc {
             can_id: 0x280,
             dlc: 6
@@ -52,14 +54,14 @@ fn can_id_outside_the_protocol() {
     for id in [0x000, 0x140, 0x161, 0x27F, 0x281, 0x7FF] {
         let f = frame(id, &[0x9C, 0, 0, 0, 0, 0, 0, 0]);
         assert_eq!(
-            decode_request(&f),
+            V161.decode_request(&f),
             Err(ProtocolError::UnexpectedCanId {
                 can_id: id,
                 expected: ExpectedIds::MotorOrMultiTorque
             })
         );
         assert_eq!(
-            decode_reply(&f),
+            V161.decode_reply(&f),
             Err(ProtocolError::UnexpectedCanId {
                 can_id: id,
                 expected: ExpectedIds::Motor
@@ -69,7 +71,7 @@ fn can_id_outside_the_protocol() {
     // 0x280 is a request ID only: motors answer on their own ID.
     let f = frame(0x280, &[0xA1, 0, 0, 0, 0, 0, 0, 0]);
     assert_eq!(
-        decode_reply(&f),
+        V161.decode_reply(&f),
         Err(ProtocolError::UnexpectedCanId {
             can_id: 0x280,
             expected: ExpectedIds::Motor
@@ -84,7 +86,7 @@ fn can_id_outside_the_protocol() {
     );
     // The CAN ID is checked before the DLC.
     assert!(matches!(
-        decode_reply(&frame(0x100, &[])),
+        V161.decode_reply(&frame(0x100, &[])),
         Err(ProtocolError::UnexpectedCanId { .. })
     ));
 }
@@ -97,9 +99,9 @@ fn unknown_command_byte() {
             can_id: 0x143,
             code,
         };
-        assert_eq!(decode_request(&f), Err(err));
-        assert_eq!(decode_reply(&f), Err(err));
-        assert_eq!(decode_reply_to(&f, Command::Torque), Err(err));
+        assert_eq!(V161.decode_request(&f), Err(err));
+        assert_eq!(V161.decode_reply(&f), Err(err));
+        assert_eq!(V161.decode_reply_to(&f, Command::Torque), Err(err));
     }
 }
 
@@ -107,7 +109,7 @@ fn unknown_command_byte() {
 fn reply_not_matching_the_pending_request() {
     let status2 = frame(0x141, &[0x9C, 0x20, 0, 0, 0, 0, 0, 0]);
     assert_eq!(
-        decode_reply_to(&status2, Command::Torque),
+        V161.decode_reply_to(&status2, Command::Torque),
         Err(ProtocolError::ReplyMismatch {
             can_id: 0x141,
             expected: Command::Torque,
@@ -117,7 +119,7 @@ fn reply_not_matching_the_pending_request() {
     // The 0x9A-for-0x9B tolerance is one-way: a 0x9B is not the reply to a pending 0x9A.
     let clear = frame(0x141, &[0x9B, 0x20, 0, 0, 0, 0, 0, 0]);
     assert_eq!(
-        decode_reply_to(&clear, Command::ReadStatus1),
+        V161.decode_reply_to(&clear, Command::ReadStatus1),
         Err(ProtocolError::ReplyMismatch {
             can_id: 0x141,
             expected: Command::ReadStatus1,
@@ -127,7 +129,7 @@ fn reply_not_matching_the_pending_request() {
     // The mismatch is reported before the field ranges (iq 0x7FFF would be out of range).
     let bad_iq = frame(0x141, &[0xA2, 0x20, 0xFF, 0x7F, 0, 0, 0, 0]);
     assert!(matches!(
-        decode_reply_to(&bad_iq, Command::Torque),
+        V161.decode_reply_to(&bad_iq, Command::Torque),
         Err(ProtocolError::ReplyMismatch { .. })
     ));
     assert_eq!(
@@ -154,21 +156,21 @@ fn out_of_range(field: Field, value: i64, min: i64, max: i64) -> ProtocolError {
 fn request_values_out_of_range() {
     // iqControl 2001 = 0x07D1, -2001 = 0xF82F.
     assert_eq!(
-        decode_request(&frame(0x141, &[0xA1, 0, 0, 0, 0xD1, 0x07, 0, 0])),
+        V161.decode_request(&frame(0x141, &[0xA1, 0, 0, 0, 0xD1, 0x07, 0, 0])),
         Err(out_of_range(Field::IqControl, 2001, -2000, 2000))
     );
     assert_eq!(
-        decode_request(&frame(0x141, &[0xA1, 0, 0, 0, 0x2F, 0xF8, 0, 0])),
+        V161.decode_request(&frame(0x141, &[0xA1, 0, 0, 0, 0x2F, 0xF8, 0, 0])),
         Err(out_of_range(Field::IqControl, -2001, -2000, 2000))
     );
     // 0x280 with motor 3's value at 32767.
     assert_eq!(
-        decode_request(&frame(0x280, &[0, 0, 0, 0, 0xFF, 0x7F, 0, 0])),
+        V161.decode_request(&frame(0x280, &[0, 0, 0, 0, 0xFF, 0x7F, 0, 0])),
         Err(out_of_range(Field::IqControl, 32767, -2000, 2000))
     );
     // Single-turn angleControl 36000 = 0x8CA0.
     assert_eq!(
-        decode_request(&frame(0x141, &[0xA5, 0, 0, 0, 0xA0, 0x8C, 0, 0])),
+        V161.decode_request(&frame(0x141, &[0xA5, 0, 0, 0, 0xA0, 0x8C, 0, 0])),
         Err(out_of_range(
             Field::SingleTurnAngleControl,
             36_000,
@@ -177,7 +179,7 @@ fn request_values_out_of_range() {
         ))
     );
     assert_eq!(
-        decode_request(&frame(0x141, &[0xA6, 0, 0, 0, 0xA0, 0x8C, 0, 0])),
+        V161.decode_request(&frame(0x141, &[0xA6, 0, 0, 0, 0xA0, 0x8C, 0, 0])),
         Err(out_of_range(
             Field::SingleTurnAngleControl,
             36_000,
@@ -187,7 +189,7 @@ fn request_values_out_of_range() {
     );
     // spinDirection 2.
     assert_eq!(
-        decode_request(&frame(0x141, &[0xA5, 2, 0, 0, 0, 0, 0, 0])),
+        V161.decode_request(&frame(0x141, &[0xA5, 2, 0, 0, 0, 0, 0, 0])),
         Err(out_of_range(Field::SpinDirection, 2, 0, 1))
     );
 }
@@ -196,16 +198,16 @@ fn request_values_out_of_range() {
 fn reply_values_out_of_range() {
     // iq 2049 = 0x0801.
     assert_eq!(
-        decode_reply(&frame(0x141, &[0xA1, 0, 0x01, 0x08, 0, 0, 0, 0])),
+        V161.decode_reply(&frame(0x141, &[0xA1, 0, 0x01, 0x08, 0, 0, 0, 0])),
         Err(out_of_range(Field::Iq, 2049, -2048, 2048))
     );
     assert_eq!(
-        decode_reply(&frame(0x141, &[0x9C, 0, 0xFF, 0xF7, 0, 0, 0, 0])),
+        V161.decode_reply(&frame(0x141, &[0x9C, 0, 0xFF, 0xF7, 0, 0, 0, 0])),
         Err(out_of_range(Field::Iq, -2049, -2048, 2048))
     );
     // circleAngle 36000.
     assert_eq!(
-        decode_reply(&frame(0x141, &[0x94, 0, 0, 0, 0, 0, 0xA0, 0x8C])),
+        V161.decode_reply(&frame(0x141, &[0x94, 0, 0, 0, 0, 0, 0xA0, 0x8C])),
         Err(out_of_range(Field::CircleAngle, 36_000, 0, 35_999))
     );
 }
@@ -287,7 +289,7 @@ fn encoder_values_beyond_the_width() {
     );
     // Decoding accepts any u16; the width check is explicit.
     let f = frame(0x141, &[0x91, 0, 0, 0, 0, 0, 0x00, 0x40]); // 16384
-    let DecodedRequest::Single { request, .. } = decode_request(&f).unwrap() else {
+    let DecodedRequest::Single { request, .. } = V161.decode_request(&f).unwrap() else {
         panic!()
     };
     assert_eq!(
@@ -299,13 +301,13 @@ fn encoder_values_beyond_the_width() {
         Ok(())
     );
     let f = frame(0x141, &[0x90, 0, 0, 0, 0xFF, 0x3F, 0x00, 0x40]);
-    let (_, reply) = decode_reply(&f).unwrap();
+    let (_, reply) = V161.decode_reply(&f).unwrap();
     assert_eq!(
         reply.check_encoder_width(w14),
         Err(out_of_range(Field::EncoderValue, 16_384, 0, 16_383))
     );
     let f = frame(0x141, &[0xA1, 0, 0, 0, 0, 0, 0xFF, 0xFF]);
-    let (_, reply) = decode_reply(&f).unwrap();
+    let (_, reply) = V161.decode_reply(&f).unwrap();
     assert!(reply.check_encoder_width(w14).is_err());
     assert!(
         reply
@@ -335,24 +337,30 @@ fn reserved_bytes_are_ignored() {
     // Torque request with junk in every NULL byte.
     let f = frame(0x141, &[0xA1, 0xFF, 0xFF, 0xFF, 0x64, 0x00, 0xEE, 0xEE]);
     assert_eq!(
-        decode_request(&f),
+        V161.decode_request(&f),
         Ok(DecodedRequest::Single {
             motor: MotorId::new(1).unwrap(),
             request: Request::Torque {
-                iq_control: IqControl::new(100).unwrap()
+                iq_control: IqControl::new(100).unwrap().into()
             }
         })
     );
     // Status 1 reply with data in DATA[2], DATA[5], DATA[6].
     let f = frame(0x141, &[0x9A, 0x20, 0x55, 0xF0, 0x00, 0x66, 0x77, 0x00]);
-    let (_, reply) = decode_reply(&f).unwrap();
-    assert_eq!(reply.status1().unwrap().voltage.raw(), 240);
+    let (motor, reply) = V161.decode_reply(&f).unwrap();
+    let Some(Status1::V161(status)) = reply.status1() else {
+        panic!("{reply:?}")
+    };
+    assert_eq!(status.voltage.raw(), 240);
     // Re-encoding zeroes them.
-    assert_eq!(reply.to_data(), [0x9A, 0x20, 0, 0xF0, 0, 0, 0, 0]);
+    assert_eq!(
+        V161.encode_reply(motor, &reply).unwrap().data(),
+        [0x9A, 0x20, 0, 0xF0, 0, 0, 0, 0]
+    );
     // Read requests with payload junk still decode.
     let f = frame(0x141, &[0x9C, 1, 2, 3, 4, 5, 6, 7]);
     assert!(matches!(
-        decode_request(&f),
+        V161.decode_request(&f),
         Ok(DecodedRequest::Single {
             request: Request::ReadStatus2,
             ..

@@ -10,9 +10,9 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use rmd_bus::{CanFrame, Clock};
 use rmd_frames::json::FrameJson;
-use rmd_protocol::{DialectReply, EncoderWidth, FIRST_MOTOR_CAN_ID, MotorId};
+use rmd_protocol::{EncoderWidth, FIRST_MOTOR_CAN_ID, MotorId, Reply};
 use rmd_rig::{AnyBus, AnyClock, SharedSim, SimTime};
-use rmd_sim::{FirmwareFamily, MotorConfig, SimBus, SimConfig};
+use rmd_sim::{MotorConfig, SimBus, SimConfig};
 
 use crate::args;
 use crate::errors::{
@@ -79,12 +79,12 @@ fn policy(
 fn reply_dict<'py>(
     py: Python<'py>,
     can_id: u16,
-    reply: &DialectReply,
+    reply: &Reply,
     width: EncoderWidth,
 ) -> PyResult<Bound<'py, PyAny>> {
     let value = FrameJson::new(None, None, can_id, "reply", reply.command().name(), width)
         .checking_encoder_width()
-        .dialect_reply(reply)
+        .reply(reply)
         .into_value();
     Ok(pythonize::pythonize(py, &value)?)
 }
@@ -154,10 +154,9 @@ impl NativeBus {
         guard(|| {
             let policy = policy(protocol, lk_series, timeout_s, retries)?;
             let width = args::encoder_width(encoder_bits).map_err(ConfigError::new_err)?;
-            let family = match policy.dialect {
-                rmd_protocol::Dialect::V161 => FirmwareFamily::V161,
-                rmd_protocol::Dialect::LkV23x(series) => FirmwareFamily::LkV23x(series),
-            };
+            let mut firmware = rmd_sim::FirmwareParams::default();
+            firmware.speak(policy.dialect);
+            let family = firmware.family;
             let mut config = SimConfig::with_motors(0).seed(seed);
             for id in &ids {
                 let motor = u8::try_from(*id)
@@ -300,8 +299,8 @@ impl NativeBus {
 fn open_socketcan(iface: &str) -> PyResult<AnyBus> {
     use rmd_bus::socketcan::{SocketCanBus, SocketCanOptions};
     let options = SocketCanOptions::new().accept_ids(
-        rmd_protocol::v3::REPLY_BASE_ID + u16::from(MotorId::MIN)
-            ..=rmd_protocol::v3::REPLY_BASE_ID + u16::from(MotorId::MAX),
+        rmd_protocol::V3_REPLY_BASE_ID + u16::from(MotorId::MIN)
+            ..=rmd_protocol::V3_REPLY_BASE_ID + u16::from(MotorId::MAX),
     );
     SocketCanBus::open(iface, &options)
         .map(|bus| AnyBus::SocketCan(Box::new(bus)))

@@ -12,8 +12,8 @@ use std::time::Duration;
 
 use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock, Received, Timestamp};
 use rmd_protocol::{
-    Command, Dialect, DialectReply, FIRST_MOTOR_CAN_ID, MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS,
-    MotorId, decode_reply_to_with, v3,
+    Command, Dialect, FIRST_MOTOR_CAN_ID, MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS, MotorId, Reply,
+    V3_REPLY_BASE_ID,
 };
 
 use crate::wait::SIGNAL_CHECK;
@@ -89,9 +89,9 @@ pub(crate) enum ExchangeError {
 #[derive(Debug)]
 pub(crate) enum Replies {
     /// The motor's reply.
-    One(MotorId, DialectReply),
+    One(MotorId, Reply),
     /// Replies of motors 1..=4, in order.
-    Multi([Option<DialectReply>; MULTI_TORQUE_MOTORS]),
+    Multi([Option<Reply>; MULTI_TORQUE_MOTORS]),
 }
 
 /// Drops whatever is queued.
@@ -160,7 +160,7 @@ pub(crate) fn exchange(
                 }
                 BusMessage::Event(_) => continue,
             };
-            if reply.id() == v3::REPLY_BASE_ID + u16::from(motor.get()) {
+            if reply.id() == V3_REPLY_BASE_ID + u16::from(motor.get()) {
                 return Err(ExchangeError::V3 {
                     motor,
                     can_id: reply.id(),
@@ -169,7 +169,7 @@ pub(crate) fn exchange(
             if reply.id() != frame.id() {
                 continue;
             }
-            match decode_reply_to_with(policy.dialect, &reply, command) {
+            match policy.dialect.decode_reply_to(&reply, command) {
                 Ok((_, decoded)) => return Ok(Replies::One(motor, decoded)),
                 Err(error) => last = Some(error.to_string()),
             }
@@ -196,7 +196,7 @@ fn exchange_multi(
 ) -> Result<Replies, ExchangeError> {
     let mut last = None;
     for _ in 0..attempts {
-        let mut replies: [Option<DialectReply>; MULTI_TORQUE_MOTORS] = Default::default();
+        let mut replies: [Option<Reply>; MULTI_TORQUE_MOTORS] = Default::default();
         drain(bus, clock)?;
         bus.send(frame)?;
         let deadline = clock.now() + policy.timeout;
@@ -217,7 +217,7 @@ fn exchange_multi(
             let Some(entry) = replies.get_mut(slot) else {
                 continue;
             };
-            match decode_reply_to_with(policy.dialect, &reply, Command::Torque) {
+            match policy.dialect.decode_reply_to(&reply, Command::Torque) {
                 Ok((_, decoded)) => *entry = Some(decoded),
                 Err(error) => last = Some(error.to_string()),
             }

@@ -11,9 +11,8 @@ use pyo3::types::PyDict;
 use rmd_bus::candump;
 use rmd_frames::encode::{encoder_offset, torque_current};
 use rmd_protocol::{
-    Accel, AngleControl, CanFrame, Dialect, DialectRequest, EncoderWidth, MaxSpeed, MotorId,
-    PidParams, Request, ScaledCurrent, ScaledMultiTorque, SingleTurnAngle, SpeedControl,
-    SpinDirection, encode_request_with,
+    Accel, AngleControl, CanFrame, Dialect, EncoderWidth, MaxSpeed, MaxTorquePercent, MotorId,
+    MultiTorque, PidParams, Request, ScaledCurrent, SingleTurnAngle, SpeedControl, SpinDirection,
 };
 
 use crate::args;
@@ -156,8 +155,9 @@ pub(crate) fn build_frame(
         for (k, slot) in iq.iter_mut().enumerate() {
             *slot = torque_current(dialect, raw.map(|v| v[k]), amps.map(|v| v[k]))?;
         }
-        let request = DialectRequest::MultiTorque(ScaledMultiTorque::new(iq));
-        return encode_request_with(dialect, &request).map_err(|e| e.to_string());
+        return dialect
+            .encode_multi_torque(&MultiTorque::new(iq))
+            .map_err(|e| e.to_string());
     }
     let motor = motor(command, id)?;
     let request = match command {
@@ -193,12 +193,9 @@ pub(crate) fn build_frame(
             let raw = f.int("iq_control")?;
             let amps = f.number("amps")?;
             f.one_of(("iq_control", &raw), ("amps", &amps))?;
-            f.finish()?;
-            let request = DialectRequest::Torque {
-                motor,
+            Request::Torque {
                 iq_control: torque_current(dialect, raw, amps)?,
-            };
-            return encode_request_with(dialect, &request).map_err(|e| e.to_string());
+            }
         }
         "speed" => {
             let raw = f.int("speed_control")?;
@@ -209,7 +206,10 @@ pub(crate) fn build_frame(
                 None => SpeedControl::from_dps(dps.unwrap_or(f64::NAN)),
             }
             .map_err(|e| e.to_string())?;
-            Request::Speed { speed_control }
+            Request::Speed {
+                speed_control,
+                max_torque: MaxTorquePercent::NONE,
+            }
         }
         "position-1" => Request::Position1 {
             angle_control: multi_turn_angle(&mut f)?,
@@ -230,7 +230,7 @@ pub(crate) fn build_frame(
         other => return Err(format!("unknown command `{other}`")),
     };
     f.finish()?;
-    Ok(request.encode(motor))
+    dialect.encode(motor, &request).map_err(|e| e.to_string())
 }
 
 /// One command as a frame in candump's compact form (`141#A100000064000000`), exactly as

@@ -53,6 +53,7 @@ fn mode_name(mode: ControlMode) -> &'static str {
         ControlMode::Torque { .. } => "torque",
         ControlMode::Speed { .. } => "speed",
         ControlMode::Position { .. } => "position",
+        ControlMode::Motion { .. } => "motion",
     }
 }
 

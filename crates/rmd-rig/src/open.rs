@@ -89,8 +89,8 @@ fn open_socketcan(bus: &str, iface: &str) -> Result<AnyBus, RigError> {
 #[cfg(target_os = "linux")]
 pub(crate) fn loop_socket_options() -> rmd_bus::socketcan::SocketCanOptions {
     rmd_bus::socketcan::SocketCanOptions::new().accept_ids(
-        rmd_protocol::v3::REPLY_BASE_ID + u16::from(rmd_protocol::MotorId::MIN)
-            ..=rmd_protocol::v3::REPLY_BASE_ID + u16::from(rmd_protocol::MotorId::MAX),
+        rmd_protocol::V3_REPLY_BASE_ID + u16::from(rmd_protocol::MotorId::MIN)
+            ..=rmd_protocol::V3_REPLY_BASE_ID + u16::from(rmd_protocol::MotorId::MAX),
     )
 }
 

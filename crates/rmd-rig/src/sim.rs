@@ -59,10 +59,7 @@ pub fn sim_config(robot: &Robot, bus: &BusSpec, seed: u64) -> SimConfig {
 /// ```
 pub fn sim_motor(joint: &JointSpec) -> rmd_sim::MotorConfig {
     let mut sim = rmd_sim::MotorConfig::new(joint.motor);
-    sim.firmware.family = match joint.dialect {
-        rmd_protocol::Dialect::V161 => rmd_sim::FirmwareFamily::V161,
-        rmd_protocol::Dialect::LkV23x(series) => rmd_sim::FirmwareFamily::LkV23x(series),
-    };
+    sim.firmware.speak(joint.dialect);
     sim.motor.gear_ratio = joint.gear_ratio;
     if let Some(kt) = joint.torque_constant_nm_per_amp {
         sim.motor.torque_constant_nm_per_a = kt / joint.gear_ratio;

@@ -34,7 +34,7 @@ use rmd_bus::{BusError, CanBus, Received, Timestamp};
 use rmd_loop::mailbox::{Receiver, Sender, mailbox};
 use rmd_loop::mapping::JointMap;
 use rmd_loop::{LoopReport, Percentiles, Robot, RtLoop, RunLimit};
-use rmd_protocol::{CanFrame, DecodedRequest, ScaledCurrent, decode_request};
+use rmd_protocol::{CanFrame, DecodedRequest, Dialect, ScaledCurrent};
 use rmd_rig::{AnyBus, AnyClock, Placement, Rig, SimTime, sim};
 use rmd_ros2::msg::{self, RosMessage};
 use rmd_ros2::servo::{LoopFeed, ServoPort};
@@ -90,7 +90,7 @@ struct Tap {
 impl CanBus for Tap {
     fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
         let result = self.inner.send(frame);
-        if let Ok(DecodedRequest::Multi(m)) = decode_request(frame) {
+        if let Ok(DecodedRequest::Multi(m)) = Dialect::V161.decode_request(frame) {
             let raw = m.iq_control[0].raw();
             if self.last != Some(raw) {
                 self.last = Some(raw);

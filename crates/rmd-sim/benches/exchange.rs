@@ -12,7 +12,7 @@ use rmd_protocol::{IqControl, MultiTorque};
 use rmd_sim::{SimBus, SimConfig, SimMotors};
 
 fn exchange(c: &mut Criterion) {
-    let frame = MultiTorque::new([IqControl::new(40).unwrap(); 4]).encode();
+    let frame = MultiTorque::new([IqControl::new(40).unwrap().into(); 4]).encode();
 
     let clock = VirtualClock::new();
     let mut bus = SimBus::new(clock.clone(), SimConfig::with_motors(4).instant()).unwrap();

@@ -53,17 +53,17 @@ pub struct BusStats {
 /// ```
 /// use core::time::Duration;
 /// use rmd_bus::{BusMessage, CanBus, Clock, VirtualClock};
-/// use rmd_protocol::{IqControl, MultiTorque, decode_reply};
+/// use rmd_protocol::{Dialect, IqControl, MultiTorque};
 /// use rmd_sim::{SimBus, SimConfig};
 ///
 /// let clock = VirtualClock::new();
 /// let mut bus = SimBus::new(clock.clone(), SimConfig::with_motors(4))?;
-/// bus.send(&MultiTorque::new([IqControl::from_amps(1.0).unwrap(); 4]).encode()).unwrap();
+/// bus.send(&MultiTorque::new([IqControl::from_amps(1.0).unwrap().into(); 4]).encode()).unwrap();
 /// let deadline = clock.now() + Duration::from_millis(1);
 /// let mut replies = 0;
 /// while let Some(rx) = bus.recv_until(deadline).unwrap() {
 ///     if let BusMessage::Frame(frame) = rx.message {
-///         let (motor, _reply) = decode_reply(&frame).unwrap();
+///         let (motor, _reply) = Dialect::V161.decode_reply(&frame).unwrap();
 ///         replies += 1;
 ///         assert_eq!(motor.get(), replies);
 ///     }

@@ -2,7 +2,10 @@
 
 use core::time::Duration;
 
-use rmd_protocol::{Accel, EncoderValue, EncoderWidth, MotorId, PidParams};
+use rmd_protocol::{
+    Accel, Dialect, EncoderValue, EncoderWidth, FirmwareDate, MotorId, MotorMaxTorque, PidParams,
+    V3Firmware,
+};
 
 use crate::error::ConfigError;
 use crate::family::{FirmwareFamily, FirmwareTraps};
@@ -22,6 +25,61 @@ pub enum ClearErrorReply {
     Echo,
     /// DATA\[0\] = 0x9A, as the spec's table shows.
     Status1Code,
+}
+
+/// What a MyActuator V3 firmware knows beyond v1.61's settings (used by
+/// [`FirmwareFamily::MyActuatorV3`] motors only).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct V3Params {
+    /// The version date 0xB2 reports; it decides the V4.3 / V4.4 layouts and motion-mode
+    /// ranges ([`FirmwareDate::revision`]). Default 2025070202, the firmware reported from real
+    /// X4-64 and X4-36 motors (github.com/2b-t/myactuator_rmd issues 24 and 28): V4.3.
+    pub firmware_date: FirmwareDate,
+    /// The model string 0xB5 reports, up to 15 ASCII characters (NUL-padded): the V4.3 form
+    /// answers the first 7, the V4.4 form 5 per index. Default `RMD-SIM`.
+    pub model: [u8; 15],
+    /// The maximum torque at the output, N·m: the motion-mode torque range of V4.4 firmware.
+    /// Default 24 N·m `[estimate]` (the V4.3 range).
+    pub max_torque_nm: f64,
+    /// The rated current, A: `maxTorque` of 0xA2 is a percentage of it. Default 4.3 A (the
+    /// X8 V2 of the default motor, `[X8V2]` in `params`).
+    pub rated_current_a: f64,
+    /// Whether a holding brake is fitted: it is locked at power-up and after a watchdog trip,
+    /// and holds the rotor until 0x77 releases it ("this command cannot open the brake
+    /// directly", V4.4 §2.18). Without one, 0x77 / 0x78 only change the state 0x9A reports.
+    /// Default false.
+    pub has_brake: bool,
+    /// How long the motor is unreachable after 0x76 (system reset) before it runs as after a
+    /// power-up. Default 1.12 s, measured by github.com/almond-bot/axol (`myactuator.py`,
+    /// "Measured reboot time is ~1.12s").
+    pub reboot_time: Duration,
+}
+
+/// The default V3 model string.
+const SIM_MODEL: [u8; 15] = *b"RMD-SIM\0\0\0\0\0\0\0\0";
+
+impl Default for V3Params {
+    fn default() -> Self {
+        Self {
+            firmware_date: FirmwareDate::from_raw(2_025_070_202),
+            model: SIM_MODEL,
+            max_torque_nm: 24.0,
+            rated_current_a: 4.3,
+            has_brake: false,
+            reboot_time: Duration::from_millis(1120),
+        }
+    }
+}
+
+impl V3Params {
+    /// The firmware as the codec needs it (date and maximum torque).
+    pub fn firmware(&self) -> V3Firmware {
+        let firmware = V3Firmware::dated(self.firmware_date);
+        match MotorMaxTorque::from_nm(self.max_torque_nm) {
+            Ok(max) => firmware.with_max_torque(max),
+            Err(_) => firmware,
+        }
+    }
 }
 
 /// The firmware's settings: what the manufacturer's configuration tool ("host computer") sets
@@ -67,6 +125,8 @@ pub struct FirmwareParams {
     pub clear_error_reply: ClearErrorReply,
     /// The protocol family the firmware speaks. Default v1.61.
     pub family: FirmwareFamily,
+    /// What a MyActuator V3 firmware adds (date, model, brake, reboot time).
+    pub v3: V3Params,
     /// Firmware-state traps reported from real motors. Default: none.
     pub traps: FirmwareTraps,
     /// Replies leave in the order the requests came: a reply held back (a late-reply fault)
@@ -98,6 +158,7 @@ impl Default for FirmwareParams {
             over_temperature_hysteresis_c: 5.0,
             clear_error_reply: ClearErrorReply::Echo,
             family: FirmwareFamily::V161,
+            v3: V3Params::default(),
             traps: FirmwareTraps::default(),
             in_order_replies: true,
         }
@@ -105,6 +166,33 @@ impl Default for FirmwareParams {
 }
 
 impl FirmwareParams {
+    /// Makes the firmware speak `dialect`: its family, and for MyActuator V3 its firmware date
+    /// and maximum torque when the dialect knows them.
+    ///
+    /// ```
+    /// use rmd_protocol::{Dialect, FirmwareDate, V3Firmware};
+    /// use rmd_sim::{FirmwareFamily, FirmwareParams};
+    /// let mut firmware = FirmwareParams::default();
+    /// firmware.speak(Dialect::MyActuatorV3(V3Firmware::dated(FirmwareDate::from_raw(2026042402))));
+    /// assert_eq!(firmware.family, FirmwareFamily::MyActuatorV3);
+    /// assert_eq!(firmware.v3.firmware_date.raw(), 2026042402);
+    /// ```
+    pub fn speak(&mut self, dialect: Dialect) {
+        self.family = match dialect {
+            Dialect::V161 => FirmwareFamily::V161,
+            Dialect::LkV23x(series) => FirmwareFamily::LkV23x(series),
+            Dialect::MyActuatorV3(firmware) => {
+                if let Some(date) = firmware.date {
+                    self.v3.firmware_date = date;
+                }
+                if let Some(max) = firmware.max_torque {
+                    self.v3.max_torque_nm = max.nm();
+                }
+                FirmwareFamily::MyActuatorV3
+            }
+        };
+    }
+
     /// Checks every value is meaningful.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.encoder_offset.check(self.encoder_width).map_err(|_| {
@@ -131,6 +219,14 @@ impl FirmwareParams {
             "firmware.over_temperature_hysteresis_c",
             self.over_temperature_hysteresis_c,
         )?;
+        if !(self.v3.max_torque_nm.is_finite() && self.v3.max_torque_nm > 0.0) {
+            return Err(ConfigError::InvalidParameter {
+                name: "firmware.v3.max_torque_nm",
+                value: self.v3.max_torque_nm,
+                expected: "a positive number",
+            });
+        }
+        non_negative("firmware.v3.rated_current_a", self.v3.rated_current_a)?;
         if !self.over_temperature_threshold_c.is_finite() {
             return Err(ConfigError::InvalidParameter {
                 name: "firmware.over_temperature_threshold_c",

@@ -28,8 +28,10 @@ pub enum FirmwareFamily {
     /// LK-TECH V2.3x for a motor of the given series (the LK status-1 layout, the series' current
     /// scale, LK's motor off / run states, the u32 single-turn angle).
     LkV23x(LkSeries),
-    /// MyActuator V3: replies on `0x240 + id`, 0.01 A per LSB, 0x280 as a command byte for every
-    /// motor (a subset of commands: see the `firmware` module).
+    /// MyActuator V3: replies on `0x240 + id`, 0.01 A per LSB, the output shaft's speeds and
+    /// angles, 0x280 as a command for every motor, the motion mode, the watchdog, the brake
+    /// (see the `firmware` module; its firmware date and model are
+    /// [`V3Params`](crate::V3Params)).
     MyActuatorV3,
 }
 
@@ -132,6 +134,7 @@ impl CommandSet {
 ///     motor_off_clears_turns: true,
 ///     unanswered: CommandSet::of(&[0x9D]),
 ///     motion_ignored_after_run: Duration::from_millis(20),
+///     stale_reply_to_unknown: true,
 /// };
 /// assert!(!FirmwareTraps::default().any());
 /// assert!(traps.any());
@@ -154,6 +157,11 @@ pub struct FirmwareTraps {
     /// within this time are answered but not obeyed. Reported from real motors in issue 14; no
     /// public document describes it. Default zero (off).
     pub motion_ignored_after_run: Duration,
+    /// MyActuator V3: a command byte the firmware does not know is answered with the motor's
+    /// previous reply, as it was. github.com/2b-t/myactuator_rmd issue 24: an X4-64 on firmware
+    /// 2025070202 answered a 0x79 request with a stale 0xB2 reply (a host must match the
+    /// command byte, not only the identifier). Default off (the frame is ignored).
+    pub stale_reply_to_unknown: bool,
 }
 
 impl FirmwareTraps {
@@ -162,6 +170,7 @@ impl FirmwareTraps {
         self.motor_off_clears_turns
             || !self.unanswered.is_empty()
             || !self.motion_ignored_after_run.is_zero()
+            || self.stale_reply_to_unknown
     }
 }
 

@@ -28,16 +28,19 @@
 //!   supply back above threshold + hysteresis, the winding back below threshold - hysteresis.
 //! - **Replies** carry the state sampled at the last control-loop step before the request.
 //! - **Other firmware.** A motor whose [`FirmwareParams::family`] is LK-TECH V2.3x runs this
-//!   firmware with LK's layouts, scales and off state; a MyActuator V3 motor answers a subset of
-//!   V3's commands on `0x240 + id` (see `docs/simulator.md`, "Other firmware and firmware traps",
-//!   for the exact lists and their sources). [`FirmwareParams::traps`] adds the firmware-state
-//!   traps reported from real motors, each off by default.
+//!   firmware with LK's layouts, scales and off state (`lk`); a MyActuator V3 motor speaks V3
+//!   (`v3`: its commands, the output shaft's units, the motion mode, the watchdog, the brake,
+//!   reset; see `docs/simulator.md`, "Other firmware and firmware traps", for the exact lists and
+//!   their sources). Every reply is built in the motor's [`Dialect`] and encoded by the codec.
+//!   [`FirmwareParams::traps`] adds the firmware-state traps reported from real motors, each off
+//!   by default.
 
 use core::f64::consts::PI;
 
 use rmd_protocol::{
-    Accel, CircleAngle, ErrorState, Iq, MotorAngle, PhaseCurrent, PidParams, Reply, Request, Speed,
-    SpinDirection, Status1, Status2, Status3, Temperature, Voltage,
+    Accel, CircleAngle, Dialect, ErrorState, MotorAngle, PhaseCurrent, PidParams, Reply, Request,
+    ScaledCurrent, Speed, SpinDirection, Status1, Status2, Status3, StatusPosition, Temperature,
+    V161Status1, Voltage,
 };
 
 use crate::config::{ClearErrorReply, FirmwareParams};
@@ -53,6 +56,7 @@ mod lk;
 mod v3;
 
 pub use v3::SIM_V3_MODEL;
+pub(crate) use v3::V3State;
 
 const DEG: f64 = PI / 180.0;
 
@@ -77,6 +81,20 @@ pub enum ControlMode {
         target_deg: f64,
         /// Speed limit, dps.
         max_speed_dps: f64,
+    },
+    /// MyActuator V3's motion mode: `IqRef = [kp (p_des - p) + kd (v_des - v) + t_ff] / KT_OUT`,
+    /// every quantity at the output shaft (V4.4 §4.1).
+    Motion {
+        /// `p_des`, output rad.
+        position_rad: f64,
+        /// `v_des`, output rad/s.
+        velocity_rad_s: f64,
+        /// `kp`, N·m per rad.
+        kp: f64,
+        /// `kd`, N·m per rad/s.
+        kd: f64,
+        /// `t_ff`, output N·m.
+        torque_nm: f64,
     },
 }
 
@@ -110,6 +128,10 @@ pub(crate) struct Firmware {
     /// Control commands of the request being handled are answered but not obeyed (the
     /// "motion ignored after 0x88" trap; set by the motor for one request).
     ignore_motion: bool,
+    /// The torque-current limit of the current command (V3 0xA2's `maxTorque`), A.
+    command_limit_a: Option<f64>,
+    /// MyActuator V3's own state (brake, watchdog, function settings).
+    pub(crate) v3: V3State,
 }
 
 impl Firmware {
@@ -139,6 +161,8 @@ impl Firmware {
                 / plant.params().torque_constant_nm_per_a,
             lk_off: false,
             ignore_motion: false,
+            command_limit_a: None,
+            v3: V3State::new(&params.v3),
         };
         fw.power_up(plant);
         fw
@@ -155,6 +179,8 @@ impl Firmware {
         self.loops = LoopState::default();
         self.errors = ErrorState::NONE;
         self.lk_off = false;
+        self.command_limit_a = None;
+        self.v3.power_up(&self.params.v3);
         self.restart_turn_count(plant);
         self.supervise(plant);
     }
@@ -169,6 +195,15 @@ impl Firmware {
     /// The firmware family.
     pub(crate) fn family(&self) -> FirmwareFamily {
         self.params.family
+    }
+
+    /// The dialect it speaks.
+    pub(crate) fn dialect(&self) -> Dialect {
+        match self.params.family {
+            FirmwareFamily::V161 => Dialect::V161,
+            FirmwareFamily::LkV23x(series) => Dialect::LkV23x(series),
+            FirmwareFamily::MyActuatorV3 => Dialect::MyActuatorV3(self.params.v3.firmware()),
+        }
     }
 
     /// The traps set.
@@ -208,7 +243,10 @@ impl Firmware {
 
     /// Whether the power stage is driven.
     pub(crate) fn output_enabled(&self) -> bool {
-        !self.stopped && self.errors.is_clear() && self.mode != ControlMode::Off
+        !self.stopped
+            && self.errors.is_clear()
+            && self.mode != ControlMode::Off
+            && !self.v3.holds_output(&self.params.v3)
     }
 
     /// Whether the firmware applies, or is commanded to apply, torque: its output is enabled
@@ -249,21 +287,34 @@ impl Firmware {
         self.encoder_counts(plant) * 36_000 / self.encoder.counts()
     }
 
+    /// Status 1 in the family's layout.
     fn status1(&self, plant: &Plant) -> Status1 {
-        Status1 {
-            temperature: temperature(plant),
-            voltage: Voltage::from_volts_saturating(plant.state().bus_voltage_v),
-            error_state: self.errors,
+        match self.params.family {
+            FirmwareFamily::V161 => Status1::V161(V161Status1 {
+                temperature: temperature(plant),
+                voltage: Voltage::from_volts_saturating(plant.state().bus_voltage_v),
+                error_state: self.errors,
+            }),
+            FirmwareFamily::LkV23x(_) => Status1::Lk(self.lk_status1(plant)),
+            FirmwareFamily::MyActuatorV3 => Status1::V3(self.v3_status1(plant)),
         }
     }
 
+    /// Status 2 in the family's scale and units: the motor's speed and encoder (v1.61,
+    /// LK-TECH), the output shaft's speed and angle (V3).
     fn status2(&self, plant: &Plant) -> Status2 {
         let s = plant.state();
-        Status2 {
-            temperature: temperature(plant),
-            iq: Iq::from_amps_saturating(s.current_a),
-            speed: Speed::from_dps_saturating(s.motor_speed_rad_s / DEG),
-            encoder: self.encoder.wire_value(self.encoder_counts(plant)),
+        let iq = ScaledCurrent::from_amps_saturating(s.current_a, self.dialect().iq_scale());
+        match self.params.family {
+            FirmwareFamily::MyActuatorV3 => self.v3_status2(plant, iq),
+            FirmwareFamily::V161 | FirmwareFamily::LkV23x(_) => Status2 {
+                temperature: temperature(plant),
+                iq,
+                speed: Speed::from_dps_saturating(s.motor_speed_rad_s / DEG),
+                position: StatusPosition::Encoder(
+                    self.encoder.wire_value(self.encoder_counts(plant)),
+                ),
+            },
         }
     }
 
@@ -282,9 +333,31 @@ impl Firmware {
 
     // ---- Commands --------------------------------------------------------------------------
 
-    /// Handles one request at the plant's current state. `None`: the request is not valid for
-    /// this motor (an encoder offset beyond its encoder width) and is ignored, unanswered.
+    /// Handles one request (decoded in this motor's dialect) at the plant's current state.
+    /// `None`: the request is not valid for this motor (an encoder offset beyond its encoder
+    /// width) and is ignored, unanswered; or it is not answered (V3's 0x76).
     pub(crate) fn handle(&mut self, request: &Request, plant: &Plant) -> Option<Reply> {
+        if let FirmwareFamily::MyActuatorV3 = self.params.family
+            && let Some(reply) = self.handle_v3(request, plant)
+        {
+            return reply;
+        }
+        if let FirmwareFamily::LkV23x(_) = self.params.family
+            && *request == Request::MotorRun
+        {
+            self.lk_off = false;
+        }
+        let reply = self.handle_common(request, plant);
+        if let FirmwareFamily::LkV23x(_) = self.params.family
+            && *request == Request::MotorOff
+        {
+            self.lk_off = true;
+        }
+        reply
+    }
+
+    /// The commands every family shares, with the family's layouts.
+    fn handle_common(&mut self, request: &Request, plant: &Plant) -> Option<Reply> {
         Some(match *request {
             Request::ReadPid => Reply::ReadPid(self.ram.pid),
             Request::WritePidRam(pid) => {
@@ -327,8 +400,11 @@ impl Firmware {
             Request::ReadMultiTurnAngle => Reply::ReadMultiTurnAngle {
                 motor_angle: MotorAngle::saturating(self.motor_angle_centideg(plant)),
             },
-            Request::ReadSingleTurnAngle => Reply::ReadSingleTurnAngle {
-                circle_angle: CircleAngle::saturating(self.circle_angle_centideg(plant)),
+            Request::ReadSingleTurnAngle => match self.params.family {
+                FirmwareFamily::LkV23x(_) => self.lk_single_turn_angle(plant),
+                _ => Reply::ReadSingleTurnAngle {
+                    circle_angle: CircleAngle::saturating(self.circle_angle_centideg(plant)),
+                },
             },
             Request::ReadStatus1 => Reply::ReadStatus1(self.status1(plant)),
             Request::ClearError => {
@@ -361,26 +437,8 @@ impl Firmware {
                 }
                 Reply::MotorRun
             }
-            Request::Torque { iq_control } => {
-                let reply = Reply::Torque(self.status2(plant));
-                self.command(
-                    ControlMode::Torque {
-                        current_a: iq_control.amps(),
-                    },
-                    plant,
-                );
-                reply
-            }
-            Request::Speed { speed_control } => {
-                let reply = Reply::Speed(self.status2(plant));
-                self.command(
-                    ControlMode::Speed {
-                        target_dps: speed_control.dps(),
-                    },
-                    plant,
-                );
-                reply
-            }
+            Request::Torque { iq_control } => self.torque(iq_control, plant),
+            Request::Speed { speed_control, .. } => self.speed(speed_control.dps(), plant),
             Request::Position1 { angle_control } => {
                 let reply = Reply::Position1(self.status2(plant));
                 let target = self.clamp_to_max_angle(angle_control.degrees());
@@ -390,12 +448,7 @@ impl Firmware {
             Request::Position2 {
                 max_speed,
                 angle_control,
-            } => {
-                let reply = Reply::Position2(self.status2(plant));
-                let target = self.clamp_to_max_angle(angle_control.degrees());
-                self.command(self.position(target, max_speed.dps()), plant);
-                reply
-            }
+            } => self.position_2(angle_control.degrees(), max_speed.dps(), plant),
             Request::Position3 {
                 spin_direction,
                 angle_control,
@@ -415,7 +468,51 @@ impl Firmware {
                 self.command(self.position(target, max_speed.dps()), plant);
                 reply
             }
+            // MyActuator V3's own commands are handled by `handle_v3`.
+            Request::ReadFirmwareDate
+            | Request::ReadModel { .. }
+            | Request::SetWatchdog { .. }
+            | Request::FunctionControl(_)
+            | Request::Reset
+            | Request::BrakeRelease
+            | Request::BrakeLock => return None,
         })
+    }
+
+    /// A speed command (0xA2) to `target_dps` at the motor: the status-2 reply sampled before
+    /// the command, then the command.
+    pub(super) fn speed(&mut self, target_dps: f64, plant: &Plant) -> Reply {
+        let reply = Reply::Speed(self.status2(plant));
+        self.command(ControlMode::Speed { target_dps }, plant);
+        reply
+    }
+
+    /// A position command with a speed limit (0xA4) to `target_deg` at the motor (within the
+    /// maximum angle) at up to `max_speed_dps`: the status-2 reply sampled before the command,
+    /// then the command.
+    pub(super) fn position_2(
+        &mut self,
+        target_deg: f64,
+        max_speed_dps: f64,
+        plant: &Plant,
+    ) -> Reply {
+        let reply = Reply::Position2(self.status2(plant));
+        let target = self.clamp_to_max_angle(target_deg);
+        self.command(self.position(target, max_speed_dps), plant);
+        reply
+    }
+
+    /// A torque command (0xA1, or this motor's slot of a 0x280 frame): the status-2 reply
+    /// sampled before the command, then the command.
+    pub(crate) fn torque(&mut self, iq_control: ScaledCurrent, plant: &Plant) -> Reply {
+        let reply = Reply::Torque(self.status2(plant));
+        self.command(
+            ControlMode::Torque {
+                current_a: iq_control.amps(),
+            },
+            plant,
+        );
+        reply
     }
 
     fn position(&self, target_deg: f64, max_speed_dps: f64) -> ControlMode {
@@ -450,6 +547,7 @@ impl Firmware {
         if !self.errors.is_clear() || self.lk_off || self.ignore_motion {
             return;
         }
+        self.command_limit_a = None;
         let same_kind = core::mem::discriminant(&mode) == core::mem::discriminant(&self.mode);
         if !same_kind || self.stopped {
             self.loops = self.bumpless_start(mode, plant);
@@ -498,8 +596,15 @@ impl Firmware {
         causes
     }
 
-    /// Raises the flags whose cause is present; a new flag turns the motor off.
+    /// Raises the flags whose cause is present; a new flag turns the motor off. A V3 motor's
+    /// flags of these two kinds clear themselves once their cause is gone (undervoltage and
+    /// motor over-temperature are "level 2", auto-recovering errors: V4.4 §2.13, §7); v1.61 and
+    /// LK-TECH flags latch until 0x9B.
     pub(crate) fn supervise(&mut self, plant: &Plant) {
+        if let FirmwareFamily::MyActuatorV3 = self.params.family {
+            let persisting = self.causes(plant, true);
+            self.errors = ErrorState::from_raw(self.errors.raw() & persisting.raw());
+        }
         let causes = self.causes(plant, false);
         let raised = causes.raw() & !self.errors.raw();
         if raised != 0 {
@@ -525,7 +630,11 @@ impl Firmware {
         } else {
             f64::INFINITY
         };
-        let limit = self.params.max_torque_current_a.min(max_current_a);
+        let limit = self
+            .params
+            .max_torque_current_a
+            .min(max_current_a)
+            .min(self.command_limit_a.unwrap_or(f64::INFINITY));
         let current_ref_a = match self.mode {
             ControlMode::Off => 0.0,
             ControlMode::Torque { current_a } => current_a,
@@ -576,6 +685,20 @@ impl Firmware {
                     dt,
                 );
                 (feedback + feedforward).clamp(-limit, limit)
+            }
+            ControlMode::Motion {
+                position_rad,
+                velocity_rad_s,
+                kp,
+                kd,
+                torque_nm,
+            } => {
+                let ratio = plant.params().gear_ratio;
+                let kt_out = plant.params().torque_constant_nm_per_a * ratio;
+                let p = self.position_rad(plant) / ratio;
+                let v = speed / ratio;
+                let torque = kp * (position_rad - p) + kd * (velocity_rad_s - v) + torque_nm;
+                (torque / kt_out).clamp(-max_current_a, max_current_a)
             }
         };
         Drive::Current {

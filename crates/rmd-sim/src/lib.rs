@@ -24,7 +24,7 @@
 //! ```
 //! use core::time::Duration;
 //! use rmd_bus::{CanBus, Clock, VirtualClock};
-//! use rmd_protocol::{Command, MotorId, Request, decode_reply};
+//! use rmd_protocol::{Command, Dialect, MotorId, Request};
 //! use rmd_sim::{FaultKind, FaultRule, SimBus, SimConfig};
 //!
 //! let clock = VirtualClock::new();
@@ -33,10 +33,10 @@
 //!     .fault(FaultRule::new(FaultKind::DropReply).command(Command::ReadStatus1).with_probability(0.5));
 //! let mut bus = SimBus::new(clock.clone(), config)?;
 //! let m1 = MotorId::new(1).unwrap();
-//! bus.send(&Request::ReadStatus2.encode(m1)).unwrap();
+//! bus.send(&Dialect::V161.encode(m1, &Request::ReadStatus2).unwrap()).unwrap();
 //! let rx = bus.recv_until(clock.now() + Duration::from_millis(1)).unwrap().unwrap();
 //! # let rmd_bus::BusMessage::Frame(frame) = rx.message else { panic!() };
-//! let (motor, reply) = decode_reply(&frame).unwrap();
+//! let (motor, reply) = Dialect::V161.decode_reply(&frame).unwrap();
 //! assert_eq!(motor, m1);
 //! assert_eq!(reply.status2().unwrap().temperature.celsius(), 25.0);
 //! # Ok::<(), rmd_sim::ConfigError>(())
@@ -60,7 +60,7 @@ pub mod threaded;
 pub mod wire;
 
 pub use bus::{BusStats, SimBus};
-pub use config::{BusConfig, ClearErrorReply, FirmwareParams, MotorConfig, SimConfig};
+pub use config::{BusConfig, ClearErrorReply, FirmwareParams, MotorConfig, SimConfig, V3Params};
 pub use error::ConfigError;
 pub use family::{CommandSet, FirmwareFamily, FirmwareTraps};
 pub use fault::{FaultKind, FaultRule, FrameFilter, MotorSet, Window};

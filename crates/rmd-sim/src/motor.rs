@@ -5,7 +5,7 @@ use core::time::Duration;
 use rand_pcg::Pcg64Mcg;
 use rand_pcg::rand_core::Rng;
 use rmd_bus::Timestamp;
-use rmd_protocol::{CanFrame, Dialect, ErrorState, IqControl, MotorId, PidParams, Request};
+use rmd_protocol::{CanFrame, Dialect, ErrorState, MotorId, PidParams};
 
 use crate::config::MotorConfig;
 use crate::error::ConfigError;
@@ -52,6 +52,13 @@ pub struct MotorSnapshot {
     pub energising: bool,
     /// Since when it has not (see [`SimMotor::safe_since`]).
     pub safe_since: Option<Timestamp>,
+    /// MyActuator V3: the brake is locked (0x78, a watchdog trip, power-up with a brake).
+    pub brake_locked: bool,
+    /// MyActuator V3: the communication-interruption protection has tripped and communication
+    /// has not been re-established.
+    pub watchdog_tripped: bool,
+    /// MyActuator V3: rebooting after 0x76 (deaf until it has).
+    pub rebooting: bool,
 }
 
 /// Counters of one motor.
@@ -65,6 +72,12 @@ pub struct MotorStats {
     pub silenced: u64,
     /// Replies suppressed by a drop fault.
     pub dropped_replies: u64,
+    /// MyActuator V3: times the communication-interruption protection tripped.
+    pub watchdog_trips: u64,
+    /// MyActuator V3: frames echoed but not executed, the first after a watchdog trip.
+    pub echoed_after_trip: u64,
+    /// MyActuator V3: frames unheard while rebooting after 0x76.
+    pub unheard_while_rebooting: u64,
 }
 
 /// Counters of the firmware-state traps of one motor (see
@@ -75,6 +88,8 @@ pub struct TrapStats {
     pub unanswered: u64,
     /// Motion commands answered but not obeyed after 0x88 (`motion_ignored_after_run`).
     pub ignored_motion: u64,
+    /// Unknown commands answered with the previous reply (`stale_reply_to_unknown`).
+    pub stale_replies: u64,
 }
 
 /// One simulated motor.
@@ -95,6 +110,16 @@ pub struct SimMotor {
     safe_since: Option<Timestamp>,
     /// When this motor's newest reply is scheduled (replies leave in order).
     last_reply_at: Timestamp,
+    /// Its last reply (what V3 firmware repeats to a command it does not know).
+    last_reply: Option<CanFrame>,
+    /// MyActuator V3: when the last frame addressed to it arrived (the watchdog's reference).
+    last_heard: Option<Timestamp>,
+    /// MyActuator V3: when the watchdog tripped, until communication is re-established.
+    tripped_at: Option<Timestamp>,
+    /// MyActuator V3: the first frame after a trip (echoed, not executed).
+    first_after_trip: Option<Timestamp>,
+    /// MyActuator V3: deaf until this time (rebooting after 0x76).
+    rebooting_until: Option<Timestamp>,
 }
 
 impl SimMotor {
@@ -122,12 +147,22 @@ impl SimMotor {
             run_at: None,
             safe_since: Some(start),
             last_reply_at: Timestamp::ZERO,
+            last_reply: None,
+            last_heard: None,
+            tripped_at: None,
+            first_after_trip: None,
+            rebooting_until: None,
         })
     }
 
     /// Its firmware family.
     pub fn family(&self) -> FirmwareFamily {
         self.firmware.family()
+    }
+
+    /// The dialect its firmware speaks (for V3: with its firmware date and maximum torque).
+    pub fn dialect(&self) -> Dialect {
+        self.firmware.dialect()
     }
 
     /// Its trap counters.
@@ -213,6 +248,52 @@ impl SimMotor {
             pid_rom: self.firmware.pid_rom(),
             energising: self.firmware.energising(),
             safe_since: self.safe_since,
+            brake_locked: self.firmware.v3.brake_locked,
+            watchdog_tripped: self.tripped_at.is_some(),
+            rebooting: self.rebooting_until.is_some(),
+        }
+    }
+
+    /// MyActuator V3: whether it receives 0x280 frames (not with the CAN ID filter on, V4.4
+    /// §2.36).
+    pub(crate) fn hears_broadcasts(&self) -> bool {
+        !self.firmware.v3.can_id_filter
+    }
+
+    /// The next time a V3 timer fires by itself: the end of a reboot, the watchdog's deadline.
+    fn next_timer(&self) -> Option<Timestamp> {
+        let watchdog = self.firmware.v3.watchdog;
+        let deadline = match (self.last_heard, self.tripped_at) {
+            (Some(heard), None) if !watchdog.is_off() => {
+                Some(heard + Duration::from_millis(u64::from(watchdog.millis())))
+            }
+            _ => None,
+        };
+        match (self.rebooting_until, deadline) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// Fires the V3 timers due by the state's time: the reboot ends (the firmware runs as
+    /// after a power-up), the watchdog trips ("the drive cuts off the output and locks the
+    /// brake", V4.4 §2.32) when no frame came for longer than the protection time.
+    fn fire_timers(&mut self) {
+        if let Some(until) = self.rebooting_until
+            && self.time >= until
+        {
+            self.rebooting_until = None;
+            self.firmware.power_up(&self.plant);
+            self.last_heard = None;
+        }
+        let watchdog = self.firmware.v3.watchdog;
+        if let (Some(heard), None, false) = (self.last_heard, self.tripped_at, watchdog.is_off())
+            && self.time > heard + Duration::from_millis(u64::from(watchdog.millis()))
+        {
+            self.firmware.watchdog_trip();
+            self.tripped_at = Some(self.time);
+            self.first_after_trip = None;
+            self.stats.watchdog_trips += 1;
         }
     }
 
@@ -221,12 +302,20 @@ impl SimMotor {
         let id = self.config.id;
         let max_current = self.plant.params().max_current_a;
         while t.as_nanos() >= self.time.as_nanos() + SUBSTEP_NS {
+            self.fire_timers();
             let env = faults.environment(id, self.time);
             if !self.firmware.output_enabled() && self.plant.is_quiescent() {
-                // Nothing moves: cool down in closed form up to `t` or the next change of the
-                // environment, whichever comes first.
+                // Nothing moves: cool down in closed form up to `t`, the next change of the
+                // environment or the next timer, whichever comes first.
                 let whole = (t.as_nanos() - self.time.as_nanos()) / SUBSTEP_NS;
-                let steps = match faults.next_environment_change(id, self.time) {
+                let next = match (
+                    faults.next_environment_change(id, self.time),
+                    self.next_timer(),
+                ) {
+                    (Some(a), Some(b)) => Some(a.min(b)),
+                    (a, b) => a.or(b),
+                };
+                let steps = match next {
                     Some(change) if change < t => {
                         (change.as_nanos() - self.time.as_nanos()).div_ceil(SUBSTEP_NS)
                     }
@@ -247,44 +336,93 @@ impl SimMotor {
         }
     }
 
-    /// Handles a request received at `at` and returns the reply frame; `None` if the firmware
-    /// ignores it or does not answer it.
+    /// Handles a request received at `at` (in `frame`) and returns the reply frame; `None` if
+    /// the firmware ignores it or does not answer it.
+    ///
+    /// A MyActuator V3 motor whose watchdog has tripped echoes the first frame it then receives
+    /// without executing it; a second frame within the protection time re-establishes the
+    /// communication and is executed (2b-t/myactuator_rmd_ros PR 4, ioio2995, 2024-06-14: "The
+    /// first command received will not be considered, and it will return an echo of the 8 data
+    /// bytes. If the second command arrives within the time allowed, communication will
+    /// resume."). A V3 motor rebooting after 0x76 hears nothing.
     pub(crate) fn answer(
         &mut self,
         request: &MotorRequest,
+        frame: &CanFrame,
         at: Timestamp,
         faults: &FaultEngine,
     ) -> Option<CanFrame> {
         self.advance_to(at, faults);
+        let id = self.config.id;
+        let dialect = self.firmware.dialect();
+        if self.firmware.family() == FirmwareFamily::MyActuatorV3 {
+            if self.rebooting_until.is_some() {
+                self.stats.unheard_while_rebooting += 1;
+                return None;
+            }
+            self.last_heard = Some(at);
+            if self.tripped_at.is_some() {
+                let window = Duration::from_millis(u64::from(self.firmware.v3.watchdog.millis()));
+                match self.first_after_trip {
+                    Some(first) if at <= first + window => {
+                        self.tripped_at = None;
+                        self.first_after_trip = None;
+                    }
+                    _ => {
+                        self.first_after_trip = Some(at);
+                        self.stats.echoed_after_trip += 1;
+                        let reply_id = match request {
+                            MotorRequest::Mit(_) => 0x500 + u16::from(id.get()),
+                            _ => dialect.reply_id(id),
+                        };
+                        let data = frame.data8().copied().unwrap_or([0; 8]);
+                        return CanFrame::with_data(reply_id, data).ok();
+                    }
+                }
+            }
+        }
         let traps = self.firmware.traps();
         let window = traps.motion_ignored_after_run;
         let ignore = request.is_motion()
             && !window.is_zero()
             && self.run_at.is_some_and(|run| at < run + window);
         self.firmware.set_ignore_motion(ignore);
-        let id = self.config.id;
         let plant = &self.plant;
-        let frame = match (*request, self.firmware.family()) {
-            (MotorRequest::V161(r), _) => self.firmware.handle(&r, plant).map(|r| r.encode(id)),
-            (MotorRequest::Lk(r), FirmwareFamily::LkV23x(series)) => self
+        let reply = match *request {
+            MotorRequest::Single(r) => self
                 .firmware
-                .handle_lk(&r, series, plant)
-                .map(|r| r.encode(id)),
-            (MotorRequest::V3(r), _) => self.firmware.handle_v3(&r, plant).map(|r| r.encode(id)),
-            (MotorRequest::SlotTorque(iq), FirmwareFamily::V161) => IqControl::try_from(iq)
-                .ok()
-                .and_then(|iq_control| self.firmware.handle(&Request::Torque { iq_control }, plant))
-                .map(|r| r.encode(id)),
-            (MotorRequest::SlotTorque(iq), FirmwareFamily::LkV23x(series)) => Some(
-                self.firmware
-                    .lk_torque(iq, Dialect::LkV23x(series), plant)
-                    .encode(id),
-            ),
-            (MotorRequest::Lk(_) | MotorRequest::SlotTorque(_), _) => None,
+                .handle(&r, plant)
+                .and_then(|reply| dialect.encode_reply(id, &reply).ok()),
+            MotorRequest::SlotTorque(iq) => {
+                let reply = self.firmware.torque(iq, plant);
+                dialect.encode_reply(id, &reply).ok()
+            }
+            MotorRequest::Mit(command) => self
+                .firmware
+                .handle_mit(&command, plant)
+                .and_then(|feedback| dialect.encode_mit_reply(id, &feedback).ok()),
+            MotorRequest::Unknown { .. } if traps.stale_reply_to_unknown => {
+                if self.last_reply.is_some() {
+                    self.trap_stats.stale_replies += 1;
+                }
+                self.last_reply
+            }
+            MotorRequest::Unknown { .. } => None,
         };
         self.firmware.set_ignore_motion(false);
+        if self.firmware.v3.reset_requested {
+            // 0x76: no reply; the firmware restarts now and the motor is deaf until it has.
+            self.firmware.power_up(&self.plant);
+            self.rebooting_until = Some(at + self.config.firmware.v3.reboot_time);
+            self.last_heard = None;
+            self.tripped_at = None;
+            self.first_after_trip = None;
+            self.stats.requests += 1;
+            self.note_safety(at);
+            return None;
+        }
         self.note_safety(at);
-        let Some(frame) = frame else {
+        let Some(reply) = reply else {
             self.stats.invalid_requests += 1;
             return None;
         };
@@ -295,11 +433,15 @@ impl SimMotor {
         if request.is_run() {
             self.run_at = Some(at);
         }
-        if traps.unanswered.contains(request.command_byte()) {
+        self.last_reply = Some(reply);
+        if request
+            .command_byte()
+            .is_some_and(|code| traps.unanswered.contains(code))
+        {
             self.trap_stats.unanswered += 1;
             return None;
         }
-        Some(frame)
+        Some(reply)
     }
 
     /// A power cycle at `at` (RAM lost, ROM kept; the physical state is unchanged).

@@ -3,10 +3,8 @@
 //! CAN interface.
 
 use rmd_bus::Timestamp;
-use rmd_protocol::v3::V3Request;
 use rmd_protocol::{
-    CanFrame, DecodedRequest, Dialect, DialectRequest, LkSeries, MULTI_TORQUE_CAN_ID, MotorId,
-    ScaledMultiTorque, decode_request, decode_request_with,
+    CanFrame, DecodedRequest, Dialect, LkSeries, MULTI_TORQUE_CAN_ID, MotorId, MultiTorque, Request,
 };
 
 use crate::config::{MotorConfig, SimConfig, validate_motors};
@@ -96,7 +94,7 @@ impl ExactSizeIterator for Replies {}
 /// use rmd_sim::{SimConfig, SimMotors};
 ///
 /// let mut motors = SimMotors::new(&SimConfig::with_motors(4), Timestamp::ZERO)?;
-/// let frame = MultiTorque::new([IqControl::saturating(100); 4]).encode();
+/// let frame = MultiTorque::new([IqControl::saturating(100).into(); 4]).encode();
 /// let t = Timestamp::from_nanos(1_000_000);
 /// let replies: Vec<_> = motors.handle(&frame, t).collect();
 /// assert_eq!(replies.len(), 4);
@@ -146,7 +144,8 @@ impl SimMotors {
     /// ([`FirmwareParams::family`](crate::FirmwareParams::family)): a v1.61 or LK-TECH motor
     /// takes a 0x280 frame as four torque currents (its own scale; ids 1..=4 answer in ascending
     /// id order), a MyActuator V3 motor as a command byte in DATA\[0\] that every V3 motor on
-    /// the bus executes and answers on `0x240 + id`.
+    /// the bus executes and answers on `0x240 + id` (unless its CAN ID filter is on). A V3 motor
+    /// also takes its motion-mode frames on `0x400 + id`.
     ///
     /// Frames that are not valid requests (wrong DLC, unknown command byte, values out of
     /// range, an ID no motor here uses) are ignored, as the firmware would: no reply (counted
@@ -160,10 +159,18 @@ impl SimMotors {
         }
         let index = MotorId::from_can_id(frame.id())
             .ok()
+            .or_else(|| motion_motor(frame.id()))
             .and_then(|motor| self.index(motor));
-        let Some((index, request)) = index
-            .and_then(|i| MotorRequest::single(self.motors[i].family(), frame).map(|r| (i, r)))
-        else {
+        let request = index.and_then(|i| {
+            let v3 = self.motors[i].family() == FirmwareFamily::MyActuatorV3;
+            match MotorRequest::single(self.motors[i].dialect(), frame)? {
+                // Only V3 firmware has a use for a frame it does not know (the stale-reply
+                // trap, the watchdog hearing it); the others ignore it.
+                MotorRequest::Unknown { .. } if !v3 => None,
+                request => Some((i, request)),
+            }
+        });
+        let Some((index, request)) = request else {
             self.ignored_frames += 1;
             return out;
         };
@@ -174,9 +181,13 @@ impl SimMotors {
             sim.stats_mut().silenced += 1;
             return out;
         }
-        if let Some(reply) = sim.answer(&request, at, &self.faults) {
-            let ready = at + sim.turnaround();
-            emit(&mut out, sim, ready, reply, &faults);
+        match sim.answer(&request, frame, at, &self.faults) {
+            Some(reply) => {
+                let ready = at + sim.turnaround();
+                emit(&mut out, sim, ready, reply, &faults);
+            }
+            None if matches!(request, MotorRequest::Unknown { .. }) => self.ignored_frames += 1,
+            None => {}
         }
         out
     }
@@ -187,9 +198,7 @@ impl SimMotors {
         let readable = if self.motors.is_empty() {
             readings.v161.is_some()
         } else {
-            self.motors
-                .iter()
-                .any(|m| readings.can_be_read_by(m.family()))
+            self.motors.iter().any(|m| readings.can_be_read_by(m))
         };
         if !readable {
             self.ignored_frames += 1;
@@ -198,12 +207,11 @@ impl SimMotors {
         let mut previous = at;
         for index in 0..self.motors.len() {
             let motor = self.motors[index].id();
-            let family = self.motors[index].family();
-            let Some(request) = readings.request_for(family, motor) else {
+            let Some(request) = readings.request_for(&self.motors[index], motor) else {
                 continue;
             };
             let kind = match request {
-                MotorRequest::V3(_) => request.kind(),
+                MotorRequest::Single(_) => request.kind(),
                 _ => FrameKind::Multi,
             };
             let faults = self.faults.on_motor_frame(motor, kind, at);
@@ -212,7 +220,7 @@ impl SimMotors {
                 sim.stats_mut().silenced += 1;
                 continue;
             }
-            if let Some(reply) = sim.answer(&request, at, &self.faults) {
+            if let Some(reply) = sim.answer(&request, frame, at, &self.faults) {
                 // v1.61: motors 1..4 answer in ascending id order; V3: in the order bus
                 // arbitration gives, which for simultaneous replies is ascending id too.
                 let ready = (at + sim.turnaround()).max(previous);
@@ -282,30 +290,32 @@ impl SimMotors {
 
 /// A 0x280 frame as each family reads it.
 struct BroadcastReadings {
-    v161: Option<ScaledMultiTorque>,
-    lk_mf: Option<ScaledMultiTorque>,
-    lk_mg: Option<ScaledMultiTorque>,
-    v3: Option<V3Request>,
+    v161: Option<MultiTorque>,
+    lk_mf: Option<MultiTorque>,
+    lk_mg: Option<MultiTorque>,
+    /// The V3 reading (a request decodes alike in both manual revisions: 0xB5's form is in the
+    /// request itself).
+    v3: Option<Request>,
 }
 
 impl BroadcastReadings {
     fn of(frame: &CanFrame) -> Self {
-        let lk = |series| match decode_request_with(Dialect::LkV23x(series), frame) {
-            Ok(DialectRequest::MultiTorque(m)) => Some(m),
+        let torque = |dialect: Dialect| match dialect.decode_request(frame) {
+            Ok(DecodedRequest::Multi(m)) => Some(m),
             _ => None,
         };
         Self {
-            v161: match decode_request(frame) {
-                Ok(DecodedRequest::Multi(m)) => Some(m.into()),
+            v161: torque(Dialect::V161),
+            lk_mf: torque(Dialect::LkV23x(LkSeries::Mf)),
+            lk_mg: torque(Dialect::LkV23x(LkSeries::Mg)),
+            v3: match Dialect::MyActuatorV3(Default::default()).decode_request(frame) {
+                Ok(DecodedRequest::Broadcast(request)) => Some(request),
                 _ => None,
             },
-            lk_mf: lk(LkSeries::Mf),
-            lk_mg: lk(LkSeries::Mg),
-            v3: frame.data8().and_then(V3Request::from_data),
         }
     }
 
-    fn torque(&self, family: FirmwareFamily) -> Option<ScaledMultiTorque> {
+    fn torque(&self, family: FirmwareFamily) -> Option<MultiTorque> {
         match family {
             FirmwareFamily::V161 => self.v161,
             FirmwareFamily::LkV23x(LkSeries::Mf) => self.lk_mf,
@@ -314,21 +324,32 @@ impl BroadcastReadings {
         }
     }
 
-    fn can_be_read_by(&self, family: FirmwareFamily) -> bool {
-        match family {
-            FirmwareFamily::MyActuatorV3 => self.v3.is_some(),
+    fn can_be_read_by(&self, motor: &SimMotor) -> bool {
+        match motor.family() {
+            FirmwareFamily::MyActuatorV3 => self.v3.is_some() && motor.hears_broadcasts(),
             other => self.torque(other).is_some(),
         }
     }
 
-    fn request_for(&self, family: FirmwareFamily, motor: MotorId) -> Option<MotorRequest> {
-        match family {
-            FirmwareFamily::MyActuatorV3 => self.v3.map(MotorRequest::V3),
+    fn request_for(&self, sim: &SimMotor, motor: MotorId) -> Option<MotorRequest> {
+        match sim.family() {
+            FirmwareFamily::MyActuatorV3 if sim.hears_broadcasts() => {
+                self.v3.map(MotorRequest::Single)
+            }
+            FirmwareFamily::MyActuatorV3 => None,
             other => self
                 .torque(other)?
                 .iq_control_for(motor)
                 .map(MotorRequest::SlotTorque),
         }
+    }
+}
+
+/// The motor of a MyActuator V3 motion-mode identifier (`0x400 + id`).
+fn motion_motor(can_id: u16) -> Option<MotorId> {
+    match can_id.checked_sub(0x400) {
+        Some(n @ 1..=32) => MotorId::new(n as u8).ok(),
+        _ => None,
     }
 }
 
@@ -368,13 +389,13 @@ fn emit(
 ///
 /// Bus-fault rules classify host frames as v1.61 reads them, whatever the motors' families.
 pub(crate) fn classify(frame: &CanFrame) -> (FrameKind, Option<MotorSet>) {
-    match decode_request(frame) {
+    match Dialect::V161.decode_request(frame) {
         Ok(DecodedRequest::Single { motor, request }) => (
             FrameKind::Single(request.command()),
             Some(MotorSet::only(motor)),
         ),
         Ok(DecodedRequest::Multi(_)) => (FrameKind::Multi, Some(MotorSet::MULTI_TORQUE)),
-        Err(_) => (
+        Ok(DecodedRequest::Broadcast(_) | DecodedRequest::Mit { .. }) | Err(_) => (
             FrameKind::Other,
             MotorId::from_can_id(frame.id()).ok().map(MotorSet::only),
         ),

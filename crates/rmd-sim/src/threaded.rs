@@ -34,7 +34,7 @@
 //! let bus = SimBus::new(MonotonicClock, SimConfig::with_motors(4))?;
 //! let (sim, mut ports) = ThreadedSim::spawn(bus, &ThreadOptions::default(), || {})?;
 //! let port = &mut ports[0];
-//! port.send(&MultiTorque::new([IqControl::from_amps(0.5).unwrap(); 4]).encode())?;
+//! port.send(&MultiTorque::new([IqControl::from_amps(0.5).unwrap().into(); 4]).encode())?;
 //! let deadline = MonotonicClock.now() + Duration::from_millis(50);
 //! let mut replies = 0;
 //! while replies < 4 && let Some(rx) = port.recv_until(deadline)? {

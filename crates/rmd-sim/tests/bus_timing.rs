@@ -8,17 +8,17 @@ use core::time::Duration;
 use common::*;
 use rmd_bus::wire::{INTERFRAME_BITS, bits_to_duration, exchange_budget, frame_duration};
 use rmd_bus::{BusError, CanBus, Clock, MonotonicClock, Timestamp, VirtualClock};
-use rmd_protocol::{CanFrame, IqControl, MultiTorque, Request};
+use rmd_protocol::{CanFrame, Dialect, IqControl, MultiTorque, Request};
 use rmd_sim::{Node, SimBus, SimConfig, WireTiming};
 
 const BITRATE: u32 = 1_000_000;
 
 fn exchange_frame() -> CanFrame {
     MultiTorque::new([
-        IqControl::new(100).unwrap(),
-        IqControl::new(-100).unwrap(),
-        IqControl::new(200).unwrap(),
-        IqControl::new(0).unwrap(),
+        IqControl::new(100).unwrap().into(),
+        IqControl::new(-100).unwrap().into(),
+        IqControl::new(200).unwrap().into(),
+        IqControl::new(0).unwrap().into(),
     ])
     .encode()
 }
@@ -114,7 +114,7 @@ fn the_bit_rate_scales_the_wire_time() {
     config.bus.timing = WireTiming::Bitrate(500_000);
     let (clock, mut bus) = sim_bus(config);
     let t0 = clock.now();
-    let request = Request::ReadStatus1.encode(id(1));
+    let request = Dialect::V161.encode(id(1), &Request::ReadStatus1).unwrap();
     bus.send(&request).unwrap();
     let got = frames(&collect(&mut bus, t0 + ms(2)));
     let reply = got[0].1;
@@ -133,7 +133,7 @@ fn the_bit_rate_scales_the_wire_time() {
 fn the_host_queue_has_the_socketcan_depth_and_drains_at_wire_speed() {
     let (_clock, mut bus) = sim_bus(SimConfig::with_motors(1));
     bus.record_trace(64);
-    let frame = Request::ReadStatus2.encode(id(1));
+    let frame = Dialect::V161.encode(id(1), &Request::ReadStatus2).unwrap();
     // All at the same instant: the first goes straight onto the wire, ten wait in the queue
     // (SocketCAN's default txqueuelen), the twelfth is refused.
     for _ in 0..11 {
@@ -221,7 +221,8 @@ fn a_past_deadline_polls_without_waiting() {
     let t0 = clock.now();
     assert_eq!(bus.recv_until(t0.saturating_sub(us(1))).unwrap(), None);
     assert_eq!(clock.now(), t0);
-    bus.send(&Request::ReadStatus1.encode(id(1))).unwrap();
+    bus.send(&Dialect::V161.encode(id(1), &Request::ReadStatus1).unwrap())
+        .unwrap();
     // Nothing has arrived yet at t0.
     assert_eq!(bus.recv_until(t0).unwrap(), None);
     clock.sleep_until(t0 + ms(1));

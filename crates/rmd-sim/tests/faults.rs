@@ -9,12 +9,12 @@ use common::*;
 use rmd_bus::wire::{INTERFRAME_BITS, bits_to_duration, frame_duration};
 use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, Clock, Received, Timestamp, VirtualClock};
 use rmd_protocol::{
-    CanFrame, Command, IqControl, MotorId, MultiTorque, ProtocolError, Request, decode_reply,
+    CanFrame, Command, Dialect, IqControl, MotorId, MultiTorque, ProtocolError, Request,
 };
 use rmd_sim::{FaultKind, FaultRule, MotorSet, Node, SimBus, SimConfig, Transmission};
 
 fn exchange_frame() -> CanFrame {
-    MultiTorque::new([IqControl::new(50).unwrap(); 4]).encode()
+    MultiTorque::new([IqControl::new(50).unwrap().into(); 4]).encode()
 }
 
 fn no_jitter(mut config: SimConfig) -> SimConfig {
@@ -125,7 +125,7 @@ fn corrupted_bytes() {
     let (_c, mut faulty) = sim_bus(SimConfig::with_motors(1).seed(5).fault(rule));
     let (_c, mut clean) = sim_bus(SimConfig::with_motors(1).seed(5));
     for _ in 0..20 {
-        let request = Request::ReadStatus2.encode(id(1));
+        let request = Dialect::V161.encode(id(1), &Request::ReadStatus2).unwrap();
         faulty.send(&request).unwrap();
         clean.send(&request).unwrap();
         let end = faulty.clock().now() + ms(1);
@@ -163,11 +163,12 @@ fn wrong_dlc() {
     let config = SimConfig::with_motors(1)
         .fault(FaultRule::new(FaultKind::WrongDlc { dlc: 5 }).command(Command::ReadStatus1));
     let (clock, mut bus) = sim_bus(config);
-    bus.send(&Request::ReadStatus1.encode(id(1))).unwrap();
+    bus.send(&Dialect::V161.encode(id(1), &Request::ReadStatus1).unwrap())
+        .unwrap();
     let got = frames(&collect(&mut bus, clock.now() + ms(1)));
     assert_eq!(got[0].1.dlc(), 5);
     assert_eq!(
-        decode_reply(&got[0].1),
+        Dialect::V161.decode_reply(&got[0].1),
         Err(ProtocolError::WrongDlc {
             can_id: 0x141,
             dlc: 5
@@ -202,7 +203,7 @@ fn a_silent_motor_does_not_obey_either() {
     let config = SimConfig::with_motors(2).fault(FaultRule::new(FaultKind::Silent).motor(id(2)));
     let (clock, mut bus) = sim_bus(config);
     let t0 = clock.now();
-    bus.send(&MultiTorque::new([IqControl::new(200).unwrap(); 4]).encode())
+    bus.send(&MultiTorque::new([IqControl::new(200).unwrap().into(); 4]).encode())
         .unwrap();
     clock.sleep_until(t0 + ms(50));
     let moving = bus.snapshot(id(1)).unwrap();
@@ -291,14 +292,14 @@ fn low_voltage_flag_from_a_sagging_supply() {
         &mut bus,
         1,
         Request::Torque {
-            iq_control: IqControl::new(100).unwrap(),
+            iq_control: IqControl::new(100).unwrap().into(),
         },
     );
-    let s = ask(&mut bus, 1, Request::ReadStatus1).status1().unwrap();
+    let s = v161_status1(ask(&mut bus, 1, Request::ReadStatus1));
     assert!(s.error_state.is_clear());
     assert!(clock.now() < t0 + ms(20));
     clock.sleep_until(t0 + ms(25));
-    let s = ask(&mut bus, 1, Request::ReadStatus1).status1().unwrap();
+    let s = v161_status1(ask(&mut bus, 1, Request::ReadStatus1));
     assert!(s.error_state.low_voltage());
     assert_eq!(s.voltage.volts(), 30.0);
     // The protection turned the motor off.
@@ -311,13 +312,13 @@ fn low_voltage_flag_from_a_sagging_supply() {
         0
     );
     // A clear cannot reset it while the cause persists.
-    let s = ask(&mut bus, 1, Request::ClearError).status1().unwrap();
+    let s = v161_status1(ask(&mut bus, 1, Request::ClearError));
     assert!(s.error_state.low_voltage());
     // After the window the supply is back; the flag stays latched until cleared.
     clock.sleep_until(t0 + ms(45));
-    let s = ask(&mut bus, 1, Request::ReadStatus1).status1().unwrap();
+    let s = v161_status1(ask(&mut bus, 1, Request::ReadStatus1));
     assert!(s.error_state.low_voltage() && s.voltage.volts() == 48.0);
-    let s = ask(&mut bus, 1, Request::ClearError).status1().unwrap();
+    let s = v161_status1(ask(&mut bus, 1, Request::ClearError));
     assert!(s.error_state.is_clear());
 }
 
@@ -331,8 +332,7 @@ fn over_temperature_flag_from_a_hot_winding() {
             .frames_window(1, 3),
     );
     let (_clock, mut bus) = sim_bus(config);
-    let read =
-        |bus: &mut SimBus<VirtualClock>, m| ask(bus, m, Request::ReadStatus1).status1().unwrap();
+    let read = |bus: &mut SimBus<VirtualClock>, m| v161_status1(ask(bus, m, Request::ReadStatus1));
     assert!(!read(&mut bus, 2).error_state.over_temperature()); // frame 0
     // Frame 1 switches the cause on; the firmware sees it from its next control step.
     read(&mut bus, 2);
@@ -340,9 +340,7 @@ fn over_temperature_flag_from_a_hot_winding() {
     assert!(s.error_state.over_temperature());
     assert_eq!(s.temperature.celsius(), 95.0);
     assert!(
-        ask(&mut bus, 2, Request::ClearError)
-            .status1()
-            .unwrap()
+        v161_status1(ask(&mut bus, 2, Request::ClearError))
             .error_state
             .over_temperature()
     );
@@ -353,14 +351,12 @@ fn over_temperature_flag_from_a_hot_winding() {
     // below 80 - 5 °C after 600 s x ln(70 / 50) = 202 s.
     bus.clock().sleep_until(bus.clock().now() + ms(150_000));
     assert!(
-        ask(&mut bus, 2, Request::ClearError)
-            .status1()
-            .unwrap()
+        v161_status1(ask(&mut bus, 2, Request::ClearError))
             .error_state
             .over_temperature()
     );
     bus.clock().sleep_until(bus.clock().now() + ms(100_000));
-    let s = ask(&mut bus, 2, Request::ClearError).status1().unwrap();
+    let s = v161_status1(ask(&mut bus, 2, Request::ClearError));
     assert!(s.error_state.is_clear(), "{s:?}");
     assert!(s.temperature.celsius() < 75.0);
 }
@@ -453,9 +449,15 @@ fn scenario(seed: u64) -> Run {
     let ticks = (0..300u64)
         .map(|k| {
             let iq = IqControl::new(((k as i64 * 37) % 400) - 200).unwrap();
-            sends.push(bus.send(&MultiTorque::new([iq; 4]).encode()));
+            sends.push(bus.send(&MultiTorque::new([iq.into(); 4]).encode()));
             if k % 10 == 0 {
-                sends.push(bus.send(&Request::ReadStatus1.encode(id(1 + (k % 4) as u8))));
+                sends.push(
+                    bus.send(
+                        &Dialect::V161
+                            .encode(id(1 + (k % 4) as u8), &Request::ReadStatus1)
+                            .unwrap(),
+                    ),
+                );
             }
             collect(&mut bus, t0 + ms(k + 1))
         })
@@ -476,7 +478,7 @@ fn the_same_seed_gives_the_same_run() {
         .count();
     let undecodable = frames(&all.iter().map(|r| **r).collect::<Vec<_>>())
         .iter()
-        .filter(|(_, f)| decode_reply(f).is_err())
+        .filter(|(_, f)| Dialect::V161.decode_reply(f).is_err())
         .count();
     let refused = a.2.iter().filter(|r| r.is_err()).count();
     assert!(bus_offs >= 1 && undecodable >= 1 && refused >= 1);

@@ -6,13 +6,11 @@
 use core::time::Duration;
 
 use rmd_bus::Timestamp;
-use rmd_protocol::identify::{Finding, ProbeAnswers, identify, model_request, probe_requests};
-use rmd_protocol::v3::{V3Reply, V3Request};
 use rmd_protocol::*;
 use rmd_sim::firmware::SIM_V3_MODEL;
 use rmd_sim::{
     CommandSet, ControlMode, FaultKind, FaultRule, FirmwareFamily, FirmwareTraps, ScheduledFrame,
-    SimConfig, SimMotors,
+    SimConfig, SimMotors, V3Params,
 };
 
 const MF: FirmwareFamily = FirmwareFamily::LkV23x(LkSeries::Mf);
@@ -72,7 +70,7 @@ impl Bench {
     }
 
     /// Probes motor `n` as a start-up check would and identifies it.
-    fn identify(&mut self, n: u8) -> identify::Identification {
+    fn identify(&mut self, n: u8) -> Identification {
         let mut answers = ProbeAnswers::new();
         for probe in probe_requests(id(n)) {
             for reply in self.send(probe) {
@@ -170,20 +168,24 @@ fn identification_at_the_ambiguous_and_sagging_supplies() {
 fn lk_status1_layout_on_the_wire() {
     let mut bench = Bench::new(&[MG]);
     // 25 °C (0x19), 48.00 V = 4800 = 0x12C0 in DATA[2..=3], no bus current, motor on.
-    let reply = bench.ask(Request::ReadStatus1.encode(id(1)));
+    let reply = bench.ask(Dialect::V161.encode(id(1), &Request::ReadStatus1).unwrap());
     assert_eq!(reply, frame(0x141, [0x9A, 0x19, 0xC0, 0x12, 0, 0, 0x00, 0]));
     // A v1.61 decoder reads 1.8 V from it (the issue's trap).
-    let (_, v161) = decode_reply(&reply).unwrap();
-    assert!((v161.status1().unwrap().voltage.volts() - 1.8).abs() < 1e-9);
-    let (_, lk) = decode_reply_with(Dialect::LkV23x(LkSeries::Mg), &reply).unwrap();
+    let (_, v161) = Dialect::V161.decode_reply(&reply).unwrap();
+    assert!((v161.status1().unwrap().volts() - 1.8).abs() < 1e-9);
+    let (_, lk) = Dialect::LkV23x(LkSeries::Mg).decode_reply(&reply).unwrap();
     assert_eq!(lk.status1().unwrap().volts(), 48.0);
     // 0x9B answers in the same layout.
-    let clear = bench.ask(Request::ClearError.encode(id(1)));
+    let clear = bench.ask(Dialect::V161.encode(id(1), &Request::ClearError).unwrap());
     assert_eq!(clear.data()[..4], [0x9B, 0x19, 0xC0, 0x12]);
     // 0x94 is the u32 layout: DATA[6..=7] of a v1.61 reply are 0 for small angles.
-    let angle = bench.ask(Request::ReadSingleTurnAngle.encode(id(1)));
-    let (_, r) = decode_reply_with(Dialect::LkV23x(LkSeries::Mg), &angle).unwrap();
-    assert!(matches!(r, DialectReply::LkSingleTurnAngle { .. }));
+    let angle = bench.ask(
+        Dialect::V161
+            .encode(id(1), &Request::ReadSingleTurnAngle)
+            .unwrap(),
+    );
+    let (_, r) = Dialect::LkV23x(LkSeries::Mg).decode_reply(&angle).unwrap();
+    assert!(matches!(r, Reply::LkSingleTurnAngle { .. }));
 }
 
 #[test]
@@ -207,7 +209,7 @@ fn lk_current_scales_per_series() {
             FirmwareFamily::LkV23x(s) => Dialect::LkV23x(s),
             _ => Dialect::V161,
         };
-        let (_, r) = decode_reply_with(dialect, &reply).unwrap();
+        let (_, r) = dialect.decode_reply(&reply).unwrap();
         let iq = r.status2().unwrap().iq;
         assert!(
             (iq.amps() - current).abs() <= iq.scale().amps_per_lsb(),
@@ -219,8 +221,8 @@ fn lk_current_scales_per_series() {
 #[test]
 fn lk_multi_torque_uses_the_series_scale() {
     let mut bench = Bench::new(&[MF, MF, MG]);
-    let m = ScaledMultiTorque::from_amps([8.25, -4.0, 16.5, 0.0], CurrentScale::LK_MF_IQ_CONTROL)
-        .unwrap();
+    let m =
+        MultiTorque::from_amps([8.25, -4.0, 16.5, 0.0], CurrentScale::LK_MF_IQ_CONTROL).unwrap();
     let replies = bench.send(m.encode());
     let ids: Vec<u16> = replies.iter().map(|r| r.frame.id()).collect();
     assert_eq!(ids, [0x141, 0x142, 0x143]);
@@ -239,20 +241,24 @@ fn lk_multi_torque_uses_the_series_scale() {
 #[test]
 fn lk_motor_off_holds_until_motor_run() {
     let mut bench = Bench::new(&[MG]);
-    let torque = DialectRequest::torque(Dialect::LkV23x(LkSeries::Mg), id(1), 5.0)
-        .unwrap()
-        .encode();
-    bench.ask(Request::MotorOff.encode(id(1)));
-    let status = bench.ask(Request::ReadStatus1.encode(id(1)));
+    let mg = Dialect::LkV23x(LkSeries::Mg);
+    let amps = ScaledCurrent::from_amps(5.0, mg.iq_control_scale()).unwrap();
+    let torque = mg
+        .encode(id(1), &Request::Torque { iq_control: amps })
+        .unwrap();
+    bench.ask(Dialect::V161.encode(id(1), &Request::MotorOff).unwrap());
+    let status = bench.ask(Dialect::V161.encode(id(1), &Request::ReadStatus1).unwrap());
     assert_eq!(status.data()[6], 0x10, "motor state off");
     // Answered, not obeyed.
     let reply = bench.ask(torque);
     assert_eq!(reply.data()[0], 0xA1);
     bench.wait(2);
     assert_eq!(bench.current(1), 0.0);
-    bench.ask(Request::MotorRun.encode(id(1)));
+    bench.ask(Dialect::V161.encode(id(1), &Request::MotorRun).unwrap());
     assert_eq!(
-        bench.ask(Request::ReadStatus1.encode(id(1))).data()[6],
+        bench
+            .ask(Dialect::V161.encode(id(1), &Request::ReadStatus1).unwrap())
+            .data()[6],
         0x00
     );
     bench.ask(torque);
@@ -260,51 +266,57 @@ fn lk_motor_off_holds_until_motor_run() {
     assert!((bench.current(1) - 5.0).abs() < 0.05);
 }
 
+/// The V3 dialect of the simulated motors (their default firmware).
+fn v3() -> Dialect {
+    Dialect::MyActuatorV3(V3Params::default().firmware())
+}
+
+/// A V3 torque request of `amps`.
+fn v3_torque(amps: f64) -> Request {
+    Request::Torque {
+        iq_control: ScaledCurrent::from_amps(amps, CurrentScale::MYACTUATOR_V3_IQ_CONTROL).unwrap(),
+    }
+}
+
 #[test]
 fn v3_answers_on_0x240_with_its_scales() {
     let mut bench = Bench::new(&[FirmwareFamily::MyActuatorV3]);
-    let one_amp = ScaledCurrent::from_amps(1.0, CurrentScale::MYACTUATOR_V3_IQ_CONTROL).unwrap();
-    let reply = bench.ask(
-        V3Request::Torque {
-            iq_control: one_amp,
-        }
-        .encode(id(1)),
-    );
+    let reply = bench.ask(v3().encode(id(1), &v3_torque(1.0)).unwrap());
     assert_eq!(reply.id(), 0x241);
     bench.wait(2);
     assert!((bench.current(1) - 1.0).abs() < 0.02);
-    let (m, r) = V3Reply::decode(&bench.ask(V3Request::ReadStatus2.encode(id(1)))).unwrap();
+    let status = bench.ask(v3().encode(id(1), &Request::ReadStatus2).unwrap());
+    let (m, r) = v3().decode_reply(&status).unwrap();
     assert_eq!(m, id(1));
-    let V3Reply::Status2 { status, .. } = r else {
-        panic!("{r:?}")
-    };
-    assert!((status.iq.amps() - 1.0).abs() < 0.02);
+    assert!((r.status2().unwrap().iq.amps() - 1.0).abs() < 0.02);
     // Status 1: 25 °C, 48.0 V = 480 = 0x01E0 in DATA[4..=5], brake released, no error.
-    let s1 = bench.ask(V3Request::ReadStatus1.encode(id(1)));
+    let s1 = bench.ask(v3().encode(id(1), &Request::ReadStatus1).unwrap());
     assert_eq!(s1, frame(0x241, [0x9A, 0x19, 0x19, 0x01, 0xE0, 0x01, 0, 0]));
     // Commands V3 does not have (0x88 motor run, 0x33 read acceleration) get no answer.
-    assert!(bench.send(Request::MotorRun.encode(id(1))).is_empty());
-    assert!(bench.send(Request::ReadAccel.encode(id(1))).is_empty());
+    assert!(
+        bench
+            .send(Dialect::V161.encode(id(1), &Request::MotorRun).unwrap())
+            .is_empty()
+    );
+    assert!(
+        bench
+            .send(Dialect::V161.encode(id(1), &Request::ReadAccel).unwrap())
+            .is_empty()
+    );
 }
 
 #[test]
 fn v3_takes_0x280_as_a_command_for_every_motor() {
-    let v3 = FirmwareFamily::MyActuatorV3;
-    let mut bench = Bench::new(&[v3, v3, v3, v3, v3]);
-    let one_amp = ScaledCurrent::from_amps(1.0, CurrentScale::MYACTUATOR_V3_IQ_CONTROL).unwrap();
+    let v3m = FirmwareFamily::MyActuatorV3;
+    let mut bench = Bench::new(&[v3m, v3m, v3m, v3m, v3m]);
     for n in 1..=5 {
-        bench.ask(
-            V3Request::Torque {
-                iq_control: one_amp,
-            }
-            .encode(id(n)),
-        );
+        bench.ask(v3().encode(id(n), &v3_torque(1.0)).unwrap());
     }
     bench.wait(2);
     assert!((1..=5).all(|n| matches!(bench.mode(n), ControlMode::Torque { .. })));
     // 280#80..: every motor off, each answering on its own 0x240 + id.
     let off = frame(0x280, [0x80, 0, 0, 0, 0, 0, 0, 0]);
-    assert_eq!(off, V3Request::MotorOff.encode_broadcast());
+    assert_eq!(off, v3().encode_broadcast(&Request::MotorOff).unwrap());
     let replies = bench.send(off);
     let ids: Vec<u16> = replies.iter().map(|r| r.frame.id()).collect();
     assert_eq!(ids, [0x241, 0x242, 0x243, 0x244, 0x245]);
@@ -320,22 +332,16 @@ fn v3_takes_0x280_as_a_command_for_every_motor() {
 fn a_v161_torque_frame_is_motor_off_on_v3_motors() {
     // Issue 14: 280#80.. is 2.048 A on motor 1 under v1.61 (raw 128 x 0.016 A) and "all motors
     // off" under V3. Motor 1 speaks v1.61, motors 2 and 3 V3 (running at 1 A).
-    let v3 = FirmwareFamily::MyActuatorV3;
-    let mut bench = Bench::new(&[FirmwareFamily::V161, v3, v3]);
-    let one_amp = ScaledCurrent::from_amps(1.0, CurrentScale::MYACTUATOR_V3_IQ_CONTROL).unwrap();
+    let v3m = FirmwareFamily::MyActuatorV3;
+    let mut bench = Bench::new(&[FirmwareFamily::V161, v3m, v3m]);
     for n in 2..=3 {
-        bench.ask(
-            V3Request::Torque {
-                iq_control: one_amp,
-            }
-            .encode(id(n)),
-        );
+        bench.ask(v3().encode(id(n), &v3_torque(1.0)).unwrap());
     }
     let frame = MultiTorque::new([
-        IqControl::new(128).unwrap(),
-        IqControl::new(0).unwrap(),
-        IqControl::new(0).unwrap(),
-        IqControl::new(0).unwrap(),
+        IqControl::new(128).unwrap().into(),
+        IqControl::new(0).unwrap().into(),
+        IqControl::new(0).unwrap().into(),
+        IqControl::new(0).unwrap().into(),
     ])
     .encode();
     assert_eq!(frame.to_string(), "280#8000000000000000");
@@ -354,7 +360,14 @@ fn two_turns_then_off(traps: FirmwareTraps) -> (f64, f64) {
         c.motors[0].firmware.traps = traps
     });
     let read = |bench: &mut Bench| -> f64 {
-        match decode_reply(&bench.ask(Request::ReadMultiTurnAngle.encode(id(1))))
+        match Dialect::V161
+            .decode_reply(
+                &bench.ask(
+                    Dialect::V161
+                        .encode(id(1), &Request::ReadMultiTurnAngle)
+                        .unwrap(),
+                ),
+            )
             .unwrap()
             .1
         {
@@ -365,10 +378,10 @@ fn two_turns_then_off(traps: FirmwareTraps) -> (f64, f64) {
     let go = Request::Position1 {
         angle_control: AngleControl::from_degrees(720.0).unwrap(),
     };
-    bench.ask(go.encode(id(1)));
+    bench.ask(Dialect::V161.encode(id(1), &go).unwrap());
     bench.wait(1_000);
     let before = read(&mut bench);
-    bench.ask(Request::MotorOff.encode(id(1)));
+    bench.ask(Dialect::V161.encode(id(1), &Request::MotorOff).unwrap());
     (before, read(&mut bench))
 }
 
@@ -401,8 +414,17 @@ fn trap_unanswered_reads() {
     let mut bench = Bench::with(&[FirmwareFamily::V161], |c| {
         c.motors[0].firmware.traps = traps
     });
-    assert!(bench.send(Request::ReadStatus3.encode(id(1))).is_empty());
-    assert_eq!(bench.send(Request::ReadStatus2.encode(id(1))).len(), 1);
+    assert!(
+        bench
+            .send(Dialect::V161.encode(id(1), &Request::ReadStatus3).unwrap())
+            .is_empty()
+    );
+    assert_eq!(
+        bench
+            .send(Dialect::V161.encode(id(1), &Request::ReadStatus2).unwrap())
+            .len(),
+        1
+    );
     let stats = bench.motors.motor(id(1)).unwrap().trap_stats();
     assert_eq!(stats.unanswered, 1);
     // A motor that does not answer 0x9A cannot be identified.
@@ -413,7 +435,12 @@ fn trap_unanswered_reads() {
     );
     // Off by default.
     let mut plain = Bench::new(&[FirmwareFamily::V161]);
-    assert_eq!(plain.send(Request::ReadStatus3.encode(id(1))).len(), 1);
+    assert_eq!(
+        plain
+            .send(Dialect::V161.encode(id(1), &Request::ReadStatus3).unwrap())
+            .len(),
+        1
+    );
 }
 
 #[test]
@@ -422,15 +449,19 @@ fn trap_motion_ignored_after_motor_run() {
         motion_ignored_after_run: Duration::from_millis(50),
         ..FirmwareTraps::default()
     };
-    let torque = Request::Torque {
-        iq_control: IqControl::from_amps(3.0).unwrap(),
-    }
-    .encode(id(1));
+    let torque = Dialect::V161
+        .encode(
+            id(1),
+            &Request::Torque {
+                iq_control: IqControl::from_amps(3.0).unwrap().into(),
+            },
+        )
+        .unwrap();
     let mut bench = Bench::with(&[FirmwareFamily::V161], |c| {
         c.motors[0].firmware.traps = traps
     });
-    bench.ask(Request::MotorStop.encode(id(1)));
-    bench.ask(Request::MotorRun.encode(id(1)));
+    bench.ask(Dialect::V161.encode(id(1), &Request::MotorStop).unwrap());
+    bench.ask(Dialect::V161.encode(id(1), &Request::MotorRun).unwrap());
     // 1 ms after 0x88: answered, not obeyed.
     assert_eq!(bench.ask(torque).data()[0], 0xA1);
     bench.wait(2);
@@ -445,8 +476,8 @@ fn trap_motion_ignored_after_motor_run() {
     assert_eq!(stats.ignored_motion, 1);
     // Off by default: obeyed 1 ms after 0x88.
     let mut plain = Bench::new(&[FirmwareFamily::V161]);
-    plain.ask(Request::MotorStop.encode(id(1)));
-    plain.ask(Request::MotorRun.encode(id(1)));
+    plain.ask(Dialect::V161.encode(id(1), &Request::MotorStop).unwrap());
+    plain.ask(Dialect::V161.encode(id(1), &Request::MotorRun).unwrap());
     plain.ask(torque);
     plain.wait(2);
     assert!((plain.current(1) - 3.0).abs() < 0.05);

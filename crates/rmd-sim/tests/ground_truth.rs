@@ -5,7 +5,7 @@ mod common;
 
 use common::*;
 use rmd_bus::{CanBus, Clock};
-use rmd_protocol::{IqControl, MultiTorque, Request};
+use rmd_protocol::{Dialect, IqControl, MultiTorque, Request};
 use rmd_sim::{FaultKind, FaultRule, SimConfig};
 
 #[test]
@@ -17,7 +17,7 @@ fn safe_since_follows_the_firmware_through_torque_zero_torque_off_and_protection
     assert!(!snap.energising);
     assert_eq!(snap.safe_since, Some(start));
     // 1 A on both: energised, not safe.
-    bus.send(&MultiTorque::new([IqControl::from_amps(1.0).unwrap(); 4]).encode())
+    bus.send(&MultiTorque::new([IqControl::from_amps(1.0).unwrap().into(); 4]).encode())
         .unwrap();
     clock.sleep_until(clock.now() + ms(2));
     let snap = bus.snapshot(id(2)).unwrap();
@@ -26,7 +26,7 @@ fn safe_since_follows_the_firmware_through_torque_zero_torque_off_and_protection
     // Zero torque: safe from the instant the frame reached the motor (the firmware applies no
     // current and is commanded none), though still in torque mode.
     let sent = clock.now();
-    bus.send(&MultiTorque::new([IqControl::from_amps(0.0).unwrap(); 4]).encode())
+    bus.send(&MultiTorque::new([IqControl::from_amps(0.0).unwrap().into(); 4]).encode())
         .unwrap();
     clock.sleep_until(clock.now() + ms(2));
     let snap = bus.snapshot(id(2)).unwrap();
@@ -49,10 +49,14 @@ fn safe_since_follows_the_firmware_through_torque_zero_torque_off_and_protection
         ),
     );
     bus.send(
-        &Request::Torque {
-            iq_control: IqControl::from_amps(1.0).unwrap(),
-        }
-        .encode(id(1)),
+        &Dialect::V161
+            .encode(
+                id(1),
+                &Request::Torque {
+                    iq_control: IqControl::from_amps(1.0).unwrap().into(),
+                },
+            )
+            .unwrap(),
     )
     .unwrap();
     clock.sleep_until(start + ms(3));

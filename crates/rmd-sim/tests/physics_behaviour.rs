@@ -5,7 +5,8 @@ mod common;
 use common::*;
 use rmd_bus::{CanBus, Clock, Timestamp};
 use rmd_protocol::{
-    Accel, AngleControl, IqControl, MaxSpeed, Request, SingleTurnAngle, SpeedControl, SpinDirection,
+    Accel, AngleControl, Dialect, IqControl, MaxSpeed, Request, SingleTurnAngle, SpeedControl,
+    SpinDirection,
 };
 use rmd_sim::{GravityLink, SimConfig, SimMotors};
 
@@ -23,7 +24,7 @@ fn constant_torque_gives_the_expected_acceleration() {
         &mut bus,
         1,
         Request::Torque {
-            iq_control: IqControl::new(250).unwrap(),
+            iq_control: IqControl::new(250).unwrap().into(),
         },
     );
     wait_until(&bus, t0 + ms(10));
@@ -54,13 +55,24 @@ fn a_speed_step_settles_at_the_target_without_exceeding_max_acceleration() {
         let accel = Request::WriteAccelRam {
             accel: Accel::new(limit.into()).unwrap(),
         };
-        assert_eq!(motors.handle(&accel.encode(m1), t).count(), 1);
+        assert_eq!(
+            motors
+                .handle(&Dialect::V161.encode(m1, &accel).unwrap(), t)
+                .count(),
+            1
+        );
         let mut last = 0.0;
         for (from, to) in [(0.0, 1800.0), (1800.0, -1800.0), (-1800.0, 0.0)] {
             let step = Request::Speed {
                 speed_control: SpeedControl::from_dps(to).unwrap(),
+                max_torque: rmd_protocol::MaxTorquePercent::NONE,
             };
-            assert_eq!(motors.handle(&step.encode(m1), t).count(), 1);
+            assert_eq!(
+                motors
+                    .handle(&Dialect::V161.encode(m1, &step).unwrap(), t)
+                    .count(),
+                1
+            );
             // The ramp takes |to - from| / limit; then 0.3 s to settle.
             let ramp_s = f64::abs(to - from) / f64::from(limit);
             let steps = ((ramp_s + 0.3) / 50e-6) as usize;
@@ -105,7 +117,12 @@ fn single_turn_move(
         max_speed: MaxSpeed::new(720).unwrap(),
         angle_control: SingleTurnAngle::from_degrees(target_deg).unwrap(),
     };
-    assert_eq!(motors.handle(&request.encode(m1), t).count(), 1);
+    assert_eq!(
+        motors
+            .handle(&Dialect::V161.encode(m1, &request).unwrap(), t)
+            .count(),
+        1
+    );
     let sign = expected_travel_deg.signum();
     let mut previous = start;
     let mut arrived = false;
@@ -212,14 +229,14 @@ fn i2r_heating_trips_over_temperature_and_a_clear_waits_for_cooling() {
         &mut bus,
         1,
         Request::Torque {
-            iq_control: IqControl::from_amps(30.0).unwrap(),
+            iq_control: IqControl::from_amps(30.0).unwrap().into(),
         },
     );
     wait_until(&bus, t0 + ms(20_000));
-    let s = ask(&mut bus, 1, Request::ReadStatus1).status1().unwrap();
+    let s = v161_status1(ask(&mut bus, 1, Request::ReadStatus1));
     assert!(!s.error_state.over_temperature() && s.temperature.celsius() < 80.0);
     wait_until(&bus, t0 + ms(40_000));
-    let s = ask(&mut bus, 1, Request::ReadStatus1).status1().unwrap();
+    let s = v161_status1(ask(&mut bus, 1, Request::ReadStatus1));
     assert!(s.error_state.over_temperature(), "{s:?}");
     // The trip turned the motor off: no more current, so it cools (10 min time constant).
     let s2 = ask(&mut bus, 1, Request::ReadStatus2).status2().unwrap();
@@ -231,7 +248,7 @@ fn i2r_heating_trips_over_temperature_and_a_clear_waits_for_cooling() {
     for second in 0..120 {
         wait_until(&bus, t0 + ms(40_000 + 1_000 * second));
         let before = bus.snapshot(id(1)).unwrap().temperature_c;
-        let s = ask(&mut bus, 1, Request::ClearError).status1().unwrap();
+        let s = v161_status1(ask(&mut bus, 1, Request::ClearError));
         if before >= 75.0 {
             assert!(s.error_state.over_temperature());
             refused += 1;
@@ -252,17 +269,18 @@ fn the_supply_sags_under_current() {
     config.motors[0].motor.coulomb_friction_nm = 1_000.0;
     let (clock, mut bus) = sim_bus(config);
     let t0 = clock.now();
-    let idle = ask(&mut bus, 1, Request::ReadStatus1).status1().unwrap();
+    let idle = v161_status1(ask(&mut bus, 1, Request::ReadStatus1));
     assert_eq!(idle.voltage.raw(), 480);
     ask(
         &mut bus,
         1,
         Request::Torque {
-            iq_control: IqControl::new(2000).unwrap(),
+            iq_control: IqControl::new(2000).unwrap().into(),
         },
     );
     wait_until(&bus, t0 + ms(10));
-    let loaded = ask(&mut bus, 1, Request::ReadStatus1).status1().unwrap();
+    let loaded = v161_status1(ask(&mut bus, 1, Request::ReadStatus1));
     assert_eq!(loaded.voltage.raw(), 471);
-    bus.send(&Request::MotorOff.encode(id(1))).unwrap();
+    bus.send(&Dialect::V161.encode(id(1), &Request::MotorOff).unwrap())
+        .unwrap();
 }

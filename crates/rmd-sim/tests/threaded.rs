@@ -15,7 +15,7 @@ use rmd_sim::threaded::{ThreadOptions, ThreadedSim};
 use rmd_sim::{FaultKind, FaultRule, Node, SimBus, SimConfig};
 
 fn frame(k: i64) -> CanFrame {
-    MultiTorque::new([IqControl::new((37 * k) % 400 - 200).unwrap(); 4]).encode()
+    MultiTorque::new([IqControl::new((37 * k) % 400 - 200).unwrap().into(); 4]).encode()
 }
 
 fn spawn(

@@ -1,11 +1,14 @@
 //! Where the motors are, and how to talk to them: the bus options every live command flattens
 //! in (`--iface` or `--sim`, encoder width, timeout, retries, `--log`), and the protocol options
-//! (`--protocol`, `--lk-series`) that `rmd encode` and `rmd decode` take too.
+//! (`--protocol`, `--lk-series`, `--firmware-date`, `--motor-max-torque`) that `rmd encode` and
+//! `rmd decode` take too.
 
 use std::path::PathBuf;
 
 use clap::Args;
-use rmd_protocol::{Dialect, EncoderWidth, LkSeries, ProtocolFamily};
+use rmd_protocol::{
+    Dialect, EncoderWidth, FirmwareDate, LkSeries, MotorMaxTorque, ProtocolFamily, V3Firmware,
+};
 use rmd_sim::FirmwareFamily;
 
 use super::ids::{self, IdList};
@@ -54,21 +57,54 @@ pub(crate) struct BusArgs {
 /// live command.
 #[derive(Args, Debug, Clone, Copy)]
 pub(crate) struct ProtocolArgs {
-    /// The motors' protocol: v1.61 (GYEMS / MyActuator RMD) or lk-v2.3x (LK-TECH MF / MG
-    /// motors, with --lk-series). It decides the layouts of 0x9A / 0x9B and 0x94 and the current
-    /// scale of 0xA1, 0x280 and every `iq`.
+    /// The motors' protocol: v1.61 (GYEMS / MyActuator RMD), lk-v2.3x (LK-TECH MF / MG
+    /// motors, with --lk-series) or myactuator-v3 (MyActuator's V3 driver: replies on
+    /// 0x240 + id, 0.01 A per LSB; `encode` and `decode` only). It decides the layouts and the
+    /// current scales.
     #[arg(long, value_name = "PROTOCOL", value_parser = parse::protocol, default_value = "v1.61", global = true)]
     pub(crate) protocol: ProtocolFamily,
     /// The LK-TECH motor series, on which the current scale depends (with --protocol
     /// lk-v2.3x): mf (16.5/2048 A per LSB, ±16.5 A) or mg (33/2048 A per LSB, ±33 A).
     #[arg(long, value_name = "SERIES", value_parser = parse::lk_series, global = true)]
     pub(crate) lk_series: Option<LkSeries>,
+    /// The MyActuator V3 firmware's version date, as 0xB2 reports it (with --protocol
+    /// myactuator-v3): from 2026042402 on, the V4.4 layouts of 0x94 and the V4.4 motion-mode
+    /// ranges; before (and by default), V4.3's.
+    #[arg(long, value_name = "DATE", value_parser = parse::firmware_date, global = true)]
+    pub(crate) firmware_date: Option<FirmwareDate>,
+    /// The MyActuator V3 motor's maximum torque, N·m: the motion-mode torque range of V4.4
+    /// firmware (with --protocol myactuator-v3).
+    #[arg(long, value_name = "NM", value_parser = parse::positive, global = true)]
+    pub(crate) motor_max_torque: Option<f64>,
 }
 
 impl ProtocolArgs {
     /// The dialect named, or a usage message: `lk-v2.3x` needs `--lk-series`; `--lk-series`
     /// alone is refused unless `series_used_elsewhere` (the simulated LK motors use it).
     pub(crate) fn dialect_or(&self, series_used_elsewhere: bool) -> Result<Dialect, String> {
+        let v3_flag = match (self.firmware_date, self.motor_max_torque) {
+            (Some(_), _) => Some("--firmware-date"),
+            (None, Some(_)) => Some("--motor-max-torque"),
+            (None, None) => None,
+        };
+        if let Some(flag) = v3_flag
+            && self.protocol != ProtocolFamily::MyActuatorV3
+        {
+            return Err(format!(
+                "{flag} applies to MyActuator V3 motors: add --protocol myactuator-v3"
+            ));
+        }
+        if self.protocol == ProtocolFamily::MyActuatorV3 {
+            let max_torque = self
+                .motor_max_torque
+                .map(MotorMaxTorque::from_nm)
+                .transpose()
+                .map_err(|e| format!("--motor-max-torque: {e}"))?;
+            return Ok(Dialect::MyActuatorV3(V3Firmware {
+                date: self.firmware_date,
+                max_torque,
+            }));
+        }
         match (self.protocol, self.lk_series) {
             (ProtocolFamily::LkV23x, Some(series)) => Ok(Dialect::LkV23x(series)),
             (ProtocolFamily::LkV23x, None) => Err(
@@ -121,9 +157,19 @@ impl BusArgs {
         }
     }
 
-    /// The dialect the commands speak (`--protocol`, `--lk-series`), or a usage message.
+    /// The dialect the live commands speak (`--protocol`, `--lk-series`), or a usage message.
+    /// MyActuator V3 is refused here, before anything is sent: the live commands do not speak
+    /// it yet (`rmd encode` and `rmd decode` do).
     pub(crate) fn dialect(&self) -> Result<Dialect, String> {
         let series_for_sim = self.sim_firmware.contains(&ProtocolFamily::LkV23x);
-        self.protocol.dialect_or(series_for_sim)
+        match self.protocol.dialect_or(series_for_sim)? {
+            Dialect::MyActuatorV3(_) => Err(
+                "--protocol myactuator-v3: the live commands do not drive MyActuator V3 motors \
+                 yet; `rmd encode --protocol myactuator-v3` and `rmd decode --protocol \
+                 myactuator-v3` speak it, and `rmd scan` identifies V3 motors"
+                    .to_owned(),
+            ),
+            dialect => Ok(dialect),
+        }
     }
 }

@@ -2,8 +2,8 @@
 //! a validated value or the protocol's one-line error out.
 
 use rmd_protocol::{
-    AngleControl, EncoderWidth, IqControl, LkSeries, MotorId, ProtocolError, ProtocolFamily,
-    SingleTurnAngle, SpeedControl,
+    AngleControl, EncoderWidth, FirmwareDate, IqControl, LkSeries, MotorId, ProtocolError,
+    ProtocolFamily, SingleTurnAngle, SpeedControl,
 };
 
 fn int(text: &str) -> Result<i64, String> {
@@ -108,17 +108,25 @@ pub(crate) fn number4(text: &str) -> Result<[f64; 4], String> {
     four(text, number)
 }
 
-/// `--protocol`: a protocol rmd-rt speaks, `v1.61` or `lk-v2.3x`.
+/// `--protocol`: a protocol rmd-rt speaks, `v1.61`, `lk-v2.3x` or `myactuator-v3`.
 pub(crate) fn protocol(text: &str) -> Result<ProtocolFamily, String> {
     match text.trim().parse::<ProtocolFamily>() {
-        Ok(family @ (ProtocolFamily::V161 | ProtocolFamily::LkV23x)) => Ok(family),
-        Ok(ProtocolFamily::MyActuatorV3) => Err(
-            "rmd-rt does not speak myactuator-v3 (its 0x280 frame is a command to every motor, \
-             not torque): expected v1.61 or lk-v2.3x"
-                .to_owned(),
-        ),
+        Ok(ProtocolFamily::Unknown) | Err(_) => Err(format!(
+            "unknown protocol `{text}`: expected v1.61, lk-v2.3x or myactuator-v3"
+        )),
+        Ok(family) => Ok(family),
+    }
+}
+
+/// `--firmware-date`: a MyActuator V3 firmware version date as 0xB2 reports it (`YYYYMMDD` or
+/// `YYYYMMDDNN`, e.g. 2025070202).
+pub(crate) fn firmware_date(text: &str) -> Result<FirmwareDate, String> {
+    let digits = text.trim();
+    match digits.parse::<u32>() {
+        Ok(raw) if (8..=10).contains(&digits.len()) => Ok(FirmwareDate::from_raw(raw)),
         _ => Err(format!(
-            "unknown protocol `{text}`: expected v1.61 or lk-v2.3x"
+            "`{text}` is not a firmware date: expected YYYYMMDD or YYYYMMDDNN as 0xB2 reports \
+             it (e.g. 2025070202)"
         )),
     }
 }
@@ -230,16 +238,17 @@ mod tests {
     fn protocol_names() {
         assert_eq!(protocol("v1.61"), Ok(ProtocolFamily::V161));
         assert_eq!(protocol("lk-v2.3x"), Ok(ProtocolFamily::LkV23x));
-        assert!(
-            protocol("myactuator-v3")
-                .unwrap_err()
-                .contains("does not speak")
-        );
+        assert_eq!(protocol("myactuator-v3"), Ok(ProtocolFamily::MyActuatorV3));
         assert!(
             protocol("unknown")
                 .unwrap_err()
-                .contains("expected v1.61 or lk-v2.3x")
+                .contains("expected v1.61, lk-v2.3x or myactuator-v3")
         );
+        assert_eq!(
+            firmware_date("2025070202").map(|d| d.raw()),
+            Ok(2_025_070_202)
+        );
+        assert!(firmware_date("2025").is_err() && firmware_date("x").is_err());
         assert_eq!(lk_series("MF"), Ok(LkSeries::Mf));
         assert!(lk_series("ms").is_err());
         assert_eq!(

@@ -93,7 +93,9 @@ pub(crate) fn run_torque(args: TorqueArgs) -> ExitCode {
             &args.bus,
             &args.telemetry,
             args.id,
-            Request::Torque { iq_control },
+            Request::Torque {
+                iq_control: iq_control.into(),
+            },
             &what,
             &args.timing,
             args.max_speed,
@@ -112,7 +114,10 @@ pub(crate) fn run_speed(args: SpeedArgs) -> ExitCode {
             &args.bus,
             &args.telemetry,
             args.id,
-            Request::Speed { speed_control },
+            Request::Speed {
+                speed_control,
+                max_torque: rmd_protocol::MaxTorquePercent::NONE,
+            },
             &what,
             &args.timing,
             None,

@@ -26,7 +26,7 @@ use rmd_bus::candump::{Direction, LogLine};
 use rmd_bus::record::wall_clock_offset;
 use rmd_bus::replay::{BadLine, Due, LogReader, LogRecord, Pace, ReplaySchedule};
 use rmd_bus::{BusMessage, Clock, Timestamp};
-use rmd_protocol::{DecodedRequest, MotorId, Request, decode_request};
+use rmd_protocol::{DecodedRequest, Dialect, MotorId, Request};
 use rmd_rig::args::duration::{self, Bounds};
 
 use crate::args::bus::BusArgs;
@@ -231,7 +231,7 @@ fn words(d: Duration) -> String {
 
 /// The motors `record`, a host frame, sets moving (0x280 moves motors 1..=4), added to `moved`.
 fn note_moved(record: &LogRecord, moved: &mut Vec<MotorId>) {
-    match decode_request(&record.frame) {
+    match Dialect::V161.decode_request(&record.frame) {
         Ok(DecodedRequest::Single { motor, request }) if moves(&request) => moved.push(motor),
         Ok(DecodedRequest::Multi(_)) => {
             moved.extend((1..=4).filter_map(|id| MotorId::new(id).ok()))

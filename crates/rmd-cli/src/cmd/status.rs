@@ -4,7 +4,7 @@
 use std::process::ExitCode;
 
 use clap::Args;
-use rmd_protocol::{EncoderWidth, Reply, Request};
+use rmd_protocol::{EncoderWidth, Reply, Request, Status1};
 
 use crate::args::bus::BusArgs;
 use crate::live::connect::{DEFAULT_RETRIES, DEFAULT_TIMEOUT};
@@ -146,7 +146,8 @@ fn rows(replies: &[Reply], width: EncoderWidth) -> Vec<(&'static str, String)> {
     let mut rows = Vec::new();
     for reply in replies {
         match reply {
-            Reply::ReadStatus1(s) => {
+            // The replies come in v1.61's shape (see `live::exchange`).
+            Reply::ReadStatus1(Status1::V161(s)) => {
                 rows.push(("temperature", format!("{} °C", s.temperature.celsius())));
                 rows.push(("voltage", format!("{:.1} V", s.voltage.volts())));
                 rows.push(("errors", readings::errors_text(s.error_state)));

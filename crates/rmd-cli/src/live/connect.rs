@@ -264,8 +264,8 @@ pub(crate) fn open_interface(iface: &str, filter: Filter) -> Result<Box<dyn CanB
     use rmd_bus::socketcan::{SocketCanBus, SocketCanOptions};
     let options = match filter {
         Filter::Motors => SocketCanOptions::new().accept_ids(
-            rmd_protocol::v3::REPLY_BASE_ID + 1
-                ..=rmd_protocol::v3::REPLY_BASE_ID + u16::from(MotorId::MAX),
+            rmd_protocol::V3_REPLY_BASE_ID + 1
+                ..=rmd_protocol::V3_REPLY_BASE_ID + u16::from(MotorId::MAX),
         ),
         Filter::MotorsAndMulti => {
             SocketCanOptions::new().accept_id(rmd_protocol::MULTI_TORQUE_CAN_ID)

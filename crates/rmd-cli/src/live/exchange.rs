@@ -11,18 +11,18 @@
 //! Requests and replies are encoded and decoded in the connection's [`Dialect`] (`--protocol`):
 //! a torque request carries its current in amperes into the dialect's `iqControl` scale, and a
 //! reply is decoded with the dialect's layouts and scales, then handed to the commands in the
-//! v1.61 shape they print (see [`as_v161`]: an LK-TECH voltage to 0.1 V, an MF current to
-//! v1.61's 33/2048 A steps, the LK single-turn angle within one motor turn). A motor answering
-//! on `0x240 + id` runs MyActuator V3 firmware, which rmd-rt does not drive: that is its own
-//! error.
+//! v1.61 shape they print (rmd-protocol's nearest conversion, `Dialect::convert_reply`: an
+//! LK-TECH voltage to 0.1 V, an MF current to v1.61's 33/2048 A steps, the LK single-turn angle
+//! within one motor turn). A motor answering on `0x240 + id` runs MyActuator V3 firmware, which
+//! the live commands do not drive yet: that is its own error.
 
 use std::fmt;
 use std::time::Duration;
 
 use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock, Timestamp};
 use rmd_protocol::{
-    CircleAngle, Command, CurrentScale, Dialect, DialectReply, DialectRequest, DialectStatus1, Iq,
-    MotorId, ProtocolError, Reply, Request, Status1, Status2, Voltage, decode_reply_to_with, v3,
+    Command, Conversion, Dialect, MotorId, ProtocolError, Reply, Request, ScaledCurrent,
+    V3_REPLY_BASE_ID,
 };
 
 use crate::args::ids::IdList;
@@ -286,15 +286,22 @@ pub(crate) fn request(
                 }
                 BusMessage::Event(event) => signs.note(event),
                 BusMessage::Frame(reply) if reply.id() == motor.can_id() => {
-                    match decode_reply_to_with(policy.dialect, &reply, command)
-                        .and_then(|(_, reply)| as_v161(reply))
-                    {
+                    match policy
+                        .dialect
+                        .decode_reply_to(&reply, command)
+                        .and_then(|(_, reply)| {
+                            policy
+                                .dialect
+                                .convert_reply(&reply, Dialect::V161, Conversion::Nearest)
+                        }) {
                         Ok(reply) => return Ok(reply),
                         Err(ProtocolError::ReplyMismatch { got, .. }) => mismatch = Some(got),
                         Err(error) => bad = Some(error),
                     }
                 }
-                BusMessage::Frame(reply) if reply.id() == v3::reply_can_id(motor) => {
+                BusMessage::Frame(reply)
+                    if reply.id() == V3_REPLY_BASE_ID + u16::from(motor.get()) =>
+                {
                     v3_answer = Some(reply.id());
                 }
                 // Another motor's frame: not ours.
@@ -333,72 +340,21 @@ pub(crate) fn request(
     })
 }
 
-/// The frame of `request` to `motor` in `dialect`. Only the torque request differs: its current,
-/// in amperes, goes into the dialect's `iqControl` scale (rounded to the nearest step; an error
-/// beyond the dialect's range). Every other request has the same layout in every dialect.
+/// The frame of `request` to `motor` in `dialect`. The commands build their torque request in
+/// amperes: its current goes into the dialect's `iqControl` scale (rounded to the nearest step;
+/// an error beyond the dialect's range). Every other request is encoded as it is.
 pub(crate) fn encode(
     dialect: Dialect,
     motor: MotorId,
     request: &Request,
 ) -> Result<CanFrame, ProtocolError> {
-    match (dialect, request) {
-        (Dialect::LkV23x(_), Request::Torque { iq_control }) => {
-            DialectRequest::torque(dialect, motor, iq_control.amps()).map(|r| r.encode())
-        }
-        _ => Ok(request.encode(motor)),
-    }
-}
-
-/// A reply decoded in a dialect, in the v1.61 shape the commands print. Exact for v1.61 and for
-/// every reply whose layout and scale LK-TECH shares; otherwise the nearest v1.61 value: an LK
-/// status 1's voltage to 0.1 V (its bus current and motor state are dropped), an MF motor's `iq`
-/// to v1.61's 33/2048 A steps (MG's scale is v1.61's), and LK's single-turn angle (0.01° over
-/// one output turn of a geared motor, up to 36000 × ratio - 1) within one motor turn, as v1.61's
-/// `circleAngle` is.
-pub(crate) fn as_v161(reply: DialectReply) -> Result<Reply, ProtocolError> {
-    Ok(match reply {
-        DialectReply::Common(reply) => reply,
-        DialectReply::Status1 { command, status } => {
-            let s = match status {
-                DialectStatus1::V161(s) => s,
-                DialectStatus1::Lk(s) => Status1 {
-                    temperature: s.temperature,
-                    voltage: Voltage::from_volts_saturating(s.voltage.volts()),
-                    error_state: s.error_state,
-                },
-            };
-            if command == Command::ClearError {
-                Reply::ClearError(s)
-            } else {
-                Reply::ReadStatus1(s)
-            }
-        }
-        DialectReply::Status2 { command, status } => {
-            let iq = if status.iq.scale() == CurrentScale::V161_IQ {
-                Iq::try_from(status.iq)?
-            } else {
-                Iq::from_amps_saturating(status.iq.amps())
-            };
-            let s = Status2 {
-                temperature: status.temperature,
-                iq,
-                speed: status.speed,
-                encoder: status.encoder,
-            };
-            match command {
-                Command::Torque => Reply::Torque(s),
-                Command::Speed => Reply::Speed(s),
-                Command::Position1 => Reply::Position1(s),
-                Command::Position2 => Reply::Position2(s),
-                Command::Position3 => Reply::Position3(s),
-                Command::Position4 => Reply::Position4(s),
-                _ => Reply::ReadStatus2(s),
-            }
-        }
-        DialectReply::LkSingleTurnAngle { circle_angle } => Reply::ReadSingleTurnAngle {
-            circle_angle: CircleAngle::new(i64::from(circle_angle.raw() % 36_000))?,
+    let request = match *request {
+        Request::Torque { iq_control } => Request::Torque {
+            iq_control: ScaledCurrent::from_amps(iq_control.amps(), dialect.iq_control_scale())?,
         },
-    })
+        other => other,
+    };
+    dialect.encode(motor, &request)
 }
 
 /// Discards what is already received (stale replies), keeping note of bus events.
@@ -462,7 +418,7 @@ mod tests {
         let (clock, mut bus) = sim(&[]);
         let reply = request(&mut bus, &clock, &policy(0), id(2), &Request::ReadStatus1).unwrap();
         let status = reply.status1().unwrap();
-        assert_eq!(status.temperature.celsius(), 25.0);
+        assert_eq!(status.temperature().celsius(), 25.0);
         // One exchange on a 1 Mbit/s bus: well under the timeout.
         assert!(clock.now() < Timestamp::ZERO + Duration::from_millis(2));
     }
@@ -570,8 +526,10 @@ mod tests {
 
     #[test]
     fn a_reply_to_another_command_is_a_mismatch_and_other_motors_are_ignored() {
-        let other_motor = Reply::MotorOff.encode(id(2));
-        let wrong_command = Reply::MotorStop.encode(id(1));
+        let other_motor = Dialect::V161.encode_reply(id(2), &Reply::MotorOff).unwrap();
+        let wrong_command = Dialect::V161
+            .encode_reply(id(1), &Reply::MotorStop)
+            .unwrap();
         let mut bus = scripted(
             vec![
                 BusMessage::Frame(other_motor),

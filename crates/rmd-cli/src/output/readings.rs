@@ -72,15 +72,15 @@ pub(crate) fn errors_text(state: ErrorState) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rmd_protocol::{Status1, Temperature, Voltage};
+    use rmd_protocol::{Status1, Temperature, V161Status1, Voltage};
 
     #[test]
     fn objects_merge_reply_fields_under_decode_names() {
-        let status = Status1 {
+        let status = Status1::V161(V161Status1 {
             temperature: Temperature::new(30).unwrap(),
             voltage: Voltage::new(480).unwrap(),
             error_state: ErrorState::LOW_VOLTAGE,
-        };
+        });
         let value = object(
             MotorId::new(2).unwrap(),
             &[Reply::ReadStatus1(status)],

@@ -4,8 +4,8 @@
 use core::ops::Range;
 
 use rmd_protocol::{
-    CanFrame, Command, CurrentScale, DialectReply, MULTI_TORQUE_MOTORS, MotorId, ScaledCurrent,
-    ScaledMultiTorque, decode_reply_to_with,
+    CanFrame, Command, CurrentScale, MULTI_TORQUE_MOTORS, MotorId, MultiTorque, Reply,
+    ScaledCurrent,
 };
 
 use super::motor::MotorLink;
@@ -24,7 +24,7 @@ pub(crate) const ZERO_TORQUE: TorqueSlots = [ZERO_IQ; MULTI_TORQUE_MOTORS];
 
 /// The 0x280 frame carrying `slots`.
 pub(crate) fn torque_frame(slots: &TorqueSlots) -> CanFrame {
-    ScaledMultiTorque::new(*slots).encode()
+    MultiTorque::new(*slots).encode()
 }
 
 /// What a received frame is to the bus's motors.
@@ -36,7 +36,7 @@ pub(crate) enum Incoming {
         /// The motor, as an index in description order.
         motor: usize,
         /// The decoded reply.
-        reply: DialectReply,
+        reply: Reply,
     },
     /// A frame on the id of motor `motor` that is not a valid reply to the expected command.
     Bad {
@@ -61,7 +61,7 @@ pub(crate) fn match_reply(
     let Some(motor) = joints.clone().find(|&m| motors[m].id == id) else {
         return Incoming::Foreign;
     };
-    match decode_reply_to_with(motors[motor].dialect, frame, expect) {
+    match motors[motor].dialect.decode_reply_to(frame, expect) {
         Ok((_, reply)) => Incoming::Reply { motor, reply },
         Err(_) => Incoming::Bad { motor },
     }

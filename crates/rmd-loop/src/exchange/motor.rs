@@ -3,7 +3,7 @@
 use core::time::Duration;
 
 use rmd_bus::Timestamp;
-use rmd_protocol::{CurrentScale, Dialect, EncoderWidth, MotorId, ScaledStatus2};
+use rmd_protocol::{CurrentScale, Dialect, EncoderWidth, MotorId, Status2};
 
 use super::pending::{PendingRequests, RESYNC_AFTER, min_round_trip};
 use crate::feedback::{Freshness, JointFeedback, JointState, MotorState, RawStatus};
@@ -125,17 +125,17 @@ impl MotorLink {
     /// `max_age` ticks old are accepted; updates `feedback` and `counters`.
     pub(crate) fn on_reply(
         &mut self,
-        status: &ScaledStatus2,
+        status: &Status2,
         at: Timestamp,
         tick: u64,
         max_age: u64,
         feedback: &mut JointFeedback,
         counters: &mut MotorCounters,
     ) -> ReplyClass {
-        if status.encoder.check(self.width).is_err() {
+        let Some(encoder) = status.encoder().filter(|e| e.check(self.width).is_ok()) else {
             counters.bad_frames += 1;
             return ReplyClass::Unexpected;
-        }
+        };
         let Some((sent_tick, sent_at)) = self.pending.answer(at, self.min_round_trip) else {
             counters.unexpected_replies += 1;
             return ReplyClass::Unexpected;
@@ -161,9 +161,7 @@ impl MotorLink {
         // the encoder unwrapping needs every reading), but the feedback is not marked fresh.
         let elapsed = self.last_reply_at.map_or(Duration::ZERO, |last| at - last);
         let speed_dps = status.speed.dps();
-        let motor_deg = self
-            .unwrapper
-            .update(status.encoder.raw(), speed_dps, elapsed);
+        let motor_deg = self.unwrapper.update(encoder.raw(), speed_dps, elapsed);
         let current_amps = status.iq.amps();
         self.last_reply_at = Some(at);
         self.ticks_since_reply = 0;
@@ -188,7 +186,7 @@ impl MotorLink {
                 temperature: status.temperature.raw(),
                 iq: status.iq.raw(),
                 speed: status.speed.raw(),
-                encoder: status.encoder.raw(),
+                encoder: encoder.raw(),
             },
             freshness,
             received_at: at,
@@ -208,12 +206,12 @@ mod tests {
         Timestamp::from_nanos(us * 1_000)
     }
 
-    fn status(encoder: u16) -> ScaledStatus2 {
-        ScaledStatus2 {
+    fn status(encoder: u16) -> Status2 {
+        Status2 {
             temperature: Temperature::saturating(30),
             iq: rmd_protocol::ScaledCurrent::saturating(100, CurrentScale::V161_IQ),
             speed: Speed::saturating(0),
-            encoder: EncoderValue::from_raw(encoder),
+            position: rmd_protocol::StatusPosition::Encoder(EncoderValue::from_raw(encoder)),
         }
     }
 

@@ -37,8 +37,10 @@ use core::time::Duration;
 use std::path::Path;
 
 use rmd_bus::wire;
-use rmd_protocol::models::{MODELS, MotorModel, find_model};
-use rmd_protocol::{CurrentScale, Dialect, EncoderWidth, MULTI_TORQUE_MOTORS, MotorId};
+use rmd_protocol::{
+    CurrentScale, Dialect, EncoderWidth, MODELS, MULTI_TORQUE_MOTORS, MotorId, MotorModel,
+    find_model,
+};
 
 pub use error::RobotError;
 use error::invalid;
@@ -680,20 +682,20 @@ fn dialect_of(
         (None, None) => (None, format!("{key}.protocol")),
     };
     let series = m.lk_series.as_deref().or(bus.lk_series.as_deref()).or(model
-        .and_then(|md| md.dialect)
-        .and_then(|d| d.lk_series())
+        .and_then(|md| md.dialect.lk_series())
         .map(|s| s.name()));
     let model_dialect = match model {
-        Some(md) => Some(md.dialect.ok_or_else(|| {
-            invalid(
+        Some(md) if !md.dialect.multi_torque_is_per_motor_torque() => {
+            return Err(invalid(
                 format!("{key}.model"),
                 format!(
                     "`{}` speaks {}, whose 0x280 frame is a command for every motor, not \
                      per-motor torque: the loop cannot drive it",
                     md.name, md.family
                 ),
-            )
-        })?),
+            ));
+        }
+        Some(md) => Some(md.dialect),
         None => None,
     };
     let dialect = match protocol {
@@ -707,6 +709,16 @@ fn dialect_of(
         })?,
         None => model_dialect.unwrap_or_default(),
     };
+    if !dialect.multi_torque_is_per_motor_torque() {
+        return Err(invalid(
+            protocol_key,
+            format!(
+                "is {}, whose 0x280 frame is a command for every motor, not per-motor torque: \
+                 the loop cannot drive it",
+                dialect.name()
+            ),
+        ));
+    }
     if let (Some(md), Some(model_dialect)) = (model, model_dialect)
         && model_dialect.family() != dialect.family()
     {

@@ -5,7 +5,7 @@
 use core::time::Duration;
 
 use rmd_bus::{BusMessage, CanBus, Clock, Received, Timestamp, VirtualClock};
-use rmd_protocol::{CanFrame, MotorId, Reply, Request, decode_reply};
+use rmd_protocol::{CanFrame, Dialect, MotorId, Reply, Request, Status1, V161Status1};
 use rmd_sim::{SimBus, SimConfig};
 
 pub(crate) fn id(n: u8) -> MotorId {
@@ -49,14 +49,23 @@ pub(crate) fn frames(items: &[Received]) -> Vec<(Timestamp, CanFrame)> {
 
 /// Sends `request` to motor `motor` and returns its decoded reply (within 5 ms).
 pub(crate) fn ask<C: Clock>(bus: &mut SimBus<C>, motor: u8, request: Request) -> Reply {
-    bus.send(&request.encode(id(motor))).unwrap();
+    bus.send(&Dialect::V161.encode(id(motor), &request).unwrap())
+        .unwrap();
     let deadline = bus.clock().now() + ms(5);
     let items = collect(bus, deadline);
     let got = frames(&items);
     assert_eq!(got.len(), 1, "{request:?}: {items:?}");
-    let (m, reply) = decode_reply(&got[0].1).unwrap();
+    let (m, reply) = Dialect::V161.decode_reply(&got[0].1).unwrap();
     assert_eq!(m, id(motor));
     reply
+}
+
+/// The v1.61 status 1 a reply carries.
+pub(crate) fn v161_status1(reply: Reply) -> V161Status1 {
+    match reply.status1() {
+        Some(Status1::V161(s)) => s,
+        other => panic!("{other:?}"),
+    }
 }
 
 /// The multi-turn angle of `motor` in degrees, read with 0x92.

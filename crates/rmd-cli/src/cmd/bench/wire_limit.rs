@@ -159,7 +159,8 @@ mod tests {
         bus.record_trace(1000);
         for k in 0..20 {
             let iq = IqControl::new(37 * k - 300).unwrap();
-            bus.send(&MultiTorque::new([iq; 4]).encode()).unwrap();
+            bus.send(&MultiTorque::new([iq.into(); 4]).encode())
+                .unwrap();
             let end = clock.now() + Duration::from_millis(2);
             while bus.recv_until(end).unwrap().is_some() {}
         }
@@ -186,7 +187,7 @@ mod tests {
         let clock = VirtualClock::new();
         let mut bus = SimBus::new(clock.clone(), SimConfig::with_motors(2).seed(1)).unwrap();
         bus.record_trace(100);
-        bus.send(&MultiTorque::new([IqControl::default(); 4]).encode())
+        bus.send(&MultiTorque::new([IqControl::default().into(); 4]).encode())
             .unwrap();
         while bus
             .recv_until(clock.now() + Duration::from_millis(2))

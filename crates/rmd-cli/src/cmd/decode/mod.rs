@@ -1,6 +1,9 @@
 //! `rmd decode [--as request|reply|auto] [--protocol P] [FILE]`: frames in, one JSON object per
 //! frame out.
 //!
+//! With `--protocol myactuator-v3` the replies on `0x240 + id` (and the motion-mode frames on
+//! `0x400 + id` / `0x500 + id`) are decoded in V3's layouts and units.
+//!
 //! Reads FILE (or stdin, also with `-`) line by line in any of candump's text formats (see
 //! [`rmd_bus::candump`]), in bounded memory: a line longer than [`lines::MAX_LINE`] bytes is that
 //! line's error. Each valid frame prints one JSON object on stdout, in input order (see
@@ -39,7 +42,7 @@ use crate::output::errln;
 use crate::output::report;
 use lines::{Line, Lines};
 use mcap::McapFrames;
-use pairing::{HELD_LINES, LookAhead, Role, Ticket};
+use pairing::{HELD_LINES, LookAhead, Role, Ticket, V3Pairing};
 
 /// How to read each frame.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -63,7 +66,9 @@ pub(crate) enum Mode {
     lines and bad fields are reported on stderr as `line N: ...`; the exit status is 1 if any \
     line failed. Lines longer than 4096 bytes are errors. Pairing (--as auto): frames repeating \
     the pending request of a read command are more requests when its reply follows, else \
-    all-zero replies; TX/RX markers decide when the log has TX frames (docs/cli.md)."
+    all-zero replies; TX/RX markers decide when the log has TX frames (docs/cli.md). With \
+    --protocol myactuator-v3 the identifier decides: requests on 0x140 + id, 0x280 and 0x400 + \
+    id, replies on 0x240 + id (paired with the last request to their motor) and 0x500 + id."
 )]
 pub(crate) struct DecodeArgs {
     /// Read frames as requests, replies, or decide per frame.
@@ -148,6 +153,7 @@ pub(crate) struct Printer<'a> {
     out: Output<'a>,
     held: VecDeque<Held>,
     pairing: LookAhead,
+    v3_pairing: V3Pairing,
     width: EncoderWidth,
     dialect: Dialect,
     failed: bool,
@@ -164,6 +170,9 @@ impl Printer<'_> {
         let role = match mode {
             Mode::Request => Slot::Known(Role::Request),
             Mode::Reply => Slot::Known(Role::Reply(None)),
+            Mode::Auto if matches!(self.dialect, Dialect::MyActuatorV3(_)) => {
+                Slot::Known(self.v3_pairing.classify(line.frame.id(), line.frame.data()))
+            }
             Mode::Auto => Slot::Pending(self.pairing.push(
                 line.frame.id(),
                 line.frame.data(),
@@ -253,6 +262,7 @@ pub(crate) fn decode_all<'a>(
         out,
         held: VecDeque::new(),
         pairing: LookAhead::default(),
+        v3_pairing: V3Pairing::default(),
         width,
         dialect,
         failed: false,

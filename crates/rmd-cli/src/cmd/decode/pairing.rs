@@ -39,7 +39,10 @@
 use std::collections::{BTreeMap, HashMap};
 
 use rmd_bus::candump::Direction;
-use rmd_protocol::{Command, FIRST_MOTOR_CAN_ID, MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS};
+use rmd_protocol::{
+    Command, FIRST_MOTOR_CAN_ID, MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS, MotorId,
+    SINGLE_MOTOR_BASE_ID, V3_MOTION_REPLY_BASE_ID, V3_REPLY_BASE_ID,
+};
 
 /// What a frame was classified as.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -146,6 +149,51 @@ impl Pairing {
                     self.pending.remove(&can_id);
                 }
             }
+            Role::Request
+        }
+    }
+}
+
+/// Pairing on a MyActuator V3 bus, where the identifier says the direction: requests on
+/// `0x140 + id`, 0x280 (every motor) and `0x400 + id` (motion mode), replies on `0x240 + id`
+/// and `0x500 + id`. A reply is paired with the last request to its motor: a reply with another
+/// command byte is then an error (a V3 motor answers a command it does not know with its
+/// previous reply).
+#[derive(Debug, Default)]
+pub(crate) struct V3Pairing {
+    /// The command byte waiting for its reply, per reply identifier (`0x240 + id`).
+    pending: HashMap<u16, u8>,
+}
+
+impl V3Pairing {
+    /// Classifies the next frame and updates the state.
+    pub(crate) fn classify(&mut self, can_id: u16, data: &[u8]) -> Role {
+        let per_motor = |base: u16| {
+            can_id
+                .checked_sub(base)
+                .is_some_and(|n| (1..=u16::from(MotorId::MAX)).contains(&n))
+        };
+        let code = data.first().copied();
+        if per_motor(SINGLE_MOTOR_BASE_ID) || can_id == MULTI_TORQUE_CAN_ID {
+            let replies: Vec<u16> = if can_id == MULTI_TORQUE_CAN_ID {
+                (1..=u16::from(MotorId::MAX))
+                    .map(|n| V3_REPLY_BASE_ID + n)
+                    .collect()
+            } else {
+                vec![can_id - SINGLE_MOTOR_BASE_ID + V3_REPLY_BASE_ID]
+            };
+            for reply in replies {
+                match code {
+                    Some(code) => self.pending.insert(reply, code),
+                    None => self.pending.remove(&reply),
+                };
+            }
+            Role::Request
+        } else if per_motor(V3_REPLY_BASE_ID) {
+            Role::Reply(self.pending.remove(&can_id).and_then(Command::from_code))
+        } else if per_motor(V3_MOTION_REPLY_BASE_ID) {
+            Role::Reply(None)
+        } else {
             Role::Request
         }
     }
@@ -285,6 +333,32 @@ impl LookAhead {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn v3_pairs_by_identifier_and_the_last_request() {
+        let mut p = V3Pairing::default();
+        assert_eq!(
+            p.classify(0x141, &[0x9C, 0, 0, 0, 0, 0, 0, 0]),
+            Role::Request
+        );
+        assert_eq!(
+            p.classify(0x241, &[0x9C, 1, 2, 3, 4, 5, 6, 7]),
+            Role::Reply(Some(Command::ReadStatus2))
+        );
+        // Answered: the next frame on 0x241 pairs with nothing.
+        assert_eq!(p.classify(0x241, &[0x9C; 8]), Role::Reply(None));
+        // 0x280 leaves its command pending for every motor.
+        assert_eq!(
+            p.classify(0x280, &[0x80, 0, 0, 0, 0, 0, 0, 0]),
+            Role::Request
+        );
+        assert_eq!(
+            p.classify(0x243, &[0x80; 8]),
+            Role::Reply(Some(Command::MotorOff))
+        );
+        assert_eq!(p.classify(0x401, &[0; 8]), Role::Request);
+        assert_eq!(p.classify(0x501, &[1; 8]), Role::Reply(None));
+    }
 
     const A1: [u8; 8] = [0xA1, 0, 0, 0, 0, 0, 0, 0];
 

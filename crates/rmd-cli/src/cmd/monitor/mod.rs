@@ -14,7 +14,7 @@ use std::time::Duration;
 use clap::Args;
 use ratatui::crossterm::event::{self, Event, KeyEventKind};
 use rmd_bus::{Clock, MonotonicClock, Timestamp};
-use rmd_protocol::{Reply, Request};
+use rmd_protocol::{Reply, Request, Status1};
 use serde_json::{Value, json};
 use view::{Action, History, Sample, Screen, View};
 
@@ -444,7 +444,8 @@ fn cells(motor: &Motor, row: &Result<Vec<Reply>, String>) -> Vec<String> {
     let (mut status1, mut status2, mut angle) = (None, None, None);
     for reply in replies {
         match reply {
-            Reply::ReadStatus1(s) => status1 = Some(*s),
+            // The replies come in v1.61's shape (see `live::exchange`).
+            Reply::ReadStatus1(Status1::V161(s)) => status1 = Some(*s),
             Reply::ReadStatus2(s) => status2 = Some(*s),
             Reply::ReadMultiTurnAngle { motor_angle } => {
                 angle = Some(match &motor.joint {
@@ -472,7 +473,10 @@ fn cells(motor: &Motor, row: &Result<Vec<Reply>, String>) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rmd_protocol::{MotorAngle, Status1, Status2};
+    use rmd_protocol::{
+        CurrentScale, EncoderValue, MotorAngle, ScaledCurrent, Speed, Status2, StatusPosition,
+        Temperature, V161Status1,
+    };
 
     #[test]
     fn rows_line_up_under_the_header_whatever_their_state() {
@@ -482,9 +486,15 @@ mod tests {
             width: rmd_protocol::EncoderWidth::DEFAULT,
             joint: None,
         };
+        let status2 = Status2 {
+            temperature: Temperature::default(),
+            iq: ScaledCurrent::saturating(0, CurrentScale::V161_IQ),
+            speed: Speed::default(),
+            position: StatusPosition::Encoder(EncoderValue::default()),
+        };
         let answered = vec![
-            Reply::ReadStatus1(Status1::default()),
-            Reply::ReadStatus2(Status2::default()),
+            Reply::ReadStatus1(Status1::V161(V161Status1::default())),
+            Reply::ReadStatus2(status2),
             Reply::ReadMultiTurnAngle {
                 motor_angle: MotorAngle::new(-1_234_567).unwrap(),
             },
@@ -492,7 +502,12 @@ mod tests {
         let rows = [
             (id(2), Ok(answered)),
             (id(9), Err("motor 9 did not answer".to_owned())),
-            (id(12), Ok(vec![Reply::ReadStatus1(Status1::default())])),
+            (
+                id(12),
+                Ok(vec![Reply::ReadStatus1(Status1::V161(
+                    V161Status1::default(),
+                ))]),
+            ),
         ];
         let text = table(1.5, &rows, "");
         let lines: Vec<&str> = text.lines().collect();

@@ -11,10 +11,9 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Args;
-use rmd_protocol::identify::{Finding, Identification, ProbeAnswers, identify};
-use rmd_protocol::v3::{V3ErrorState, V3Reply, V3Status1};
 use rmd_protocol::{
-    Command, Dialect, DialectReply, LkSeries, MotorId, ProtocolFamily, decode_reply_to_with,
+    Command, Dialect, Finding, Identification, LkSeries, MotorId, ProbeAnswers, ProtocolFamily,
+    Status1, V3ErrorState, V3Firmware, identify,
 };
 use serde_json::{Map, Value, json};
 
@@ -57,14 +56,6 @@ const SCAN_TIMEOUT: Duration = Duration::from_millis(20);
 struct Found {
     identification: Identification,
     status1: Option<Status1>,
-}
-
-/// Status 1 in the layout of the motor's family.
-enum Status1 {
-    /// v1.61 or LK-TECH (decoded in the dialect of the family).
-    Dialect(DialectReply),
-    /// MyActuator V3.
-    V3(V3Status1),
 }
 
 /// Runs `rmd scan`.
@@ -148,17 +139,14 @@ fn status1(id: &Identification, answers: &ProbeAnswers) -> Option<Status1> {
         ProtocolFamily::V161 => Dialect::V161,
         // The series changes only current scales, which status 1 does not carry.
         ProtocolFamily::LkV23x => Dialect::LkV23x(LkSeries::Mg),
-        ProtocolFamily::MyActuatorV3 => {
-            return match V3Reply::decode(&frame) {
-                Ok((_, V3Reply::Status1(s))) => Some(Status1::V3(s)),
-                _ => None,
-            };
-        }
+        // Status 1 is the same in every V3 firmware (V4.3 §2.14, V4.4 §2.13).
+        ProtocolFamily::MyActuatorV3 => Dialect::MyActuatorV3(V3Firmware::default()),
         ProtocolFamily::Unknown => return None,
     };
-    decode_reply_to_with(dialect, &frame, Command::ReadStatus1)
+    dialect
+        .decode_reply_to(&frame, Command::ReadStatus1)
         .ok()
-        .map(|(_, reply)| Status1::Dialect(reply))
+        .and_then(|(_, reply)| reply.status1())
 }
 
 /// One motor's JSON object: id, firmware, model, ambiguous, evidence, then status 1.
@@ -201,11 +189,9 @@ fn status_fields(motor: MotorId, status: &Status1) -> Map<String, Value> {
         "",
         rmd_protocol::EncoderWidth::DEFAULT,
     );
-    let value = match status {
-        Status1::Dialect(reply) => header.dialect_reply(reply),
-        Status1::V3(s) => header.v3_status1(s),
-    }
-    .into_value();
+    let value = header
+        .reply(&rmd_protocol::Reply::ReadStatus1(*status))
+        .into_value();
     match value {
         Value::Object(map) => map
             .into_iter()
@@ -228,18 +214,14 @@ fn table(found: &[Found]) -> TextTable {
     for motor in found {
         let id = &motor.identification;
         let (temperature, voltage, errors) = match &motor.status1 {
-            Some(Status1::Dialect(reply)) => match reply.status1() {
-                Some(s) => (
-                    format!("{} °C", s.temperature().celsius()),
-                    format!("{:.1} V", s.volts()),
-                    readings::errors_text(s.error_state()),
-                ),
-                None => dashes(),
-            },
-            Some(Status1::V3(s)) => (
-                format!("{} °C", s.temperature.celsius()),
-                format!("{:.1} V", s.voltage.volts()),
-                v3_errors_text(s.error_state),
+            Some(s) => (
+                format!("{} °C", s.temperature().celsius()),
+                format!("{:.1} V", s.volts()),
+                match s {
+                    Status1::V3(v3) => v3_errors_text(v3.error_state),
+                    Status1::V161(v) => readings::errors_text(v.error_state),
+                    Status1::Lk(lk) => readings::errors_text(lk.error_state),
+                },
             ),
             None => dashes(),
         };

@@ -11,8 +11,9 @@
 use std::time::Duration;
 
 use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock};
-use rmd_protocol::identify::{ProbeAnswers, model_request, probe_requests};
-use rmd_protocol::{Command, MotorId, v3};
+use rmd_protocol::{
+    Command, MotorId, ProbeAnswers, V3_REPLY_BASE_ID, model_request, probe_requests,
+};
 
 use crate::live::exchange::{self, ExchangeError};
 
@@ -45,7 +46,7 @@ pub(crate) fn probe(
             break;
         }
     }
-    let v3_id = v3::reply_can_id(motor);
+    let v3_id = V3_REPLY_BASE_ID + u16::from(motor.get());
     let answered_as_v3 = [answers.status1(), answers.status2()]
         .into_iter()
         .flatten()
@@ -109,8 +110,7 @@ fn receive_error(motor: MotorId, command: Command, error: BusError) -> ExchangeE
 mod tests {
     use super::*;
     use rmd_bus::VirtualClock;
-    use rmd_protocol::identify::{Finding, identify};
-    use rmd_protocol::{LkSeries, ProtocolFamily};
+    use rmd_protocol::{Finding, LkSeries, ProtocolFamily, identify};
     use rmd_sim::{FaultKind, FaultRule, FirmwareFamily, MotorConfig, SimBus, SimConfig};
 
     fn id(n: u8) -> MotorId {
