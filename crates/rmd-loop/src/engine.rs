@@ -449,7 +449,9 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         // Counted when it starts, so that a snapshot taken during the tick is consistent.
         stats.ticks += 1;
         stats.skipped_ticks += timing.skipped;
-        stats.wake_latency.record(timing.wake_latency());
+        stats
+            .wake_latency
+            .record_nanos(nanos_between(timing.scheduled, timing.woke));
         let last_reply = match self.exchange(&timing) {
             Ok(last_reply) => last_reply,
             Err(reason) => return ControlFlow::Break(reason),
@@ -460,14 +462,14 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         self.parts.shared.serve_snapshot(&self.parts.stats);
         let end = self.parts.clock.now();
         self.parts.shared.watch.progress(end, timing.index);
-        let work = end - timing.woke;
+        let work_ns = nanos_between(timing.woke, end);
         let stats = &mut self.parts.stats;
-        stats.work.record(work);
+        stats.work.record_nanos(work_ns);
         // The loop is ready for the next frame: what it added after the last reply.
         if let Some(last) = last_reply {
-            stats.loop_added.record(end - last);
+            stats.loop_added.record_nanos(nanos_between(last, end));
         }
-        self.parts.times.previous_work_ns = work.as_nanos() as u64;
+        self.parts.times.previous_work_ns = work_ns;
         let tick_end = self.scheduler.end_tick(end);
         if tick_end.missed_deadline {
             stats.deadline_misses += 1;
@@ -528,8 +530,9 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
             } else {
                 collected.rtt_max
             };
-            stats.round_trip.record(rtt);
-            times.round_trip_ns = Some(rtt.as_nanos() as u64);
+            let rtt_ns = u64::try_from(rtt.as_nanos()).unwrap_or(u64::MAX);
+            stats.round_trip.record_nanos(rtt_ns);
+            times.round_trip_ns = Some(rtt_ns);
         }
         Ok(collected.last_reply)
     }
@@ -558,9 +561,9 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         let result = catch_unwind(AssertUnwindSafe(|| {
             controller.update(&ctx, &feedback, &mut commands)
         }));
-        let spent = cpu.now() - began;
-        parts.stats.controller.record(spent);
-        parts.times.controller_ns = spent.as_nanos() as u64;
+        let spent_ns = nanos_between(began, cpu.now());
+        parts.stats.controller.record_nanos(spent_ns);
+        parts.times.controller_ns = spent_ns;
         let flow = match result {
             Ok(flow) => flow,
             Err(payload) => {
@@ -601,6 +604,11 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         drop(self.cpu_latency);
         outcome
     }
+}
+
+/// Nanoseconds from `earlier` to `later` (0 if `later` is not later).
+fn nanos_between(earlier: Timestamp, later: Timestamp) -> u64 {
+    later.as_nanos().saturating_sub(earlier.as_nanos())
 }
 
 /// Waits for the supervisor that took over to finish its safe stop, and takes what it did.
