@@ -525,12 +525,11 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         if let Some(last) = collected.last_reply {
             // Same tick: from this tick's send to the last reply. Pipelined: the replies answer
             // the previous tick, so use the tracked round trip of the slowest motor.
-            let rtt = if max_age == 0 {
-                last - sent_at
+            let rtt_ns = if max_age == 0 {
+                nanos_between(sent_at, last)
             } else {
-                collected.rtt_max
+                collected.rtt_max_ns
             };
-            let rtt_ns = u64::try_from(rtt.as_nanos()).unwrap_or(u64::MAX);
             stats.round_trip.record_nanos(rtt_ns);
             times.round_trip_ns = Some(rtt_ns);
         }
@@ -644,13 +643,14 @@ impl<B, C> Parts<B, C> {
             let mut slots = ZERO_TORQUE;
             for m in link.joints() {
                 let motor = &exchange.motors[m];
-                let scale = motor.command_scale;
-                let raw = ScaledCurrent::from_amps_saturating(self.command_amps[m], scale).raw();
-                let limited = raw.clamp(-motor.limit_raw, motor.limit_raw);
+                let command = &motor.command;
+                let raw = command.raw_of(self.command_amps[m]);
+                let limit = i64::from(command.limit_raw);
+                let limited = raw.clamp(-limit, limit);
                 if limited != raw {
                     self.stats.motors[m].clamped_commands += 1;
                 }
-                let iq = ScaledCurrent::saturating(i64::from(limited), scale);
+                let iq = ScaledCurrent::saturating(limited, command.scale);
                 self.command_amps[m] = iq.amps();
                 slots[motor.slot] = iq;
             }
@@ -676,8 +676,8 @@ impl<B, C: Clock> Parts<B, C> {
             sample.times.wake_latency_ns = timing.wake_latency().as_nanos() as u64;
             sample.totals.ticks = self.stats.ticks;
             sample.totals.deadline_misses = self.stats.deadline_misses;
-            sample.totals.missing_replies = self.stats.missing_replies();
-            sample.totals.late_replies = self.stats.late_replies();
+            sample.totals.missing_replies = self.stats.missing_total;
+            sample.totals.late_replies = self.stats.late_total;
             for (slot, (feedback, amps)) in sample
                 .joints_mut()
                 .iter_mut()

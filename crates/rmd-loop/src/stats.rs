@@ -94,6 +94,7 @@ impl LatencyHistogram {
 
     /// Records one duration given in nanoseconds. Never allocates, never fails, and costs the
     /// same instructions whatever the value.
+    #[inline]
     pub fn record_nanos(&mut self, nanos: u64) {
         // Zero counts in the 1 ns bucket, as the HdrHistogram's lowest trackable value.
         let bucket = bucket_of(nanos.clamp(1, HIGHEST_NANOS));
@@ -319,6 +320,11 @@ pub struct LoopStats {
     pub buses: Vec<BusCounters>,
     /// The joints' names, in description order.
     names: Vec<String>,
+    /// Missing replies so far, all motors (counted with the per-motor counters, so the tick's
+    /// telemetry need not sum them).
+    pub(crate) missing_total: u64,
+    /// Late replies so far, all motors (likewise).
+    pub(crate) late_total: u64,
 }
 
 impl LoopStats {
@@ -344,6 +350,8 @@ impl LoopStats {
                 .collect(),
             buses: vec![BusCounters::default(); robot.buses().len()],
             names: robot.joints().iter().map(|j| j.name.clone()).collect(),
+            missing_total: 0,
+            late_total: 0,
         }
     }
 
@@ -367,6 +375,8 @@ impl LoopStats {
         if self.buses.len() == other.buses.len() {
             self.buses.copy_from_slice(&other.buses);
         }
+        self.missing_total = other.missing_total;
+        self.late_total = other.late_total;
     }
 
     /// Missing replies summed over all motors.
