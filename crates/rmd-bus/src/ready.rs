@@ -33,6 +33,7 @@
 
 use core::time::Duration;
 
+use crate::bus::NO_ARRIVAL;
 use crate::{BusError, Clock, Timestamp, WaitOn};
 
 /// Most file descriptors one [`wait_any`] watches. Beyond them, the wait returns within
@@ -103,8 +104,8 @@ impl Woken {
 /// spin: what they bring is taken right after it). Without any descriptor it only sleeps on `clock`
 /// (a virtual clock then simply moves). Descriptors imply the real time line: `clock` must be
 /// the [`MonotonicClock`](crate::MonotonicClock) (or one on the same time line) when any is
-/// given. A wait whose arrival has come by the return woke; so did one whose descriptor is
-/// readable, and one beyond the [`MAX_WAIT_FDS`] descriptors (or arrivals) a wait watches.
+/// given. The waits whose arrival is the earliest woke once it has come; so did one whose
+/// descriptor is readable, and one beyond the [`MAX_WAIT_FDS`] descriptors a wait watches.
 ///
 /// Errors: a descriptor that is not open ([`BusError::Io`] with `EBADF`), or `ppoll` failing.
 pub fn wait_any<'a, C: Clock + ?Sized>(
@@ -112,67 +113,67 @@ pub fn wait_any<'a, C: Clock + ?Sized>(
     waits: impl IntoIterator<Item = WaitOn<'a>>,
     deadline: Timestamp,
 ) -> Result<Woken, BusError> {
-    let mut arrival: Option<(Timestamp, Duration)> = None;
-    // The known arrivals of the first MAX_WAIT_FDS positions (a position beyond them with an
-    // arrival counts as woken, like a descriptor beyond the set).
-    let mut arrivals = [Timestamp::ZERO; MAX_WAIT_FDS];
-    let mut with_arrival = Woken::NONE;
-    let mut woken = Woken::NONE;
+    // The earliest known arrival (ns), its spin margin, and the positions whose arrival it is.
+    let (mut earliest, mut spin_ns) = (NO_ARRIVAL, 0);
+    let mut at_earliest = Woken::NONE;
     // Made on the first descriptor: a wait on arrivals alone (simulated buses) needs none.
     let mut fds: Option<FdSet<'a>> = None;
     for (i, wait) in waits.into_iter().enumerate() {
-        if let Some((at, spin)) = wait.next_arrival() {
-            if arrival.is_none_or(|(first, _)| at < first) {
-                arrival = Some((at, spin));
-            }
-            match arrivals.get_mut(i) {
-                Some(slot) => {
-                    *slot = at;
-                    with_arrival = with_arrival.with(i);
-                }
-                None => woken = woken.with(i),
-            }
+        let at = wait.arrival_ns();
+        if at < earliest {
+            (earliest, spin_ns) = (at, wait.spin_ns());
+            at_earliest = Woken::NONE.with(i);
+        } else if at == earliest && at != NO_ARRIVAL {
+            at_earliest = at_earliest.with(i);
         }
         #[cfg(target_os = "linux")]
         if let Some(fd) = wait.fd() {
             fds.get_or_insert_with(FdSet::new).push(fd, i);
         }
     }
+    let earliest = (earliest != NO_ARRIVAL).then(|| {
+        (
+            Timestamp::from_nanos(earliest),
+            Duration::from_nanos(spin_ns),
+        )
+    });
     // Wake for the earliest known arrival (its spin margin early), or at the deadline.
-    let arrival = arrival.filter(|&(at, _)| at <= deadline);
-    let wake = arrival.map_or(deadline, |(at, spin)| at.saturating_sub(spin));
-    if let Some(fds) = fds {
-        woken = Woken(woken.0 | fds.beyond.0);
-        let now = clock.now();
-        let mut timeout = wake - now;
-        if fds.overflowed() {
-            timeout = timeout.min(OVERFLOW_RECHECK);
-        }
-        let readable = if timeout.is_zero() {
-            Woken::NONE
-        } else {
-            fds.poll(timeout)?
-        };
-        if readable.is_empty() {
-            if let Some((at, _)) = arrival
-                && clock.now() >= wake
-            {
-                clock.spin_until(at);
-            }
-        } else {
-            woken = Woken(woken.0 | readable.0); // something to receive: no spin
-        }
-    } else {
-        match arrival {
+    let arrival = earliest.filter(|&(at, _)| at <= deadline);
+    let mut woken = Woken::NONE;
+    match fds {
+        None => match arrival {
             Some((at, spin)) => clock.wait_until(at, spin),
             None => clock.sleep_until(deadline),
+        },
+        Some(fds) => {
+            let wake = arrival.map_or(deadline, |(at, spin)| at.saturating_sub(spin));
+            let mut timeout = wake - clock.now();
+            if fds.overflowed() {
+                timeout = timeout.min(OVERFLOW_RECHECK);
+            }
+            woken = fds.beyond;
+            let readable = if timeout.is_zero() {
+                Woken::NONE
+            } else {
+                fds.poll(timeout)?
+            };
+            if readable.is_empty() {
+                if let Some((at, _)) = arrival
+                    && clock.now() >= wake
+                {
+                    clock.spin_until(at);
+                }
+            } else {
+                woken = Woken(woken.0 | readable.0); // something to receive: no spin
+            }
         }
     }
-    let now = clock.now();
-    for i in with_arrival.iter() {
-        if arrivals[i] <= now {
-            woken = woken.with(i);
-        }
+    // The earliest arrival has come: those waits woke. (A later one that has come meanwhile is
+    // the earliest of the next wait, which then returns at once.)
+    if let Some((at, _)) = arrival
+        && clock.now() >= at
+    {
+        woken = Woken(woken.0 | at_earliest.0);
     }
     Ok(woken)
 }
@@ -329,10 +330,20 @@ mod tests {
         let woken = wait_any(&clock, [a, b], deadline).unwrap();
         assert_eq!(clock.now(), Timestamp::ZERO + us(200));
         assert_eq!(woken.iter().collect::<Vec<_>>(), vec![1]);
-        // Once both have come, both woke.
+        // Once both have come, the earliest woke; the other is the earliest of the next wait
+        // (without b), which returns at once.
         clock.sleep_until(Timestamp::ZERO + us(300));
         let woken = wait_any(&clock, [a, b], deadline).unwrap();
-        assert_eq!(woken.iter().collect::<Vec<_>>(), vec![0, 1]);
+        assert_eq!(woken.iter().collect::<Vec<_>>(), vec![1]);
+        let woken = wait_any(&clock, [a, WaitOn::default()], deadline).unwrap();
+        assert_eq!(clock.now(), Timestamp::ZERO + us(300));
+        assert_eq!(woken.iter().collect::<Vec<_>>(), vec![0]);
+        // Arrivals at the same instant wake together.
+        let c = WaitOn::arrival(Timestamp::ZERO + us(400), us(0));
+        let woken = wait_any(&clock, [c, a, c], deadline).unwrap();
+        assert_eq!(woken.iter().collect::<Vec<_>>(), vec![1]);
+        let woken = wait_any(&clock, [c, WaitOn::default(), c], deadline).unwrap();
+        assert_eq!(woken.iter().collect::<Vec<_>>(), vec![0, 2]);
         // An arrival after the deadline does not count.
         let woken = wait_any(
             &clock,
