@@ -28,7 +28,6 @@ use crate::bus_link::BusLink;
 use crate::commands::{Commands, MAX_SIGNALS, Rejections};
 use crate::controller::{Controller, Flow, TickContext};
 use crate::exchange::Exchange;
-use crate::exchange::frames::ZERO_TORQUE;
 use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
 use crate::mapping::JointMap;
@@ -639,22 +638,25 @@ impl<B, C> Parts<B, C> {
     /// tick's 0x280 frames.
     fn stage_commands(&mut self) {
         let exchange = &mut self.exchange;
-        for (link, staged) in exchange.links.iter().zip(&mut exchange.staged) {
-            let mut slots = ZERO_TORQUE;
-            for m in link.joints() {
-                let motor = &exchange.motors[m];
-                let command = &motor.command;
-                let raw = command.raw_of(self.command_amps[m]);
-                let limit = i64::from(command.limit_raw);
-                let limited = raw.clamp(-limit, limit);
-                if limited != raw {
-                    self.stats.motors[m].clamped_commands += 1;
-                }
-                let iq = ScaledCurrent::saturating(limited, command.scale);
-                self.command_amps[m] = iq.amps();
-                slots[motor.slot] = iq;
+        // Slots of no described motor keep the zero they were built with.
+        for ((motor, amps), counters) in exchange
+            .motors
+            .iter()
+            .zip(&mut self.command_amps)
+            .zip(&mut self.stats.motors)
+        {
+            let command = &motor.command;
+            let (raw, clamped) = command.limited_raw(*amps);
+            counters.clamped_commands += u64::from(clamped);
+            let iq = ScaledCurrent::saturating(raw, command.scale);
+            *amps = iq.amps();
+            if let Some(slot) = exchange
+                .staged
+                .get_mut(motor.at.bus)
+                .and_then(|slots| slots.get_mut(motor.slot))
+            {
+                *slot = iq;
             }
-            *staged = slots;
         }
     }
 }
@@ -662,7 +664,7 @@ impl<B, C> Parts<B, C> {
 impl<B, C: Clock> Parts<B, C> {
     /// Publishes this tick's sample, if anything receives telemetry.
     fn publish(&mut self, timing: &TickTiming, start: Timestamp) {
-        let Some((tx, delivery)) = &self.telemetry else {
+        let Some((tx, delivery)) = &mut self.telemetry else {
             return;
         };
         let taken_at = self.clock.now();
@@ -690,7 +692,7 @@ impl<B, C: Clock> Parts<B, C> {
                 .signals_mut()
                 .copy_from_slice(&self.signals[..self.signal_count]);
         };
-        let delivered = match delivery {
+        let delivered = match *delivery {
             TelemetryDelivery::Overwrite => tx.publish(true, fill) == Published::Queued,
             TelemetryDelivery::Wait => loop {
                 // `fill` is called only when the sample is queued.

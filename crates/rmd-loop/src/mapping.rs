@@ -16,16 +16,24 @@ use rmd_protocol::EncoderWidth;
 
 use crate::robot::{Direction, JointSpec};
 
-/// The integer nearest to `x`, halves away from zero, saturating at the `i64` bounds; NaN gives
-/// 0. Inline arithmetic: without SSE4.1 (the x86-64 baseline) `f64::round` is a library call.
+/// Beyond this magnitude every `f64` is an integer (2^52).
+const ALL_INTEGERS: f64 = 4_503_599_627_370_496.0;
+
+/// The integer nearest to `x`, halves away from zero, for `x` within +-2^52 (beyond, the nearest
+/// of +-2^52); NaN gives 0. Inline arithmetic: without SSE4.1 (the x86-64 baseline)
+/// `f64::round` is a library call.
+#[inline]
 pub(crate) fn nearest_integer(x: f64) -> i64 {
-    // `as` truncates toward zero and saturates. For |x| < 2^53 both `t as f64` and `x - t` are
-    // exact, so `frac` is the exact fractional part; beyond, every f64 is an integer.
+    // Within +-2^52 `t` and `t as f64` are exact, so `frac` is the exact fractional part, and
+    // nothing below overflows. `as` gives 0 for NaN.
+    let x = x.clamp(-ALL_INTEGERS, ALL_INTEGERS);
     let t = x as i64;
     let frac = x - t as f64;
-    t.saturating_add(i64::from(frac >= 0.5))
-        .saturating_sub(i64::from(frac <= -0.5))
+    t + i64::from(frac >= 0.5) - i64::from(frac <= -0.5)
 }
+
+/// An hour in nanoseconds.
+const HOUR_NS: u64 = 3_600_000_000_000;
 
 /// Unwraps single-turn encoder readings into a continuous angle.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -88,7 +96,9 @@ impl EncoderUnwrapper {
             None => self.counts = reading,
             Some(last) => {
                 let raw = (reading - i64::from(last)) & mask; // rem_euclid: 0..n
-                let expected = speed_dps * elapsed_ns as f64 * self.counts_per_dps_ns;
+                // (An hour between readings is as good as forever: the count is then a guess.)
+                let elapsed_ns = elapsed_ns.min(HOUR_NS) as i64 as f64;
+                let expected = speed_dps * elapsed_ns * self.counts_per_dps_ns;
                 // The whole number of turns k that puts raw + k*n closest to the prediction.
                 let expected = if expected.is_finite() { expected } else { 0.0 };
                 let turns = (expected - raw as f64) * self.turns_per_count;
@@ -262,10 +272,10 @@ mod tests {
             (-0.49999999999999994, 0),
             (0.0, 0),
             (-0.0, 0),
-            (1e300, i64::MAX),
-            (-1e300, i64::MIN),
+            (1e300, 1 << 52),
+            (-1e300, -(1 << 52)),
             (f64::NAN, 0),
-            (4503599627370497.0, 4503599627370497),
+            (4503599627370495.0, 4503599627370495),
         ] {
             assert_eq!(nearest_integer(x), n, "{x}");
         }

@@ -193,33 +193,26 @@ impl<B: CanBus> Exchange<B> {
             }
         };
         // Which of the bus's motors sent it (by the CAN id its reply comes on).
-        let id = frame.id();
-        let Some(m) = self.links[b]
-            .joints()
-            .find(|&m| self.motors[m].expect.can_id == id)
-        else {
+        let Some(m) = self.reply_motor(b, frame.id()) else {
             stats.buses[b].unexpected_frames += 1;
             return Ok(Received::Item);
         };
-        let Some(status) = self.motors[m].expect.decode(&frame) else {
-            stats.motors[m].bad_frames += 1;
-            return Ok(Received::Item);
-        };
-        let was_fresh = self.feedback[m].freshness.is_fresh();
-        let class = self.motors[m].on_reply(
-            &status,
-            received.at,
-            tick,
-            max_age,
+        let (motor, feedback, counters) = (
+            &mut self.motors[m],
             &mut self.feedback[m],
             &mut stats.motors[m],
         );
-        match class {
+        let Some(status) = motor.expect.decode(&frame) else {
+            counters.bad_frames += 1;
+            return Ok(Received::Item);
+        };
+        let was_fresh = feedback.freshness.is_fresh();
+        match motor.on_reply(&status, received.at, tick, max_age, feedback, counters) {
             ReplyClass::Fresh => {
+                collected.add(received.at, motor.round_trip_ns().unwrap_or(0));
                 if !was_fresh {
                     self.became_fresh(b);
                 }
-                collected.add(received.at, self.motors[m].round_trip_ns().unwrap_or(0));
             }
             ReplyClass::Late => stats.late_total += 1,
             ReplyClass::Unexpected => {}

@@ -38,6 +38,10 @@ pub(crate) struct Exchange<B> {
     owed: Vec<usize>,
     /// Their sum over every bus.
     owed_total: usize,
+    /// Per bus: which motor a frame comes from, by the low five bits of its CAN id (a reply id
+    /// is a multiple of 32 plus the motor id, 1..=32, so they tell a bus's motors apart): the
+    /// motor's index + 1, or 0 for none. The frame's id is then checked against the motor's.
+    reply_motors: Vec<[u8; 32]>,
     /// How many ticks old a reply may be and still count as this tick's (0, or 1 pipelined).
     pub(crate) max_age: u64,
     /// Pipelined: the first tick's feedback is the start-up probe's replies (the request
@@ -58,17 +62,30 @@ impl<B> Exchange<B> {
                 commanded: false,
             })
             .collect::<Vec<_>>();
+        let motors: Vec<MotorLink> = robot
+            .joints()
+            .iter()
+            .enumerate()
+            .map(|(i, j)| MotorLink::new(i, j, robot.buses()[j.bus].bitrate))
+            .collect();
+        let reply_motors = links
+            .iter()
+            .map(|link| {
+                let mut table = [0u8; 32];
+                for m in link.joints() {
+                    // At most MAX_JOINTS motors (far below 255): the index fits.
+                    table[usize::from(motors[m].expect.can_id) % 32] = (m + 1) as u8;
+                }
+                table
+            })
+            .collect();
         Self {
             staged: vec![ZERO_TORQUE; links.len()],
             owed: vec![0; links.len()],
             owed_total: 0,
+            reply_motors,
             links,
-            motors: robot
-                .joints()
-                .iter()
-                .enumerate()
-                .map(|(i, j)| MotorLink::new(i, j, robot.buses()[j.bus].bitrate))
-                .collect(),
+            motors,
             feedback: vec![JointFeedback::UNSET; robot.joint_count()],
             max_age: match robot.settings().reply_mode {
                 ReplyMode::SameTick => 0,
@@ -91,6 +108,14 @@ impl<B> Exchange<B> {
             *owed = link.joints.len();
         }
         self.owed_total = self.motors.len();
+    }
+
+    /// The motor of bus `b` whose replies come on CAN id `id`, if any.
+    #[inline]
+    fn reply_motor(&self, b: usize, id: u16) -> Option<usize> {
+        let entry = self.reply_motors[b][usize::from(id) % 32];
+        let m = usize::from(entry).checked_sub(1)?;
+        (self.motors[m].expect.can_id == id).then_some(m)
     }
 
     /// Whether every joint of bus `b` has fresh feedback.

@@ -6,7 +6,7 @@
 use core::time::Duration;
 
 use rmd_bus::Timestamp;
-use rmd_protocol::{CurrentScale, EncoderWidth, MotorId, ScaledStatus2};
+use rmd_protocol::{CurrentScale, MotorId, ScaledStatus2};
 
 use super::frames::ReplyExpectation;
 use super::pending::{PendingRequests, RESYNC_AFTER, min_round_trip};
@@ -36,8 +36,8 @@ pub(crate) struct CommandScale {
     /// Raw steps per ampere.
     raw_per_amp: f64,
     /// The scale's raw range.
-    min_raw: i64,
-    max_raw: i64,
+    min_raw: f64,
+    max_raw: f64,
     /// The joint's current limit, in raw steps (at most the scale's range, checked with the
     /// description).
     pub(crate) limit_raw: i16,
@@ -49,19 +49,21 @@ impl CommandScale {
         Self {
             scale,
             raw_per_amp: 1.0 / scale.amps_per_lsb(),
-            min_raw: i64::from(scale.min_raw()),
-            max_raw: i64::from(scale.max_raw()),
+            min_raw: f64::from(scale.min_raw()),
+            max_raw: f64::from(scale.max_raw()),
             limit_raw: joint.current_limit.raw(),
         }
     }
 
-    /// The raw command nearest to `amps` (half away from zero; NaN gives 0), saturated into the
-    /// scale's range.
+    /// The raw command for `amps`: the nearest raw value (half away from zero; NaN gives 0)
+    /// within the scale's range, as `ScaledCurrent::from_amps_saturating` gives, then limited to
+    /// the joint's current limit; and whether the limit changed it.
     #[inline]
-    pub(crate) fn raw_of(&self, amps: f64) -> i64 {
-        // Within +-2^16 before rounding (any raw range is an i16's), so nothing saturates there.
-        nearest_integer((amps * self.raw_per_amp).clamp(-65_536.0, 65_536.0))
-            .clamp(self.min_raw, self.max_raw)
+    pub(crate) fn limited_raw(&self, amps: f64) -> (i64, bool) {
+        let raw = nearest_integer((amps * self.raw_per_amp).clamp(self.min_raw, self.max_raw));
+        let limit = i64::from(self.limit_raw);
+        let limited = raw.clamp(-limit, limit);
+        (limited, limited != raw)
     }
 }
 
@@ -77,7 +79,8 @@ pub(crate) struct MotorLink {
     pub(crate) command: CommandScale,
     /// Index in the 0x280 frame (id - 1).
     pub(crate) slot: usize,
-    width: EncoderWidth,
+    /// The largest encoder reading its width allows.
+    max_encoder: u16,
     pub(crate) map: JointMap,
     unwrapper: EncoderUnwrapper,
     pub(crate) temperature_limit: Option<f64>,
@@ -109,7 +112,7 @@ impl MotorLink {
             expect: ReplyExpectation::torque(joint),
             command: CommandScale::new(joint),
             slot: joint.slot(),
-            width: joint.encoder,
+            max_encoder: joint.encoder.max_value(),
             map: JointMap::from_spec(joint),
             unwrapper: EncoderUnwrapper::new(joint.encoder),
             temperature_limit: joint.temperature_limit_celsius,
@@ -138,6 +141,7 @@ impl MotorLink {
     /// Marks the end of a tick's collection: after [`RESYNC_AFTER`] ticks in a row whose newest
     /// reply was late but timed like a newer request's, the requests before that one are
     /// declared lost (replies went missing and every later one was taken too old).
+    #[inline]
     pub(crate) fn end_tick(&mut self, feedback: &JointFeedback) {
         match (feedback.freshness, self.late_fits_next) {
             (Freshness::Late { .. }, Some(at)) => {
@@ -153,6 +157,7 @@ impl MotorLink {
     }
 
     /// Marks the start of a tick: until a reply comes, the feedback is missing.
+    #[inline]
     pub(crate) fn begin_tick(&mut self, feedback: &mut JointFeedback) {
         self.ticks_since_reply = self.ticks_since_reply.saturating_add(1);
         feedback.freshness = Freshness::Missing {
@@ -183,7 +188,7 @@ impl MotorLink {
         feedback: &mut JointFeedback,
         counters: &mut MotorCounters,
     ) -> ReplyClass {
-        if status.encoder.check(self.width).is_err() {
+        if status.encoder.raw() > self.max_encoder {
             counters.bad_frames += 1;
             return ReplyClass::Unexpected;
         }
