@@ -114,6 +114,43 @@ count() {
   echo "$total"
 }
 
+# Instructions per tick by concern, from callgrind_annotate's self cost per "source file:
+# function" (inlined code keeps its own source file): the project's files by what they do,
+# the standard library's and other crates' by the function they were inlined into.
+breakdown() {
+  awk -v ticks="$2" '
+    function concern(file, fn) {
+      if (file ~ /rmd-tick-bench\/src\/lib.rs/ || fn ~ /CannedBus/) return "the scenario'"'"'s canned bus"
+      if (fn ~ /::publish/) return "telemetry"
+      if (file ~ /exchange\/collect.rs|rmd-bus\/src\/(ready|bus).rs/) return "collecting: waits and receives"
+      if (file ~ /exchange\/frames.rs|rmd-protocol\//) return "frames: decode and encode"
+      if (file ~ /exchange\/(motor|pending).rs|mapping.rs|feedback.rs/) return "reply matching and feedback"
+      if (file ~ /exchange\/account.rs/) return "missing replies and temperature"
+      if (file ~ /stats.rs|hdrhistogram/) return "statistics (five latency figures)"
+      if (file ~ /telemetry\/|crossbeam|mailbox.rs/) return "telemetry"
+      if (file ~ /rmd-loop\/src\/|rmd-bus\/src\/|nix-|clock_gettime/) return "tick sequence: schedule, clocks, send, staging, supervisor handshake"
+      if (fn ~ /CannedBus/) return "the scenario'"'"'s canned bus"
+      if (fn ~ /collect_all|::receive|wait_any/) return "collecting: waits and receives"
+      if (fn ~ /on_reply|end_tick|begin_tick/) return "reply matching and feedback"
+      if (fn ~ /::account/) return "missing replies and temperature"
+      if (fn ~ /publish|telemetry/) return "telemetry"
+      if (fn ~ /stats|Histogram/) return "statistics (five latency figures)"
+      if (fn ~ /rmd_protocol/) return "frames: decode and encode"
+      return "tick sequence: schedule, clocks, send, staging, supervisor handshake"
+    }
+    /^ *[0-9,]+ +\([ 0-9.]+%\) +[^ ]/ {
+      if ($0 ~ /PROGRAM TOTALS/) next
+      count = $1; gsub(",", "", count)
+      line = $0; sub(/^ *[0-9,]+ +\([ 0-9.]+%\) +/, "", line)
+      split(line, part, ":"); file = part[1]; fn = substr(line, length(file) + 2)
+      sum[concern(file, fn)] += count; total += count
+    }
+    END {
+      for (c in sum) printf "%8.0f  %s\n", sum[c] / ticks, c
+      printf "%8.0f  total\n", total / ticks
+    }' "$1" | sort -rn
+}
+
 declare -A ir_short ir_long per_tick ns_min ns_median
 for buses in "${configs[@]}"; do
   name="${buses}x4"
@@ -125,8 +162,11 @@ for buses in "${configs[@]}"; do
   if [[ -n "$annotate" ]]; then
     mkdir -p "$annotate"
     cp "$work/callgrind.$buses.$long" "$annotate/callgrind.$name.$long"
-    callgrind_annotate --inclusive=no "$annotate/callgrind.$name.$long" >"$annotate/$name.self.txt"
-    callgrind_annotate --inclusive=yes "$annotate/callgrind.$name.$long" >"$annotate/$name.inclusive.txt"
+    callgrind_annotate --auto=no --threshold=100 --inclusive=no \
+      "$annotate/callgrind.$name.$long" >"$annotate/$name.self.txt"
+    callgrind_annotate --auto=no --threshold=100 --inclusive=yes \
+      "$annotate/callgrind.$name.$long" >"$annotate/$name.inclusive.txt"
+    breakdown "$annotate/$name.self.txt" "$long" >"$annotate/$name.concerns.txt"
   fi
   if $time; then
     log "timing $name (native, 7 rounds of $long ticks) ..."
