@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Regenerates every figure of docs/benchmarks.md in one run, writes them into its generated
 # blocks (<!-- figures:NAME --> ... <!-- /figures:NAME -->) and draws the plots in docs/img/:
-#   1. cargo bench --bench tick               tick overhead, allocations per tick
+#   1. cargo bench --bench tick               tick overhead, allocations per tick, and its
+#      benches/tick-instructions.sh           instructions per tick (callgrind) beside it
 #   2. benches/jitter-vs-cyclictest.sh        wake latency vs cyclictest (its defaults), plot
 #   3. rmd bench rate --buses 1,2,4,8         headline and zero-miss rates against the wire
 #                                              limit, loop added time; polling receive, then
@@ -127,7 +128,9 @@ check() { local status=$1 what=$2; [[ $status -eq 0 ]] || { failed+=("$what (exi
 
 wait_quiet; stamp "tick overhead"
 cargo bench --bench tick -- "${tick_args[@]}" 2>&1 | tee "$out/tick.txt"; check $? "cargo bench --bench tick"
-"$figures" tick target/criterion "$out/tick.txt" > "$out/tick.md"
+# The same ticks' instructions (callgrind: deterministic), for the time per instruction.
+benches/tick-instructions.sh --json --no-time > "$out/tick-instructions.json"; check $? "tick-instructions.sh"
+"$figures" tick target/criterion "$out/tick.txt" "$out/tick-instructions.json" > "$out/tick.md"
 
 wait_quiet; stamp "wake latency vs cyclictest"
 benches/jitter-vs-cyclictest.sh --rounds "$jitter_rounds" --seconds "$jitter_seconds" --period-us 1000 \

@@ -14,10 +14,12 @@
 //! - `sim alone`: the same simulator work without the loop (send the 0x280 frame, receive the
 //!   replies, on to the next period), so that `loop+sim - sim alone` is the loop's share;
 //! - `loop alone`: `Running::step` on a bus that answers every 0x280 frame with four pre-encoded
-//!   replies, [`TURNAROUND`] later and then one every [`REPLY_GAP`] (no simulator at all): the
+//!   replies, [`TURNAROUND`] later and then one every `REPLY_GAP` (no simulator at all): the
 //!   framework's own overhead. The bus can be waited on with others (`CanBus::readiness`), so
 //!   the loop collects from every bus at once, as it does on SocketCAN and on threaded
-//!   simulators.
+//!   simulators. The scenario lives in `crates/rmd-tick-bench`, which
+//!   `benches/tick-instructions.sh` also runs under callgrind to count its instructions per tick
+//!   (the deterministic figure; this benchmark gives the time the machine took for them).
 //!
 //! Before measuring, each loop runs 10 000 ticks under a counting allocator and prints the
 //! allocations per tick (zero: the real-time path never allocates).
@@ -30,142 +32,14 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use rmd_rt::bus::{
-    BusError, BusMessage, CanBus, Clock, Readiness, Received, Timestamp, VirtualClock, WaitOn,
-};
-use rmd_rt::protocol::{
-    CanFrame, Dialect, EncoderValue, Iq, IqControl, MotorId, MultiTorque, Reply, Speed, Status2,
-    StatusPosition, Temperature,
-};
-use rmd_rt::rt::robot::{BusConfig, MotorConfig, RobotConfig};
+use rmd_rt::bus::{CanBus, Clock, VirtualClock};
+use rmd_rt::protocol::{IqControl, MultiTorque};
 use rmd_rt::rt::{Running, TelemetryReceiver};
 use rmd_rt::sim::{SimBus, SimConfig};
-use rmd_rt::{Commands, Controller, Feedback, Flow, RtLoop, TickContext};
+use rmd_tick_bench::{MOTORS, NoOp, RATE_HZ, TURNAROUND};
 
-/// Loop rate: the period is the virtual time the simulator integrates per tick.
-const RATE_HZ: f64 = 1000.0;
-const MOTORS: u8 = 4;
 /// Ticks run under the counting allocator.
 const COUNTED_TICKS: u64 = 10_000;
-/// When the first reply comes after the request (virtual time): longer than the shortest
-/// physical round trip at 1 Mbit/s (216 us), which the loop's reply matching requires.
-const TURNAROUND: Duration = Duration::from_micros(250);
-/// Between the canned bus's replies (about one 8-byte frame at 1 Mbit/s).
-const REPLY_GAP: Duration = Duration::from_micros(120);
-
-/// The controller is excluded: it does nothing (every command stays zero).
-struct NoOp;
-
-impl Controller for NoOp {
-    fn update(&mut self, _: &TickContext, _: &Feedback<'_>, _: &mut Commands<'_>) -> Flow {
-        Flow::Continue
-    }
-}
-
-fn robot(buses: usize) -> rmd_rt::Robot {
-    let mut robot = RobotConfig::new(RATE_HZ);
-    for b in 0..buses {
-        let mut bus = BusConfig::new(&format!("bench{b}"));
-        for id in 1..=MOTORS {
-            bus = bus.with_motor(MotorConfig::new(id));
-        }
-        robot = robot.with_bus(bus);
-    }
-    rmd_rt::Robot::try_from(robot).expect("valid robot")
-}
-
-/// A bus that answers each 0x280 frame with the pre-encoded 0xA1 replies of motors 1..=4, the
-/// first [`TURNAROUND`] after it and then one every [`REPLY_GAP`] (virtual time: the receive
-/// moves the clock to each arrival). No allocation: a fixed ring of pending replies.
-struct CannedBus {
-    clock: VirtualClock,
-    replies: [CanFrame; MOTORS as usize],
-    pending: [Option<Received>; 8],
-    head: usize,
-    len: usize,
-}
-
-impl CannedBus {
-    fn new(clock: VirtualClock) -> Self {
-        let replies = core::array::from_fn(|i| {
-            let status = Status2 {
-                temperature: Temperature::saturating(30),
-                iq: Iq::saturating(40 * i as i64 - 60).into(),
-                speed: Speed::saturating(12 - 5 * i as i64),
-                position: StatusPosition::Encoder(EncoderValue::from_raw(4000 * i as u16 + 17)),
-            };
-            let motor = MotorId::new(i as u8 + 1).expect("ids 1..=4 are valid");
-            Dialect::V161
-                .encode_reply(motor, &Reply::Torque(status))
-                .unwrap()
-        });
-        Self {
-            clock,
-            replies,
-            pending: [None; 8],
-            head: 0,
-            len: 0,
-        }
-    }
-
-    /// When the oldest pending reply arrives.
-    fn first_arrival(&self) -> Option<Timestamp> {
-        if self.len == 0 {
-            return None;
-        }
-        self.pending[self.head].as_ref().map(|r| r.at)
-    }
-}
-
-impl CanBus for CannedBus {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
-        if frame.id() == rmd_rt::protocol::MULTI_TORQUE_CAN_ID {
-            let mut at = self.clock.now() + TURNAROUND;
-            for reply in self.replies {
-                if self.len == self.pending.len() {
-                    return Err(BusError::TxQueueFull);
-                }
-                let slot = (self.head + self.len) % self.pending.len();
-                self.pending[slot] = Some(Received {
-                    at,
-                    message: BusMessage::Frame(reply),
-                });
-                self.len += 1;
-                at += REPLY_GAP;
-            }
-        }
-        Ok(())
-    }
-
-    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
-        let Some(at) = self.first_arrival() else {
-            self.clock.sleep_until(deadline);
-            return Ok(None);
-        };
-        if at > self.clock.now() {
-            // Not arrived yet: wait for it, up to the deadline.
-            if at > deadline {
-                self.clock.sleep_until(deadline);
-                return Ok(None);
-            }
-            self.clock.sleep_until(at);
-        }
-        let item = self.pending[self.head].take();
-        self.head = (self.head + 1) % self.pending.len();
-        self.len -= 1;
-        Ok(item)
-    }
-
-    /// Like a SocketCAN socket or a threaded simulator, it can be waited on with other buses:
-    /// the loop collects from all of them at once (the path real runs take).
-    fn readiness(&mut self) -> Readiness<'_> {
-        match self.first_arrival() {
-            Some(at) if at <= self.clock.now() => Readiness::Ready,
-            Some(at) => Readiness::Pending(WaitOn::arrival(at, Duration::ZERO)),
-            None => Readiness::Pending(WaitOn::default()),
-        }
-    }
-}
 
 /// A started loop over `buses` publishing telemetry (to a receiver nobody drains: the queue
 /// overwrites), warmed up, after printing its allocations per tick.
@@ -175,11 +49,7 @@ fn started<B: CanBus>(
     buses: Vec<B>,
 ) -> (Running<B, VirtualClock, NoOp>, TelemetryReceiver) {
     let n = buses.len();
-    let mut rt = RtLoop::new(robot(n), clock, buses, NoOp).expect("valid robot");
-    let telemetry = rt.telemetry();
-    let Ok(mut rt) = rt.start() else {
-        panic!("every motor answers the start-up probe")
-    };
+    let (mut rt, telemetry) = rmd_tick_bench::started(rmd_tick_bench::robot(n), clock, buses);
     for _ in 0..1_000 {
         assert!(rt.step().is_continue());
     }
@@ -249,7 +119,9 @@ fn tick(c: &mut Criterion) {
         });
 
         let clock = VirtualClock::new();
-        let canned = (0..buses).map(|_| CannedBus::new(clock.clone())).collect();
+        let canned = (0..buses)
+            .map(|_| rmd_tick_bench::CannedBus::new(clock.clone()))
+            .collect();
         let (mut rt, _telemetry) = started(&format!("loop alone {label}"), clock, canned);
         group.bench_function(format!("loop alone {label}"), |b| {
             b.iter(|| black_box(rt.step()))

@@ -81,28 +81,41 @@ fn allocations(log: &str, name: &str) -> Option<(u64, u64)> {
     Some((n, ticks))
 }
 
-fn tick_table(dir: &Path, log: &str) -> String {
+/// Instructions per tick of `config` in `benches/tick-instructions.sh --json`'s output.
+fn instructions_per_tick(instructions: &Value, config: &str) -> Option<f64> {
+    instructions["ir_per_tick"][config].as_f64()
+}
+
+/// The tick table: criterion's means, the allocations, and (when `instructions` holds the
+/// output of `benches/tick-instructions.sh --json`) the loop alone's instructions per tick and
+/// the time per instruction, which shows when the machine rather than the code moved.
+fn tick_table(dir: &Path, log: &str, instructions: Option<&Value>) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "| configuration | loop + sim | sim alone | **loop alone** (the framework's overhead) | allocations per tick (loop alone) |"
+        "| configuration | loop + sim | sim alone | **loop alone** (the framework's overhead) | allocations per tick (loop alone) | instructions per tick (loop alone, callgrind) | ns per instruction |"
     );
-    let _ = writeln!(out, "|---|---|---|---|---|");
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|");
     for config in TICK_CONFIGS {
-        let us: Vec<String> = TICK_VIEWS
+        let means: Vec<Option<f64>> = TICK_VIEWS
             .iter()
-            .map(|view| fmt(criterion_mean_us(dir, &format!("{view} {config}")), 2))
+            .map(|view| criterion_mean_us(dir, &format!("{view} {config}")))
             .collect();
+        let us: Vec<String> = means.iter().map(|m| fmt(*m, 2)).collect();
         let alloc = allocations(log, &format!("loop alone {config}"))
             .map_or("-".to_string(), |(n, t)| format!("{n} in {t} ticks"));
+        let ir = instructions.and_then(|v| instructions_per_tick(v, config));
+        let ns_per_ir = ir.zip(means[2]).map(|(ir, us)| us * 1000.0 / ir);
         let _ = writeln!(
             out,
-            "| {} bus(es) x {} motors | {} us | {} us | **{} us** | {alloc} |",
+            "| {} bus(es) x {} motors | {} us | {} us | **{} us** | {alloc} | {} | {} |",
             &config[..1],
             &config[2..],
             us[0],
             us[1],
-            us[2]
+            us[2],
+            fmt(ir, 0),
+            fmt(ns_per_ir, 3)
         );
     }
     out
@@ -484,7 +497,7 @@ fn summary_table(s: &Summary) -> String {
 // ---- main ---------------------------------------------------------------------------------
 
 fn run(args: &[String]) -> Result<(), Error> {
-    let usage = "usage: bench_figures tick CRITERION_DIR TICK_LOG | rate RATE.jsonl [--svg FILE] \
+    let usage = "usage: bench_figures tick CRITERION_DIR TICK_LOG [INSTRUCTIONS.json] | rate RATE.jsonl [--svg FILE] \
                  [--caption TEXT] | loop REPORT.json... | criterion CRITERION_DIR [PREFIX...] | \
                  summary --tick DIR --tick-log LOG --jitter JSON --rate JSONL";
     let (command, rest) = args.split_first().ok_or(usage)?;
@@ -496,10 +509,25 @@ fn run(args: &[String]) -> Result<(), Error> {
     };
     match command.as_str() {
         "tick" => {
-            let [dir, log] = rest else {
-                return Err(usage.into());
+            let (dir, log, instructions) = match rest {
+                [dir, log] => (dir, log, None),
+                [dir, log, instructions] => (
+                    dir,
+                    log,
+                    Some(serde_json::from_str::<Value>(&read(Path::new(
+                        instructions,
+                    ))?)?),
+                ),
+                _ => return Err(usage.into()),
             };
-            print!("{}", tick_table(Path::new(dir), &read(Path::new(log))?));
+            print!(
+                "{}",
+                tick_table(
+                    Path::new(dir),
+                    &read(Path::new(log))?,
+                    instructions.as_ref()
+                )
+            );
         }
         "rate" => {
             let file = rest.first().ok_or(usage)?;
@@ -627,6 +655,30 @@ mod tests {
             summary.contains("| **- us**, 0 allocations in 10000 ticks |"),
             "{summary}"
         );
+    }
+
+    #[test]
+    fn the_tick_table_puts_instructions_and_time_per_instruction_beside_the_means() {
+        let dir = std::env::temp_dir().join(format!("bench-figures-tick-{}", std::process::id()));
+        let d = dir.join("tick").join("loop alone 1x4").join("new");
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(
+            d.join("estimates.json"),
+            r#"{"mean":{"point_estimate":820.0}}"#,
+        )
+        .unwrap();
+        let instructions: Value =
+            serde_json::from_str(r#"{"ir_per_tick":{"1x4":4100.0,"4x4":12683.0,"8x4":24122.0}}"#)
+                .unwrap();
+        let table = tick_table(&dir, "", Some(&instructions));
+        std::fs::remove_dir_all(&dir).unwrap();
+        // 820 ns over 4100 instructions; 4x4 has no criterion mean, so no time per instruction.
+        assert!(
+            table.contains("| **0.82 us** | - | 4100 | 0.200 |"),
+            "{table}"
+        );
+        assert!(table.contains("| **- us** | - | 12683 | - |"), "{table}");
+        assert!(tick_table(&dir, "", None).contains("| - | - |"));
     }
 
     #[test]

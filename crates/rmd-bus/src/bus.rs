@@ -84,28 +84,46 @@ pub enum Readiness<'a> {
 /// let wait = WaitOn::arrival(at, Duration::from_micros(2));
 /// assert_eq!(wait.next_arrival(), Some((at, Duration::from_micros(2))));
 /// ```
-#[derive(Copy, Clone, Debug, Default)]
+#[derive(Copy, Clone, Debug)]
 pub struct WaitOn<'a> {
-    arrival: Option<(Timestamp, Duration)>,
+    /// When the next item arrives (ns on the bus's clock), [`NO_ARRIVAL`] if not known. Plain
+    /// integers: a wait over every bus compares them once per bus and wake-up.
+    arrival_ns: u64,
+    /// How long before the arrival the wait stops sleeping and spins, ns.
+    spin_ns: u64,
     #[cfg(target_os = "linux")]
     fd: Option<BorrowedFd<'a>>,
     _fd: PhantomData<&'a ()>,
+}
+
+/// [`WaitOn::arrival_ns`] when no arrival is known (no clock reaches it: 584 years).
+pub(crate) const NO_ARRIVAL: u64 = u64::MAX;
+
+/// Nothing to watch: no descriptor, no known arrival.
+impl Default for WaitOn<'_> {
+    fn default() -> Self {
+        Self {
+            arrival_ns: NO_ARRIVAL,
+            spin_ns: 0,
+            #[cfg(target_os = "linux")]
+            fd: None,
+            _fd: PhantomData,
+        }
+    }
 }
 
 impl<'a> WaitOn<'a> {
     /// The next item arrives at `at`; the wait sleeps until `spin` before it, then busy-waits
     /// (zero: sleeps all the way).
     pub fn arrival(at: Timestamp, spin: Duration) -> Self {
-        Self {
-            arrival: Some((at, spin)),
-            ..Self::default()
-        }
+        Self::default().with_arrival(at, spin)
     }
 
     /// The same, and the next item arrives at `at` (see [`arrival`](Self::arrival)).
     pub fn with_arrival(self, at: Timestamp, spin: Duration) -> Self {
         Self {
-            arrival: Some((at, spin)),
+            arrival_ns: at.as_nanos().min(NO_ARRIVAL - 1),
+            spin_ns: u64::try_from(spin.as_nanos()).unwrap_or(u64::MAX),
             ..self
         }
     }
@@ -121,7 +139,22 @@ impl<'a> WaitOn<'a> {
 
     /// The next item's arrival and spin margin, if known.
     pub fn next_arrival(&self) -> Option<(Timestamp, Duration)> {
-        self.arrival
+        (self.arrival_ns != NO_ARRIVAL).then(|| {
+            (
+                Timestamp::from_nanos(self.arrival_ns),
+                Duration::from_nanos(self.spin_ns),
+            )
+        })
+    }
+
+    /// The next item's arrival (ns), [`NO_ARRIVAL`] if not known.
+    pub(crate) fn arrival_ns(&self) -> u64 {
+        self.arrival_ns
+    }
+
+    /// The spin margin before the arrival, ns.
+    pub(crate) fn spin_ns(&self) -> u64 {
+        self.spin_ns
     }
 
     /// The file descriptor to watch, if any.

@@ -28,7 +28,6 @@ use crate::bus_link::BusLink;
 use crate::commands::{Commands, MAX_SIGNALS, Rejections};
 use crate::controller::{Controller, Flow, TickContext};
 use crate::exchange::Exchange;
-use crate::exchange::frames::ZERO_TORQUE;
 use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
 use crate::mapping::JointMap;
@@ -449,7 +448,9 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         // Counted when it starts, so that a snapshot taken during the tick is consistent.
         stats.ticks += 1;
         stats.skipped_ticks += timing.skipped;
-        stats.wake_latency.record(timing.wake_latency());
+        stats
+            .wake_latency
+            .record_nanos(nanos_between(timing.scheduled, timing.woke));
         let last_reply = match self.exchange(&timing) {
             Ok(last_reply) => last_reply,
             Err(reason) => return ControlFlow::Break(reason),
@@ -460,14 +461,14 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         self.parts.shared.serve_snapshot(&self.parts.stats);
         let end = self.parts.clock.now();
         self.parts.shared.watch.progress(end, timing.index);
-        let work = end - timing.woke;
+        let work_ns = nanos_between(timing.woke, end);
         let stats = &mut self.parts.stats;
-        stats.work.record(work);
+        stats.work.record_nanos(work_ns);
         // The loop is ready for the next frame: what it added after the last reply.
         if let Some(last) = last_reply {
-            stats.loop_added.record(end - last);
+            stats.loop_added.record_nanos(nanos_between(last, end));
         }
-        self.parts.times.previous_work_ns = work.as_nanos() as u64;
+        self.parts.times.previous_work_ns = work_ns;
         let tick_end = self.scheduler.end_tick(end);
         if tick_end.missed_deadline {
             stats.deadline_misses += 1;
@@ -523,13 +524,13 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         if let Some(last) = collected.last_reply {
             // Same tick: from this tick's send to the last reply. Pipelined: the replies answer
             // the previous tick, so use the tracked round trip of the slowest motor.
-            let rtt = if max_age == 0 {
-                last - sent_at
+            let rtt_ns = if max_age == 0 {
+                nanos_between(sent_at, last)
             } else {
-                collected.rtt_max
+                collected.rtt_max_ns
             };
-            stats.round_trip.record(rtt);
-            times.round_trip_ns = Some(rtt.as_nanos() as u64);
+            stats.round_trip.record_nanos(rtt_ns);
+            times.round_trip_ns = Some(rtt_ns);
         }
         Ok(collected.last_reply)
     }
@@ -558,9 +559,9 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         let result = catch_unwind(AssertUnwindSafe(|| {
             controller.update(&ctx, &feedback, &mut commands)
         }));
-        let spent = cpu.now() - began;
-        parts.stats.controller.record(spent);
-        parts.times.controller_ns = spent.as_nanos() as u64;
+        let spent_ns = nanos_between(began, cpu.now());
+        parts.stats.controller.record_nanos(spent_ns);
+        parts.times.controller_ns = spent_ns;
         let flow = match result {
             Ok(flow) => flow,
             Err(payload) => {
@@ -603,6 +604,11 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
     }
 }
 
+/// Nanoseconds from `earlier` to `later` (0 if `later` is not later).
+fn nanos_between(earlier: Timestamp, later: Timestamp) -> u64 {
+    later.as_nanos().saturating_sub(earlier.as_nanos())
+}
+
 /// Waits for the supervisor that took over to finish its safe stop, and takes what it did.
 fn wait_for_takeover(shared: &Shared, supervisor: Option<JoinHandle<()>>) -> Option<Takeover> {
     if let Some(handle) = supervisor {
@@ -632,21 +638,25 @@ impl<B, C> Parts<B, C> {
     /// tick's 0x280 frames.
     fn stage_commands(&mut self) {
         let exchange = &mut self.exchange;
-        for (link, staged) in exchange.links.iter().zip(&mut exchange.staged) {
-            let mut slots = ZERO_TORQUE;
-            for m in link.joints() {
-                let motor = &exchange.motors[m];
-                let scale = motor.command_scale;
-                let raw = ScaledCurrent::from_amps_saturating(self.command_amps[m], scale).raw();
-                let limited = raw.clamp(-motor.limit_raw, motor.limit_raw);
-                if limited != raw {
-                    self.stats.motors[m].clamped_commands += 1;
-                }
-                let iq = ScaledCurrent::saturating(i64::from(limited), scale);
-                self.command_amps[m] = iq.amps();
-                slots[motor.slot] = iq;
+        // Slots of no described motor keep the zero they were built with.
+        for ((motor, amps), counters) in exchange
+            .motors
+            .iter()
+            .zip(&mut self.command_amps)
+            .zip(&mut self.stats.motors)
+        {
+            let command = &motor.command;
+            let (raw, clamped) = command.limited_raw(*amps);
+            counters.clamped_commands += u64::from(clamped);
+            let iq = ScaledCurrent::saturating(raw, command.scale);
+            *amps = iq.amps();
+            if let Some(slot) = exchange
+                .staged
+                .get_mut(motor.at.bus)
+                .and_then(|slots| slots.get_mut(motor.slot))
+            {
+                *slot = iq;
             }
-            *staged = slots;
         }
     }
 }
@@ -654,7 +664,7 @@ impl<B, C> Parts<B, C> {
 impl<B, C: Clock> Parts<B, C> {
     /// Publishes this tick's sample, if anything receives telemetry.
     fn publish(&mut self, timing: &TickTiming, start: Timestamp) {
-        let Some((tx, delivery)) = &self.telemetry else {
+        let Some((tx, delivery)) = &mut self.telemetry else {
             return;
         };
         let taken_at = self.clock.now();
@@ -668,8 +678,8 @@ impl<B, C: Clock> Parts<B, C> {
             sample.times.wake_latency_ns = timing.wake_latency().as_nanos() as u64;
             sample.totals.ticks = self.stats.ticks;
             sample.totals.deadline_misses = self.stats.deadline_misses;
-            sample.totals.missing_replies = self.stats.missing_replies();
-            sample.totals.late_replies = self.stats.late_replies();
+            sample.totals.missing_replies = self.stats.missing_total;
+            sample.totals.late_replies = self.stats.late_total;
             for (slot, (feedback, amps)) in sample
                 .joints_mut()
                 .iter_mut()
@@ -682,7 +692,7 @@ impl<B, C: Clock> Parts<B, C> {
                 .signals_mut()
                 .copy_from_slice(&self.signals[..self.signal_count]);
         };
-        let delivered = match delivery {
+        let delivered = match *delivery {
             TelemetryDelivery::Overwrite => tx.publish(true, fill) == Published::Queued,
             TelemetryDelivery::Wait => loop {
                 // `fill` is called only when the sample is queued.

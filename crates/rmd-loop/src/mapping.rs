@@ -16,10 +16,35 @@ use rmd_protocol::EncoderWidth;
 
 use crate::robot::{Direction, JointSpec};
 
+/// Beyond this magnitude every `f64` is an integer (2^52).
+const ALL_INTEGERS: f64 = 4_503_599_627_370_496.0;
+
+/// The integer nearest to `x`, halves away from zero, for `x` within +-2^52 (beyond, the nearest
+/// of +-2^52); NaN gives 0. Inline arithmetic: without SSE4.1 (the x86-64 baseline)
+/// `f64::round` is a library call.
+#[inline]
+pub(crate) fn nearest_integer(x: f64) -> i64 {
+    // Within +-2^52 `t` and `t as f64` are exact, so `frac` is the exact fractional part, and
+    // nothing below overflows. `as` gives 0 for NaN.
+    let x = x.clamp(-ALL_INTEGERS, ALL_INTEGERS);
+    let t = x as i64;
+    let frac = x - t as f64;
+    t + i64::from(frac >= 0.5) - i64::from(frac <= -0.5)
+}
+
+/// An hour in nanoseconds.
+const HOUR_NS: u64 = 3_600_000_000_000;
+
 /// Unwraps single-turn encoder readings into a continuous angle.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct EncoderUnwrapper {
     counts_per_turn: i64,
+    /// Counts per degree per nanosecond at 1 deg/s: `counts_per_turn / 360 / 1e9`.
+    counts_per_dps_ns: f64,
+    /// `1 / counts_per_turn` (exact: a power of two).
+    turns_per_count: f64,
+    /// `360 / counts_per_turn` (exact).
+    degrees_per_count: f64,
     last: Option<u16>,
     /// Accumulated counts since the first reading, plus the first reading.
     counts: i64,
@@ -29,8 +54,13 @@ impl EncoderUnwrapper {
     /// An unwrapper for encoders of `width` (values above 16 bits are reported in the u16 field
     /// modulo 65536, so the turn is at most 65536 counts).
     pub fn new(width: EncoderWidth) -> Self {
+        let counts_per_turn = 1i64 << width.bits().min(16);
+        let n = counts_per_turn as f64;
         Self {
-            counts_per_turn: 1i64 << width.bits().min(16),
+            counts_per_turn,
+            counts_per_dps_ns: n / 360.0 / 1e9,
+            turns_per_count: 1.0 / n,
+            degrees_per_count: 360.0 / n,
             last: None,
             counts: 0,
         }
@@ -49,6 +79,15 @@ impl EncoderUnwrapper {
     /// Feeds one reading taken `elapsed` after the previous one while the motor turned at
     /// `speed_dps` (motor side); returns the continuous motor angle in degrees.
     pub fn update(&mut self, encoder: u16, speed_dps: f64, elapsed: Duration) -> f64 {
+        self.update_ns(
+            encoder,
+            speed_dps,
+            u64::try_from(elapsed.as_nanos()).unwrap_or(u64::MAX),
+        )
+    }
+
+    /// [`update`](Self::update) with the time since the previous reading in nanoseconds.
+    pub fn update_ns(&mut self, encoder: u16, speed_dps: f64, elapsed_ns: u64) -> f64 {
         let n = self.counts_per_turn;
         // A turn is a power of two of counts: masks are the remainders, without dividing.
         let mask = n - 1;
@@ -57,11 +96,13 @@ impl EncoderUnwrapper {
             None => self.counts = reading,
             Some(last) => {
                 let raw = (reading - i64::from(last)) & mask; // rem_euclid: 0..n
-                let expected = speed_dps * elapsed.as_secs_f64() / 360.0 * n as f64;
+                // (An hour between readings is as good as forever: the count is then a guess.)
+                let elapsed_ns = elapsed_ns.min(HOUR_NS) as i64 as f64;
+                let expected = speed_dps * elapsed_ns * self.counts_per_dps_ns;
                 // The whole number of turns k that puts raw + k*n closest to the prediction.
                 let expected = if expected.is_finite() { expected } else { 0.0 };
-                let k = ((expected - raw as f64) / n as f64).round();
-                let k = k.clamp(-1e9, 1e9) as i64;
+                let turns = (expected - raw as f64) * self.turns_per_count;
+                let k = nearest_integer(turns.clamp(-1e9, 1e9));
                 self.counts = self.counts.saturating_add(raw + k * n);
             }
         }
@@ -71,7 +112,7 @@ impl EncoderUnwrapper {
 
     /// The continuous motor angle in degrees (0 before the first reading).
     pub fn degrees(&self) -> f64 {
-        self.counts as f64 * 360.0 / self.counts_per_turn as f64
+        self.counts as f64 * self.degrees_per_count
     }
 }
 
@@ -80,6 +121,9 @@ impl EncoderUnwrapper {
 pub struct JointMap {
     sign: f64,
     gear_ratio: f64,
+    /// `sign / gear_ratio`: joint degrees per motor degree (a multiplication per reply, not a
+    /// division).
+    joint_per_motor: f64,
     zero_offset_deg: f64,
     /// The torque constant, 0.0 when unknown. Kept as a plain `f64` beside `has_torque_constant`
     /// rather than an `Option<f64>`: the optimiser computes `sign * amps * kt` without a branch
@@ -96,6 +140,7 @@ impl JointMap {
         Self {
             sign: joint.direction.sign(),
             gear_ratio: joint.gear_ratio,
+            joint_per_motor: joint.direction.sign() / joint.gear_ratio,
             zero_offset_deg: joint.zero_offset_deg,
             torque_constant: joint.torque_constant_nm_per_amp.unwrap_or(0.0),
             has_torque_constant: joint.torque_constant_nm_per_amp.is_some(),
@@ -109,7 +154,7 @@ impl JointMap {
 
     /// Joint angle (degrees) from the continuous motor angle.
     pub fn joint_angle_deg(&self, motor_deg: f64) -> f64 {
-        self.sign * motor_deg / self.gear_ratio - self.zero_offset_deg
+        motor_deg * self.joint_per_motor - self.zero_offset_deg
     }
 
     /// The continuous motor angle (degrees) at which the joint is at `joint_deg`: the inverse of
@@ -125,7 +170,7 @@ impl JointMap {
 
     /// Joint velocity (deg/s) from the motor speed.
     pub fn joint_velocity_dps(&self, motor_dps: f64) -> f64 {
-        self.sign * motor_dps / self.gear_ratio
+        motor_dps * self.joint_per_motor
     }
 
     /// Joint torque (N*m) from the motor's torque current, if the torque constant is known.
@@ -214,6 +259,31 @@ mod tests {
     }
 
     const MS: Duration = Duration::from_millis(1);
+
+    #[test]
+    fn nearest_integer_rounds_halves_away_from_zero() {
+        for (x, n) in [
+            (0.5, 1),
+            (-0.5, -1),
+            (1.4999, 1),
+            (-1.5, -2),
+            (2.5, 3),
+            (0.49999999999999994, 0),
+            (-0.49999999999999994, 0),
+            (0.0, 0),
+            (-0.0, 0),
+            (1e300, 1 << 52),
+            (-1e300, -(1 << 52)),
+            (f64::NAN, 0),
+            (4503599627370495.0, 4503599627370495),
+        ] {
+            assert_eq!(nearest_integer(x), n, "{x}");
+        }
+        for i in -1000..1000 {
+            let x = f64::from(i) * 0.37;
+            assert_eq!(nearest_integer(x), x.round() as i64, "{x}");
+        }
+    }
 
     #[test]
     fn wraps_forward_and_backward_across_zero() {

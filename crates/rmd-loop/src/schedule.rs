@@ -156,6 +156,8 @@ pub struct TickEnd {
 #[derive(Clone, Debug)]
 pub struct Scheduler {
     period: Duration,
+    /// The period in nanoseconds (deadlines are integer arithmetic on the clock's nanoseconds).
+    period_ns: u64,
     spin_margin: Duration,
     policy: OverrunPolicy,
     t0: Timestamp,
@@ -175,6 +177,8 @@ impl Scheduler {
     ) -> Self {
         Self {
             period: period.get(),
+            // A period is at most MAX_PERIOD (10 s): it fits.
+            period_ns: u64::try_from(period.get().as_nanos()).unwrap_or(u64::MAX),
             spin_margin: spin_margin.min(period.get()),
             policy,
             t0,
@@ -196,8 +200,8 @@ impl Scheduler {
 
     /// When tick `index` is due.
     pub fn scheduled(&self, index: u64) -> Timestamp {
-        let nanos = u128::from(index) * self.period.as_nanos();
-        self.t0 + Duration::from_nanos(nanos.min(u128::from(u64::MAX)) as u64)
+        let nanos = index.saturating_mul(self.period_ns);
+        Timestamp::from_nanos(self.t0.as_nanos().saturating_add(nanos))
     }
 
     /// Waits for the next tick and returns its timing.

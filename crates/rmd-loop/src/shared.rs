@@ -45,6 +45,10 @@ impl Shared {
 
     /// Fills one waiting snapshot buffer with `stats` (on the loop thread, between ticks).
     pub(crate) fn serve_snapshot(&self, stats: &LoopStats) {
+        // Most ticks nobody asked: two loads rather than a pop's compare-and-swap attempt.
+        if self.snapshot_requests.is_empty() {
+            return;
+        }
         if let Some(mut buffer) = self.snapshot_requests.pop() {
             buffer.copy_from(stats);
             // The reply queue has room for every request buffer; if a reader abandoned its

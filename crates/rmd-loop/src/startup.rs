@@ -12,6 +12,7 @@ use rmd_protocol::{
 };
 
 use crate::engine::Parts;
+use crate::exchange::Collected;
 use crate::exchange::frames::ZERO_TORQUE;
 use crate::os::{self, CpuLatencyRequest, RtRequest, RtSetup};
 use crate::report::{Fault, IdentifiedMotor, MotorRef, StopReason};
@@ -222,9 +223,10 @@ pub(crate) fn probe<B: CanBus, C: Clock>(parts: &mut Parts<B, C>) -> Result<(), 
             }
         }
         let deadline = sent_at + timeout;
+        let mut collected = Collected::default();
         for b in 0..exchange.links.len() {
             exchange
-                .collect(b, 0, deadline, u64::MAX, stats)
+                .collect(b, 0, deadline, u64::MAX, stats, &mut collected)
                 .map_err(StopReason::Fault)?;
         }
         if (0..exchange.links.len()).all(|b| exchange.bus_complete(b)) {

@@ -1,8 +1,14 @@
 //! What the loop measures about itself: latency histograms and event counters.
 //!
-//! Histograms are [`hdrhistogram`]s sized once at start (1 ns to 1 s, 3 significant digits), so
-//! recording never allocates; longer values are recorded as 1 s and the exact maximum is kept
-//! separately. Copying statistics into a snapshot of the same shape does not allocate either.
+//! A [`LatencyHistogram`] records in the tick with a handful of instructions and no branch on
+//! the value: one counter per bucket, in a table sized once at start (so recording never
+//! allocates), plus the exact count, sum, minimum and maximum. Its buckets are exactly those of
+//! an [`hdrhistogram`] from 1 ns to 1 s with 3 significant digits (exact to the nanosecond below
+//! 2,048 ns, never wider than 1/1024 of their values above); the report folds them into such a
+//! histogram and asks it the percentiles, so they are what recording into the HdrHistogram
+//! itself would give, except that a percentile never exceeds the exact maximum. Durations
+//! longer than 1 s are counted in the last bucket; the maximum keeps their exact value. Copying
+//! statistics into a snapshot of the same shape does not allocate either.
 
 use core::time::Duration;
 
@@ -13,16 +19,54 @@ use serde::Serialize;
 
 use crate::robot::Robot;
 
-/// Highest value a histogram resolves; longer durations are recorded as this (1 s).
+/// Highest value a histogram resolves; longer durations are counted as this (1 s).
 const HIGHEST_NANOS: u64 = 1_000_000_000;
 /// Significant decimal digits kept by every histogram.
 const SIGNIFICANT_DIGITS: u8 = 3;
+/// log2 of the sub-buckets per power of two that [`SIGNIFICANT_DIGITS`] asks of an HdrHistogram:
+/// the smallest power of two at least `2 * 10^3`.
+const SUB_BUCKET_BITS: u32 = 11;
+/// Half the sub-buckets: every power of two above the first has this many buckets.
+const HALF_SUB_BUCKETS: usize = 1 << (SUB_BUCKET_BITS - 1);
+/// Values below this have a bucket of their own (one nanosecond wide).
+const EXACT_BELOW: u64 = 1 << SUB_BUCKET_BITS;
+/// Counters in a histogram: `HALF_SUB_BUCKETS` per power of two up to the one holding
+/// [`HIGHEST_NANOS`] (2^30), and twice that for the exact range below [`EXACT_BELOW`].
+const BUCKETS: usize = (30 - SUB_BUCKET_BITS as usize + 2) * HALF_SUB_BUCKETS;
 
-/// A histogram of durations, in nanoseconds.
+/// The bucket of `nanos` (1..=[`HIGHEST_NANOS`]): the same arithmetic as an HdrHistogram's index
+/// with a unit of 1 ns. Branch-free, so a recording costs the same instructions for any value.
+fn bucket_of(nanos: u64) -> usize {
+    // Which power of two above the exact range (0 below it).
+    let magnitude = 64 - (nanos | (EXACT_BELOW - 1)).leading_zeros() - SUB_BUCKET_BITS;
+    let sub_bucket = (nanos >> magnitude) as usize;
+    ((magnitude as usize) << (SUB_BUCKET_BITS - 1)) + sub_bucket
+}
+
+/// The lowest and highest value of bucket `index`, nanoseconds.
+fn bucket_range(index: usize) -> (u64, u64) {
+    if index < EXACT_BELOW as usize {
+        return (index as u64, index as u64);
+    }
+    let magnitude = (index >> (SUB_BUCKET_BITS - 1)) - 1;
+    let sub_bucket = (index & (HALF_SUB_BUCKETS - 1)) + HALF_SUB_BUCKETS;
+    let lowest = (sub_bucket as u64) << magnitude;
+    (lowest, lowest + (1u64 << magnitude) - 1)
+}
+
+/// A histogram of durations, in nanoseconds: fixed buckets counted in the tick, folded into an
+/// HdrHistogram when asked for percentiles (see the [module](self) documentation).
 #[derive(Clone, Debug)]
 pub struct LatencyHistogram {
-    histogram: Histogram<u64>,
-    max: Duration,
+    /// One counter per bucket ([`bucket_of`]).
+    counts: Box<[u64]>,
+    count: u64,
+    /// Sum of the recorded values, nanoseconds (beyond 1 s too).
+    sum_nanos: u128,
+    /// Smallest recorded value, nanoseconds (`u64::MAX` while empty).
+    min_nanos: u64,
+    /// Largest recorded value, nanoseconds (exact, even beyond the buckets' range).
+    max_nanos: u64,
 }
 
 impl Default for LatencyHistogram {
@@ -34,69 +78,110 @@ impl Default for LatencyHistogram {
 impl LatencyHistogram {
     /// An empty histogram (the only allocation it ever makes).
     pub fn new() -> Self {
-        let mut histogram = Histogram::new_with_bounds(1, HIGHEST_NANOS, SIGNIFICANT_DIGITS)
-            .expect("constant bounds are valid");
-        histogram.auto(false);
         Self {
-            histogram,
-            max: Duration::ZERO,
+            counts: vec![0; BUCKETS].into_boxed_slice(),
+            count: 0,
+            sum_nanos: 0,
+            min_nanos: u64::MAX,
+            max_nanos: 0,
         }
     }
 
     /// Records one duration. Never allocates, never fails.
     pub fn record(&mut self, d: Duration) {
-        let nanos = d.as_nanos().min(u128::from(HIGHEST_NANOS)) as u64;
-        self.histogram.saturating_record(nanos.max(1));
-        self.max = self.max.max(d);
+        self.record_nanos(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX));
+    }
+
+    /// Records one duration given in nanoseconds. Never allocates, never fails, and costs the
+    /// same instructions whatever the value.
+    #[inline]
+    pub fn record_nanos(&mut self, nanos: u64) {
+        // Zero counts in the 1 ns bucket, as the HdrHistogram's lowest trackable value.
+        let bucket = bucket_of(nanos.clamp(1, HIGHEST_NANOS));
+        if let Some(counter) = self.counts.get_mut(bucket) {
+            *counter += 1;
+        }
+        self.count += 1;
+        self.sum_nanos += u128::from(nanos);
+        self.min_nanos = self.min_nanos.min(nanos);
+        self.max_nanos = self.max_nanos.max(nanos);
     }
 
     /// Number of recorded values.
     pub fn len(&self) -> u64 {
-        self.histogram.len()
+        self.count
     }
 
     /// Whether nothing was recorded.
     pub fn is_empty(&self) -> bool {
-        self.histogram.is_empty()
+        self.count == 0
     }
 
     /// Forgets every recorded value.
     pub fn reset(&mut self) {
-        self.histogram.reset();
-        self.max = Duration::ZERO;
+        self.counts.fill(0);
+        self.count = 0;
+        self.sum_nanos = 0;
+        self.min_nanos = u64::MAX;
+        self.max_nanos = 0;
     }
 
     /// Overwrites `self` with `other` without allocating.
     pub fn copy_from(&mut self, other: &LatencyHistogram) {
-        // Same bounds on both sides: set_to is a memset + memcpy of the counts.
-        let _ = self.histogram.set_to(&other.histogram);
-        self.max = other.max;
+        self.counts.copy_from_slice(&other.counts);
+        self.count = other.count;
+        self.sum_nanos = other.sum_nanos;
+        self.min_nanos = other.min_nanos;
+        self.max_nanos = other.max_nanos;
     }
 
-    /// The summary the reports print, in microseconds.
+    /// The non-empty buckets: index and count.
+    fn recorded(&self) -> impl Iterator<Item = (usize, u64)> + '_ {
+        self.counts
+            .iter()
+            .enumerate()
+            .filter(|&(_, &count)| count > 0)
+            .map(|(index, &count)| (index, count))
+    }
+
+    /// The buckets folded into an HdrHistogram of the same bounds (allocates: for reports).
+    fn folded(&self) -> Histogram<u64> {
+        let mut histogram = Histogram::new_with_bounds(1, HIGHEST_NANOS, SIGNIFICANT_DIGITS)
+            .expect("constant bounds are valid");
+        for (index, count) in self.recorded() {
+            // The bucket's lowest value lands in the same bucket of the HdrHistogram.
+            histogram.saturating_record_n(bucket_range(index).0.max(1), count);
+        }
+        histogram
+    }
+
+    /// The summary the reports print, in microseconds. Percentiles come from the buckets (the
+    /// highest value of the bucket holding the quantile, as an HdrHistogram reports it), never
+    /// above the exact maximum; the minimum, mean and maximum are exact.
     pub fn percentiles(&self) -> Percentiles {
         if self.is_empty() {
             return Percentiles::default();
         }
+        let histogram = self.folded();
         let us = |nanos: u64| nanos as f64 / 1_000.0;
-        let q = |quantile: f64| us(self.histogram.value_at_quantile(quantile));
+        let q = |quantile: f64| us(histogram.value_at_quantile(quantile).min(self.max_nanos));
         Percentiles {
-            count: self.len(),
-            min: us(self.histogram.min()),
-            mean: self.histogram.mean() / 1_000.0,
+            count: self.count,
+            min: us(self.min_nanos),
+            mean: self.sum_nanos as f64 / self.count as f64 / 1_000.0,
             p50: q(0.50),
             p90: q(0.90),
             p99: q(0.99),
             p999: q(0.999),
-            max: self.max.as_nanos() as f64 / 1_000.0,
+            max: us(self.max_nanos),
         }
     }
 
-    /// Values and counts of the non-empty buckets, in microseconds (for plots).
+    /// The non-empty buckets, for plots: each bucket's highest value in microseconds (as an
+    /// HdrHistogram's iteration reports it) and its count, ascending.
     pub fn buckets_us(&self) -> impl Iterator<Item = (f64, u64)> + '_ {
-        self.histogram
-            .iter_recorded()
-            .map(|v| (v.value_iterated_to() as f64 / 1_000.0, v.count_at_value()))
+        self.recorded()
+            .map(|(index, count)| (bucket_range(index).1 as f64 / 1_000.0, count))
     }
 }
 
@@ -235,6 +320,11 @@ pub struct LoopStats {
     pub buses: Vec<BusCounters>,
     /// The joints' names, in description order.
     names: Vec<String>,
+    /// Missing replies so far, all motors (counted with the per-motor counters, so the tick's
+    /// telemetry need not sum them).
+    pub(crate) missing_total: u64,
+    /// Late replies so far, all motors (likewise).
+    pub(crate) late_total: u64,
 }
 
 impl LoopStats {
@@ -260,6 +350,8 @@ impl LoopStats {
                 .collect(),
             buses: vec![BusCounters::default(); robot.buses().len()],
             names: robot.joints().iter().map(|j| j.name.clone()).collect(),
+            missing_total: 0,
+            late_total: 0,
         }
     }
 
@@ -283,6 +375,8 @@ impl LoopStats {
         if self.buses.len() == other.buses.len() {
             self.buses.copy_from_slice(&other.buses);
         }
+        self.missing_total = other.missing_total;
+        self.late_total = other.late_total;
     }
 
     /// Missing replies summed over all motors.
@@ -477,6 +571,84 @@ mod tests {
         assert!((p.p999 - 999.0).abs() <= 1.0, "{p:?}");
         assert_eq!(p.max, 1000.0);
         assert!((p.min - 1.0).abs() < 0.01);
+    }
+
+    /// An HdrHistogram of the bounds the loop's histograms stand for.
+    fn hdr() -> Histogram<u64> {
+        Histogram::new_with_bounds(1, HIGHEST_NANOS, SIGNIFICANT_DIGITS).unwrap()
+    }
+
+    /// Values spread over the whole range: every power of two, its neighbours, and a
+    /// pseudo-random sweep.
+    fn spread() -> Vec<u64> {
+        let mut values: Vec<u64> = (0..=30)
+            .flat_map(|p| {
+                let v = 1u64 << p;
+                [v - 1, v, v + 1, v + v / 3]
+            })
+            .collect();
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            // Log-uniform from 1 ns to 1 s.
+            values.push(1 + (x >> 34) % (1u64 << ((x & 31) as u32 % 30 + 1)));
+        }
+        values.retain(|&v| (1..=HIGHEST_NANOS).contains(&v));
+        values
+    }
+
+    #[test]
+    fn the_buckets_are_those_of_the_hdr_histogram() {
+        let reference = hdr();
+        for v in spread() {
+            let (low, high) = bucket_range(bucket_of(v));
+            assert_eq!(low, reference.lowest_equivalent(v), "{v}");
+            assert_eq!(high, reference.highest_equivalent(v), "{v}");
+            assert!(bucket_of(v) < BUCKETS);
+        }
+        assert!(bucket_of(HIGHEST_NANOS) < BUCKETS);
+    }
+
+    #[test]
+    fn percentiles_are_the_hdr_histograms_own_capped_at_the_exact_max() {
+        let mut h = LatencyHistogram::new();
+        let mut reference = hdr();
+        let values = spread();
+        for &v in &values {
+            h.record(Duration::from_nanos(v));
+            reference.record(v).unwrap();
+        }
+        let p = h.percentiles();
+        let max = *values.iter().max().unwrap();
+        for (got, q) in [(p.p50, 0.5), (p.p90, 0.9), (p.p99, 0.99), (p.p999, 0.999)] {
+            let expected = reference.value_at_quantile(q).min(max) as f64 / 1000.0;
+            assert_eq!(got, expected, "quantile {q}");
+        }
+        assert_eq!(p.max, max as f64 / 1000.0);
+        assert_eq!(p.min, *values.iter().min().unwrap() as f64 / 1000.0);
+        let mean = values.iter().map(|&v| v as f64).sum::<f64>() / values.len() as f64;
+        assert!((p.mean - mean / 1000.0).abs() < 1e-6 * p.mean, "{p:?}");
+        // The plot's buckets are the HdrHistogram's recorded buckets.
+        let ours: Vec<_> = h.buckets_us().collect();
+        let theirs: Vec<_> = reference
+            .iter_recorded()
+            .map(|v| (v.value_iterated_to() as f64 / 1000.0, v.count_at_value()))
+            .collect();
+        assert_eq!(ours, theirs);
+    }
+
+    #[test]
+    fn a_percentile_never_exceeds_the_maximum() {
+        // 1,000,123 ns lies in a bucket 512 ns wide whose highest value is 1,000,447 ns.
+        let mut h = LatencyHistogram::new();
+        h.record(Duration::from_nanos(1_000_123));
+        let p = h.percentiles();
+        assert_eq!((p.p50, p.p999, p.max), (1000.123, 1000.123, 1000.123));
+        h.reset();
+        assert!(h.is_empty());
+        assert_eq!(h.percentiles(), Percentiles::default());
     }
 
     #[test]

@@ -142,6 +142,31 @@ pub enum Reply {
     BrakeLock,
 }
 
+impl Status2 {
+    /// Reads the status 2 in DATA\[1..=7\] of a reply in `dialect` (DATA\[0\], the command
+    /// byte, is the caller's to check): the `iq` in the dialect's scale, the position as the
+    /// family reports it. [`ProtocolError::ValueOutOfRange`] for a field outside its range.
+    ///
+    /// This is the whole decode of a reply a caller has already matched by id and command byte
+    /// (the control loop's per-motor fast path); [`Dialect::decode_answer`] does both.
+    #[inline]
+    pub fn from_data(d: &[u8; 8], dialect: Dialect) -> Result<Self, ProtocolError> {
+        Ok(Self {
+            temperature: Temperature::new((d[1] as i8).into())?,
+            iq: ScaledCurrent::new(i16_at::<2>(d).into(), dialect.iq_scale())?,
+            speed: Speed::new(i16_at::<4>(d).into())?,
+            position: match dialect {
+                Dialect::MyActuatorV3(_) => {
+                    StatusPosition::OutputDegrees(OutputAngle::new(i16_at::<6>(d).into())?)
+                }
+                Dialect::V161 | Dialect::LkV23x(_) => {
+                    StatusPosition::Encoder(EncoderValue::from_raw(u16_at::<6>(d)))
+                }
+            },
+        })
+    }
+}
+
 impl Reply {
     /// The command this reply answers.
     #[inline]
@@ -354,21 +379,7 @@ impl Reply {
                 }),
             })
         };
-        let status2 = || -> Result<Status2, ProtocolError> {
-            Ok(Status2 {
-                temperature: temperature(1)?,
-                iq: ScaledCurrent::new(i16_at::<2>(d).into(), dialect.iq_scale())?,
-                speed: Speed::new(i16_at::<4>(d).into())?,
-                position: match dialect {
-                    Dialect::MyActuatorV3(_) => {
-                        StatusPosition::OutputDegrees(OutputAngle::new(i16_at::<6>(d).into())?)
-                    }
-                    Dialect::V161 | Dialect::LkV23x(_) => {
-                        StatusPosition::Encoder(EncoderValue::from_raw(u16_at::<6>(d)))
-                    }
-                },
-            })
-        };
+        let status2 = || Status2::from_data(d, dialect);
         let accel = || Accel::new(i32_at::<4>(d).into());
         let offset = || EncoderValue::from_raw(u16_at::<6>(d));
         Ok(match command {

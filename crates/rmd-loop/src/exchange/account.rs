@@ -22,6 +22,7 @@ impl<B> Exchange<B> {
             } else {
                 all_fresh = false;
                 motor.consecutive_missing = motor.consecutive_missing.saturating_add(1);
+                stats.missing_total += 1;
                 let counters = &mut stats.motors[m];
                 counters.missing_replies += 1;
                 counters.max_consecutive_missing = counters

@@ -1,46 +1,59 @@
 //! Receiving the replies until each motor has answered or the deadline passes: on every bus at
 //! once when the buses can be waited on together (one `ppoll` over every SocketCAN socket or
 //! simulator doorbell, see [`rmd_bus::ready`]), else bus after bus.
+//!
+//! Together, the collection receives only from the buses that owe replies and may have one: one
+//! wait over the buses still owed replies ([`wait_any`]; a bus that says it is ready ends it at
+//! once), then one receive on each bus the wait woke ([`Woken`]), and again, until none is owed
+//! or the deadline passes. One receive per wake: replies come one at a time on the wire, so a
+//! second receive would almost always find nothing.
 
 use core::time::Duration;
 
-use rmd_bus::ready::wait_any;
+use rmd_bus::ready::{Woken, wait_any};
 use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, Clock, Readiness, Timestamp, WaitOn};
-use rmd_protocol::Command;
 
 use super::Exchange;
-use super::frames::{Incoming, match_reply};
 use super::motor::ReplyClass;
 use crate::report::Fault;
 use crate::robot::MAX_BUSES;
 use crate::stats::LoopStats;
 
-/// The newest fresh reply of a collection: when it came, and its motor's round trip.
-pub(crate) type NewestReply = Option<(Timestamp, Duration)>;
-
-/// What a collection on every bus received: the newest fresh reply, and the longest round trip
-/// among the newest replies of each bus.
+/// What a collection received: when the newest fresh reply came, and the longest round trip of
+/// the motors that answered fresh.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
 pub(crate) struct Collected {
     /// When the newest fresh reply came.
     pub(crate) last_reply: Option<Timestamp>,
-    /// The longest round trip of those replies' motors.
-    pub(crate) rtt_max: Duration,
+    /// The longest tracked round trip of the motors that answered fresh, ns.
+    pub(crate) rtt_max_ns: u64,
 }
 
 impl Collected {
-    fn add(&mut self, newest: NewestReply) {
-        if let Some((at, rtt)) = newest {
-            self.last_reply = Some(self.last_reply.map_or(at, |l| l.max(at)));
-            self.rtt_max = self.rtt_max.max(rtt);
-        }
+    #[inline]
+    fn add(&mut self, at: Timestamp, round_trip_ns: u64) {
+        self.last_reply = self.last_reply.max(Some(at));
+        self.rtt_max_ns = self.rtt_max_ns.max(round_trip_ns);
     }
 }
 
+/// What one receive on a bus gave.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+enum Received {
+    /// A frame or an event, handled.
+    Item,
+    /// Nothing by the deadline.
+    Nothing,
+    /// A transient receive error, counted: the bus is left alone for the rest of the tick
+    /// rather than spun on.
+    GaveUp,
+}
+
 impl<B: CanBus> Exchange<B> {
-    /// Receives on every bus until each motor has fresh feedback or `deadline` passes. When
-    /// every bus can be waited on together, takes what has arrived on each, then waits for the
-    /// first of them ([`wait_any`]), and again; otherwise collects bus after bus.
+    /// Receives on every bus until each motor has fresh feedback or `deadline` passes, accepting
+    /// replies up to `max_age` ticks old as fresh in `tick`. When every bus can be waited on
+    /// together: one wait over the buses still owed replies ([`wait_any`]), then one receive on
+    /// each bus the wait names, and again; otherwise bus after bus.
     pub(crate) fn collect_all<C: Clock + ?Sized>(
         &mut self,
         clock: &C,
@@ -51,67 +64,82 @@ impl<B: CanBus> Exchange<B> {
     ) -> Result<Collected, Fault> {
         let n = self.links.len().min(MAX_BUSES);
         let mut collected = Collected::default();
-        let together = self
-            .links
-            .iter_mut()
-            .all(|link| !matches!(link.bus.readiness(), Readiness::Alone));
-        if !together {
-            for b in 0..n {
-                collected.add(self.collect(b, tick, deadline, max_age, stats)?);
-            }
-            return Ok(collected);
-        }
+        // The buses to receive from without waiting, and those left alone after an error.
+        let mut receive = Woken::NONE;
+        let mut given_up = Woken::NONE;
         loop {
-            // Whatever has arrived, on every bus still waited for (a past deadline never waits).
-            let mut waiting = [false; MAX_BUSES];
-            for (b, waits) in waiting.iter_mut().enumerate().take(n) {
-                if !self.bus_complete(b) {
-                    collected.add(self.collect(b, tick, Timestamp::ZERO, max_age, stats)?);
-                    *waits = !self.bus_complete(b);
+            for b in receive.iter().take_while(|&b| b < n) {
+                if self.owed[b] > 0
+                    && !given_up.contains(b)
+                    && self.receive(b, tick, Timestamp::ZERO, max_age, stats, &mut collected)?
+                        == Received::GaveUp
+                {
+                    given_up = given_up.with(b);
                 }
             }
-            if !waiting.contains(&true) || clock.now() >= deadline {
+            if self.owed_total == 0
+                || (!given_up.is_empty()
+                    && (0..n).all(|b| self.owed[b] == 0 || given_up.contains(b)))
+            {
                 return Ok(collected);
             }
-            let mut waits: [Option<WaitOn<'_>>; MAX_BUSES] = [None; MAX_BUSES];
-            let (mut ready, mut alone) = (false, false);
-            for ((link, wait), waits_for) in self.links.iter_mut().zip(&mut waits).zip(waiting) {
-                if waits_for {
-                    match link.bus.readiness() {
-                        Readiness::Pending(on) => *wait = Some(on),
-                        Readiness::Ready => ready = true,
-                        Readiness::Alone => alone = true,
+            if clock.now() >= deadline {
+                // A last look, without waiting, at every bus still owed replies.
+                for b in 0..n {
+                    if self.owed[b] > 0 && !given_up.contains(b) {
+                        self.collect(b, tick, Timestamp::ZERO, max_age, stats, &mut collected)?;
                     }
                 }
+                return Ok(collected);
             }
+            // One wait over the buses still owed replies; a ready one is an arrival that has
+            // come, so the wait returns at once and names it.
+            let owed = &self.owed;
+            let mut alone = false;
+            let waits = self.links.iter_mut().take(n).enumerate().map(|(b, link)| {
+                if owed[b] == 0 || given_up.contains(b) {
+                    return WaitOn::default();
+                }
+                match link.bus.readiness() {
+                    Readiness::Pending(on) => on,
+                    Readiness::Ready => WaitOn::arrival(Timestamp::ZERO, Duration::ZERO),
+                    Readiness::Alone => {
+                        alone = true;
+                        WaitOn::arrival(Timestamp::ZERO, Duration::ZERO)
+                    }
+                }
+            });
+            let waited = wait_any(clock, waits, deadline);
             if alone {
-                // A bus that said it could wait with others no longer can: bus after bus.
-                for (b, waits_for) in waiting.iter().enumerate().take(n) {
-                    if *waits_for {
-                        collected.add(self.collect(b, tick, deadline, max_age, stats)?);
+                // A bus that cannot be waited on with others: bus after bus, each until the
+                // deadline.
+                for b in 0..n {
+                    if self.owed[b] > 0 && !given_up.contains(b) {
+                        self.collect(b, tick, deadline, max_age, stats, &mut collected)?;
                     }
                 }
                 return Ok(collected);
             }
-            if ready {
-                continue;
-            }
-            if wait_any(clock, waits.iter().flatten().copied(), deadline).is_err() {
-                // The wait itself failed (a closed descriptor): count it, and collect what
-                // remains bus after bus, each receive reporting its own errors.
-                for (b, waits_for) in waiting.iter().enumerate().take(n) {
-                    if *waits_for {
-                        stats.buses[b].rx_errors += 1;
-                        collected.add(self.collect(b, tick, deadline, max_age, stats)?);
+            match waited {
+                Ok(woken) => receive = woken,
+                Err(_) => {
+                    // The wait itself failed (a closed descriptor): count it, and collect what
+                    // remains bus after bus, each receive reporting its own errors.
+                    for b in 0..n {
+                        if self.owed[b] > 0 && !given_up.contains(b) {
+                            stats.buses[b].rx_errors += 1;
+                            self.collect(b, tick, deadline, max_age, stats, &mut collected)?;
+                        }
                     }
+                    return Ok(collected);
                 }
-                return Ok(collected);
             }
         }
     }
 
-    /// Receives from bus `b` until each of its motors has fresh feedback or `deadline` passes,
-    /// accepting replies up to `max_age` ticks old as fresh in `tick`.
+    /// Receives from bus `b` until each of its motors has fresh feedback, it has nothing more
+    /// by `deadline` (a past one: nothing more now), or a receive fails; accepts replies up to
+    /// `max_age` ticks old as fresh in `tick`, and adds the fresh ones to `collected`.
     pub(crate) fn collect(
         &mut self,
         b: usize,
@@ -119,69 +147,76 @@ impl<B: CanBus> Exchange<B> {
         deadline: Timestamp,
         max_age: u64,
         stats: &mut LoopStats,
-    ) -> Result<NewestReply, Fault> {
-        let mut newest: NewestReply = None;
-        while !self.bus_complete(b) {
-            let received = match self.links[b].bus.recv_until(deadline) {
-                Ok(None) => break,
-                Ok(Some(received)) => received,
-                Err(BusError::BusOff) => return Err(Fault::BusOff { bus: b }),
-                Err(BusError::InterfaceDown) => {
-                    return Err(Fault::Bus {
-                        bus: b,
-                        error: BusError::InterfaceDown,
-                    });
-                }
-                Err(_) => {
-                    // A transient receive error: count it and stop collecting on this bus for
-                    // this tick rather than spin on it.
-                    stats.buses[b].rx_errors += 1;
-                    break;
-                }
-            };
-            let frame = match received.message {
-                BusMessage::Frame(frame) => frame,
-                BusMessage::Event(event) => {
-                    stats.buses[b].count_event(event);
-                    if event == BusEvent::BusOff {
-                        return Err(Fault::BusOff { bus: b });
-                    }
-                    continue;
-                }
-            };
-            let joints = self.links[b].joints();
-            let (m, status) = match match_reply(&frame, Command::Torque, &self.motors, joints) {
-                Incoming::Foreign => {
-                    stats.buses[b].unexpected_frames += 1;
-                    continue;
-                }
-                Incoming::Bad { motor } => {
-                    stats.motors[motor].bad_frames += 1;
-                    continue;
-                }
-                Incoming::Reply { motor, reply } => match reply.status2() {
-                    Some(status) => (motor, status),
-                    None => {
-                        stats.motors[motor].bad_frames += 1;
-                        continue;
-                    }
-                },
-            };
-            let class = self.motors[m].on_reply(
-                &status,
-                received.at,
-                tick,
-                max_age,
-                &mut self.feedback[m],
-                &mut stats.motors[m],
-            );
-            if class == ReplyClass::Fresh
-                && let Some(rtt) = self.motors[m].round_trip
-                && newest.is_none_or(|(at, _)| received.at > at)
-            {
-                newest = Some((received.at, rtt));
-            }
+        collected: &mut Collected,
+    ) -> Result<(), Fault> {
+        while self.owed[b] > 0
+            && self.receive(b, tick, deadline, max_age, stats, collected)? == Received::Item
+        {
         }
-        Ok(newest)
+        Ok(())
+    }
+
+    /// Receives one frame or event from bus `b` by `deadline` and handles it: a reply matched to
+    /// its motor and request (fresh ones added to `collected`), anything else counted.
+    fn receive(
+        &mut self,
+        b: usize,
+        tick: u64,
+        deadline: Timestamp,
+        max_age: u64,
+        stats: &mut LoopStats,
+        collected: &mut Collected,
+    ) -> Result<Received, Fault> {
+        let received = match self.links[b].bus.recv_until(deadline) {
+            Ok(None) => return Ok(Received::Nothing),
+            Ok(Some(received)) => received,
+            Err(BusError::BusOff) => return Err(Fault::BusOff { bus: b }),
+            Err(BusError::InterfaceDown) => {
+                return Err(Fault::Bus {
+                    bus: b,
+                    error: BusError::InterfaceDown,
+                });
+            }
+            Err(_) => {
+                stats.buses[b].rx_errors += 1;
+                return Ok(Received::GaveUp);
+            }
+        };
+        let frame = match received.message {
+            BusMessage::Frame(frame) => frame,
+            BusMessage::Event(event) => {
+                stats.buses[b].count_event(event);
+                if event == BusEvent::BusOff {
+                    return Err(Fault::BusOff { bus: b });
+                }
+                return Ok(Received::Item);
+            }
+        };
+        // Which of the bus's motors sent it (by the CAN id its reply comes on).
+        let Some(m) = self.reply_motor(b, frame.id()) else {
+            stats.buses[b].unexpected_frames += 1;
+            return Ok(Received::Item);
+        };
+        let (motor, feedback, counters) = (
+            &mut self.motors[m],
+            &mut self.feedback[m],
+            &mut stats.motors[m],
+        );
+        let Some(status) = motor.expect.decode(&frame) else {
+            counters.bad_frames += 1;
+            return Ok(Received::Item);
+        };
+        let was_fresh = feedback.freshness.is_fresh();
+        match motor.on_reply(&status, received.at, tick, max_age, feedback, counters) {
+            ReplyClass::Fresh => {
+                collected.add(received.at, motor.round_trip_ns().unwrap_or(0));
+                if !was_fresh {
+                    self.became_fresh(b);
+                }
+            }
+            ReplyClass::Late => stats.late_total += 1,
+            ReplyClass::Unexpected => {}
+        }
+        Ok(Received::Item)
     }
 }

@@ -1,14 +1,12 @@
-//! The frames of an exchange: the 0x280 torque frame out, and matching what comes back to the
-//! bus's motors (one decode-and-match for the tick and the safe stop alike).
-
-use core::ops::Range;
+//! The frames of an exchange: the 0x280 torque frame out, and what each motor's reply looks
+//! like, decided once per motor ([`ReplyExpectation`]).
 
 use rmd_protocol::{
-    CanFrame, Command, CurrentScale, MULTI_TORQUE_MOTORS, MotorId, MultiTorque, Reply,
-    ScaledCurrent,
+    CanFrame, Command, CurrentScale, Dialect, MULTI_TORQUE_MOTORS, MultiTorque, ScaledCurrent,
+    Status2,
 };
 
-use super::motor::MotorLink;
+use crate::robot::JointSpec;
 
 /// One bus's torque commands, by slot (motor id - 1), each in its motor's command scale.
 pub(crate) type TorqueSlots = [ScaledCurrent; MULTI_TORQUE_MOTORS];
@@ -27,42 +25,90 @@ pub(crate) fn torque_frame(slots: &TorqueSlots) -> CanFrame {
     MultiTorque::new(*slots).encode()
 }
 
-/// What a received frame is to the bus's motors.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub(crate) enum Incoming {
-    /// A reply of motor `motor` (index in description order) to the expected command, decoded
-    /// in the motor's dialect.
-    Reply {
-        /// The motor, as an index in description order.
-        motor: usize,
-        /// The decoded reply.
-        reply: Reply,
-    },
-    /// A frame on the id of motor `motor` that is not a valid reply to the expected command.
-    Bad {
-        /// The motor, as an index in description order.
-        motor: usize,
-    },
-    /// A frame of no motor on this bus (another id, a request, someone else's traffic).
-    Foreign,
+/// The reply a motor owes for a request, decided once when the loop is built: the CAN id it
+/// comes on, the command byte in its DATA\[0\], and the dialect its status is read in. Matching
+/// a received frame is then an id comparison per motor of the bus, and decoding it one check
+/// of the command byte and the field ranges.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub(crate) struct ReplyExpectation {
+    /// The CAN id of the motor's replies.
+    pub(crate) can_id: u16,
+    /// DATA\[0\] of the reply.
+    command: u8,
+    /// The dialect its status is read in (the `iq` scale, what DATA\[6..=7\] holds).
+    dialect: Dialect,
 }
 
-/// Finds which of the motors `joints` sent `frame` (by its CAN id) and decodes it, in that
-/// motor's dialect, as a reply to `expect`.
-pub(crate) fn match_reply(
-    frame: &CanFrame,
-    expect: Command,
-    motors: &[MotorLink],
-    joints: Range<usize>,
-) -> Incoming {
-    let Ok(id) = MotorId::from_can_id(frame.id()) else {
-        return Incoming::Foreign;
-    };
-    let Some(motor) = joints.clone().find(|&m| motors[m].id == id) else {
-        return Incoming::Foreign;
-    };
-    match motors[motor].dialect.decode_reply_to(frame, expect) {
-        Ok((_, reply)) => Incoming::Reply { motor, reply },
-        Err(_) => Incoming::Bad { motor },
+impl ReplyExpectation {
+    /// What joint `joint`'s motor answers to the 0x280 torque frame: the 0xA1 reply (status 2)
+    /// on its reply id, with its dialect's `iq` scale.
+    pub(crate) fn torque(joint: &JointSpec) -> Self {
+        Self {
+            can_id: joint.motor.can_id(),
+            command: Command::Torque.code(),
+            dialect: joint.dialect,
+        }
+    }
+
+    /// The status in `frame` if it is the expected reply (8 bytes, the command byte, every field
+    /// in range), else `None`: a bad frame on this motor's id.
+    #[inline]
+    pub(crate) fn decode(&self, frame: &CanFrame) -> Option<Status2> {
+        let data = frame.data8()?;
+        if data[0] != self.command {
+            return None;
+        }
+        Status2::from_data(data, self.dialect).ok()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::{BusConfig, MotorConfig, Robot, RobotConfig};
+    use rmd_protocol::{LkSeries, MotorId};
+
+    fn joint(dialect: &str, series: Option<&str>) -> JointSpec {
+        let motor = MotorConfig::new(3).protocol(dialect, series);
+        let robot = Robot::try_from(
+            RobotConfig::new(100.0).with_bus(BusConfig::new("can0").with_motor(motor)),
+        )
+        .unwrap();
+        robot.joints()[0].clone()
+    }
+
+    /// Frames on motor 3's id: valid replies of several kinds, and broken ones.
+    fn frames() -> Vec<CanFrame> {
+        let mut frames = Vec::new();
+        for command in [0xA1, 0x9C, 0xA2, 0x9A, 0x00, 0xFF] {
+            for iq in [0i16, 100, -2048, 2048, 2049, -2049, i16::MAX] {
+                for temperature in [30u8, 0x80] {
+                    let [lo, hi] = iq.to_le_bytes();
+                    let data = [command, temperature, lo, hi, 0x10, 0x00, 0x34, 0x12];
+                    frames.push(CanFrame::new(0x143, &data).unwrap());
+                    frames.push(CanFrame::new(0x143, &data[..7]).unwrap());
+                }
+            }
+        }
+        frames
+    }
+
+    #[test]
+    fn decoding_agrees_with_the_protocol_decoder_in_every_dialect() {
+        for (name, series, dialect) in [
+            ("v1.61", None, Dialect::V161),
+            ("lk-v2.3x", Some("mf"), Dialect::LkV23x(LkSeries::Mf)),
+            ("lk-v2.3x", Some("mg"), Dialect::LkV23x(LkSeries::Mg)),
+        ] {
+            let expect = ReplyExpectation::torque(&joint(name, series));
+            assert_eq!(expect.can_id, MotorId::new(3).unwrap().can_id());
+            for frame in frames() {
+                let reference = dialect
+                    .decode_reply_to(&frame, Command::Torque)
+                    .ok()
+                    .and_then(|(_, reply)| reply.status2());
+                assert_eq!(expect.decode(&frame), reference, "{name} {frame}");
+            }
+        }
     }
 }

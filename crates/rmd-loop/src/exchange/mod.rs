@@ -1,10 +1,14 @@
 //! The exchange of one tick: one 0x280 frame out on every bus, the motors' replies in, matched
 //! to their requests, and the accounting of what did not come.
 //!
-//! - [`frames`]: the torque frame, and the one decode-and-match of incoming frames;
+//! - [`frames`]: the torque frame, and what each motor's reply looks like (decided once);
 //! - [`pending`]: which of a motor's requests a reply answers;
 //! - [`motor`]: what the loop keeps per motor, and what a reply does to it;
 //! - `send`, `collect`, `account`: the three steps, as methods of [`Exchange`].
+//!
+//! Each bus keeps the number of its motors still owing fresh feedback in this tick (`owed`): a
+//! bus is complete when it reaches zero, and the collection receives only from buses that owe
+//! something and may have something to give.
 
 mod account;
 mod collect;
@@ -20,6 +24,8 @@ use crate::robot::{ReplyMode, Robot};
 use frames::{TorqueSlots, ZERO_TORQUE};
 use motor::MotorLink;
 
+pub(crate) use collect::Collected;
+
 /// The buses, the per-motor link state and feedback, and the staged commands.
 #[derive(Debug)]
 pub(crate) struct Exchange<B> {
@@ -28,6 +34,14 @@ pub(crate) struct Exchange<B> {
     pub(crate) feedback: Vec<JointFeedback>,
     /// The torque commands each bus sends in the next tick.
     pub(crate) staged: Vec<TorqueSlots>,
+    /// Per bus: its motors without fresh feedback yet in this tick.
+    owed: Vec<usize>,
+    /// Their sum over every bus.
+    owed_total: usize,
+    /// Per bus: which motor a frame comes from, by the low five bits of its CAN id (a reply id
+    /// is a multiple of 32 plus the motor id, 1..=32, so they tell a bus's motors apart): the
+    /// motor's index + 1, or 0 for none. The frame's id is then checked against the motor's.
+    reply_motors: Vec<[u8; 32]>,
     /// How many ticks old a reply may be and still count as this tick's (0, or 1 pipelined).
     pub(crate) max_age: u64,
     /// Pipelined: the first tick's feedback is the start-up probe's replies (the request
@@ -48,15 +62,30 @@ impl<B> Exchange<B> {
                 commanded: false,
             })
             .collect::<Vec<_>>();
+        let motors: Vec<MotorLink> = robot
+            .joints()
+            .iter()
+            .enumerate()
+            .map(|(i, j)| MotorLink::new(i, j, robot.buses()[j.bus].bitrate))
+            .collect();
+        let reply_motors = links
+            .iter()
+            .map(|link| {
+                let mut table = [0u8; 32];
+                for m in link.joints() {
+                    // At most MAX_JOINTS motors (far below 255): the index fits.
+                    table[usize::from(motors[m].expect.can_id) % 32] = (m + 1) as u8;
+                }
+                table
+            })
+            .collect();
         Self {
             staged: vec![ZERO_TORQUE; links.len()],
+            owed: vec![0; links.len()],
+            owed_total: 0,
+            reply_motors,
             links,
-            motors: robot
-                .joints()
-                .iter()
-                .enumerate()
-                .map(|(i, j)| MotorLink::new(i, j, robot.buses()[j.bus].bitrate))
-                .collect(),
+            motors,
             feedback: vec![JointFeedback::UNSET; robot.joint_count()],
             max_age: match robot.settings().reply_mode {
                 ReplyMode::SameTick => 0,
@@ -75,13 +104,32 @@ impl<B> Exchange<B> {
         for (motor, feedback) in self.motors.iter_mut().zip(&mut self.feedback) {
             motor.begin_tick(feedback);
         }
+        for (owed, link) in self.owed.iter_mut().zip(&self.links) {
+            *owed = link.joints.len();
+        }
+        self.owed_total = self.motors.len();
+    }
+
+    /// The motor of bus `b` whose replies come on CAN id `id`, if any.
+    #[inline]
+    fn reply_motor(&self, b: usize, id: u16) -> Option<usize> {
+        let entry = self.reply_motors[b][usize::from(id) % 32];
+        let m = usize::from(entry).checked_sub(1)?;
+        (self.motors[m].expect.can_id == id).then_some(m)
     }
 
     /// Whether every joint of bus `b` has fresh feedback.
     pub(crate) fn bus_complete(&self, b: usize) -> bool {
-        self.feedback[self.links[b].joints()]
-            .iter()
-            .all(JointFeedback::is_fresh)
+        self.owed[b] == 0
+    }
+
+    /// Notes that a motor of bus `b`, without fresh feedback until now in this tick, has it.
+    #[inline]
+    fn became_fresh(&mut self, b: usize) {
+        // Never below zero: each motor is counted once per tick (begin_tick), and only its
+        // first fresh reply of the tick gets here.
+        self.owed[b] = self.owed[b].saturating_sub(1);
+        self.owed_total = self.owed_total.saturating_sub(1);
     }
 
     /// Forgets every outstanding request (after the probe, whose replies were waited for).

@@ -1,14 +1,18 @@
 //! Everything the loop keeps about one motor between ticks, and what a reply does to it.
+//!
+//! Times are kept as nanoseconds on the bus clock: a reply's arithmetic (its round trip, the time
+//! since the previous reply) is then plain integer arithmetic.
 
 use core::time::Duration;
 
 use rmd_bus::Timestamp;
-use rmd_protocol::{CurrentScale, Dialect, EncoderWidth, MotorId, Status2};
+use rmd_protocol::{CurrentScale, MotorId, Status2};
 
+use super::frames::ReplyExpectation;
 use super::pending::{PendingRequests, RESYNC_AFTER, min_round_trip};
 use crate::feedback::{Freshness, JointFeedback, JointState, MotorState, RawStatus};
 use crate::joint::JointId;
-use crate::mapping::{EncoderUnwrapper, JointMap};
+use crate::mapping::{EncoderUnwrapper, JointMap, nearest_integer};
 use crate::report::MotorRef;
 use crate::robot::JointSpec;
 use crate::stats::MotorCounters;
@@ -24,35 +28,75 @@ pub(crate) enum ReplyClass {
     Unexpected,
 }
 
+/// A motor's torque command scale, with the conversions of every tick worked out once.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct CommandScale {
+    /// The scale of its torque commands.
+    pub(crate) scale: CurrentScale,
+    /// Raw steps per ampere.
+    raw_per_amp: f64,
+    /// The scale's raw range.
+    min_raw: f64,
+    max_raw: f64,
+    /// The joint's current limit, in raw steps (at most the scale's range, checked with the
+    /// description).
+    pub(crate) limit_raw: i16,
+}
+
+impl CommandScale {
+    fn new(joint: &JointSpec) -> Self {
+        let scale = joint.command_scale();
+        Self {
+            scale,
+            raw_per_amp: 1.0 / scale.amps_per_lsb(),
+            min_raw: f64::from(scale.min_raw()),
+            max_raw: f64::from(scale.max_raw()),
+            limit_raw: joint.current_limit.raw(),
+        }
+    }
+
+    /// The raw command for `amps`: the nearest raw value (half away from zero; NaN gives 0)
+    /// within the scale's range, as `ScaledCurrent::from_amps_saturating` gives, then limited to
+    /// the joint's current limit; and whether the limit changed it.
+    #[inline]
+    pub(crate) fn limited_raw(&self, amps: f64) -> (i64, bool) {
+        let raw = nearest_integer((amps * self.raw_per_amp).clamp(self.min_raw, self.max_raw));
+        let limit = i64::from(self.limit_raw);
+        let limited = raw.clamp(-limit, limit);
+        (limited, limited != raw)
+    }
+}
+
 /// Everything the loop keeps about one motor.
 #[derive(Clone, Debug)]
 pub(crate) struct MotorLink {
     /// Which joint, bus and motor this is.
     pub(crate) at: MotorRef,
     pub(crate) id: MotorId,
-    /// The dialect its firmware speaks.
-    pub(crate) dialect: Dialect,
-    /// The scale of its torque commands.
-    pub(crate) command_scale: CurrentScale,
+    /// What its reply to the torque frame looks like.
+    pub(crate) expect: ReplyExpectation,
+    /// Its torque commands' scale and limit.
+    pub(crate) command: CommandScale,
     /// Index in the 0x280 frame (id - 1).
     pub(crate) slot: usize,
-    width: EncoderWidth,
+    /// The largest encoder reading its width allows.
+    max_encoder: u16,
     pub(crate) map: JointMap,
     unwrapper: EncoderUnwrapper,
-    pub(crate) limit_raw: i16,
     pub(crate) temperature_limit: Option<f64>,
     pub(crate) pending: PendingRequests,
-    last_reply_at: Option<Timestamp>,
+    /// When the last reply came, ns.
+    last_reply_ns: Option<u64>,
     ticks_since_reply: u32,
     pub(crate) consecutive_missing: u32,
     /// When this tick's newest late reply came, if it was timed like a newer request's reply.
     late_fits_next: Option<Timestamp>,
     /// Consecutive ticks ending with such a reply (see [`RESYNC_AFTER`]).
     late_streak: u32,
-    /// Estimated round trip (request sent to reply received); `None` until the first reply.
-    pub(crate) round_trip: Option<Duration>,
-    /// The shortest physical round trip on its bus (see [`min_round_trip`]).
-    min_round_trip: Duration,
+    /// Estimated round trip (request sent to reply received), ns; `None` until the first reply.
+    round_trip_ns: Option<u64>,
+    /// The shortest physical round trip on its bus (see [`min_round_trip`]), ns.
+    min_round_trip_ns: u64,
 }
 
 impl MotorLink {
@@ -65,34 +109,45 @@ impl MotorLink {
                 motor: joint.motor,
             },
             id: joint.motor,
-            dialect: joint.dialect,
-            command_scale: joint.command_scale(),
+            expect: ReplyExpectation::torque(joint),
+            command: CommandScale::new(joint),
             slot: joint.slot(),
-            width: joint.encoder,
+            max_encoder: joint.encoder.max_value(),
             map: JointMap::from_spec(joint),
             unwrapper: EncoderUnwrapper::new(joint.encoder),
-            limit_raw: joint.current_limit.raw(),
             temperature_limit: joint.temperature_limit_celsius,
             pending: PendingRequests::new(),
-            last_reply_at: None,
+            last_reply_ns: None,
             ticks_since_reply: 0,
             consecutive_missing: 0,
             late_fits_next: None,
             late_streak: 0,
-            round_trip: None,
-            min_round_trip: min_round_trip(bitrate),
+            round_trip_ns: None,
+            min_round_trip_ns: duration_ns(min_round_trip(bitrate)),
         }
+    }
+
+    /// The estimated round trip, once a reply measured one.
+    pub(crate) fn round_trip(&self) -> Option<Duration> {
+        self.round_trip_ns.map(Duration::from_nanos)
+    }
+
+    /// [`round_trip`](Self::round_trip) in nanoseconds.
+    #[inline]
+    pub(crate) fn round_trip_ns(&self) -> Option<u64> {
+        self.round_trip_ns
     }
 
     /// Marks the end of a tick's collection: after [`RESYNC_AFTER`] ticks in a row whose newest
     /// reply was late but timed like a newer request's, the requests before that one are
     /// declared lost (replies went missing and every later one was taken too old).
+    #[inline]
     pub(crate) fn end_tick(&mut self, feedback: &JointFeedback) {
         match (feedback.freshness, self.late_fits_next) {
             (Freshness::Late { .. }, Some(at)) => {
                 self.late_streak += 1;
                 if self.late_streak >= RESYNC_AFTER {
-                    self.pending.drop_through(at, self.round_trip);
+                    self.pending.drop_through(at, self.round_trip());
                     self.late_streak = 0;
                 }
             }
@@ -102,6 +157,7 @@ impl MotorLink {
     }
 
     /// Marks the start of a tick: until a reply comes, the feedback is missing.
+    #[inline]
     pub(crate) fn begin_tick(&mut self, feedback: &mut JointFeedback) {
         self.ticks_since_reply = self.ticks_since_reply.saturating_add(1);
         feedback.freshness = Freshness::Missing {
@@ -110,13 +166,13 @@ impl MotorLink {
     }
 
     /// Folds one measured round trip into the estimate (moving average, weight 1/8).
-    fn track_round_trip(&mut self, sample: Duration) {
-        self.round_trip = Some(match self.round_trip {
-            None => sample,
+    fn track_round_trip(&mut self, sample_ns: u64) {
+        self.round_trip_ns = Some(match self.round_trip_ns {
+            None => sample_ns,
             Some(rtt) => {
-                let rtt = rtt.as_nanos() as i128;
-                let next = rtt + (sample.as_nanos() as i128 - rtt) / 8;
-                Duration::from_nanos(next.max(0) as u64)
+                // Round trips are far below 2^62 ns (146 years): the difference fits an i64.
+                let delta = (sample_ns.min(MAX_ROUND_TRIP_NS) as i64 - rtt as i64) / 8;
+                rtt.saturating_add_signed(delta)
             }
         });
     }
@@ -132,11 +188,12 @@ impl MotorLink {
         feedback: &mut JointFeedback,
         counters: &mut MotorCounters,
     ) -> ReplyClass {
-        let Some(encoder) = status.encoder().filter(|e| e.check(self.width).is_ok()) else {
+        let Some(encoder) = status.encoder().filter(|e| e.raw() <= self.max_encoder) else {
             counters.bad_frames += 1;
             return ReplyClass::Unexpected;
         };
-        let Some((sent_tick, sent_at)) = self.pending.answer(at, self.min_round_trip) else {
+        let at_ns = at.as_nanos();
+        let Some((sent_tick, sent_at)) = self.pending.answer(at_ns, self.min_round_trip_ns) else {
             counters.unexpected_replies += 1;
             return ReplyClass::Unexpected;
         };
@@ -144,7 +201,7 @@ impl MotorLink {
         let age_ticks = u32::try_from(age).unwrap_or(u32::MAX);
         let class = if age <= max_age {
             // Only fresh replies measure the round trip: a late one's includes its delay.
-            self.track_round_trip(at - sent_at);
+            self.track_round_trip(at_ns.saturating_sub(sent_at.as_nanos()));
             self.late_fits_next = None;
             ReplyClass::Fresh
         } else {
@@ -152,18 +209,22 @@ impl MotorLink {
             // Timed like a newer request's reply? (Replies held up behind a late one come
             // later than that; a reply whose predecessors were lost comes just then.)
             self.late_fits_next = self
-                .round_trip
+                .round_trip()
                 .and_then(|rtt| self.pending.on_time(at, rtt))
                 .map(|_| at);
             ReplyClass::Late
         };
         // Values of late replies still update the state (they are newer than what we have, and
         // the encoder unwrapping needs every reading), but the feedback is not marked fresh.
-        let elapsed = self.last_reply_at.map_or(Duration::ZERO, |last| at - last);
+        let elapsed_ns = self
+            .last_reply_ns
+            .map_or(0, |last| at_ns.saturating_sub(last));
         let speed_dps = status.speed.dps();
-        let motor_deg = self.unwrapper.update(encoder.raw(), speed_dps, elapsed);
+        let motor_deg = self
+            .unwrapper
+            .update_ns(encoder.raw(), speed_dps, elapsed_ns);
         let current_amps = status.iq.amps();
-        self.last_reply_at = Some(at);
+        self.last_reply_ns = Some(at_ns);
         self.ticks_since_reply = 0;
         let freshness = match (class, feedback.freshness) {
             (ReplyClass::Fresh, _) => Freshness::Fresh { age_ticks },
@@ -193,6 +254,14 @@ impl MotorLink {
         };
         class
     }
+}
+
+/// The longest round trip the estimate takes in (one hour): anything longer is no reply.
+const MAX_ROUND_TRIP_NS: u64 = 3_600_000_000_000;
+
+/// `d` in nanoseconds, saturating.
+fn duration_ns(d: Duration) -> u64 {
+    u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)
 }
 
 #[cfg(test)]
@@ -239,24 +308,26 @@ mod tests {
         // At 1 Mbit/s no reply comes sooner than 216 us after its request.
         let shortest = super::super::pending::min_round_trip(1_000_000);
         assert_eq!(shortest, Duration::from_micros(216));
+        let shortest = duration_ns(shortest);
+        let ns = |us: u64| t(us).as_nanos();
         // Sent after the reply arrived: it answers none of them.
-        assert_eq!(p.answer(t(500), shortest), None);
+        assert_eq!(p.answer(ns(500), shortest), None);
         // A reply at 3.3 ms answers the oldest, request 1 (first in, first out), whatever its
         // timing says about request 3.
-        assert_eq!(p.answer(t(3300), shortest).map(|e| e.0), Some(1));
+        assert_eq!(p.answer(ns(3300), shortest).map(|e| e.0), Some(1));
         assert_eq!(p.len(), 2);
         // Too early for the oldest outstanding request (a duplicate right after the original):
         // unexpected, and nothing is taken.
         let mut q = PendingRequests::new();
         q.push(7, t(7000));
-        assert_eq!(q.answer(t(7050), shortest), None);
+        assert_eq!(q.answer(ns(7050), shortest), None);
         assert_eq!(q.len(), 1);
         // A full ring gives up its oldest entries.
         for k in 0..20 {
             p.push(k, t(k * 1000));
         }
         assert_eq!(p.len(), PENDING_CAPACITY);
-        assert_eq!(p.answer(t(100_000), shortest).map(|e| e.0), Some(12));
+        assert_eq!(p.answer(ns(100_000), shortest).map(|e| e.0), Some(12));
         p.drop_oldest();
         assert_eq!(p.oldest().map(|e| e.0), Some(14));
     }
@@ -331,7 +402,7 @@ mod tests {
         assert_eq!(fb.motor.temperature_celsius, 30.0);
         assert_eq!(fb.raw.iq, 100);
         assert_eq!(fb.joint.torque_nm, None);
-        assert_eq!(m.round_trip, Some(Duration::from_micros(300)));
+        assert_eq!(m.round_trip(), Some(Duration::from_micros(300)));
     }
 
     #[test]

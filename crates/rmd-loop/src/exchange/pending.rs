@@ -78,26 +78,16 @@ impl PendingRequests {
         self.len += 1;
     }
 
-    /// Whether a reply received at `received` could answer a request sent at `sent`: it came
-    /// at least `min_round_trip` later.
-    pub(crate) fn could_answer(
-        sent: Timestamp,
-        received: Timestamp,
-        min_round_trip: Duration,
-    ) -> bool {
-        received >= sent + min_round_trip
-    }
-
-    /// Takes the request that a reply received at `received` answers: the oldest outstanding,
-    /// if the reply could be its reply (at least `min_round_trip` after it was sent); `None` (an
-    /// unexpected reply) otherwise.
+    /// Takes the request that a reply received at `received_ns` (bus clock, ns) answers: the
+    /// oldest outstanding, if the reply could be its reply (it came at least
+    /// `min_round_trip_ns` after the request was sent); `None` (an unexpected reply) otherwise.
     pub(crate) fn answer(
         &mut self,
-        received: Timestamp,
-        min_round_trip: Duration,
+        received_ns: u64,
+        min_round_trip_ns: u64,
     ) -> Option<(u64, Timestamp)> {
         let (tick, sent) = self.oldest()?;
-        if !Self::could_answer(sent, received, min_round_trip) {
+        if received_ns < sent.as_nanos().saturating_add(min_round_trip_ns) {
             return None;
         }
         self.drop_oldest();

@@ -37,7 +37,7 @@ pub(crate) fn channel(
         TelemetrySender {
             queue,
             free,
-            give_back: give_back.clone(),
+            spare: None,
         },
         TelemetryReceiver { queued, give_back },
     )
@@ -60,7 +60,9 @@ pub(crate) enum Published {
 pub(crate) struct TelemetrySender {
     queue: Sender<Slot>,
     free: Receiver<Slot>,
-    give_back: Sender<Slot>,
+    /// The box of the sample last pushed out of `queue`, kept for the next one: while the
+    /// receivers are behind, each publish is one queue operation, not three.
+    spare: Option<Slot>,
 }
 
 impl TelemetrySender {
@@ -73,7 +75,7 @@ impl TelemetrySender {
     /// sample; without, a full channel leaves `fill` uncalled and returns
     /// [`Published::NotQueued`].
     pub(crate) fn publish(
-        &self,
+        &mut self,
         overwrite: bool,
         fill: impl FnOnce(&mut TelemetrySample),
     ) -> Published {
@@ -82,15 +84,14 @@ impl TelemetrySender {
         if !overwrite && self.queue.len() >= self.queue.capacity() {
             return Published::NotQueued;
         }
-        let Some(mut slot) = self.free.try_recv() else {
+        let Some(mut slot) = self.spare.take().or_else(|| self.free.try_recv()) else {
             return Published::NotQueued;
         };
         fill(&mut slot);
         match self.queue.send_overwrite(slot) {
             None => Published::Queued,
             Some(oldest) => {
-                // Cannot fail: `free` holds every box.
-                let _ = self.give_back.send(oldest);
+                self.spare = Some(oldest);
                 Published::Overwrote
             }
         }
@@ -172,7 +173,7 @@ mod tests {
         sample.tick
     }
 
-    fn publish(tx: &TelemetrySender, overwrite: bool, n: u64) -> Published {
+    fn publish(tx: &mut TelemetrySender, overwrite: bool, n: u64) -> Published {
         tx.publish(overwrite, |s| {
             s.tick = n;
             if let Some(last) = s.joints_mut().last_mut() {
@@ -183,9 +184,9 @@ mod tests {
 
     #[test]
     fn samples_arrive_in_order_with_their_joints() {
-        let (tx, rx) = channel(3, 2, 0);
+        let (mut tx, rx) = channel(3, 2, 0);
         for n in 0..3 {
-            assert_eq!(publish(&tx, true, n), Published::Queued);
+            assert_eq!(publish(&mut tx, true, n), Published::Queued);
         }
         let got: Vec<_> = rx.drain().collect();
         assert_eq!(got.iter().map(tick).collect::<Vec<_>>(), vec![0, 1, 2]);
@@ -197,20 +198,24 @@ mod tests {
 
     #[test]
     fn a_full_channel_overwrites_the_oldest_or_refuses() {
-        let (tx, rx) = channel(2, 1, 0);
-        assert_eq!(publish(&tx, true, 1), Published::Queued);
-        assert_eq!(publish(&tx, true, 2), Published::Queued);
-        assert_eq!(publish(&tx, false, 3), Published::NotQueued);
-        assert_eq!(publish(&tx, true, 4), Published::Overwrote);
+        let (mut tx, rx) = channel(2, 1, 0);
+        assert_eq!(publish(&mut tx, true, 1), Published::Queued);
+        assert_eq!(publish(&mut tx, true, 2), Published::Queued);
+        assert_eq!(publish(&mut tx, false, 3), Published::NotQueued);
+        assert_eq!(publish(&mut tx, true, 4), Published::Overwrote);
         assert_eq!(rx.drain().map(|s| s.tick).collect::<Vec<_>>(), vec![2, 4]);
         // Boxes went back to the pool: the channel keeps working long after its capacity.
         for n in 0..100 {
-            assert_ne!(publish(&tx, true, n), Published::NotQueued);
+            assert_ne!(publish(&mut tx, true, n), Published::NotQueued);
         }
         assert_eq!(rx.latest().map(|s| s.tick), Some(99));
         assert_eq!(rx.len(), 0);
-        // `latest` gave every box back, the discarded ones too.
-        assert_eq!(tx.free.len(), 2 + SPARE_BOXES);
+        // `latest` gave every box back, the discarded ones too; the loop keeps the one last
+        // pushed out for its next sample.
+        assert_eq!(
+            tx.free.len() + usize::from(tx.spare.is_some()),
+            2 + SPARE_BOXES
+        );
     }
 
     #[test]
@@ -222,8 +227,8 @@ mod tests {
         assert!(tx.has_receivers(), "a clone still receives");
         drop(rx2);
         assert!(!tx.has_receivers());
-        let (tx, rx) = channel(1, 1, 0);
-        publish(&tx, true, 7);
+        let (mut tx, rx) = channel(1, 1, 0);
+        publish(&mut tx, true, 7);
         drop(tx);
         assert!(!rx.has_senders());
         assert_eq!(
@@ -235,10 +240,10 @@ mod tests {
 
     #[test]
     fn samples_cross_threads_in_order_and_none_is_lost_without_overwriting() {
-        let (tx, rx) = channel(8, 4, 2);
+        let (mut tx, rx) = channel(8, 4, 2);
         let producer = std::thread::spawn(move || {
             for n in 0..2000u64 {
-                while publish(&tx, false, n) == Published::NotQueued {
+                while publish(&mut tx, false, n) == Published::NotQueued {
                     std::thread::yield_now();
                 }
             }

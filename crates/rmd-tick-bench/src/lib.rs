@@ -1,0 +1,239 @@
+//! # rmd-tick-bench: the loop-alone tick as a benchmark scenario
+//!
+//! The framework's own cost of one control tick, without a controller (a no-op) and without a
+//! simulator: [`Running::step`] on buses that answer every 0x280 frame with four pre-encoded 0xA1
+//! replies, [`TURNAROUND`] later and then one every [`REPLY_GAP`], on a virtual clock (the tick's
+//! timed waits return at once, so what is measured is CPU work). The buses can be waited on
+//! together ([`CanBus::readiness`]), so the loop collects from every bus at once, as it does on
+//! SocketCAN and on threaded simulators. Telemetry is published to a receiver nobody drains (the
+//! mailbox overwrites), as with a live display that fell behind.
+//!
+//! `benches/tick.rs` times this scenario with criterion; `benches/tick-instructions.sh` counts
+//! its instructions per tick under callgrind with this crate's `tick-instructions` binary.
+//!
+//! ```
+//! let (mut rt, _telemetry) = rmd_tick_bench::loop_alone(2);
+//! for _ in 0..100 {
+//!     assert!(rt.step().is_continue());
+//! }
+//! assert_eq!(rt.stats().missed_ticks, 0);
+//! ```
+
+use std::time::Duration;
+
+use rmd_bus::{
+    BusError, BusMessage, CanBus, Clock, Readiness, Received, Timestamp, VirtualClock, WaitOn,
+};
+use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
+use rmd_loop::{
+    Commands, Controller, Feedback, Flow, Robot, RtLoop, Running, TelemetryReceiver, TickContext,
+};
+use rmd_protocol::{
+    CanFrame, Dialect, EncoderValue, Iq, MULTI_TORQUE_CAN_ID, MotorId, Reply, Speed, Status2,
+    StatusPosition, Temperature,
+};
+
+/// Loop rate of the scenario.
+pub const RATE_HZ: f64 = 1000.0;
+/// Motors on each bus (ids 1..=4: one 0x280 frame drives them all).
+pub const MOTORS: u8 = 4;
+/// When the first reply comes after the request (virtual time): longer than the shortest
+/// physical round trip at 1 Mbit/s (216 us), which the loop's reply matching requires.
+pub const TURNAROUND: Duration = Duration::from_micros(250);
+/// Between a bus's replies (about one 8-byte frame at 1 Mbit/s).
+pub const REPLY_GAP: Duration = Duration::from_micros(120);
+
+/// 0x280 frames a [`CannedBus`] holds replies for (more are refused, as a full transmit queue).
+const PENDING_FRAMES: usize = 2;
+
+/// The controller is excluded: it does nothing (every command stays zero).
+#[derive(Copy, Clone, Debug, Default)]
+pub struct NoOp;
+
+impl Controller for NoOp {
+    fn update(&mut self, _: &TickContext, _: &Feedback<'_>, _: &mut Commands<'_>) -> Flow {
+        Flow::Continue
+    }
+}
+
+/// A robot of `buses` buses of [`MOTORS`] motors each (ids 1..=4, v1.61), at [`RATE_HZ`].
+pub fn robot(buses: usize) -> Robot {
+    let mut robot = RobotConfig::new(RATE_HZ);
+    for b in 0..buses {
+        let mut bus = BusConfig::new(&format!("bench{b}"));
+        for id in 1..=MOTORS {
+            bus = bus.with_motor(MotorConfig::new(id));
+        }
+        robot = robot.with_bus(bus);
+    }
+    Robot::try_from(robot).expect("the scenario's robot is valid")
+}
+
+/// A bus that answers each 0x280 frame with the pre-encoded 0xA1 replies of motors 1..=4, the
+/// first [`TURNAROUND`] after it and then one every [`REPLY_GAP`] (virtual time: the receive
+/// moves the clock to each arrival). It keeps only when each frame was sent: its own work per
+/// frame is small beside the loop's, which is what the benchmark measures. No allocation.
+#[derive(Debug)]
+pub struct CannedBus {
+    clock: VirtualClock,
+    replies: [CanFrame; MOTORS as usize],
+    /// When each 0x280 frame not fully answered yet was sent (ns), oldest first (a ring).
+    sent_ns: [u64; PENDING_FRAMES],
+    head: usize,
+    len: usize,
+    /// Replies to the oldest frame already received.
+    taken: usize,
+}
+
+impl CannedBus {
+    /// A bus on `clock` with nothing pending.
+    pub fn new(clock: VirtualClock) -> Self {
+        let replies = core::array::from_fn(|i| {
+            let status = Status2 {
+                temperature: Temperature::saturating(30),
+                iq: Iq::saturating(40 * i as i64 - 60).into(),
+                speed: Speed::saturating(12 - 5 * i as i64),
+                position: StatusPosition::Encoder(EncoderValue::from_raw(4000 * i as u16 + 17)),
+            };
+            let motor = MotorId::new(i as u8 + 1).expect("ids 1..=4 are valid");
+            Dialect::V161
+                .encode_reply(motor, &Reply::Torque(status))
+                .expect("a v1.61 torque reply encodes")
+        });
+        Self {
+            clock,
+            replies,
+            sent_ns: [0; PENDING_FRAMES],
+            head: 0,
+            len: 0,
+            taken: 0,
+        }
+    }
+
+    /// When the next reply arrives.
+    fn first_arrival(&self) -> Option<Timestamp> {
+        (self.len > 0).then(|| {
+            let gaps = self.taken as u64 * REPLY_GAP.as_nanos() as u64;
+            Timestamp::from_nanos(self.sent_ns[self.head] + TURNAROUND.as_nanos() as u64 + gaps)
+        })
+    }
+}
+
+impl CanBus for CannedBus {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        if frame.id() == MULTI_TORQUE_CAN_ID {
+            if self.len == PENDING_FRAMES {
+                return Err(BusError::TxQueueFull);
+            }
+            self.sent_ns[(self.head + self.len) % PENDING_FRAMES] = self.clock.now().as_nanos();
+            self.len += 1;
+        }
+        Ok(())
+    }
+
+    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
+        let Some(at) = self.first_arrival() else {
+            self.clock.sleep_until(deadline);
+            return Ok(None);
+        };
+        if at > self.clock.now() {
+            // Not arrived yet: wait for it, up to the deadline.
+            if at > deadline {
+                self.clock.sleep_until(deadline);
+                return Ok(None);
+            }
+            self.clock.sleep_until(at);
+        }
+        let reply = self.replies[self.taken];
+        self.taken += 1;
+        if self.taken == self.replies.len() {
+            self.taken = 0;
+            self.head = (self.head + 1) % PENDING_FRAMES;
+            self.len -= 1;
+        }
+        Ok(Some(Received {
+            at,
+            message: BusMessage::Frame(reply),
+        }))
+    }
+
+    /// Like a SocketCAN socket or a threaded simulator, it can be waited on with other buses:
+    /// the loop collects from all of them at once (the path real runs take).
+    fn readiness(&mut self) -> Readiness<'_> {
+        match self.first_arrival() {
+            Some(at) if at <= self.clock.now() => Readiness::Ready,
+            Some(at) => Readiness::Pending(WaitOn::arrival(at, Duration::ZERO)),
+            None => Readiness::Pending(WaitOn::default()),
+        }
+    }
+}
+
+/// The loop of the scenario.
+pub type LoopAlone = Running<CannedBus, VirtualClock, NoOp>;
+
+/// A started loop over `buses` canned buses publishing telemetry to the returned receiver (keep
+/// it alive: without a receiver nothing is published).
+pub fn loop_alone(buses: usize) -> (LoopAlone, TelemetryReceiver) {
+    let clock = VirtualClock::new();
+    let canned = (0..buses).map(|_| CannedBus::new(clock.clone())).collect();
+    started(robot(buses), clock, canned)
+}
+
+/// A started loop of `robot` over `buses` with the no-op controller, publishing telemetry to
+/// the returned receiver.
+pub fn started<B: CanBus>(
+    robot: Robot,
+    clock: VirtualClock,
+    buses: Vec<B>,
+) -> (Running<B, VirtualClock, NoOp>, TelemetryReceiver) {
+    let mut rt = RtLoop::new(robot, clock, buses, NoOp).expect("one bus per bus of the robot");
+    let telemetry = rt.telemetry();
+    let Ok(rt) = rt.start() else {
+        panic!("every motor answers the start-up probe")
+    };
+    (rt, telemetry)
+}
+
+/// Runs `ticks` ticks of `rt`. Never inlined: callgrind counts the instructions of this
+/// function and everything it calls (`--toggle-collect`), and nothing else.
+#[inline(never)]
+pub fn measured_ticks(rt: &mut LoopAlone, ticks: u64) {
+    for _ in 0..ticks {
+        assert!(
+            rt.step().is_continue(),
+            "the loop-alone scenario never stops"
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rmd_protocol::{IqControl, MultiTorque};
+
+    #[test]
+    fn each_torque_frame_is_answered_by_four_replies_at_their_times() {
+        let clock = VirtualClock::new();
+        let mut bus = CannedBus::new(clock.clone());
+        let frame = MultiTorque::new([IqControl::default().into(); 4]).encode();
+        assert!(matches!(bus.readiness(), Readiness::Pending(w) if w.next_arrival().is_none()));
+        bus.send(&frame).unwrap();
+        clock.sleep_until(Timestamp::from_nanos(100_000));
+        bus.send(&frame).unwrap();
+        assert_eq!(bus.send(&frame), Err(BusError::TxQueueFull));
+        let mut got = Vec::new();
+        while let Some(r) = bus.recv_until(Timestamp::from_nanos(10_000_000)).unwrap() {
+            got.push((r.at.as_nanos() / 1_000, r.message));
+        }
+        let us: Vec<u64> = got.iter().map(|g| g.0).collect();
+        assert_eq!(us, [250, 370, 490, 610, 350, 470, 590, 710]);
+        for (i, (_, message)) in got.iter().enumerate() {
+            let BusMessage::Frame(f) = message else {
+                panic!("{message:?}")
+            };
+            assert_eq!(f.id(), 0x141 + (i % 4) as u16);
+        }
+        // Nothing more; the receive waited until its deadline.
+        assert_eq!(clock.now(), Timestamp::from_nanos(10_000_000));
+    }
+}
