@@ -36,6 +36,7 @@
 //! ```
 
 use core::time::Duration;
+use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
@@ -451,6 +452,10 @@ pub struct RobotConfig {
     /// Buses, in order; joints are numbered bus by bus in this order.
     #[serde(default, rename = "bus")]
     pub buses: Vec<BusConfig>,
+    /// The file the description was read from ([`read_config`](crate::robot::read_config)),
+    /// named in its errors; not part of the description itself.
+    #[serde(skip)]
+    pub source: Option<PathBuf>,
 }
 
 impl RobotConfig {
@@ -463,6 +468,7 @@ impl RobotConfig {
             },
             safe_stop: SafeStopConfig::default(),
             buses: Vec::new(),
+            source: None,
         }
     }
 
@@ -475,7 +481,7 @@ impl RobotConfig {
     /// Parses TOML text (syntax and types only; [`Robot::try_from`](crate::robot::Robot)
     /// checks the values).
     pub fn from_toml(text: &str) -> Result<Self, super::RobotError> {
-        toml::from_str(text).map_err(|e| super::RobotError::Parse(e.to_string()))
+        toml::from_str(text).map_err(|e| super::error::parse_error(e.to_string()))
     }
 
     /// The description as TOML.
