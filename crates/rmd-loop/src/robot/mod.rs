@@ -841,7 +841,7 @@ fn joint_spec(
     let torque_constant = m.torque_constant_nm_per_amp.or(model
         .and_then(|md| md.torque_constant_nm_per_a)
         .map(|kt| kt.value));
-    if !(m.zero_offset_deg.abs() <= MAX_ZERO_OFFSET_DEG) {
+    if !(-MAX_ZERO_OFFSET_DEG..=MAX_ZERO_OFFSET_DEG).contains(&m.zero_offset_deg) {
         return Err(invalid(
             format!("{key}.zero_offset_deg"),
             format!(
