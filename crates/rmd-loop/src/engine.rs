@@ -31,9 +31,10 @@ use crate::exchange::Exchange;
 use crate::exchange::frames::ZERO_TORQUE;
 use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
+use crate::guard::LimitGuard;
 use crate::mapping::JointMap;
 use crate::os::{CpuLatencyHold, RtSetup, RtStatus};
-use crate::report::{Fault, StopReason};
+use crate::report::{Fault, MotorRef, StopReason};
 use crate::robot::{RejectedCommandPolicy, Robot};
 use crate::schedule::{Scheduler, TickTiming};
 use crate::shared::Shared;
@@ -103,6 +104,8 @@ pub(crate) struct Parts<B, C> {
     pub(crate) stats: LoopStats,
     pub(crate) shared: Arc<Shared>,
     maps: Vec<JointMap>,
+    /// Each joint's limits, as the tick checks them.
+    guards: Vec<LimitGuard>,
     /// Motor-side amperes per joint: the controller's commands, then what was staged.
     command_amps: Vec<f64>,
     signals: [f64; MAX_SIGNALS],
@@ -196,6 +199,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 exchange: Exchange::new(&robot, buses),
                 stats: LoopStats::new(&robot),
                 maps: robot.joints().iter().map(JointMap::from_spec).collect(),
+                guards: robot.joints().iter().map(LimitGuard::from_spec).collect(),
                 command_amps: vec![0.0; joints],
                 signals: [0.0; MAX_SIGNALS],
                 signal_count,
@@ -454,6 +458,9 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
             Ok(last_reply) => last_reply,
             Err(reason) => return ControlFlow::Break(reason),
         };
+        if let Some(fault) = self.parts.limit_breach() {
+            return ControlFlow::Break(StopReason::Fault(fault));
+        }
         self.run_controller(&timing)?;
         self.parts.stage_commands();
         self.parts.publish(&timing, self.start);
@@ -628,7 +635,28 @@ impl<B, C> Parts<B, C> {
         }
     }
 
-    /// Clamps the controller's commands to each joint's limit and stages them for the next
+    /// The first joint further past one of its limits than its margin, as a fault.
+    fn limit_breach(&self) -> Option<Fault> {
+        let feedback = &self.exchange.feedback;
+        let (joint, breach) = self
+            .guards
+            .iter()
+            .zip(feedback)
+            .enumerate()
+            .find_map(|(j, (guard, fb))| guard.breach(&fb.joint).map(|b| (j, b)))?;
+        let spec = &self.robot.joints()[joint];
+        Some(Fault::JointLimit {
+            at: MotorRef {
+                joint: crate::joint::JointId::from_index(joint),
+                bus: spec.bus,
+                motor: spec.motor,
+            },
+            breach,
+        })
+    }
+
+    /// Refuses the controller's commands that push a joint further past a limit (zero torque,
+    /// counted), clamps the rest to each joint's current limit, and stages them for the next
     /// tick's 0x280 frames.
     fn stage_commands(&mut self) {
         let exchange = &mut self.exchange;
@@ -637,6 +665,10 @@ impl<B, C> Parts<B, C> {
             for m in link.joints() {
                 let motor = &exchange.motors[m];
                 let scale = motor.command_scale;
+                if self.guards[m].refuses(&exchange.feedback[m].joint, self.command_amps[m]) {
+                    self.command_amps[m] = 0.0;
+                    self.stats.motors[m].limited_commands += 1;
+                }
                 let raw = ScaledCurrent::from_amps_saturating(self.command_amps[m], scale).raw();
                 let limited = raw.clamp(-motor.limit_raw, motor.limit_raw);
                 if limited != raw {

@@ -9,6 +9,7 @@ use rmd_protocol::{MotorId, ProtocolFamily};
 use serde::Serialize;
 
 use crate::commands::Rejection;
+use crate::guard::LimitBreach;
 use crate::joint::JointId;
 use crate::os::RtStatus;
 use crate::robot::Robot;
@@ -119,6 +120,15 @@ pub enum Fault {
         /// The bound (`loop.stall_bound_ms`).
         bound: Duration,
     },
+    /// A joint went further past one of its limits than its margin (`limit_margin_deg`,
+    /// `velocity_margin_dps`): a load, its momentum, or torque the loop refused too late drove
+    /// it there. Every motor made safe.
+    JointLimit {
+        /// The joint.
+        at: MotorRef,
+        /// Which limit, where the joint was, the limit and the margin.
+        breach: LimitBreach,
+    },
     /// The controller wrote a command the loop cannot send as given (with
     /// `loop.rejected_command = "fault"`, the default).
     RejectedCommand {
@@ -128,6 +138,10 @@ pub enum Fault {
         reason: Rejection,
     },
 }
+
+/// What follows a joint-limit fault.
+const JOINT_LIMIT_ADVICE: &str = ": every motor was made safe (what carried it there: a load, \
+     its momentum or a controller pushing; check the joint's limits, its homing and the gains)";
 
 fn firmware_problem(family: ProtocolFamily, described: ProtocolFamily, finding: Finding) -> String {
     match family {
@@ -176,6 +190,9 @@ impl Fault {
                 "{} reports {celsius} degC, at or above its limit",
                 at.describe(robot)
             ),
+            Fault::JointLimit { at, breach } => {
+                format!("{} {breach}{JOINT_LIMIT_ADVICE}", at.describe(robot))
+            }
             Fault::RejectedCommand {
                 joint: Some(joint),
                 reason,
@@ -240,6 +257,7 @@ impl fmt::Display for Fault {
                  the supervisor made every motor safe",
                 bound.as_millis()
             ),
+            Fault::JointLimit { at, breach } => write!(f, "{at} {breach}{JOINT_LIMIT_ADVICE}"),
             Fault::RejectedCommand { joint, reason } => match joint {
                 Some(joint) => write!(f, "the controller's command for {joint}: {reason}"),
                 None => write!(

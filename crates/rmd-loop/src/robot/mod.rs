@@ -30,6 +30,7 @@
 
 mod error;
 pub mod file;
+mod limits;
 
 use core::num::{NonZeroU32, NonZeroUsize};
 use core::ops::Range;
@@ -45,6 +46,10 @@ use error::{Shown, invalid};
 pub use file::{
     BusConfig, CpuLatencySetting, Direction, LoopConfig, MotorConfig, RejectedCommandPolicy,
     ReplyMode, RobotConfig, SafeStopConfig,
+};
+pub use limits::{
+    DEFAULT_LIMIT_MARGIN_DEG, JointLimits, MAX_LIMIT_DEG, MAX_LIMIT_MARGIN_DEG,
+    MAX_VELOCITY_LIMIT_DPS,
 };
 
 use crate::joint::JointId;
@@ -71,8 +76,6 @@ pub const TORQUE_CONSTANT_RANGE: core::ops::RangeInclusive<f64> = 1e-4..=1000.0;
 pub const MAX_TURNAROUND: Duration = Duration::from_millis(100);
 /// The longest `loop.stall_bound_ms`.
 pub const MAX_STALL_BOUND: Duration = Duration::from_secs(60);
-/// The most `loop.missing_reply_fault_after` ticks.
-pub const MAX_MISSING_REPLY_TICKS: u32 = 1_000_000;
 /// The most `loop.startup_probes`.
 pub const MAX_STARTUP_PROBES: u32 = 1000;
 /// The largest `loop.telemetry_capacity`, in ticks (allocated up front).
@@ -277,6 +280,8 @@ pub struct JointSpec {
     pub torque_constant_nm_per_amp: Option<f64>,
     /// A reported temperature at or above this is a fault.
     pub temperature_limit_celsius: Option<f64>,
+    /// Its position and velocity limits, enforced by the loop below every controller.
+    pub limits: JointLimits,
 }
 
 impl JointSpec {
@@ -584,10 +589,11 @@ fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
             lock_memory: l.lock_memory,
             cpu_dma_latency,
         },
+        // Any number of ticks (u32::MAX: never, for benchmarks).
         missing_reply_fault_after: count(
             "loop.missing_reply_fault_after",
             l.missing_reply_fault_after,
-            MAX_MISSING_REPLY_TICKS,
+            u32::MAX,
         )?,
         startup_probes: count("loop.startup_probes", l.startup_probes, MAX_STARTUP_PROBES)?,
         telemetry_capacity: NonZeroUsize::new(l.telemetry_capacity)
@@ -913,6 +919,7 @@ fn joint_spec(
         },
         torque_constant_nm_per_amp: torque_constant,
         temperature_limit_celsius: m.temperature_limit_celsius,
+        limits: limits::joint_limits(m, key)?,
     })
 }
 
@@ -1103,7 +1110,7 @@ mod tests {
                 "loop.stall_bound_ms",
             ),
             (
-                "missing_reply_fault_after = 4294967295",
+                "missing_reply_fault_after = 0",
                 "loop.missing_reply_fault_after",
             ),
             ("startup_probes = 4294967295", "loop.startup_probes"),
