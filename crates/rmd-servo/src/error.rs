@@ -36,7 +36,7 @@ pub enum ServoError {
     /// A value beyond the joint's limits.
     #[error(
         "joint `{joint}`: {field} is {value}, outside the joint's limits [{min}, {max}] \
-         (servo configuration: {key})"
+         ({key})"
     )]
     OutOfLimit {
         /// The joint.
@@ -49,7 +49,8 @@ pub enum ServoError {
         min: f64,
         /// The highest value allowed.
         max: f64,
-        /// The configuration key of the limit.
+        /// Where the limit comes from and its key (`robot description:
+        /// position_min_deg/position_max_deg`, `servo configuration: max_effort_nm`).
         key: &'static str,
     },
     /// The same joint twice in one batch or trajectory.
@@ -161,7 +162,7 @@ pub enum TrajectoryRefusal {
     /// A value beyond the joint's limits.
     #[error(
         "joint `{joint}`, point {point}: {field} is {value}, outside the joint's limits \
-         [{min}, {max}] (servo configuration: {key})"
+         [{min}, {max}] ({key})"
     )]
     OutOfLimit {
         /// The joint.
@@ -176,7 +177,8 @@ pub enum TrajectoryRefusal {
         min: f64,
         /// The highest value allowed.
         max: f64,
-        /// The configuration key of the limit.
+        /// Where the limit comes from and its key (`robot description:
+        /// position_min_deg/position_max_deg`, `servo configuration: max_effort_nm`).
         key: &'static str,
     },
     /// The last point must be at rest (the joint holds it afterwards).

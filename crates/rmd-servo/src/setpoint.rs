@@ -2,7 +2,7 @@
 
 use rmd_loop::JointId;
 
-use crate::config::JointServo;
+use crate::config::{EFFORT_KEY, JointServo};
 use crate::error::ServoError;
 
 /// A setpoint for one joint, in joint units (rad, rad/s, N·m).
@@ -72,10 +72,10 @@ impl Setpoint {
         let position = (
             l.position_min_rad,
             l.position_max_rad,
-            "position_min_rad/max",
+            l.position_from.position_key(),
         );
-        let velocity = (-v, v, "max_velocity_rad_s");
-        let effort = (-e, e, "max_effort_nm");
+        let velocity = (-v, v, l.velocity_from.velocity_key());
+        let effort = (-e, e, EFFORT_KEY);
         let fields: &[(&'static str, f64, (f64, f64, &'static str))] = match *self {
             Setpoint::Position {
                 position_rad,
@@ -102,7 +102,7 @@ impl Setpoint {
     }
 }
 
-/// `value` must be finite and within `[min, max]` (the servo configuration's `key`).
+/// `value` must be finite and within `[min, max]` (the limit `key`, with where it comes from).
 pub(crate) fn check_value(
     joint: &str,
     field: &'static str,

@@ -76,7 +76,42 @@ pub struct Gains {
     pub kd_nm_s_per_rad: f64,
 }
 
-/// The limits of one joint (joint side). Position limits may be infinite (none).
+/// Where a joint's position or velocity limit comes from: the servo never allows more than the
+/// robot description ([`JointSpec::limits`]), and may narrow it in its own configuration.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub enum LimitSource {
+    /// The robot description (`position_min_deg`, `position_max_deg`, `velocity_limit_dps`),
+    /// or none there either.
+    #[default]
+    RobotDescription,
+    /// The servo configuration (`position_min_rad`, `position_max_rad`, `max_velocity_rad_s`,
+    /// or the built-in velocity limit).
+    ServoConfiguration,
+}
+
+impl LimitSource {
+    /// The keys of a position limit from this source, as refusals name them.
+    pub fn position_key(self) -> &'static str {
+        match self {
+            LimitSource::RobotDescription => "robot description: position_min_deg/position_max_deg",
+            LimitSource::ServoConfiguration => "servo configuration: position_min_rad/max",
+        }
+    }
+
+    /// The key of a velocity limit from this source, as refusals name it.
+    pub fn velocity_key(self) -> &'static str {
+        match self {
+            LimitSource::RobotDescription => "robot description: velocity_limit_dps",
+            LimitSource::ServoConfiguration => "servo configuration: max_velocity_rad_s",
+        }
+    }
+}
+
+/// The key of the effort limit, as refusals name it.
+pub const EFFORT_KEY: &str = "servo configuration: max_effort_nm";
+
+/// The limits of one joint (joint side). Position limits may be infinite (none). They lie within
+/// the robot description's limits of the joint.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct JointLimits {
     /// Lowest position a setpoint or trajectory may ask for, rad (`-inf`: none).
@@ -91,6 +126,10 @@ pub struct JointLimits {
     pub max_jerk_rad_s3: f64,
     /// Largest commanded torque, N·m (> 0, at most what the current limit allows).
     pub max_effort_nm: f64,
+    /// Where the position limits come from.
+    pub position_from: LimitSource,
+    /// Where the velocity limit comes from.
+    pub velocity_from: LimitSource,
 }
 
 impl JointLimits {
@@ -301,20 +340,73 @@ fn joint_servo(
         None,
         "position_max_rad",
     ))?;
-    let position_min_rad = min.unwrap_or(f64::NEG_INFINITY);
-    let position_max_rad = max.unwrap_or(f64::INFINITY);
+    // The description's limits bound the servo's: the servo may narrow them, never widen them.
+    let described = spec.limits;
+    let (described_min, described_max) = (
+        described.position_min_deg.to_radians(),
+        described.position_max_deg.to_radians(),
+    );
+    let within = |v: f64, key: &str| {
+        if (described_min..=described_max).contains(&v) {
+            Ok(v)
+        } else {
+            Err(src.invalid(
+                key.to_string(),
+                format!(
+                    "is {v} rad, outside the robot description's limits of the joint \
+                     (position_min_deg {} = {described_min:.4} rad, position_max_deg {} = \
+                     {described_max:.4} rad): the servo may narrow them, never widen them",
+                    described.position_min_deg, described.position_max_deg
+                ),
+            ))
+        }
+    };
+    let position_min_rad = match min {
+        Some(v) => within(v, &min_key)?,
+        None => described_min,
+    };
+    let position_max_rad = match max {
+        Some(v) => within(v, &max_key)?,
+        None => described_max,
+    };
     if position_min_rad >= position_max_rad {
         return Err(src.invalid(
             max_key,
             format!("is {position_max_rad}, must be above `{min_key}` ({position_min_rad})"),
         ));
     }
-    let max_velocity_rad_s = positive(src.pick(
+    let position_from = if min.is_some() || max.is_some() {
+        LimitSource::ServoConfiguration
+    } else {
+        LimitSource::RobotDescription
+    };
+    let described_velocity = described.velocity_max_dps.to_radians();
+    let (velocity, velocity_key) = src.pick(
         defaults,
         |s| s.max_velocity_rad_s,
         DEFAULT_MAX_VELOCITY_RAD_S,
         "max_velocity_rad_s",
-    ))?;
+    );
+    let given_velocity = velocity_key != "built-in max_velocity_rad_s";
+    let (max_velocity_rad_s, velocity_from) = if given_velocity {
+        let v = positive((velocity, velocity_key.clone()))?;
+        if v > described_velocity {
+            return Err(src.invalid(
+                velocity_key,
+                format!(
+                    "is {v} rad/s, above the robot description's velocity_limit_dps of the joint \
+                     ({} deg/s = {described_velocity:.4} rad/s): the servo may lower it, never \
+                     raise it",
+                    described.velocity_max_dps
+                ),
+            ));
+        }
+        (v, LimitSource::ServoConfiguration)
+    } else if described_velocity < velocity {
+        (described_velocity, LimitSource::RobotDescription)
+    } else {
+        (velocity, LimitSource::ServoConfiguration)
+    };
     let max_acceleration_rad_s2 = positive(src.pick(
         defaults,
         |s| s.max_acceleration_rad_s2,
@@ -377,6 +469,8 @@ fn joint_servo(
             max_acceleration_rad_s2,
             max_jerk_rad_s3,
             max_effort_nm,
+            position_from,
+            velocity_from,
         },
         stale: StaleRule {
             after: Duration::from_millis(after_ms),
@@ -535,6 +629,78 @@ mod tests {
         let err =
             ServoConfig::from_toml(&robot, "[defaults]\nstale_policy = \"limp\"").unwrap_err();
         assert!(matches!(err, ServoConfigError::Parse(_)), "{err}");
+    }
+
+    /// A knee of 5..165 degrees and 120 deg/s in the robot description.
+    fn limited_robot() -> Robot {
+        Robot::try_from(
+            RobotConfig::new(1000.0).with_bus(
+                BusConfig::new("can0").with_motor(
+                    MotorConfig::new(1)
+                        .name("knee")
+                        .torque_constant(2.0)
+                        .position_limits(5.0, 165.0)
+                        .velocity_limit(60.0),
+                ),
+            ),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn the_robot_descriptions_limits_bound_the_servos() {
+        let robot = limited_robot();
+        let knee = robot.joint("knee").unwrap();
+        // No servo limits: the description's, in radians.
+        let c = ServoConfig::defaults(&robot).unwrap();
+        let l = c.joint(knee).limits;
+        assert_eq!(l.position_min_rad, 5f64.to_radians());
+        assert_eq!(l.position_max_rad, 165f64.to_radians());
+        assert_eq!(l.position_from, LimitSource::RobotDescription);
+        // 60 deg/s is below the built-in 2 rad/s: the description's.
+        assert_eq!(l.max_velocity_rad_s, 60f64.to_radians());
+        assert_eq!(l.velocity_from, LimitSource::RobotDescription);
+        // Narrower servo limits are taken; the other side stays the description's.
+        let c = ServoConfig::from_toml(
+            &robot,
+            "[joint.knee]\nposition_max_rad = 2.0\nmax_velocity_rad_s = 0.5",
+        )
+        .unwrap();
+        let l = c.joint(knee).limits;
+        assert_eq!(
+            (l.position_min_rad, l.position_max_rad),
+            (5f64.to_radians(), 2.0)
+        );
+        assert_eq!(l.position_from, LimitSource::ServoConfiguration);
+        assert_eq!(l.max_velocity_rad_s, 0.5);
+        // Wider ones are refused, naming the key and the description's limit.
+        let err =
+            ServoConfig::from_toml(&robot, "[joint.knee]\nposition_max_rad = 3.0").unwrap_err();
+        assert!(
+            matches!(&err, ServoConfigError::Invalid { key, .. } if key == "joint.knee.position_max_rad"),
+            "{err}"
+        );
+        assert!(err.to_string().contains("position_max_deg 165"), "{err}");
+        assert_eq!(
+            invalid_on(&robot, "[defaults]\nposition_min_rad = 0.0"),
+            ("knee".into(), "defaults.position_min_rad".into())
+        );
+        assert_eq!(
+            invalid_on(&robot, "[defaults]\nmax_velocity_rad_s = 2.0"),
+            ("knee".into(), "defaults.max_velocity_rad_s".into())
+        );
+        // Without description limits nothing changes: none, and the built-in 2 rad/s.
+        let l = ServoConfig::defaults(&self::robot()).unwrap().joints()[0].limits;
+        assert_eq!(l.position_min_rad, f64::NEG_INFINITY);
+        assert_eq!(l.max_velocity_rad_s, DEFAULT_MAX_VELOCITY_RAD_S);
+        assert_eq!(l.velocity_from, LimitSource::ServoConfiguration);
+    }
+
+    fn invalid_on(robot: &Robot, text: &str) -> (String, String) {
+        match ServoConfig::from_toml(robot, text) {
+            Err(ServoConfigError::Invalid { joint, key, .. }) => (joint, key),
+            other => panic!("expected an invalid value, got {other:?}"),
+        }
     }
 
     #[test]

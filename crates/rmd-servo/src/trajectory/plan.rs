@@ -151,7 +151,7 @@ fn targets(
                 p.positions[column],
                 l.position_min_rad,
                 l.position_max_rad,
-                "position_min_rad/max",
+                l.position_from.position_key(),
             )
         })
         .collect::<Result<Vec<_>, _>>()?;
@@ -171,7 +171,7 @@ fn targets(
                 v[column],
                 -vmax,
                 vmax,
-                "max_velocity_rad_s",
+                l.velocity_from.velocity_key(),
             )?,
             None if i + 1 == n => 0.0,
             None => {
@@ -195,7 +195,7 @@ fn targets(
                 a[column],
                 -amax,
                 amax,
-                "max_acceleration_rad_s2",
+                "servo configuration: max_acceleration_rad_s2",
             )?,
             None => 0.0,
         };
