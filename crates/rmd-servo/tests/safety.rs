@@ -105,7 +105,7 @@ fn setpoints_beyond_the_limits_are_refused_and_counted() {
     );
     assert_eq!(
         err.to_string(),
-        "joint `knee`: position_rad is 0.6, outside the joint's limits [-0.5, 0.5] (servo configuration: position_min_rad/max)"
+        "joint `knee`: position_rad is 0.6, outside the joint's limits [-0.5, 0.5] (servo configuration: position_max_rad)"
     );
     assert!(matches!(
         h.set_velocity("knee", 2.5, 0.0),
@@ -521,7 +521,7 @@ fn a_target_beyond_the_robot_descriptions_limits_is_refused_before_anything_move
         err.to_string(),
         format!(
             "joint `knee`: position_rad is 100, outside the joint's limits [{min}, {max}] \
-             (robot description: position_min_deg/position_max_deg)"
+             (robot description: position_max_deg)"
         )
     );
     // A trajectory there too; a velocity beyond the servo's 2 rad/s (within the description's

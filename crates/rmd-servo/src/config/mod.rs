@@ -76,12 +76,12 @@ pub struct Gains {
     pub kd_nm_s_per_rad: f64,
 }
 
-/// Where a joint's position or velocity limit comes from: the servo never allows more than the
-/// robot description ([`JointSpec::limits`]), and may narrow it in its own configuration.
+/// Where one of a joint's position or velocity limits comes from: the tighter of the robot
+/// description's ([`JointSpec::limits`]) and the servo configuration's own.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
 pub enum LimitSource {
     /// The robot description (`position_min_deg`, `position_max_deg`, `velocity_limit_dps`),
-    /// or none there either.
+    /// or no limit in either.
     #[default]
     RobotDescription,
     /// The servo configuration (`position_min_rad`, `position_max_rad`, `max_velocity_rad_s`,
@@ -90,11 +90,19 @@ pub enum LimitSource {
 }
 
 impl LimitSource {
-    /// The keys of a position limit from this source, as refusals name them.
-    pub fn position_key(self) -> &'static str {
+    /// The key of a lower position limit from this source, as refusals name it.
+    pub fn min_key(self) -> &'static str {
         match self {
-            LimitSource::RobotDescription => "robot description: position_min_deg/position_max_deg",
-            LimitSource::ServoConfiguration => "servo configuration: position_min_rad/max",
+            LimitSource::RobotDescription => "robot description: position_min_deg",
+            LimitSource::ServoConfiguration => "servo configuration: position_min_rad",
+        }
+    }
+
+    /// The key of an upper position limit from this source, as refusals name it.
+    pub fn max_key(self) -> &'static str {
+        match self {
+            LimitSource::RobotDescription => "robot description: position_max_deg",
+            LimitSource::ServoConfiguration => "servo configuration: position_max_rad",
         }
     }
 
@@ -110,8 +118,8 @@ impl LimitSource {
 /// The key of the effort limit, as refusals name it.
 pub const EFFORT_KEY: &str = "servo configuration: max_effort_nm";
 
-/// The limits of one joint (joint side). Position limits may be infinite (none). They lie within
-/// the robot description's limits of the joint.
+/// The limits of one joint (joint side). Position limits may be infinite (none). Each is the
+/// tighter of the robot description's and the servo configuration's.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct JointLimits {
     /// Lowest position a setpoint or trajectory may ask for, rad (`-inf`: none).
@@ -126,8 +134,10 @@ pub struct JointLimits {
     pub max_jerk_rad_s3: f64,
     /// Largest commanded torque, N·m (> 0, at most what the current limit allows).
     pub max_effort_nm: f64,
-    /// Where the position limits come from.
-    pub position_from: LimitSource,
+    /// Where the lower position limit comes from.
+    pub position_min_from: LimitSource,
+    /// Where the upper position limit comes from.
+    pub position_max_from: LimitSource,
     /// Where the velocity limit comes from.
     pub velocity_from: LimitSource,
 }
@@ -136,6 +146,14 @@ impl JointLimits {
     /// Whether `position_rad` lies within the position limits.
     pub fn allows_position(&self, position_rad: f64) -> bool {
         position_rad >= self.position_min_rad && position_rad <= self.position_max_rad
+    }
+
+    /// The keys of the lower and upper position limits, as refusals name them.
+    pub fn position_keys(&self) -> (&'static str, &'static str) {
+        (
+            self.position_min_from.min_key(),
+            self.position_max_from.max_key(),
+        )
     }
 }
 
@@ -340,73 +358,46 @@ fn joint_servo(
         None,
         "position_max_rad",
     ))?;
-    // The description's limits bound the servo's: the servo may narrow them, never widen them.
+    // The description's limits bound the servo's: each limit is the tighter of the two.
     let described = spec.limits;
-    let (described_min, described_max) = (
-        described.position_min_deg.to_radians(),
-        described.position_max_deg.to_radians(),
-    );
-    let within = |v: f64, key: &str| {
-        if (described_min..=described_max).contains(&v) {
-            Ok(v)
-        } else {
-            Err(src.invalid(
-                key.to_string(),
-                format!(
-                    "is {v} rad, outside the robot description's limits of the joint \
-                     (position_min_deg {} = {described_min:.4} rad, position_max_deg {} = \
-                     {described_max:.4} rad): the servo may narrow them, never widen them",
-                    described.position_min_deg, described.position_max_deg
-                ),
-            ))
+    let tighter = |servo: Option<f64>, described: f64, lower: bool| match servo {
+        Some(v) if (lower && v >= described) || (!lower && v <= described) => {
+            (v, LimitSource::ServoConfiguration)
         }
+        _ => (described, LimitSource::RobotDescription),
     };
-    let position_min_rad = match min {
-        Some(v) => within(v, &min_key)?,
-        None => described_min,
-    };
-    let position_max_rad = match max {
-        Some(v) => within(v, &max_key)?,
-        None => described_max,
-    };
+    let (position_min_rad, position_min_from) =
+        tighter(min, described.position_min_deg.to_radians(), true);
+    let (position_max_rad, position_max_from) =
+        tighter(max, described.position_max_deg.to_radians(), false);
     if position_min_rad >= position_max_rad {
+        let (key, whose) = match (min, max) {
+            (_, Some(_)) => (max_key, format!("`{min_key}` and the robot description")),
+            _ => (
+                min_key,
+                "the robot description's position_max_deg".to_string(),
+            ),
+        };
         return Err(src.invalid(
-            max_key,
-            format!("is {position_max_rad}, must be above `{min_key}` ({position_min_rad})"),
+            key,
+            format!(
+                "leaves no room: the joint's limits would be [{position_min_rad}, \
+                 {position_max_rad}] rad (with {whose}: position_min_deg {}, position_max_deg {})",
+                described.position_min_deg, described.position_max_deg
+            ),
         ));
     }
-    let position_from = if min.is_some() || max.is_some() {
-        LimitSource::ServoConfiguration
-    } else {
-        LimitSource::RobotDescription
-    };
-    let described_velocity = described.velocity_max_dps.to_radians();
-    let (velocity, velocity_key) = src.pick(
+    let max_velocity_rad_s = positive(src.pick(
         defaults,
         |s| s.max_velocity_rad_s,
         DEFAULT_MAX_VELOCITY_RAD_S,
         "max_velocity_rad_s",
+    ))?;
+    let (max_velocity_rad_s, velocity_from) = tighter(
+        Some(max_velocity_rad_s),
+        described.velocity_max_dps.to_radians(),
+        false,
     );
-    let given_velocity = velocity_key != "built-in max_velocity_rad_s";
-    let (max_velocity_rad_s, velocity_from) = if given_velocity {
-        let v = positive((velocity, velocity_key.clone()))?;
-        if v > described_velocity {
-            return Err(src.invalid(
-                velocity_key,
-                format!(
-                    "is {v} rad/s, above the robot description's velocity_limit_dps of the joint \
-                     ({} deg/s = {described_velocity:.4} rad/s): the servo may lower it, never \
-                     raise it",
-                    described.velocity_max_dps
-                ),
-            ));
-        }
-        (v, LimitSource::ServoConfiguration)
-    } else if described_velocity < velocity {
-        (described_velocity, LimitSource::RobotDescription)
-    } else {
-        (velocity, LimitSource::ServoConfiguration)
-    };
     let max_acceleration_rad_s2 = positive(src.pick(
         defaults,
         |s| s.max_acceleration_rad_s2,
@@ -469,7 +460,8 @@ fn joint_servo(
             max_acceleration_rad_s2,
             max_jerk_rad_s3,
             max_effort_nm,
-            position_from,
+            position_min_from,
+            position_max_from,
             velocity_from,
         },
         stale: StaleRule {
@@ -656,14 +648,21 @@ mod tests {
         let l = c.joint(knee).limits;
         assert_eq!(l.position_min_rad, 5f64.to_radians());
         assert_eq!(l.position_max_rad, 165f64.to_radians());
-        assert_eq!(l.position_from, LimitSource::RobotDescription);
+        assert_eq!(
+            l.position_keys(),
+            (
+                "robot description: position_min_deg",
+                "robot description: position_max_deg"
+            )
+        );
         // 60 deg/s is below the built-in 2 rad/s: the description's.
         assert_eq!(l.max_velocity_rad_s, 60f64.to_radians());
         assert_eq!(l.velocity_from, LimitSource::RobotDescription);
-        // Narrower servo limits are taken; the other side stays the description's.
+        // Each limit is the tighter of the two: a narrower servo limit is taken, a wider one
+        // is narrowed to the description's.
         let c = ServoConfig::from_toml(
             &robot,
-            "[joint.knee]\nposition_max_rad = 2.0\nmax_velocity_rad_s = 0.5",
+            "[joint.knee]\nposition_min_rad = -1.0\nposition_max_rad = 2.0\nmax_velocity_rad_s = 0.5",
         )
         .unwrap();
         let l = c.joint(knee).limits;
@@ -671,29 +670,43 @@ mod tests {
             (l.position_min_rad, l.position_max_rad),
             (5f64.to_radians(), 2.0)
         );
-        assert_eq!(l.position_from, LimitSource::ServoConfiguration);
-        assert_eq!(l.max_velocity_rad_s, 0.5);
-        // Wider ones are refused, naming the key and the description's limit.
-        let err =
-            ServoConfig::from_toml(&robot, "[joint.knee]\nposition_max_rad = 3.0").unwrap_err();
-        assert!(
-            matches!(&err, ServoConfigError::Invalid { key, .. } if key == "joint.knee.position_max_rad"),
-            "{err}"
-        );
-        assert!(err.to_string().contains("position_max_deg 165"), "{err}");
         assert_eq!(
-            invalid_on(&robot, "[defaults]\nposition_min_rad = 0.0"),
+            (l.position_min_from, l.position_max_from),
+            (
+                LimitSource::RobotDescription,
+                LimitSource::ServoConfiguration
+            )
+        );
+        assert_eq!(
+            (l.max_velocity_rad_s, l.velocity_from),
+            (0.5, LimitSource::ServoConfiguration)
+        );
+        let l = ServoConfig::from_toml(&robot, "[defaults]\nmax_velocity_rad_s = 9.0")
+            .unwrap()
+            .joint(knee)
+            .limits;
+        assert_eq!(
+            (l.max_velocity_rad_s, l.velocity_from),
+            (60f64.to_radians(), LimitSource::RobotDescription)
+        );
+        // Limits that leave no room between them are refused, naming the key.
+        assert_eq!(
+            invalid_on(&robot, "[joint.knee]\nposition_max_rad = 0.05"),
+            ("knee".into(), "joint.knee.position_max_rad".into())
+        );
+        assert_eq!(
+            invalid_on(&robot, "[defaults]\nposition_min_rad = 3.0"),
             ("knee".into(), "defaults.position_min_rad".into())
         );
-        assert_eq!(
-            invalid_on(&robot, "[defaults]\nmax_velocity_rad_s = 2.0"),
-            ("knee".into(), "defaults.max_velocity_rad_s".into())
-        );
         // Without description limits nothing changes: none, and the built-in 2 rad/s.
-        let l = ServoConfig::defaults(&self::robot()).unwrap().joints()[0].limits;
+        let l = ServoConfig::defaults(&robot_plain()).unwrap().joints()[0].limits;
         assert_eq!(l.position_min_rad, f64::NEG_INFINITY);
         assert_eq!(l.max_velocity_rad_s, DEFAULT_MAX_VELOCITY_RAD_S);
         assert_eq!(l.velocity_from, LimitSource::ServoConfiguration);
+    }
+
+    fn robot_plain() -> Robot {
+        robot()
     }
 
     fn invalid_on(robot: &Robot, text: &str) -> (String, String) {

@@ -200,7 +200,8 @@ mod tests {
         max_acceleration_rad_s2: 10.0,
         max_jerk_rad_s3: 100.0,
         max_effort_nm: 10.0,
-        position_from: LimitSource::ServoConfiguration,
+        position_min_from: LimitSource::ServoConfiguration,
+        position_max_from: LimitSource::ServoConfiguration,
         velocity_from: LimitSource::ServoConfiguration,
     };
 
