@@ -38,6 +38,7 @@ use crate::report::{Fault, MotorRef, StopReason};
 use crate::robot::{RejectedCommandPolicy, Robot};
 use crate::schedule::{Scheduler, TickTiming};
 use crate::shared::Shared;
+use crate::stall::{StallCause, TickStage};
 use crate::startup;
 use crate::stats::LoopStats;
 use crate::stop::Stopper;
@@ -175,6 +176,8 @@ pub struct Running<B, C, K> {
     cpu_latency: Option<CpuLatencyHold>,
     supervisor: Option<JoinHandle<()>>,
     identified: Vec<crate::report::IdentifiedMotor>,
+    /// The loop thread's last sign of life (a tick began or ended), as the supervisor sees it.
+    progress_at: Timestamp,
 }
 
 impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
@@ -310,6 +313,12 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 }
                 ran += 1;
             }
+            // The clock passed the end while the loop was late (an overrun, a stall): the slots
+            // due before it that never ran were skipped.
+            if due_before != u64::MAX {
+                let missed = due_before.saturating_sub(running.scheduler.next_index());
+                running.parts.stats.skipped_ticks += missed;
+            }
             StopReason::TickLimit
         }));
         let reason = ran.unwrap_or_else(|payload| {
@@ -337,6 +346,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
             status: mut realtime,
             cpu_latency,
             supervisor: supervisor_placement,
+            thread_stats,
         } = startup::prepare_thread(parts.robot.settings());
         let identified = match startup::identify_motors(&mut parts) {
             Ok(identified) => identified,
@@ -374,7 +384,8 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 parts, controller, reason, realtime, None, None, identified,
             )));
         }
-        parts.shared.watch.progress(parts.clock.now(), 0);
+        let progress_at = parts.clock.now();
+        parts.shared.watch.progress(progress_at, 0);
         parts.shared.watch.set_phase(Phase::Running);
         let supervisor = match ports {
             None => None,
@@ -394,6 +405,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                         .collect(),
                     ids: parts.exchange.motors.iter().map(|m| m.id).collect(),
                     robot: parts.robot.clone(),
+                    stats: thread_stats,
                 };
                 match supervisor.spawn(&supervisor_placement) {
                     Ok((handle, placed)) => {
@@ -411,6 +423,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
         };
         Ok(Running {
             identified,
+            progress_at,
             supervisor,
             scheduler: Scheduler::new(settings.period, settings.spin_margin, settings.overrun, t0),
             start: t0,
@@ -440,15 +453,20 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
 
     /// Runs one tick. Breaks with the reason the loop must stop, if it must.
     pub fn step(&mut self) -> ControlFlow<StopReason> {
+        self.parts.shared.watch.enter(TickStage::Waiting);
         let timing = self.scheduler.wait_next(&self.parts.clock);
         let watch = &self.parts.shared.watch;
         watch.progress(timing.woke, timing.index);
         if watch.phase() != Phase::Running {
             return ControlFlow::Break(StopReason::EmergencyStop); // replaced by the supervisor's
         }
+        // Overslept past the stall bound: the OS did not run this thread (whatever the
+        // supervisor, not run either, saw).
+        self.stalled(timing.index, timing.woke, TickStage::Waiting)?;
         if let Some(request) = self.parts.shared.stop.pending() {
             return ControlFlow::Break(request.into());
         }
+        self.parts.shared.watch.enter(TickStage::Exchange);
         let stats = &mut self.parts.stats;
         // Counted when it starts, so that a snapshot taken during the tick is consistent.
         stats.ticks += 1;
@@ -461,12 +479,24 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         if let Some(fault) = self.parts.limit_breach() {
             return ControlFlow::Break(StopReason::Fault(fault));
         }
+        self.parts.shared.watch.enter(TickStage::Controller);
         self.run_controller(&timing)?;
+        self.parts.shared.watch.enter(TickStage::Bookkeeping);
         self.parts.stage_commands();
         self.parts.publish(&timing, self.start);
         self.parts.shared.serve_snapshot(&self.parts.stats);
         let end = self.parts.clock.now();
         self.parts.shared.watch.progress(end, timing.index);
+        // A tick longer than the stall bound that the supervisor did not end (it was not run
+        // either, or there is none): in the controller if that took most of it.
+        let in_controller =
+            Duration::from_nanos(self.parts.times.controller_ns) * 2 > end - timing.woke;
+        let stage = if in_controller {
+            TickStage::Controller
+        } else {
+            TickStage::Exchange
+        };
+        self.stalled(timing.index, end, stage)?;
         let work = end - timing.woke;
         let stats = &mut self.parts.stats;
         stats.work.record(work);
@@ -488,6 +518,32 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
             }));
         }
         ControlFlow::Continue(())
+    }
+
+    /// Records a sign of life at `now` in `tick`; breaks with a stall when the one before was
+    /// longer ago than the stall bound. `stage` is where the time went: the wait (the OS did not
+    /// wake the thread) or the tick itself (where exactly, only a supervisor that was run can
+    /// tell: one that was not means the whole process was not run).
+    fn stalled(&mut self, tick: u64, now: Timestamp, stage: TickStage) -> ControlFlow<StopReason> {
+        let stalled = now - self.progress_at;
+        self.progress_at = now;
+        let bound = self.parts.robot.settings().stall_bound;
+        if stalled <= bound {
+            return ControlFlow::Continue(());
+        }
+        let cause = match (stage, &self.supervisor) {
+            (TickStage::Waiting, _) | (_, Some(_)) => StallCause::NotRun {
+                waited: None,
+                stopped: false,
+            },
+            (stage, None) => StallCause::Unknown { stage },
+        };
+        ControlFlow::Break(StopReason::Fault(Fault::TickStalled {
+            tick,
+            bound,
+            stalled,
+            cause,
+        }))
     }
 
     /// Send on every bus, then collect from every bus, then account for missing replies. Returns

@@ -16,6 +16,7 @@ use crate::robot::Robot;
 pub use crate::safe_stop::{
     BusSafeStop, BusStopOutcome, MotorSafeStop, SafeStopBy, SafeStopReport,
 };
+use crate::stall::StallCause;
 use crate::stats::StatsSummary;
 
 /// Which joint, on which bus, driven by which motor: how faults point at a motor.
@@ -112,13 +113,19 @@ pub enum Fault {
         /// What its answers showed.
         finding: Finding,
     },
-    /// A tick did not complete within the stall bound (the controller or the bus I/O hung): the
-    /// supervisor made every motor safe.
+    /// A tick did not complete within the stall bound: the supervisor made every motor safe
+    /// while the stall lasted (or the loop thread, when it came back and the supervisor had not
+    /// been run either). The cause says whether the operating system did not run the loop
+    /// thread, or the controller (or the bus I/O) spun or blocked.
     TickStalled {
         /// The tick that did not complete.
         tick: u64,
         /// The bound (`loop.stall_bound_ms`).
         bound: Duration,
+        /// How long the loop thread had shown no sign of life when the stall was seen.
+        stalled: Duration,
+        /// Why.
+        cause: StallCause,
     },
     /// A joint went further past one of its limits than its margin (`limit_margin_deg`,
     /// `velocity_margin_dps`): a load, its momentum, or torque the loop refused too late drove
@@ -251,12 +258,19 @@ impl fmt::Display for Fault {
             Fault::Supervisor => f.write_str(
                 "the supervisor thread could not be started (out of threads or memory?)",
             ),
-            Fault::TickStalled { tick, bound } => write!(
-                f,
-                "tick {tick} did not complete within {} ms (the controller or the bus I/O hung): \
-                 the supervisor made every motor safe",
-                bound.as_millis()
-            ),
+            Fault::TickStalled {
+                tick,
+                bound,
+                stalled,
+                cause,
+            } => {
+                write!(
+                    f,
+                    "tick {tick} did not complete within {} ms: ",
+                    bound.as_millis()
+                )?;
+                crate::stall::describe(f, *stalled, cause)
+            }
             Fault::JointLimit { at, breach } => write!(f, "{at} {breach}{JOINT_LIMIT_ADVICE}"),
             Fault::RejectedCommand { joint, reason } => match joint {
                 Some(joint) => write!(f, "the controller's command for {joint}: {reason}"),

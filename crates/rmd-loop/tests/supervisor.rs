@@ -14,7 +14,8 @@ use rmd_bus::{BusError, CanBus, MonotonicClock, Received, Timestamp};
 use rmd_loop::report::SafeStopBy;
 use rmd_loop::supervisor::SafetyPort;
 use rmd_loop::{
-    Commands, Controller, Fault, Feedback, Flow, RtLoop, RunLimit, StopReason, TickContext,
+    Commands, Controller, Fault, Feedback, Flow, RtLoop, RunLimit, StallCause, StopReason,
+    TickContext, TickStage,
 };
 use rmd_protocol::CanFrame;
 use rmd_sim::{ControlMode, SimBus, SimConfig};
@@ -174,10 +175,82 @@ fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
         r.stop_reason
     );
     assert!(!r.normal_stop);
+    // Asleep in the controller: the supervisor says so, from the loop thread's own CPU time.
+    assert!(
+        matches!(
+            r.stop_reason,
+            StopReason::Fault(Fault::TickStalled {
+                cause: StallCause::Blocked {
+                    stage: TickStage::Controller,
+                    ..
+                },
+                ..
+            })
+        ),
+        "{}",
+        r.stop_reason
+    );
+    assert!(
+        r.stop_description
+            .contains("the loop thread was blocked in the controller's update for"),
+        "{}",
+        r.stop_description
+    );
     assert_eq!(r.safe_stop.by, SafeStopBy::Supervisor);
     assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
     // When the controller came back, the loop sent nothing more: the motors stayed off.
     assert!(bus.all_off(), "{:?}", bus.modes());
+}
+
+#[test]
+fn a_spinning_controller_is_told_apart_from_a_sleeping_one() {
+    // The same hang as above, but the controller busy-loops (under the normal scheduler, so
+    // that a loaded machine shares the CPU with it): the loop thread ran through the stall.
+    let bus = SharedBus::new(45);
+    let returned = Arc::new(AtomicBool::new(false));
+    let hung_at = Arc::new(AtomicU64::new(0));
+    let mut config = robot_config(1000.0, 1, 4);
+    config.loop_config.stall_bound_ms = Some(300);
+    let handle = supervised_with(
+        &bus,
+        config,
+        Duration::from_millis(1500),
+        true,
+        &returned,
+        &hung_at,
+    )
+    .spawn(RunLimit::Forever)
+    .unwrap();
+    assert_off_while_hanging(&bus, &returned, "the busy loop ended");
+    let r = handle.join().unwrap().report;
+    let StopReason::Fault(Fault::TickStalled {
+        tick,
+        stalled,
+        cause,
+        ..
+    }) = r.stop_reason
+    else {
+        panic!("{}", r.stop_reason);
+    };
+    assert_eq!(tick, hung_at.load(Ordering::SeqCst));
+    assert!(stalled > Duration::from_millis(300), "{stalled:?}");
+    let StallCause::Busy {
+        stage: TickStage::Controller,
+        ran,
+    } = cause
+    else {
+        panic!("{cause:?}: {}", r.stop_description);
+    };
+    assert!(ran > Duration::from_millis(2) && ran <= stalled, "{ran:?}");
+    assert!(
+        r.stop_description
+            .contains("the loop thread was busy in the controller's update for 3")
+            && r.stop_description
+                .contains("a controller that does not return"),
+        "{}",
+        r.stop_description
+    );
+    assert_eq!(r.safe_stop.by, SafeStopBy::Supervisor);
 }
 
 /// The loop pinned to a CPU under `SCHED_FIFO`, its controller stuck in a busy loop: a
@@ -288,7 +361,7 @@ fn an_emergency_stop_acts_at_once_while_the_controller_hangs() {
 fn a_healthy_supervised_run_ends_with_the_loops_own_safe_stop() {
     let bus = SharedBus::new(43);
     let rt = RtLoop::new(
-        robot(1000.0, 1, 4),
+        realtime_robot(1000.0, 1, 4),
         MonotonicClock,
         vec![bus.clone()],
         PdTo::hold(4),

@@ -24,6 +24,15 @@ pub fn robot(rate_hz: f64, buses: usize, motors: u8) -> Robot {
     Robot::try_from(robot_config(rate_hz, buses, motors)).unwrap()
 }
 
+/// [`robot`] for runs in real time that are not about stalls: a loaded machine may not run the
+/// loop thread for tens of milliseconds now and then, beyond the default stall bound of 50 ms
+/// (which is a fault, and says the OS did it). The bound here is the longest allowed.
+pub fn realtime_robot(rate_hz: f64, buses: usize, motors: u8) -> Robot {
+    let mut config = robot_config(rate_hz, buses, motors);
+    config.loop_config.stall_bound_ms = Some(60_000);
+    Robot::try_from(config).unwrap()
+}
+
 /// The file form of [`robot`], to change before building.
 pub fn robot_config(rate_hz: f64, buses: usize, motors: u8) -> RobotConfig {
     let mut robot = RobotConfig::new(rate_hz);

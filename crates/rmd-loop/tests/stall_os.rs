@@ -1,0 +1,79 @@
+//! A stall the operating system causes, told apart from a controller's: the whole process is
+//! stopped (`SIGSTOP`, then `SIGCONT` 400 ms later, sent by a shell outside it), so neither the
+//! loop thread nor its supervisor runs. Whichever sees the stall first when they run again, the
+//! run ends saying the OS did not run the loop thread, and every motor ends off.
+//!
+//! Its own test binary: the stop freezes every test of the process it runs in.
+
+mod common;
+
+use core::time::Duration;
+use std::sync::{Arc, Mutex};
+
+use common::*;
+use rmd_bus::{BusError, CanBus, MonotonicClock, Received, Timestamp};
+use rmd_loop::{Fault, RtLoop, RunLimit, StallCause, StopReason};
+use rmd_protocol::CanFrame;
+use rmd_sim::{ControlMode, SimBus, SimConfig};
+
+#[derive(Clone)]
+struct SharedBus(Arc<Mutex<SimBus<MonotonicClock>>>);
+
+impl CanBus for SharedBus {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        self.0.lock().unwrap().send(frame)
+    }
+    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
+        self.0.lock().unwrap().recv_until(deadline)
+    }
+}
+
+#[test]
+fn a_stopped_process_is_a_stall_the_os_caused() {
+    let bus = SharedBus(Arc::new(Mutex::new(
+        SimBus::new(MonotonicClock, SimConfig::with_motors(4).seed(9)).unwrap(),
+    )));
+    // A bound far below the 400 ms stop and far above what a loaded machine does to a thread
+    // that is not stopped (tens of milliseconds).
+    let mut config = robot_config(1000.0, 1, 4);
+    config.loop_config.stall_bound_ms = Some(250);
+    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let handle = RtLoop::new(robot, MonotonicClock, vec![bus.clone()], PdTo::hold(4))
+        .unwrap()
+        .supervise(vec![Box::new(bus.clone())])
+        .unwrap()
+        .spawn(RunLimit::Forever)
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    let pid = std::process::id();
+    let mut stopper = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(format!("kill -STOP {pid}; sleep 0.4; kill -CONT {pid}"))
+        .spawn()
+        .unwrap();
+    // Frozen somewhere here until the shell sends SIGCONT.
+    assert!(stopper.wait().unwrap().success());
+    let r = handle.join().unwrap().report;
+    let StopReason::Fault(Fault::TickStalled { stalled, cause, .. }) = r.stop_reason else {
+        panic!("{}", r.stop_description);
+    };
+    assert!(
+        matches!(cause, StallCause::NotRun { .. }),
+        "{cause:?}: {}",
+        r.stop_description
+    );
+    assert!(stalled >= Duration::from_millis(250), "{stalled:?}");
+    assert!(
+        r.stop_description
+            .contains("the OS did not run the loop thread for")
+            && r.stop_description
+                .contains("--fifo/--cpu, see docs/realtime.md"),
+        "{}",
+        r.stop_description
+    );
+    // Ground truth: every motor off.
+    let mut sim = bus.0.lock().unwrap();
+    for m in 1..=4 {
+        assert_eq!(sim.snapshot(id(m)).unwrap().mode, ControlMode::Off);
+    }
+}
