@@ -460,9 +460,8 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         if watch.phase() != Phase::Running {
             return ControlFlow::Break(StopReason::EmergencyStop); // replaced by the supervisor's
         }
-        // Overslept past the stall bound: the OS did not run this thread (whatever the
-        // supervisor, not run either, saw).
-        self.stalled(timing.index, timing.woke, TickStage::Waiting)?;
+        // Overslept past the stall bound, and the supervisor did not see it.
+        self.stalled(timing.index, timing.woke)?;
         if let Some(request) = self.parts.shared.stop.pending() {
             return ControlFlow::Break(request.into());
         }
@@ -487,16 +486,8 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         self.parts.shared.serve_snapshot(&self.parts.stats);
         let end = self.parts.clock.now();
         self.parts.shared.watch.progress(end, timing.index);
-        // A tick longer than the stall bound that the supervisor did not end (it was not run
-        // either, or there is none): in the controller if that took most of it.
-        let in_controller =
-            Duration::from_nanos(self.parts.times.controller_ns) * 2 > end - timing.woke;
-        let stage = if in_controller {
-            TickStage::Controller
-        } else {
-            TickStage::Exchange
-        };
-        self.stalled(timing.index, end, stage)?;
+        // A tick longer than the stall bound that the supervisor did not end.
+        self.stalled(timing.index, end)?;
         let work = end - timing.woke;
         let stats = &mut self.parts.stats;
         stats.work.record(work);
@@ -520,29 +511,26 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         ControlFlow::Continue(())
     }
 
-    /// Records a sign of life at `now` in `tick`; breaks with a stall when the one before was
-    /// longer ago than the stall bound. `stage` is where the time went: the wait (the OS did not
-    /// wake the thread) or the tick itself (where exactly, only a supervisor that was run can
-    /// tell: one that was not means the whole process was not run).
-    fn stalled(&mut self, tick: u64, now: Timestamp, stage: TickStage) -> ControlFlow<StopReason> {
+    /// Records a sign of life at `now` in `tick`; in a supervised run, breaks with a stall when
+    /// the one before was longer ago than the stall bound: the supervisor did not end it, so it
+    /// was not run either (the process was stopped, or the machine starved it), and neither was
+    /// this thread. (Without a supervisor the stall bound does not apply: benchmarks and tests
+    /// count late ticks instead.)
+    fn stalled(&mut self, tick: u64, now: Timestamp) -> ControlFlow<StopReason> {
         let stalled = now - self.progress_at;
         self.progress_at = now;
         let bound = self.parts.robot.settings().stall_bound;
-        if stalled <= bound {
+        if stalled <= bound || self.supervisor.is_none() {
             return ControlFlow::Continue(());
         }
-        let cause = match (stage, &self.supervisor) {
-            (TickStage::Waiting, _) | (_, Some(_)) => StallCause::NotRun {
-                waited: None,
-                stopped: false,
-            },
-            (stage, None) => StallCause::Unknown { stage },
-        };
         ControlFlow::Break(StopReason::Fault(Fault::TickStalled {
             tick,
             bound,
             stalled,
-            cause,
+            cause: StallCause::NotRun {
+                waited: None,
+                stopped: false,
+            },
         }))
     }
 
