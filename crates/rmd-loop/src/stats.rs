@@ -79,16 +79,19 @@ impl LatencyHistogram {
             return Percentiles::default();
         }
         let us = |nanos: u64| nanos as f64 / 1_000.0;
-        let q = |quantile: f64| us(self.histogram.value_at_quantile(quantile));
+        let max = self.max.as_nanos() as f64 / 1_000.0;
+        // A bucket's highest value may lie above the largest value recorded in it (milliseconds
+        // of wake latency on a loaded machine): no percentile is above the maximum.
+        let q = |quantile: f64| us(self.histogram.value_at_quantile(quantile)).min(max);
         Percentiles {
             count: self.len(),
-            min: us(self.histogram.min()),
+            min: us(self.histogram.min()).min(max),
             mean: self.histogram.mean() / 1_000.0,
             p50: q(0.50),
             p90: q(0.90),
             p99: q(0.99),
             p999: q(0.999),
-            max: self.max.as_nanos() as f64 / 1_000.0,
+            max,
         }
     }
 
@@ -465,6 +468,25 @@ mod tests {
 
     fn us(n: u64) -> Duration {
         Duration::from_micros(n)
+    }
+
+    #[test]
+    fn no_percentile_is_above_the_maximum() {
+        // 3.000001 ms falls in a bucket whose highest value is above it.
+        let mut h = LatencyHistogram::new();
+        for _ in 0..10 {
+            h.record(Duration::from_nanos(3_000_001));
+        }
+        let p = h.percentiles();
+        assert!(
+            p.min <= p.p50
+                && p.p50 <= p.p90
+                && p.p90 <= p.p99
+                && p.p99 <= p.p999
+                && p.p999 <= p.max,
+            "{p:?}"
+        );
+        assert_eq!(p.max, 3000.001);
     }
 
     #[test]
