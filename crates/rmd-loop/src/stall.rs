@@ -95,7 +95,8 @@ pub(crate) struct StallEvidence {
     /// The loop thread's CPU time and run-queue wait over the window, if known.
     pub(crate) ran: Option<Duration>,
     pub(crate) waited: Option<Duration>,
-    /// How long the supervisor itself was not run, beyond its own sleeps, during the stall.
+    /// How long the supervisor itself was not run during the stall, beyond its own sleeps and
+    /// its waits for a CPU: how long the whole process was not run.
     pub(crate) supervisor_late: Duration,
     /// The loop thread was stopped, or in the kernel (uninterruptible), when the stall was seen.
     pub(crate) stopped: bool,

@@ -82,7 +82,9 @@ struct Baseline {
     at: Timestamp,
     /// The loop thread's scheduler statistics then.
     sample: Option<SchedSample>,
-    /// How long the supervisor was not run beyond its sleeps since.
+    /// The supervisor's own then.
+    own: Option<SchedSample>,
+    /// How long the supervisor overslept since (waiting for a CPU, or stopped).
     supervisor_late: Duration,
 }
 
@@ -114,6 +116,9 @@ impl<C: Clock + 'static> Supervisor<C> {
         let mut stop_seen: Option<Timestamp> = None;
         let mut since: Option<Baseline> = None;
         let mut looked = self.clock.now();
+        // Its own statistics tell its oversleeps under load (waiting for a CPU) from a stopped
+        // process (not running, not waiting).
+        let own = ThreadStats::of_current_thread();
         loop {
             std::thread::sleep(look_every);
             let watch = &self.shared.watch;
@@ -136,6 +141,7 @@ impl<C: Clock + 'static> Supervisor<C> {
                         progress: last,
                         at: now,
                         sample: self.stats.as_ref().and_then(ThreadStats::sample),
+                        own: own.as_ref().and_then(ThreadStats::sample),
                         // The part of this oversleep after the loop's last sign of life.
                         supervisor_late: late.min(now - last),
                     })
@@ -150,7 +156,16 @@ impl<C: Clock + 'static> Supervisor<C> {
                 None if now - last > settings.stall_bound => Some(Action::Stall {
                     tick,
                     stalled: now - last,
-                    since: since.take(),
+                    since: since.take().map(|mut b| {
+                        // Oversleeps spent waiting for a CPU are load, not a stopped process.
+                        let waited = b
+                            .own
+                            .zip(own.as_ref().and_then(ThreadStats::sample))
+                            .map(|(then, now)| now.since(&then).waited);
+                        b.supervisor_late =
+                            b.supervisor_late.saturating_sub(waited.unwrap_or_default());
+                        b
+                    }),
                     now,
                 }),
                 None => None,
