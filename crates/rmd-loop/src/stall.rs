@@ -98,8 +98,10 @@ pub(crate) struct StallEvidence {
     /// How long the supervisor itself was not run during the stall, beyond its own sleeps and
     /// its waits for a CPU: how long the whole process was not run.
     pub(crate) supervisor_late: Duration,
-    /// The loop thread was stopped, or in the kernel (uninterruptible), when the stall was seen.
+    /// The loop thread was stopped, runnable (waiting for a CPU now: a wait the statistics
+    /// count only once it ends), or in the kernel (uninterruptible), when the stall was seen.
     pub(crate) stopped: bool,
+    pub(crate) runnable: bool,
     pub(crate) in_kernel: bool,
     /// Where the loop thread was.
     pub(crate) stage: TickStage,
@@ -121,7 +123,7 @@ impl StallEvidence {
         }
         let covered = self.window * 2 >= self.stalled;
         let (Some(ran), Some(waited), true) = (self.ran, self.waited, covered) else {
-            return if process_not_run {
+            return if process_not_run || self.runnable {
                 not_run(None)
             } else {
                 StallCause::Unknown { stage: self.stage }
@@ -135,6 +137,11 @@ impl StallEvidence {
                 stage: self.stage,
                 ran,
             };
+        }
+        // Runnable and hardly run: waiting for a CPU, since when the statistics do not say
+        // yet.
+        if self.runnable {
+            return not_run(None);
         }
         let asleep = self.window.saturating_sub(ran + waited);
         if waited >= asleep || process_not_run {
@@ -212,7 +219,10 @@ pub(crate) fn describe(
                 TickStage::Controller => {
                     "a blocking call in the controller (a sleep, a lock, file or network I/O)"
                 }
-                TickStage::Exchange => "the bus I/O hung (the CAN interface or its driver)",
+                TickStage::Exchange => {
+                    "the bus I/O did not return (the CAN interface or its driver; a simulated \
+                     bus: its lock)"
+                }
                 _ => "a blocking call in the loop (please report it)",
             }
         ),
@@ -238,6 +248,7 @@ mod tests {
             waited: Some(waited * MS),
             supervisor_late: Duration::ZERO,
             stopped: false,
+            runnable: false,
             in_kernel: false,
             stage: TickStage::Controller,
             period: MS,
@@ -254,8 +265,21 @@ mod tests {
             evidence(1, 55).cause(),
             StallCause::NotRun { stopped: false, .. }
         ));
-        // Hardly ran, did not wait: asleep or blocked.
+        // Hardly ran, did not wait: asleep or blocked...
         assert!(matches!(evidence(0, 2).cause(), StallCause::Blocked { .. }));
+        // ... unless it is runnable now: waiting for a CPU (the statistics count a wait only
+        // once it ends).
+        let queued = StallEvidence {
+            runnable: true,
+            ..evidence(0, 2)
+        };
+        assert_eq!(
+            queued.cause(),
+            StallCause::NotRun {
+                waited: None,
+                stopped: false
+            }
+        );
         // The supervisor was not run either: the process was not (a stopped thread neither
         // runs nor waits)...
         let frozen = StallEvidence {

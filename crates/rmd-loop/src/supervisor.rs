@@ -203,6 +203,7 @@ impl<C: Clock + 'static> Supervisor<C> {
             waited: over.map(|o| o.waited),
             supervisor_late,
             stopped: state == Some(ThreadState::Stopped),
+            runnable: state == Some(ThreadState::Runnable),
             in_kernel: state == Some(ThreadState::Blocked),
             stage,
             period: self.robot.settings().period.get(),
