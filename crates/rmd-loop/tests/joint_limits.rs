@@ -97,6 +97,12 @@ fn a_controller_driving_far_past_a_limit_is_held_at_it_within_the_margin() {
     pd.kd = 0.002;
     let (out, (low, high, fastest)) = run(robot, clock, &bus, pd, 3000);
     let r = &out.report;
+    let rest = bus.snapshot(id(1)).output_angle_deg;
+    let limited = r.stats.motors[0].counters.limited_commands;
+    println!(
+        "PD to 100 rad, limits -20..30 deg: highest {high:.2} deg, resting {rest:.2} deg, \
+         fastest {fastest:.1} deg/s, {limited} commands refused"
+    );
     assert_eq!(r.stop_reason, StopReason::TickLimit, "{r}");
     // Ground truth: it reached the limit and stayed within the margin above it, never faster
     // than the velocity limit plus its margin.
@@ -105,10 +111,8 @@ fn a_controller_driving_far_past_a_limit_is_held_at_it_within_the_margin() {
     assert!(low > -25.0, "{low}");
     assert!(fastest <= 45.0, "{fastest}");
     // Where it rests: at the limit, give or take the joint's coast.
-    let rest = bus.snapshot(id(1)).output_angle_deg;
     assert!((29.0..=35.0).contains(&rest), "{rest}");
     // Counted per joint and shown in the report.
-    let limited = r.stats.motors[0].counters.limited_commands;
     assert!(limited > 100, "{limited}");
     assert!(
         r.to_string().contains(&format!("limited {limited} ")),
@@ -159,6 +163,11 @@ fn a_joint_carried_past_its_margin_is_a_fault_and_every_motor_ends_off() {
     let StopReason::Fault(Fault::JointLimit { at, breach }) = r.stop_reason else {
         panic!("expected a joint-limit fault: {r}");
     };
+    println!(
+        "falling link, lower limit -30 deg: fault at {:.2} deg, lowest {low:.2} deg before the \
+         stop",
+        breach.value
+    );
     assert_eq!(at.joint.index(), 0);
     assert_eq!(breach.kind, LimitKind::PositionMin);
     assert_eq!((breach.limit, breach.margin), (-30.0, 5.0));
@@ -205,6 +214,7 @@ fn a_joint_spun_faster_than_its_velocity_limit_is_held_and_then_a_fault() {
     let clock = VirtualClock::new();
     let bus = sim_for(&robot, &clock, 0.0, None);
     let (out, (_, high, fastest)) = run(robot, clock, &bus, Push(1.0), 2000);
+    println!("1 A pushing, 60 deg/s limit: fastest {fastest:.1} deg/s");
     assert_eq!(
         out.report.stop_reason,
         StopReason::TickLimit,
@@ -227,6 +237,10 @@ fn a_joint_spun_faster_than_its_velocity_limit_is_held_and_then_a_fault() {
     let StopReason::Fault(Fault::JointLimit { breach, .. }) = out.report.stop_reason else {
         panic!("expected a joint-limit fault: {}", out.report);
     };
+    println!(
+        "falling link, 60 deg/s limit: fault at {:.1} deg/s",
+        breach.value
+    );
     assert_eq!(
         (breach.kind, breach.limit, breach.margin),
         (LimitKind::Velocity, 60.0, 30.0)

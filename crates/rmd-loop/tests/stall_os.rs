@@ -54,6 +54,7 @@ fn a_stopped_process_is_a_stall_the_os_caused() {
     // Frozen somewhere here until the shell sends SIGCONT.
     assert!(stopper.wait().unwrap().success());
     let r = handle.join().unwrap().report;
+    println!("{}", r.stop_description);
     let StopReason::Fault(Fault::TickStalled { stalled, cause, .. }) = r.stop_reason else {
         panic!("{}", r.stop_description);
     };

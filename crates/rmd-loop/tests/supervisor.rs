@@ -165,6 +165,7 @@ fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
     let out = handle.join().unwrap();
     assert!(returned.load(Ordering::SeqCst));
     let r = &out.report;
+    println!("{}", r.stop_description);
     let hung_at = hung_at.load(Ordering::SeqCst);
     assert!(
         matches!(
@@ -223,6 +224,7 @@ fn a_spinning_controller_is_told_apart_from_a_sleeping_one() {
     .unwrap();
     assert_off_while_hanging(&bus, &returned, "the busy loop ended");
     let r = handle.join().unwrap().report;
+    println!("{}", r.stop_description);
     let StopReason::Fault(Fault::TickStalled {
         tick,
         stalled,
