@@ -35,8 +35,8 @@ pub enum ServoError {
     },
     /// A value beyond the joint's limits.
     #[error(
-        "joint `{joint}`: {field} is {value}, outside the joint's limits [{min}, {max}] \
-         ({key})"
+        "joint `{joint}`: {field} is {value}, outside the joint's limits [{}, {}] \
+         ({key})", Short(*.min), Short(*.max)
     )]
     OutOfLimit {
         /// The joint.
@@ -162,7 +162,9 @@ pub enum TrajectoryRefusal {
     /// A value beyond the joint's limits.
     #[error(
         "joint `{joint}`, point {point}: {field} is {value}, outside the joint's limits \
-         [{min}, {max}] ({key})"
+         [{}, {}] ({key})",
+        Short(*.min),
+        Short(*.max)
     )]
     OutOfLimit {
         /// The joint.
@@ -202,8 +204,11 @@ pub enum TrajectoryRefusal {
     },
     /// The motion between two points leaves the position limits.
     #[error(
-        "joint `{joint}`: on its way to point {point} the motion reaches {reached} rad, beyond \
-         the position limits [{min}, {max}]: add points, or lower velocities at the points"
+        "joint `{joint}`: on its way to point {point} the motion reaches {} rad, beyond \
+         the position limits [{}, {}]: add points, or lower velocities at the points",
+        Short(*.reached),
+        Short(*.min),
+        Short(*.max)
     )]
     LeavesPositionLimits {
         /// The joint.
@@ -230,5 +235,20 @@ impl TrajectoryRefusal {
             | TrajectoryRefusal::LeavesPositionLimits { joint, .. } => Some(joint),
             _ => None,
         }
+    }
+}
+
+/// A limit as a person reads it: at most six decimals, no trailing zeros (`0.087266` for five
+/// degrees in radians, `-0.5` as it is, `inf` for none).
+struct Short(f64);
+
+impl core::fmt::Display for Short {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let v = self.0;
+        if !v.is_finite() || v == v.trunc() {
+            return write!(f, "{v}");
+        }
+        let text = format!("{v:.6}");
+        f.write_str(text.trim_end_matches('0').trim_end_matches('.'))
     }
 }

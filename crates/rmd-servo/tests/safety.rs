@@ -519,10 +519,8 @@ fn a_target_beyond_the_robot_descriptions_limits_is_refused_before_anything_move
     );
     assert_eq!(
         err.to_string(),
-        format!(
-            "joint `knee`: position_rad is 100, outside the joint's limits [{min}, {max}] \
-             (robot description: position_max_deg)"
-        )
+        "joint `knee`: position_rad is 100, outside the joint's limits [0.087266, 2.879793] \
+         (robot description: position_max_deg)"
     );
     // A trajectory there too; a velocity beyond the servo's 2 rad/s (within the description's
     // 180 deg/s).
