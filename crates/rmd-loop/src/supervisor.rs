@@ -8,7 +8,7 @@
 //! - when a tick does not complete within the stall bound (`loop.stall_bound_ms`, default ten
 //!   periods and at least 50 ms): the run ends with [`Fault::TickStalled`], whose
 //!   [`StallCause`] says why, from the loop thread's scheduler statistics over the stall
-//!   ([`crate::stall`]): the OS did not run the loop thread, or it spun, or it was blocked, and
+//!   (the `stall` module): the OS did not run the loop thread, or it spun, or it was blocked, and
 //!   where (the controller, the bus I/O);
 //! - when an emergency stop is requested: at once, whatever the loop thread is doing;
 //! - when a stop is requested and the loop thread has not begun its safe stop one and a half
