@@ -41,6 +41,13 @@ fn sim_for(
     SharedSim::new(SimBus::new(clock.clone(), config).unwrap())
 }
 
+/// A 2 kg link 0.3 m long, horizontal at 0 degrees: it falls towards -90 without torque.
+const FALLING_LINK: GravityLink = GravityLink {
+    mass_kg: 2.0,
+    length_m: 0.3,
+    angle_offset_deg: 90.0,
+};
+
 /// Commands a fixed joint current, whatever the joint does.
 struct Push(f64);
 
@@ -152,12 +159,7 @@ fn a_joint_carried_past_its_margin_is_a_fault_and_every_motor_ends_off() {
     // loop stops with a fault naming the joint, where it was and the limit.
     let robot = arm(|m| m.position_limits(-30.0, 30.0));
     let clock = VirtualClock::new();
-    let link = GravityLink {
-        mass_kg: 2.0,
-        length_m: 0.3,
-        angle_offset_deg: 90.0,
-    };
-    let bus = sim_for(&robot, &clock, 0.0, Some(link));
+    let bus = sim_for(&robot, &clock, 0.0, Some(FALLING_LINK));
     let (out, (low, _, _)) = run(robot, clock, &bus, Push(0.0), 3000);
     let r = &out.report;
     let StopReason::Fault(Fault::JointLimit { at, breach }) = r.stop_reason else {
@@ -227,12 +229,7 @@ fn a_joint_spun_faster_than_its_velocity_limit_is_held_and_then_a_fault() {
     // A link falling freely is faster than 60 + 30 deg/s: a fault, every motor off.
     let robot = arm(|m| m.velocity_limit(60.0));
     let clock = VirtualClock::new();
-    let link = GravityLink {
-        mass_kg: 2.0,
-        length_m: 0.3,
-        angle_offset_deg: 90.0,
-    };
-    let bus = sim_for(&robot, &clock, 0.0, Some(link));
+    let bus = sim_for(&robot, &clock, 0.0, Some(FALLING_LINK));
     let (out, _) = run(robot, clock, &bus, Push(0.0), 3000);
     let StopReason::Fault(Fault::JointLimit { breach, .. }) = out.report.stop_reason else {
         panic!("expected a joint-limit fault: {}", out.report);

@@ -8,31 +8,16 @@
 mod common;
 
 use core::time::Duration;
-use std::sync::{Arc, Mutex};
 
 use common::*;
-use rmd_bus::{BusError, CanBus, MonotonicClock, Received, Timestamp};
+use rmd_bus::MonotonicClock;
 use rmd_loop::{Fault, RtLoop, RunLimit, StallCause, StopReason};
-use rmd_protocol::CanFrame;
 use rmd_sim::{ControlMode, SimBus, SimConfig};
-
-#[derive(Clone)]
-struct SharedBus(Arc<Mutex<SimBus<MonotonicClock>>>);
-
-impl CanBus for SharedBus {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
-        self.0.lock().unwrap().send(frame)
-    }
-    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
-        self.0.lock().unwrap().recv_until(deadline)
-    }
-}
 
 #[test]
 fn a_stopped_process_is_a_stall_the_os_caused() {
-    let bus = SharedBus(Arc::new(Mutex::new(
-        SimBus::new(MonotonicClock, SimConfig::with_motors(4).seed(9)).unwrap(),
-    )));
+    let bus =
+        SharedSim::new(SimBus::new(MonotonicClock, SimConfig::with_motors(4).seed(9)).unwrap());
     // A bound far below the 400 ms stop and far above what a loaded machine does to a thread
     // that is not stopped (tens of milliseconds).
     let mut config = robot_config(1000.0, 1, 4);
@@ -73,8 +58,7 @@ fn a_stopped_process_is_a_stall_the_os_caused() {
         r.stop_description
     );
     // Ground truth: every motor off.
-    let mut sim = bus.0.lock().unwrap();
     for m in 1..=4 {
-        assert_eq!(sim.snapshot(id(m)).unwrap().mode, ControlMode::Off);
+        assert_eq!(bus.snapshot(id(m)).mode, ControlMode::Off);
     }
 }

@@ -207,23 +207,7 @@ fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
 fn a_spinning_controller_is_told_apart_from_a_sleeping_one() {
     // The same hang as above, but the controller busy-loops (under the normal scheduler, so
     // that a loaded machine shares the CPU with it): the loop thread ran through the stall.
-    let bus = SharedBus::new(45);
-    let returned = Arc::new(AtomicBool::new(false));
-    let hung_at = Arc::new(AtomicU64::new(0));
-    let mut config = robot_config(1000.0, 1, 4);
-    config.loop_config.stall_bound_ms = Some(300);
-    let handle = supervised_with(
-        &bus,
-        config,
-        Duration::from_millis(1500),
-        true,
-        &returned,
-        &hung_at,
-    )
-    .spawn(RunLimit::Forever)
-    .unwrap();
-    assert_off_while_hanging(&bus, &returned, "the busy loop ended");
-    let r = handle.join().unwrap().report;
+    let (r, hung_at) = spin_until_stopped(45, |_| {});
     println!("{}", r.stop_description);
     let StopReason::Fault(Fault::TickStalled {
         tick,
@@ -234,7 +218,7 @@ fn a_spinning_controller_is_told_apart_from_a_sleeping_one() {
     else {
         panic!("{}", r.stop_reason);
     };
-    assert_eq!(tick, hung_at.load(Ordering::SeqCst));
+    assert_eq!(tick, hung_at);
     assert!(stalled > Duration::from_millis(300), "{stalled:?}");
     let StallCause::Busy {
         stage: TickStage::Controller,
@@ -255,26 +239,19 @@ fn a_spinning_controller_is_told_apart_from_a_sleeping_one() {
     assert_eq!(r.safe_stop.by, SafeStopBy::Supervisor);
 }
 
-/// The loop pinned to a CPU under `SCHED_FIFO`, its controller stuck in a busy loop: a
-/// supervisor on the loop's CPU at the loop's priority would never run until the controller
-/// came back. It runs off the loop's CPU (or above its priority) and stops the motors while the
-/// controller still spins.
-#[test]
-fn a_controller_spinning_under_sched_fifo_is_stopped_by_the_supervisor_before_it_returns() {
-    if !nix::unistd::geteuid().is_root() {
-        eprintln!("skipped: SCHED_FIFO needs root (CI runs this test as root)");
-        return;
-    }
-    let bus = SharedBus::new(44);
+/// A supervised loop (stall bound 300 ms, `configure`d) whose controller busy-loops for 1.5 s
+/// at tick 200: waits until the supervisor turned every motor off while the controller still
+/// spun, and gives the report and the tick that hung.
+fn spin_until_stopped(
+    seed: u64,
+    configure: impl FnOnce(&mut rmd_loop::robot::LoopConfig),
+) -> (rmd_loop::LoopReport, u64) {
+    let bus = SharedBus::new(seed);
     let returned = Arc::new(AtomicBool::new(false));
     let hung_at = Arc::new(AtomicU64::new(0));
-    let last_cpu = std::thread::available_parallelism().map_or(0, |n| n.get() - 1);
     let mut config = robot_config(1000.0, 1, 4);
     config.loop_config.stall_bound_ms = Some(300);
-    config.loop_config.cpu = Some(last_cpu);
-    config.loop_config.fifo_priority = Some(10);
-    // A 1.5 s busy loop: the kernel's real-time throttling (95% of each second) still lets
-    // ordinary threads have that CPU now and then, but never a thread of the same class.
+    configure(&mut config.loop_config);
     let handle = supervised_with(
         &bus,
         config,
@@ -286,8 +263,29 @@ fn a_controller_spinning_under_sched_fifo_is_stopped_by_the_supervisor_before_it
     .spawn(RunLimit::Forever)
     .unwrap();
     assert_off_while_hanging(&bus, &returned, "the busy loop ended");
-    let out = handle.join().unwrap();
-    let r = &out.report;
+    let report = handle.join().unwrap().report;
+    assert!(bus.all_off(), "{:?}", bus.modes());
+    (report, hung_at.load(Ordering::SeqCst))
+}
+
+/// The loop pinned to a CPU under `SCHED_FIFO`, its controller stuck in a busy loop: a
+/// supervisor on the loop's CPU at the loop's priority would never run until the controller
+/// came back. It runs off the loop's CPU (or above its priority) and stops the motors while the
+/// controller still spins.
+#[test]
+fn a_controller_spinning_under_sched_fifo_is_stopped_by_the_supervisor_before_it_returns() {
+    if !nix::unistd::geteuid().is_root() {
+        eprintln!("skipped: SCHED_FIFO needs root (CI runs this test as root)");
+        return;
+    }
+    let last_cpu = std::thread::available_parallelism().map_or(0, |n| n.get() - 1);
+    // The kernel's real-time throttling (95% of each second) still lets ordinary threads have
+    // that CPU now and then, but never a thread of the same class.
+    let (r, _) = spin_until_stopped(44, |l| {
+        l.cpu = Some(last_cpu);
+        l.fifo_priority = Some(10);
+    });
+    let r = &r;
     assert_eq!(
         r.realtime.fifo,
         rmd_loop::os::StepStatus::Applied,
@@ -322,7 +320,6 @@ fn a_controller_spinning_under_sched_fifo_is_stopped_by_the_supervisor_before_it
     );
     assert_eq!(r.safe_stop.by, SafeStopBy::Supervisor);
     assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
-    assert!(bus.all_off(), "{:?}", bus.modes());
 }
 
 #[test]

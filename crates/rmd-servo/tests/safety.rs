@@ -481,22 +481,14 @@ fn a_servo_configured_for_another_robot_halts_the_loop() {
 /// power-up windows centred on the pose `pose_deg`.
 fn limited_leg(pose_deg: [f64; 4]) -> rmd_loop::Robot {
     use rmd_loop::mapping::centred_zero_offset_deg;
-    use rmd_loop::robot::{BusConfig, Direction, MotorConfig, RobotConfig};
+    use rmd_loop::robot::Direction;
     let limits = [(-25.0, 25.0), (-100.0, 40.0), (5.0, 165.0), (-110.0, 30.0)];
-    let mut bus = BusConfig::new("sim");
-    for (i, ((name, (min, max)), pose)) in JOINTS.iter().zip(limits).zip(pose_deg).enumerate() {
-        bus = bus.with_motor(
-            MotorConfig::new(i as u8 + 1)
-                .name(name)
-                .gear_ratio(9.0)
-                .torque_constant(2.09)
-                .current_limit(8.0)
-                .zero_offset_deg(centred_zero_offset_deg(9.0, Direction::Normal, pose))
-                .position_limits(min, max)
-                .velocity_limit(180.0),
-        );
-    }
-    rmd_loop::Robot::try_from(RobotConfig::new(1000.0).with_bus(bus)).unwrap()
+    common::leg(|i, motor| {
+        motor
+            .zero_offset_deg(centred_zero_offset_deg(9.0, Direction::Normal, pose_deg[i]))
+            .position_limits(limits[i].0, limits[i].1)
+            .velocity_limit(180.0)
+    })
 }
 
 #[test]

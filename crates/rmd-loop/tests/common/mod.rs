@@ -160,12 +160,19 @@ impl Controller for PdTo {
 
 pub const MS: Duration = Duration::from_millis(1);
 
-/// A simulated bus the test can look at while the loop drives it.
-#[derive(Clone)]
-pub struct SharedSim(pub std::sync::Arc<std::sync::Mutex<SimBus<VirtualClock>>>);
+/// A simulated bus the test can look at while the loop drives it (on any clock).
+pub struct SharedSim<C: rmd_bus::Clock = VirtualClock>(
+    pub std::sync::Arc<std::sync::Mutex<SimBus<C>>>,
+);
 
-impl SharedSim {
-    pub fn new(bus: SimBus<VirtualClock>) -> Self {
+impl<C: rmd_bus::Clock> Clone for SharedSim<C> {
+    fn clone(&self) -> Self {
+        Self(std::sync::Arc::clone(&self.0))
+    }
+}
+
+impl<C: rmd_bus::Clock> SharedSim<C> {
+    pub fn new(bus: SimBus<C>) -> Self {
         Self(std::sync::Arc::new(std::sync::Mutex::new(bus)))
     }
     pub fn snapshot(&self, motor: MotorId) -> rmd_sim::MotorSnapshot {
@@ -173,7 +180,7 @@ impl SharedSim {
     }
 }
 
-impl rmd_bus::CanBus for SharedSim {
+impl<C: rmd_bus::Clock> rmd_bus::CanBus for SharedSim<C> {
     fn send(&mut self, frame: &rmd_protocol::CanFrame) -> Result<(), rmd_bus::BusError> {
         self.0.lock().unwrap().send(frame)
     }
