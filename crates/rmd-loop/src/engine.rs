@@ -384,8 +384,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 parts, controller, reason, realtime, None, None, identified,
             )));
         }
-        let progress_at = parts.clock.now();
-        parts.shared.watch.progress(progress_at, 0);
+        parts.shared.watch.progress(parts.clock.now(), 0);
         parts.shared.watch.set_phase(Phase::Running);
         let supervisor = match ports {
             None => None,
@@ -421,6 +420,9 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 }
             }
         };
+        // The supervisor's start (waited for above) is no stall of the loop's.
+        let progress_at = parts.clock.now();
+        parts.shared.watch.progress(progress_at, 0);
         Ok(Running {
             identified,
             progress_at,
