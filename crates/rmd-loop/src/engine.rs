@@ -107,6 +107,8 @@ pub(crate) struct Parts<B, C> {
     maps: Vec<JointMap>,
     /// Each joint's limits, as the tick checks them.
     guards: Vec<LimitGuard>,
+    /// Whether any joint has a limit (a robot without them pays one branch per tick).
+    limits_on: bool,
     /// Motor-side amperes per joint: the controller's commands, then what was staged.
     command_amps: Vec<f64>,
     signals: [f64; MAX_SIGNALS],
@@ -203,6 +205,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 stats: LoopStats::new(&robot),
                 maps: robot.joints().iter().map(JointMap::from_spec).collect(),
                 guards: robot.joints().iter().map(LimitGuard::from_spec).collect(),
+                limits_on: robot.joints().iter().any(|j| j.limits.any()),
                 command_amps: vec![0.0; joints],
                 signals: [0.0; MAX_SIGNALS],
                 signal_count,
@@ -683,6 +686,9 @@ impl<B, C> Parts<B, C> {
 
     /// The first joint further past one of its limits than its margin, as a fault.
     fn limit_breach(&self) -> Option<Fault> {
+        if !self.limits_on {
+            return None;
+        }
         let feedback = &self.exchange.feedback;
         let (joint, breach) = self
             .guards
@@ -711,7 +717,9 @@ impl<B, C> Parts<B, C> {
             for m in link.joints() {
                 let motor = &exchange.motors[m];
                 let scale = motor.command_scale;
-                if self.guards[m].refuses(&exchange.feedback[m].joint, self.command_amps[m]) {
+                if self.limits_on
+                    && self.guards[m].refuses(&exchange.feedback[m].joint, self.command_amps[m])
+                {
                     self.command_amps[m] = 0.0;
                     self.stats.motors[m].limited_commands += 1;
                 }

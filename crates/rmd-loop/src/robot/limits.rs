@@ -77,6 +77,11 @@ impl JointLimits {
             .then_some(self.velocity_max_dps)
     }
 
+    /// Whether the description gives any limit.
+    pub fn any(&self) -> bool {
+        self.position().is_some() || self.velocity().is_some()
+    }
+
     /// Whether `angle_deg` lies within the position limits.
     pub fn allows_position(&self, angle_deg: f64) -> bool {
         (self.position_min_deg..=self.position_max_deg).contains(&angle_deg)
