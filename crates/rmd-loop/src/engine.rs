@@ -178,8 +178,12 @@ pub struct Running<B, C, K> {
     cpu_latency: Option<CpuLatencyHold>,
     supervisor: Option<JoinHandle<()>>,
     identified: Vec<crate::report::IdentifiedMotor>,
-    /// The loop thread's last sign of life (a tick began or ended), as the supervisor sees it.
-    progress_at: Timestamp,
+    /// The loop thread's last sign of life (a tick began or ended), as the supervisor sees it,
+    /// ns on the loop's clock.
+    progress_ns: u64,
+    /// A gap between two signs of life longer than this is a stall, ns: the stall bound beside
+    /// a supervisor, never without one.
+    stall_after_ns: u64,
 }
 
 impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
@@ -428,7 +432,11 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
         parts.shared.watch.progress(progress_at, 0);
         Ok(Running {
             identified,
-            progress_at,
+            progress_ns: progress_at.as_nanos(),
+            stall_after_ns: match supervisor {
+                Some(_) => duration_ns(settings.stall_bound),
+                None => u64::MAX,
+            },
             supervisor,
             scheduler: Scheduler::new(settings.period, settings.spin_margin, settings.overrun, t0),
             start: t0,
@@ -521,22 +529,19 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
     /// was not run either (the process was stopped, or the machine starved it), and neither was
     /// this thread. (Without a supervisor the stall bound does not apply: benchmarks and tests
     /// count late ticks instead.)
+    #[inline]
     fn stalled(&mut self, tick: u64, now: Timestamp) -> ControlFlow<StopReason> {
-        let stalled = now - self.progress_at;
-        self.progress_at = now;
-        let bound = self.parts.robot.settings().stall_bound;
-        if stalled <= bound || self.supervisor.is_none() {
+        let now_ns = now.as_nanos();
+        let gap_ns = now_ns.saturating_sub(self.progress_ns);
+        self.progress_ns = now_ns;
+        if gap_ns <= self.stall_after_ns {
             return ControlFlow::Continue(());
         }
-        ControlFlow::Break(StopReason::Fault(Fault::TickStalled {
+        ControlFlow::Break(stall_fault(
             tick,
-            bound,
-            stalled,
-            cause: StallCause::NotRun {
-                waited: None,
-                stopped: false,
-            },
-        }))
+            gap_ns,
+            self.parts.robot.settings().stall_bound,
+        ))
     }
 
     /// Send on every bus, then collect from every bus, then account for missing replies. Returns
@@ -659,6 +664,26 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
     }
 }
 
+/// A stall of `gap_ns` past `bound` in `tick`, seen by the loop thread: the OS ran neither it
+/// nor its supervisor.
+#[cold]
+fn stall_fault(tick: u64, gap_ns: u64, bound: Duration) -> StopReason {
+    StopReason::Fault(Fault::TickStalled {
+        tick,
+        bound,
+        stalled: Duration::from_nanos(gap_ns),
+        cause: StallCause::NotRun {
+            waited: None,
+            stopped: false,
+        },
+    })
+}
+
+/// A duration in nanoseconds, saturating.
+fn duration_ns(d: Duration) -> u64 {
+    u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)
+}
+
 /// Waits for the supervisor that took over to finish its safe stop, and takes what it did.
 fn wait_for_takeover(shared: &Shared, supervisor: Option<JoinHandle<()>>) -> Option<Takeover> {
     if let Some(handle) = supervisor {
@@ -707,22 +732,32 @@ impl<B, C> Parts<B, C> {
         })
     }
 
+    /// Replaces the controller's commands that push a joint further past one of its limits by
+    /// zero torque, counted.
+    fn refuse_beyond_limits(&mut self) {
+        let joints = self.guards.iter().zip(&self.exchange.feedback);
+        let commands = self.command_amps.iter_mut().zip(&mut self.stats.motors);
+        for ((guard, feedback), (amps, counters)) in joints.zip(commands) {
+            if guard.refuses(&feedback.joint, *amps) {
+                *amps = 0.0;
+                counters.limited_commands += 1;
+            }
+        }
+    }
+
     /// Refuses the controller's commands that push a joint further past a limit (zero torque,
     /// counted), clamps the rest to each joint's current limit, and stages them for the next
     /// tick's 0x280 frames.
     fn stage_commands(&mut self) {
+        if self.limits_on {
+            self.refuse_beyond_limits();
+        }
         let exchange = &mut self.exchange;
         for (link, staged) in exchange.links.iter().zip(&mut exchange.staged) {
             let mut slots = ZERO_TORQUE;
             for m in link.joints() {
                 let motor = &exchange.motors[m];
                 let scale = motor.command_scale;
-                if self.limits_on
-                    && self.guards[m].refuses(&exchange.feedback[m].joint, self.command_amps[m])
-                {
-                    self.command_amps[m] = 0.0;
-                    self.stats.motors[m].limited_commands += 1;
-                }
                 let raw = ScaledCurrent::from_amps_saturating(self.command_amps[m], scale).raw();
                 let limited = raw.clamp(-motor.limit_raw, motor.limit_raw);
                 if limited != raw {
