@@ -710,10 +710,19 @@ impl<B, C> Parts<B, C> {
     }
 
     /// The first joint further past one of its limits than its margin, as a fault.
+    #[inline]
     fn limit_breach(&self) -> Option<Fault> {
-        if !self.limits_on {
-            return None;
+        if self.limits_on {
+            self.find_breach()
+        } else {
+            None
         }
+    }
+
+    /// [`limit_breach`](Self::limit_breach) of a robot with limits (out of line: a robot
+    /// without them keeps the tick as it was).
+    #[inline(never)]
+    fn find_breach(&self) -> Option<Fault> {
         let feedback = &self.exchange.feedback;
         let (joint, breach) = self
             .guards
@@ -734,6 +743,7 @@ impl<B, C> Parts<B, C> {
 
     /// Replaces the controller's commands that push a joint further past one of its limits by
     /// zero torque, counted.
+    #[inline(never)]
     fn refuse_beyond_limits(&mut self) {
         let joints = self.guards.iter().zip(&self.exchange.feedback);
         let commands = self.command_amps.iter_mut().zip(&mut self.stats.motors);
