@@ -362,6 +362,13 @@ fn bad_options_are_refused_with_a_message_before_anything_moves() {
             &["--robot", "/nonexistent/leg.toml"],
             "/nonexistent/leg.toml",
         ),
+        (&["--stall-bound", "0"], "above 0"),
+        (&["--stall-bound", "2m"], "too long"),
+        // Checked against the period by the description: 1 ms is one 1 kHz period.
+        (
+            &["--stall-bound", "1ms", "--virtual-time"],
+            "loop.stall_bound_ms",
+        ),
     ] {
         let ran = run("leg4", args);
         assert_eq!(ran.code, Some(2), "{args:?}: {}", ran.stderr);

@@ -161,8 +161,10 @@ fn spawn(name: &str, args: &[&str]) -> std::process::Child {
 /// exit status 130.
 #[test]
 fn ctrl_c_stops_the_example_safely_with_status_130() {
-    // Real time, so that it is still running when the signal comes.
-    let mut child = spawn("pd_hold", &["--duration", "20"]);
+    // Real time, so that it is still running when the signal comes; a loaded machine may not
+    // run the loop for more than the default 50 ms stall bound now and then, which is not what
+    // this test is about.
+    let mut child = spawn("pd_hold", &["--duration", "20", "--stall-bound", "60s"]);
     // Its first status line (on standard error, once a second) says the loop is running.
     let stderr = BufReader::new(child.stderr.take().unwrap());
     let (lines_tx, lines) = std::sync::mpsc::channel();

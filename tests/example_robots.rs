@@ -55,6 +55,19 @@ fn every_shipped_description_is_a_valid_robot() {
             let robot =
                 Robot::from_file(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             assert!(robot.joint_count() > 0);
+            // Every shipped joint carries limits (docs/safety.md, "Joint limits").
+            for joint in robot.joints() {
+                assert!(
+                    joint
+                        .limits
+                        .position()
+                        .is_some_and(|(lo, hi)| lo.is_finite() && hi.is_finite())
+                        && joint.limits.velocity().is_some(),
+                    "{}: {} has no limits",
+                    path.display(),
+                    joint.name
+                );
+            }
             names.push(path.file_name().unwrap().to_string_lossy().into_owned());
         }
     }
@@ -71,6 +84,17 @@ fn pd_hold_toml_is_the_arm_of_the_example() {
     assert_eq!(arm.current_limit.amps(), 3.0);
     assert_eq!(arm.torque_constant_nm_per_amp, Some(2.09));
     assert_centred(arm, pd_hold::POWER_UP_DEG);
+    assert!(arm.limits.allows_position(pd_hold::POWER_UP_DEG));
+}
+
+/// The description's position limits of `joint` are the model's (`limit`).
+fn assert_limits(joint: &JointSpec, limit: rmd_demos::leg::JointLimit) {
+    assert_eq!(
+        joint.limits.position(),
+        Some((limit.min_deg, limit.max_deg)),
+        "{}",
+        joint.name
+    );
 }
 
 #[test]
@@ -89,6 +113,7 @@ fn leg4_toml_is_the_leg_of_the_example() {
             (9.0, Direction::Normal)
         );
         assert_centred(joint, leg4::POWER_UP_DEG[i]);
+        assert_limits(joint, LegModel::new().limits[i]);
     }
     // The power-up pose is inside the model's joint limits (the controller starts from it).
     let model = LegModel::new();
@@ -124,6 +149,7 @@ fn quadruped_toml_is_the_robot_of_the_example() {
                 (9.0, Direction::Normal)
             );
             assert_centred(joint, crouch[i]);
+            assert_limits(joint, model.limits[i]);
         }
         assert_eq!(model.limit_violation(&rmd_demos::leg::rad(crouch)), None);
     }

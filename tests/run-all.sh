@@ -11,6 +11,8 @@ else
 fi
 # nextest does not run doc tests.
 cargo test --workspace --doc
+# The Rust tests again with every core busy: the real-time ones must hold on a loaded machine.
+./tests/under-load.sh
 # The Python package: built and installed in a venv the script creates, then its pytest suite.
 ./tests/python/run.sh
 # Telemetry against independent readers (Python mcap + mcap-ros2-support, jsonschema, a

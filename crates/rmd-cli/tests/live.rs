@@ -458,7 +458,14 @@ fn drive_flags_take_the_examples_names_and_durations_with_units() {
         "--log",
         log_arg,
     ]);
-    assert!(out.contains(" for 0.20 s ("), "{out}");
+    // The run lasted the 0.2 s asked for (longer on a loaded machine: the time is measured).
+    let lasted: f64 = out
+        .split(" for ")
+        .nth(1)
+        .and_then(|rest| rest.split(" s (").next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(lasted >= 0.195, "{out}");
     let commands = host_commands(&read_log(&log));
     assert_eq!(commands.last(), Some(&(2, Cmd::MotorOff)));
     // Durations that are not one are usage errors before anything is sent.

@@ -30,12 +30,14 @@ use crate::controller::{Controller, Flow, TickContext};
 use crate::exchange::Exchange;
 use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
+use crate::guard::LimitGuard;
 use crate::mapping::JointMap;
 use crate::os::{CpuLatencyHold, RtSetup, RtStatus};
-use crate::report::{Fault, StopReason};
+use crate::report::{Fault, MotorRef, StopReason};
 use crate::robot::{RejectedCommandPolicy, Robot};
 use crate::schedule::{Scheduler, TickTiming};
 use crate::shared::Shared;
+use crate::stall::{StallCause, TickStage};
 use crate::startup;
 use crate::stats::LoopStats;
 use crate::stop::Stopper;
@@ -102,6 +104,10 @@ pub(crate) struct Parts<B, C> {
     pub(crate) stats: LoopStats,
     pub(crate) shared: Arc<Shared>,
     maps: Vec<JointMap>,
+    /// Each joint's limits, as the tick checks them.
+    guards: Vec<LimitGuard>,
+    /// Whether any joint has a limit (a robot without them pays one branch per tick).
+    limits_on: bool,
     /// Motor-side amperes per joint: the controller's commands, then what was staged.
     command_amps: Vec<f64>,
     signals: [f64; MAX_SIGNALS],
@@ -171,6 +177,12 @@ pub struct Running<B, C, K> {
     cpu_latency: Option<CpuLatencyHold>,
     supervisor: Option<JoinHandle<()>>,
     identified: Vec<crate::report::IdentifiedMotor>,
+    /// The loop thread's last sign of life (a tick began or ended), as the supervisor sees it,
+    /// ns on the loop's clock.
+    progress_ns: u64,
+    /// A gap between two signs of life longer than this is a stall, ns: the stall bound beside
+    /// a supervisor, never without one.
+    stall_after_ns: u64,
 }
 
 impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
@@ -195,6 +207,8 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 exchange: Exchange::new(&robot, buses),
                 stats: LoopStats::new(&robot),
                 maps: robot.joints().iter().map(JointMap::from_spec).collect(),
+                guards: robot.joints().iter().map(LimitGuard::from_spec).collect(),
+                limits_on: robot.joints().iter().any(|j| j.limits.any()),
                 command_amps: vec![0.0; joints],
                 signals: [0.0; MAX_SIGNALS],
                 signal_count,
@@ -305,6 +319,12 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 }
                 ran += 1;
             }
+            // The clock passed the end while the loop was late (an overrun, a stall): the slots
+            // due before it that never ran were skipped.
+            if due_before != u64::MAX {
+                let missed = due_before.saturating_sub(running.scheduler.next_index());
+                running.parts.stats.skipped_ticks += missed;
+            }
             StopReason::TickLimit
         }));
         let reason = ran.unwrap_or_else(|payload| {
@@ -332,6 +352,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
             status: mut realtime,
             cpu_latency,
             supervisor: supervisor_placement,
+            thread_stats,
         } = startup::prepare_thread(parts.robot.settings());
         let identified = match startup::identify_motors(&mut parts) {
             Ok(identified) => identified,
@@ -389,6 +410,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                         .collect(),
                     ids: parts.exchange.motors.iter().map(|m| m.id).collect(),
                     robot: parts.robot.clone(),
+                    stats: thread_stats,
                 };
                 match supervisor.spawn(&supervisor_placement) {
                     Ok((handle, placed)) => {
@@ -404,8 +426,16 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 }
             }
         };
+        // The supervisor's start (waited for above) is no stall of the loop's.
+        let progress_at = parts.clock.now();
+        parts.shared.watch.progress(progress_at, 0);
         Ok(Running {
             identified,
+            progress_ns: progress_at.as_nanos(),
+            stall_after_ns: match supervisor {
+                Some(_) => duration_ns(settings.stall_bound),
+                None => u64::MAX,
+            },
             supervisor,
             scheduler: Scheduler::new(settings.period, settings.spin_margin, settings.overrun, t0),
             start: t0,
@@ -435,15 +465,19 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
 
     /// Runs one tick. Breaks with the reason the loop must stop, if it must.
     pub fn step(&mut self) -> ControlFlow<StopReason> {
+        self.parts.shared.watch.enter(TickStage::Waiting);
         let timing = self.scheduler.wait_next(&self.parts.clock);
         let watch = &self.parts.shared.watch;
         watch.progress(timing.woke, timing.index);
         if watch.phase() != Phase::Running {
             return ControlFlow::Break(StopReason::EmergencyStop); // replaced by the supervisor's
         }
+        // Overslept past the stall bound, and the supervisor did not see it.
+        self.stalled(timing.index, timing.woke)?;
         if let Some(request) = self.parts.shared.stop.pending() {
             return ControlFlow::Break(request.into());
         }
+        self.parts.shared.watch.enter(TickStage::Exchange);
         let stats = &mut self.parts.stats;
         // Counted when it starts, so that a snapshot taken during the tick is consistent.
         stats.ticks += 1;
@@ -455,12 +489,19 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
             Ok(last_reply) => last_reply,
             Err(reason) => return ControlFlow::Break(reason),
         };
+        if let Some(fault) = self.parts.limit_breach() {
+            return ControlFlow::Break(StopReason::Fault(fault));
+        }
+        self.parts.shared.watch.enter(TickStage::Controller);
         self.run_controller(&timing)?;
+        self.parts.shared.watch.enter(TickStage::Bookkeeping);
         self.parts.stage_commands();
         self.parts.publish(&timing, self.start);
         self.parts.shared.serve_snapshot(&self.parts.stats);
         let end = self.parts.clock.now();
         self.parts.shared.watch.progress(end, timing.index);
+        // A tick longer than the stall bound that the supervisor did not end.
+        self.stalled(timing.index, end)?;
         let work_ns = nanos_between(timing.woke, end);
         let stats = &mut self.parts.stats;
         stats.work.record_nanos(work_ns);
@@ -482,6 +523,26 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
             }));
         }
         ControlFlow::Continue(())
+    }
+
+    /// Records a sign of life at `now` in `tick`; in a supervised run, breaks with a stall when
+    /// the one before was longer ago than the stall bound: the supervisor did not end it, so it
+    /// was not run either (the process was stopped, or the machine starved it), and neither was
+    /// this thread. (Without a supervisor the stall bound does not apply: benchmarks and tests
+    /// count late ticks instead.)
+    #[inline]
+    fn stalled(&mut self, tick: u64, now: Timestamp) -> ControlFlow<StopReason> {
+        let now_ns = now.as_nanos();
+        let gap_ns = now_ns.saturating_sub(self.progress_ns);
+        self.progress_ns = now_ns;
+        if gap_ns <= self.stall_after_ns {
+            return ControlFlow::Continue(());
+        }
+        ControlFlow::Break(stall_fault(
+            tick,
+            gap_ns,
+            self.parts.robot.settings().stall_bound,
+        ))
     }
 
     /// Send on every bus, then collect from every bus, then account for missing replies. Returns
@@ -609,6 +670,26 @@ fn nanos_between(earlier: Timestamp, later: Timestamp) -> u64 {
     later.as_nanos().saturating_sub(earlier.as_nanos())
 }
 
+/// A stall of `gap_ns` past `bound` in `tick`, seen by the loop thread: the OS ran neither it
+/// nor its supervisor.
+#[cold]
+fn stall_fault(tick: u64, gap_ns: u64, bound: Duration) -> StopReason {
+    StopReason::Fault(Fault::TickStalled {
+        tick,
+        bound,
+        stalled: Duration::from_nanos(gap_ns),
+        cause: StallCause::NotRun {
+            waited: None,
+            stopped: false,
+        },
+    })
+}
+
+/// A duration in nanoseconds, saturating.
+fn duration_ns(d: Duration) -> u64 {
+    u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)
+}
+
 /// Waits for the supervisor that took over to finish its safe stop, and takes what it did.
 fn wait_for_takeover(shared: &Shared, supervisor: Option<JoinHandle<()>>) -> Option<Takeover> {
     if let Some(handle) = supervisor {
@@ -634,9 +715,59 @@ impl<B, C> Parts<B, C> {
         }
     }
 
-    /// Clamps the controller's commands to each joint's limit and stages them for the next
+    /// The first joint further past one of its limits than its margin, as a fault.
+    #[inline]
+    fn limit_breach(&self) -> Option<Fault> {
+        if self.limits_on {
+            self.find_breach()
+        } else {
+            None
+        }
+    }
+
+    /// [`limit_breach`](Self::limit_breach) of a robot with limits (out of line: a robot
+    /// without them keeps the tick as it was).
+    #[inline(never)]
+    fn find_breach(&self) -> Option<Fault> {
+        let feedback = &self.exchange.feedback;
+        let (joint, breach) = self
+            .guards
+            .iter()
+            .zip(feedback)
+            .enumerate()
+            .find_map(|(j, (guard, fb))| guard.breach(&fb.joint).map(|b| (j, b)))?;
+        let spec = &self.robot.joints()[joint];
+        Some(Fault::JointLimit {
+            at: MotorRef {
+                joint: crate::joint::JointId::from_index(joint),
+                bus: spec.bus,
+                motor: spec.motor,
+            },
+            breach,
+        })
+    }
+
+    /// Replaces the controller's commands that push a joint further past one of its limits by
+    /// zero torque, counted.
+    #[inline(never)]
+    fn refuse_beyond_limits(&mut self) {
+        let joints = self.guards.iter().zip(&self.exchange.feedback);
+        let commands = self.command_amps.iter_mut().zip(&mut self.stats.motors);
+        for ((guard, feedback), (amps, counters)) in joints.zip(commands) {
+            if guard.refuses(&feedback.joint, *amps) {
+                *amps = 0.0;
+                counters.limited_commands += 1;
+            }
+        }
+    }
+
+    /// Refuses the controller's commands that push a joint further past a limit (zero torque,
+    /// counted), clamps the rest to each joint's current limit, and stages them for the next
     /// tick's 0x280 frames.
     fn stage_commands(&mut self) {
+        if self.limits_on {
+            self.refuse_beyond_limits();
+        }
         let exchange = &mut self.exchange;
         // Slots of no described motor keep the zero they were built with.
         for ((motor, amps), counters) in exchange

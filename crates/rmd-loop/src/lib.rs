@@ -20,11 +20,17 @@
 //! - [`schedule`]: the absolute-deadline scheduler (also used by `rmd bench jitter`).
 //! - [`mailbox`]: lock-free channels to and from the loop thread; [`telemetry`]: what it publishes.
 //!
+//! Below every controller the loop enforces each joint's limits from the description
+//! (`position_min_deg`, `position_max_deg`, `velocity_limit_dps`): torque that pushes a joint
+//! further past one is refused (zero torque, counted as `limited`), and a joint further past one
+//! than its margin is a [`Fault::JointLimit`].
+//!
 //! Real-time rules the loop keeps, and asks of controllers: after start-up, a tick allocates no
 //! memory, takes no lock and blocks only in the bus I/O and the timed wait.
 //!
 //! Inside, each file has one job: `engine` (the tick sequence), `startup` (thread setup and the
-//! probe), `exchange/` (send, collect, match, account), `stop` (stop requests), `safe_stop`
+//! probe), `exchange/` (send, collect, match, account), `guard` (the joint limits), `stop`
+//! (stop requests), `safe_stop`
 //! (zero torque then motor off), `finish` (the report).
 
 mod bus_link;
@@ -34,6 +40,7 @@ pub mod engine;
 mod exchange;
 pub mod feedback;
 mod finish;
+mod guard;
 pub mod handle;
 pub mod jitter;
 pub mod joint;
@@ -46,6 +53,7 @@ pub mod robot;
 mod safe_stop;
 pub mod schedule;
 mod shared;
+mod stall;
 mod startup;
 pub mod stats;
 pub mod stop;
@@ -58,10 +66,12 @@ pub use controller::{Controller, Flow, TickContext};
 pub use engine::{BuildError, RtLoop, RunLimit, Running};
 pub use feedback::{Feedback, Freshness, JointFeedback, JointState, MotorState, RawStatus};
 pub use finish::LoopOutcome;
+pub use guard::{LimitBreach, LimitKind};
 pub use handle::{LoopHandle, LoopThreadDied, SpawnError};
 pub use joint::{JointArray, JointId};
 pub use report::{Fault, LoopReport, MotorRef, SafeStopReport, StopReason};
 pub use robot::{Robot, RobotError};
+pub use stall::{StallCause, TickStage};
 pub use stats::{LoopStats, Percentiles, StatsSummary};
 pub use stop::{StopRequest, Stopper};
 pub use telemetry::{JointSample, TelemetryDelivery, TelemetryReceiver, TelemetrySample};

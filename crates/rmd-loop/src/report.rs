@@ -8,12 +8,14 @@ use rmd_protocol::{Finding, MotorId, ProtocolFamily};
 use serde::Serialize;
 
 use crate::commands::Rejection;
+use crate::guard::LimitBreach;
 use crate::joint::JointId;
 use crate::os::RtStatus;
 use crate::robot::Robot;
 pub use crate::safe_stop::{
     BusSafeStop, BusStopOutcome, MotorSafeStop, SafeStopBy, SafeStopReport,
 };
+use crate::stall::StallCause;
 use crate::stats::StatsSummary;
 
 /// Which joint, on which bus, driven by which motor: how faults point at a motor.
@@ -110,13 +112,28 @@ pub enum Fault {
         /// What its answers showed.
         finding: Finding,
     },
-    /// A tick did not complete within the stall bound (the controller or the bus I/O hung): the
-    /// supervisor made every motor safe.
+    /// A tick did not complete within the stall bound: the supervisor made every motor safe
+    /// while the stall lasted (or the loop thread, when it came back and the supervisor had not
+    /// been run either). The cause says whether the operating system did not run the loop
+    /// thread, or the controller (or the bus I/O) spun or blocked.
     TickStalled {
         /// The tick that did not complete.
         tick: u64,
         /// The bound (`loop.stall_bound_ms`).
         bound: Duration,
+        /// How long the loop thread had shown no sign of life when the stall was seen.
+        stalled: Duration,
+        /// Why.
+        cause: StallCause,
+    },
+    /// A joint went further past one of its limits than its margin (`limit_margin_deg`,
+    /// `velocity_margin_dps`): a load, its momentum, or torque the loop refused too late drove
+    /// it there. Every motor made safe.
+    JointLimit {
+        /// The joint.
+        at: MotorRef,
+        /// Which limit, where the joint was, the limit and the margin.
+        breach: LimitBreach,
     },
     /// The controller wrote a command the loop cannot send as given (with
     /// `loop.rejected_command = "fault"`, the default).
@@ -127,6 +144,10 @@ pub enum Fault {
         reason: Rejection,
     },
 }
+
+/// What follows a joint-limit fault.
+const JOINT_LIMIT_ADVICE: &str = ": every motor was made safe (what carried it there: a load, \
+     its momentum or a controller pushing; check the joint's limits, its homing and the gains)";
 
 fn firmware_problem(family: ProtocolFamily, described: ProtocolFamily, finding: Finding) -> String {
     match family {
@@ -175,6 +196,9 @@ impl Fault {
                 "{} reports {celsius} degC, at or above its limit",
                 at.describe(robot)
             ),
+            Fault::JointLimit { at, breach } => {
+                format!("{} {breach}{JOINT_LIMIT_ADVICE}", at.describe(robot))
+            }
             Fault::RejectedCommand {
                 joint: Some(joint),
                 reason,
@@ -233,12 +257,20 @@ impl fmt::Display for Fault {
             Fault::Supervisor => f.write_str(
                 "the supervisor thread could not be started (out of threads or memory?)",
             ),
-            Fault::TickStalled { tick, bound } => write!(
-                f,
-                "tick {tick} did not complete within {} ms (the controller or the bus I/O hung): \
-                 the supervisor made every motor safe",
-                bound.as_millis()
-            ),
+            Fault::TickStalled {
+                tick,
+                bound,
+                stalled,
+                cause,
+            } => {
+                write!(
+                    f,
+                    "tick {tick} did not complete within {} ms: ",
+                    bound.as_millis()
+                )?;
+                crate::stall::describe(f, *stalled, cause)
+            }
+            Fault::JointLimit { at, breach } => write!(f, "{at} {breach}{JOINT_LIMIT_ADVICE}"),
             Fault::RejectedCommand { joint, reason } => match joint {
                 Some(joint) => write!(f, "the controller's command for {joint}: {reason}"),
                 None => write!(

@@ -227,6 +227,9 @@ pub struct MotorCounters {
     /// Commands the controller wrote that could not be sent as given (not finite, a torque
     /// without a torque constant): sent as zero torque.
     pub rejected_commands: u64,
+    /// Commands that pushed the joint further past one of its limits (`position_min_deg`,
+    /// `position_max_deg`, `velocity_limit_dps`): sent as zero torque.
+    pub limited_commands: u64,
     /// Longest run of consecutive ticks without fresh feedback.
     pub max_consecutive_missing: u64,
 }
@@ -247,6 +250,7 @@ impl MotorCounters {
             bad_frames: 0,
             clamped_commands: 0,
             rejected_commands: 0,
+            limited_commands: 0,
             max_consecutive_missing: 0,
         }
     }
@@ -517,7 +521,7 @@ impl core::fmt::Display for StatsSummary {
         for JointCounters { joint, counters: m } in &self.motors {
             writeln!(
                 f,
-                "{joint} (bus {} motor {}): missing {} late {} unexpected {} bad frames {} clamped {} rejected {} (longest gap {} ticks)",
+                "{joint} (bus {} motor {}): missing {} late {} unexpected {} bad frames {} clamped {} rejected {} limited {} (longest gap {} ticks)",
                 m.bus,
                 m.motor.get(),
                 m.missing_replies,
@@ -526,6 +530,7 @@ impl core::fmt::Display for StatsSummary {
                 m.bad_frames,
                 m.clamped_commands,
                 m.rejected_commands,
+                m.limited_commands,
                 m.max_consecutive_missing
             )?;
         }

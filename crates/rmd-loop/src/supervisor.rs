@@ -6,8 +6,10 @@
 //! to a simulated bus), and takes over:
 //!
 //! - when a tick does not complete within the stall bound (`loop.stall_bound_ms`, default ten
-//!   periods and at least 50 ms): the controller or the bus I/O hangs; the run ends with
-//!   [`Fault::TickStalled`];
+//!   periods and at least 50 ms): the run ends with [`Fault::TickStalled`], whose
+//!   [`StallCause`] says why, from the loop thread's scheduler statistics over the stall
+//!   (the `stall` module): the OS did not run the loop thread, or it spun, or it was blocked, and
+//!   where (the controller, the bus I/O);
 //! - when an emergency stop is requested: at once, whatever the loop thread is doing;
 //! - when a stop is requested and the loop thread has not begun its safe stop one and a half
 //!   periods later (so every stop acts within two periods, even while the controller hangs).
@@ -32,11 +34,13 @@ use rmd_bus::{CanBus, Clock, Timestamp};
 use rmd_protocol::MotorId;
 
 use crate::bus_link::BusLink;
+use crate::os::thread_stats::{SchedSample, ThreadState, ThreadStats};
 use crate::os::{SupervisorPlacement, SupervisorRequest, place_supervisor};
 use crate::report::{Fault, SafeStopBy, StopReason};
 use crate::robot::Robot;
 use crate::safe_stop::make_safe;
 use crate::shared::Shared;
+use crate::stall::{StallCause, StallEvidence};
 use crate::stop::StopRequest;
 use crate::watch::{Phase, Takeover};
 
@@ -51,6 +55,37 @@ pub(crate) struct Supervisor<C> {
     pub(crate) links: Vec<BusLink<SafetyPort>>,
     pub(crate) ids: Vec<MotorId>,
     pub(crate) robot: Robot,
+    /// The loop thread's scheduler statistics, to tell why it stalled.
+    pub(crate) stats: Option<ThreadStats>,
+}
+
+/// What the supervisor does.
+enum Action {
+    /// Stop for `reason` (an emergency stop, a stop the loop thread did not act on).
+    Stop(StopReason),
+    /// The loop thread stalled in `tick`.
+    Stall {
+        tick: u64,
+        stalled: Duration,
+        since: Option<Baseline>,
+        now: Timestamp,
+    },
+}
+
+/// The supervisor's first look after the loop thread's last sign of life: the start of the
+/// window over which a stall is judged.
+#[derive(Copy, Clone, Debug)]
+struct Baseline {
+    /// The sign of life it follows.
+    progress: Timestamp,
+    /// When.
+    at: Timestamp,
+    /// The loop thread's scheduler statistics then.
+    sample: Option<SchedSample>,
+    /// The supervisor's own then.
+    own: Option<SchedSample>,
+    /// How long the supervisor overslept since (waiting for a CPU, or stopped).
+    supervisor_late: Duration,
 }
 
 impl<C: Clock + 'static> Supervisor<C> {
@@ -78,10 +113,15 @@ impl<C: Clock + 'static> Supervisor<C> {
         let period = settings.period.get();
         let look_every = (period / 4).clamp(Duration::from_micros(50), Duration::from_millis(1));
         let grace = period + period / 2;
-        let watch = &self.shared.watch;
         let mut stop_seen: Option<Timestamp> = None;
+        let mut since: Option<Baseline> = None;
+        let mut looked = self.clock.now();
+        // Its own statistics tell its oversleeps under load (waiting for a CPU) from a stopped
+        // process (not running, not waiting).
+        let own = ThreadStats::of_current_thread();
         loop {
             std::thread::sleep(look_every);
+            let watch = &self.shared.watch;
             match watch.phase() {
                 Phase::Starting => continue,
                 Phase::Running => {}
@@ -91,34 +131,109 @@ impl<C: Clock + 'static> Supervisor<C> {
             // read is never mistaken for a stall.
             let now = self.clock.now();
             let (last, tick) = watch.last_progress();
-            let reason = match self.shared.stop.pending() {
-                Some(StopRequest::EmergencyStop) => Some(StopReason::EmergencyStop),
+            // How much longer than asked the supervisor itself slept: time it was not run.
+            let late = (now - looked).saturating_sub(look_every);
+            looked = now;
+            match &mut since {
+                Some(b) if b.progress == last => b.supervisor_late += late,
+                _ => {
+                    since = Some(Baseline {
+                        progress: last,
+                        at: now,
+                        sample: self.stats.as_ref().and_then(ThreadStats::sample),
+                        own: own.as_ref().and_then(ThreadStats::sample),
+                        // The part of this oversleep after the loop's last sign of life.
+                        supervisor_late: late.min(now - last),
+                    })
+                }
+            }
+            let action = match self.shared.stop.pending() {
+                Some(StopRequest::EmergencyStop) => Some(Action::Stop(StopReason::EmergencyStop)),
                 Some(request) => {
                     let seen = *stop_seen.get_or_insert(now);
-                    (now - seen >= grace).then(|| request.into())
+                    (now - seen >= grace).then(|| Action::Stop(request.into()))
                 }
-                None if now - last > settings.stall_bound => {
-                    Some(StopReason::Fault(Fault::TickStalled {
-                        tick,
-                        bound: settings.stall_bound,
-                    }))
-                }
+                None if now - last > settings.stall_bound => Some(Action::Stall {
+                    tick,
+                    stalled: now - last,
+                    since: since.take().map(|mut b| {
+                        // Oversleeps spent waiting for a CPU are load, not a stopped process.
+                        let waited = b
+                            .own
+                            .zip(own.as_ref().and_then(ThreadStats::sample))
+                            .map(|(then, now)| now.since(&then).waited);
+                        b.supervisor_late =
+                            b.supervisor_late.saturating_sub(waited.unwrap_or_default());
+                        b
+                    }),
+                    now,
+                }),
                 None => None,
             };
-            if let Some(reason) = reason {
-                self.take_over(reason);
+            if let Some(action) = action {
+                self.take_over(action);
                 return;
             }
         }
     }
 
+    /// Why the loop thread stalled, from its scheduler statistics since `since`.
+    fn stall_cause(
+        &self,
+        stalled: Duration,
+        since: Option<Baseline>,
+        now: Timestamp,
+    ) -> StallCause {
+        let watch = &self.shared.watch;
+        let stage = watch.stage();
+        let now_sample = self.stats.as_ref().and_then(ThreadStats::sample);
+        let state = self.stats.as_ref().and_then(ThreadStats::state);
+        let (window, over, supervisor_late) = match since {
+            Some(b) => (
+                now - b.at,
+                b.sample.zip(now_sample).map(|(then, now)| now.since(&then)),
+                b.supervisor_late,
+            ),
+            None => (Duration::ZERO, None, Duration::ZERO),
+        };
+        StallEvidence {
+            stalled,
+            window,
+            ran: over.map(|o| o.ran),
+            waited: over.map(|o| o.waited),
+            supervisor_late,
+            stopped: state == Some(ThreadState::Stopped),
+            runnable: state == Some(ThreadState::Runnable),
+            in_kernel: state == Some(ThreadState::Blocked),
+            stage,
+            period: self.robot.settings().period.get(),
+        }
+        .cause()
+    }
+
     /// Makes every motor safe through the supervisor's own ports, if the loop thread has not
     /// begun to do it.
-    fn take_over(&mut self, reason: StopReason) {
+    fn take_over(&mut self, action: Action) {
         let watch = &self.shared.watch;
         if !watch.swap_phase(Phase::Running, Phase::TakenOver) {
             return; // the loop thread got there first: it makes the motors safe itself
         }
+        // Claimed first, judged after: the loop thread, coming back, defers to this reason.
+        let reason = match action {
+            Action::Stop(reason) => reason,
+            Action::Stall {
+                tick,
+                stalled,
+                since,
+                now,
+            } => StopReason::Fault(Fault::TickStalled {
+                tick,
+                bound: self.robot.settings().stall_bound,
+                stalled,
+                cause: self.stall_cause(stalled, since, now),
+            }),
+        };
+        let watch = &self.shared.watch;
         watch.wait_for_send();
         let mut report = make_safe(
             &self.clock,

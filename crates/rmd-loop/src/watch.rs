@@ -13,6 +13,7 @@ use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};
 use rmd_bus::Timestamp;
 
 use crate::report::{SafeStopReport, StopReason};
+use crate::stall::TickStage;
 
 /// The loop's phase.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -59,6 +60,8 @@ pub(crate) struct Watch {
     last_progress_ns: AtomicU64,
     /// The tick in progress (for the report of a stall).
     tick: AtomicU64,
+    /// Where in its tick the loop thread is (a [`TickStage`]).
+    stage: AtomicU8,
     sending: AtomicBool,
     /// Motor-off went out on every bus (by the loop or the supervisor).
     motors_off_sent: AtomicBool,
@@ -72,6 +75,7 @@ impl Watch {
             phase: AtomicU8::new(Phase::Starting as u8),
             last_progress_ns: AtomicU64::new(0),
             tick: AtomicU64::new(0),
+            stage: AtomicU8::new(TickStage::Waiting as u8),
             sending: AtomicBool::new(false),
             motors_off_sent: AtomicBool::new(false),
             takeover: Mutex::new(None),
@@ -98,6 +102,17 @@ impl Watch {
         self.tick.store(tick, Ordering::Relaxed);
         self.last_progress_ns
             .store(now.as_nanos(), Ordering::Release);
+    }
+
+    /// The loop thread enters `stage` of its tick (a relaxed store: the supervisor only reads
+    /// it to say where a stall happened).
+    pub(crate) fn enter(&self, stage: TickStage) {
+        self.stage.store(stage as u8, Ordering::Relaxed);
+    }
+
+    /// Where in its tick the loop thread is.
+    pub(crate) fn stage(&self) -> TickStage {
+        TickStage::from_u8(self.stage.load(Ordering::Relaxed))
     }
 
     /// The last sign of life, and the tick it was in.

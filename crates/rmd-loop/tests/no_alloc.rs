@@ -115,6 +115,7 @@ fn steady_state_ticks_allocate_nothing() {
     let bus1 = Shared::new(sim(&clock, 4, 22, &faults));
     let mut config = robot_config(1000.0, 2, 4);
     config.loop_config.missing_reply_fault_after = 1000;
+    with_limits(&mut config);
     let robot = rmd_loop::Robot::try_from(config).unwrap();
     let mut rt = RtLoop::new(
         robot,
@@ -128,7 +129,8 @@ fn steady_state_ticks_allocate_nothing() {
     let telemetry = rt.telemetry();
     let mut rt = rt.start().unwrap();
     for _ in 0..100 {
-        assert!(rt.step().is_continue());
+        let step = rt.step();
+        assert!(step.is_continue(), "{step:?}");
     }
     COUNTING.store(true, Ordering::SeqCst);
     for _ in 0..2_000 {
@@ -141,6 +143,10 @@ fn steady_state_ticks_allocate_nothing() {
     assert!(
         stats.missing_replies > 0 && stats.buses[0].tx_errors > 0,
         "faults happened: {stats}"
+    );
+    assert!(
+        stats.motors.iter().all(|m| m.counters.limited_commands > 0),
+        "the joint limits refused torque: {stats}"
     );
     assert_eq!(allocations, 0, "allocations in 2000 steady-state ticks");
     drop(rt);
@@ -165,6 +171,7 @@ fn every_sink_on() {
     config.loop_config.missing_reply_fault_after = 1000;
     // A small mailbox: the loop waits for the feed thread now and then (virtual time).
     config.loop_config.telemetry_capacity = 64;
+    with_limits(&mut config);
     let robot = rmd_loop::Robot::try_from(config).unwrap();
     let mut rt = RtLoop::new(
         robot,
@@ -215,4 +222,18 @@ fn every_sink_on() {
         allocations, 0,
         "allocations on the loop thread in 2000 steady-state ticks with every sink on"
     );
+}
+
+/// Joint limits the controller's 10 degree targets push against (the loop refuses the push
+/// past 5 degrees) without a fault.
+fn with_limits(config: &mut rmd_loop::robot::RobotConfig) {
+    for motor in config.buses.iter_mut().flat_map(|b| b.motors.iter_mut()) {
+        motor.position_min_deg = Some(-5.0);
+        motor.position_max_deg = Some(5.0);
+        // Corrupt replies (injected above) can show any angle step or speed the frame holds:
+        // margins wider than that, so that the limits refuse torque but never fault.
+        motor.limit_margin_deg = Some(90.0);
+        motor.velocity_limit_dps = Some(60.0);
+        motor.velocity_margin_dps = Some(5000.0);
+    }
 }

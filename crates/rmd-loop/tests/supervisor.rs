@@ -14,7 +14,8 @@ use rmd_bus::{BusError, CanBus, MonotonicClock, Received, Timestamp};
 use rmd_loop::report::SafeStopBy;
 use rmd_loop::supervisor::SafetyPort;
 use rmd_loop::{
-    Commands, Controller, Fault, Feedback, Flow, RtLoop, RunLimit, StopReason, TickContext,
+    Commands, Controller, Fault, Feedback, Flow, RtLoop, RunLimit, StallCause, StopReason,
+    TickContext, TickStage,
 };
 use rmd_protocol::CanFrame;
 use rmd_sim::{ControlMode, SimBus, SimConfig};
@@ -164,6 +165,7 @@ fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
     let out = handle.join().unwrap();
     assert!(returned.load(Ordering::SeqCst));
     let r = &out.report;
+    println!("{}", r.stop_description);
     let hung_at = hung_at.load(Ordering::SeqCst);
     assert!(
         matches!(
@@ -174,10 +176,96 @@ fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
         r.stop_reason
     );
     assert!(!r.normal_stop);
+    // Asleep in the controller: the supervisor says so, from the loop thread's own CPU time.
+    assert!(
+        matches!(
+            r.stop_reason,
+            StopReason::Fault(Fault::TickStalled {
+                cause: StallCause::Blocked {
+                    stage: TickStage::Controller,
+                    ..
+                },
+                ..
+            })
+        ),
+        "{}",
+        r.stop_reason
+    );
+    assert!(
+        r.stop_description
+            .contains("the loop thread was blocked in the controller's update for"),
+        "{}",
+        r.stop_description
+    );
     assert_eq!(r.safe_stop.by, SafeStopBy::Supervisor);
     assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
     // When the controller came back, the loop sent nothing more: the motors stayed off.
     assert!(bus.all_off(), "{:?}", bus.modes());
+}
+
+#[test]
+fn a_spinning_controller_is_told_apart_from_a_sleeping_one() {
+    // The same hang as above, but the controller busy-loops (under the normal scheduler, so
+    // that a loaded machine shares the CPU with it): the loop thread ran through the stall.
+    let (r, hung_at) = spin_until_stopped(45, |_| {});
+    println!("{}", r.stop_description);
+    let StopReason::Fault(Fault::TickStalled {
+        tick,
+        stalled,
+        cause,
+        ..
+    }) = r.stop_reason
+    else {
+        panic!("{}", r.stop_reason);
+    };
+    assert_eq!(tick, hung_at);
+    assert!(stalled > Duration::from_millis(300), "{stalled:?}");
+    let StallCause::Busy {
+        stage: TickStage::Controller,
+        ran,
+    } = cause
+    else {
+        panic!("{cause:?}: {}", r.stop_description);
+    };
+    assert!(ran > Duration::from_millis(2) && ran <= stalled, "{ran:?}");
+    assert!(
+        r.stop_description
+            .contains("the loop thread was busy in the controller's update for 3")
+            && r.stop_description
+                .contains("a controller that does not return"),
+        "{}",
+        r.stop_description
+    );
+    assert_eq!(r.safe_stop.by, SafeStopBy::Supervisor);
+}
+
+/// A supervised loop (stall bound 300 ms, `configure`d) whose controller busy-loops for 1.5 s
+/// at tick 200: waits until the supervisor turned every motor off while the controller still
+/// spun, and gives the report and the tick that hung.
+fn spin_until_stopped(
+    seed: u64,
+    configure: impl FnOnce(&mut rmd_loop::robot::LoopConfig),
+) -> (rmd_loop::LoopReport, u64) {
+    let bus = SharedBus::new(seed);
+    let returned = Arc::new(AtomicBool::new(false));
+    let hung_at = Arc::new(AtomicU64::new(0));
+    let mut config = robot_config(1000.0, 1, 4);
+    config.loop_config.stall_bound_ms = Some(300);
+    configure(&mut config.loop_config);
+    let handle = supervised_with(
+        &bus,
+        config,
+        Duration::from_millis(1500),
+        true,
+        &returned,
+        &hung_at,
+    )
+    .spawn(RunLimit::Forever)
+    .unwrap();
+    assert_off_while_hanging(&bus, &returned, "the busy loop ended");
+    let report = handle.join().unwrap().report;
+    assert!(bus.all_off(), "{:?}", bus.modes());
+    (report, hung_at.load(Ordering::SeqCst))
 }
 
 /// The loop pinned to a CPU under `SCHED_FIFO`, its controller stuck in a busy loop: a
@@ -190,29 +278,14 @@ fn a_controller_spinning_under_sched_fifo_is_stopped_by_the_supervisor_before_it
         eprintln!("skipped: SCHED_FIFO needs root (CI runs this test as root)");
         return;
     }
-    let bus = SharedBus::new(44);
-    let returned = Arc::new(AtomicBool::new(false));
-    let hung_at = Arc::new(AtomicU64::new(0));
     let last_cpu = std::thread::available_parallelism().map_or(0, |n| n.get() - 1);
-    let mut config = robot_config(1000.0, 1, 4);
-    config.loop_config.stall_bound_ms = Some(300);
-    config.loop_config.cpu = Some(last_cpu);
-    config.loop_config.fifo_priority = Some(10);
-    // A 1.5 s busy loop: the kernel's real-time throttling (95% of each second) still lets
-    // ordinary threads have that CPU now and then, but never a thread of the same class.
-    let handle = supervised_with(
-        &bus,
-        config,
-        Duration::from_millis(1500),
-        true,
-        &returned,
-        &hung_at,
-    )
-    .spawn(RunLimit::Forever)
-    .unwrap();
-    assert_off_while_hanging(&bus, &returned, "the busy loop ended");
-    let out = handle.join().unwrap();
-    let r = &out.report;
+    // The kernel's real-time throttling (95% of each second) still lets ordinary threads have
+    // that CPU now and then, but never a thread of the same class.
+    let (r, _) = spin_until_stopped(44, |l| {
+        l.cpu = Some(last_cpu);
+        l.fifo_priority = Some(10);
+    });
+    let r = &r;
     assert_eq!(
         r.realtime.fifo,
         rmd_loop::os::StepStatus::Applied,
@@ -247,7 +320,6 @@ fn a_controller_spinning_under_sched_fifo_is_stopped_by_the_supervisor_before_it
     );
     assert_eq!(r.safe_stop.by, SafeStopBy::Supervisor);
     assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
-    assert!(bus.all_off(), "{:?}", bus.modes());
 }
 
 #[test]
@@ -288,7 +360,7 @@ fn an_emergency_stop_acts_at_once_while_the_controller_hangs() {
 fn a_healthy_supervised_run_ends_with_the_loops_own_safe_stop() {
     let bus = SharedBus::new(43);
     let rt = RtLoop::new(
-        robot(1000.0, 1, 4),
+        realtime_robot(1000.0, 1, 4),
         MonotonicClock,
         vec![bus.clone()],
         PdTo::hold(4),

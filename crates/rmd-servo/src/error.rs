@@ -35,8 +35,8 @@ pub enum ServoError {
     },
     /// A value beyond the joint's limits.
     #[error(
-        "joint `{joint}`: {field} is {value}, outside the joint's limits [{min}, {max}] \
-         (servo configuration: {key})"
+        "joint `{joint}`: {field} is {value}, outside the joint's limits [{}, {}] \
+         ({key})", Short(*.min), Short(*.max)
     )]
     OutOfLimit {
         /// The joint.
@@ -49,7 +49,8 @@ pub enum ServoError {
         min: f64,
         /// The highest value allowed.
         max: f64,
-        /// The configuration key of the limit.
+        /// Where the limit comes from and its key (`robot description:
+        /// position_min_deg/position_max_deg`, `servo configuration: max_effort_nm`).
         key: &'static str,
     },
     /// The same joint twice in one batch or trajectory.
@@ -161,7 +162,9 @@ pub enum TrajectoryRefusal {
     /// A value beyond the joint's limits.
     #[error(
         "joint `{joint}`, point {point}: {field} is {value}, outside the joint's limits \
-         [{min}, {max}] (servo configuration: {key})"
+         [{}, {}] ({key})",
+        Short(*.min),
+        Short(*.max)
     )]
     OutOfLimit {
         /// The joint.
@@ -176,7 +179,8 @@ pub enum TrajectoryRefusal {
         min: f64,
         /// The highest value allowed.
         max: f64,
-        /// The configuration key of the limit.
+        /// Where the limit comes from and its key (`robot description:
+        /// position_min_deg/position_max_deg`, `servo configuration: max_effort_nm`).
         key: &'static str,
     },
     /// The last point must be at rest (the joint holds it afterwards).
@@ -200,8 +204,11 @@ pub enum TrajectoryRefusal {
     },
     /// The motion between two points leaves the position limits.
     #[error(
-        "joint `{joint}`: on its way to point {point} the motion reaches {reached} rad, beyond \
-         the position limits [{min}, {max}]: add points, or lower velocities at the points"
+        "joint `{joint}`: on its way to point {point} the motion reaches {} rad, beyond \
+         the position limits [{}, {}]: add points, or lower velocities at the points",
+        Short(*.reached),
+        Short(*.min),
+        Short(*.max)
     )]
     LeavesPositionLimits {
         /// The joint.
@@ -228,5 +235,20 @@ impl TrajectoryRefusal {
             | TrajectoryRefusal::LeavesPositionLimits { joint, .. } => Some(joint),
             _ => None,
         }
+    }
+}
+
+/// A limit as a person reads it: at most six decimals, no trailing zeros (`0.087266` for five
+/// degrees in radians, `-0.5` as it is, `inf` for none).
+struct Short(f64);
+
+impl core::fmt::Display for Short {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let v = self.0;
+        if !v.is_finite() || v == v.trunc() {
+            return write!(f, "{v}");
+        }
+        let text = format!("{v:.6}");
+        f.write_str(text.trim_end_matches('0').trim_end_matches('.'))
     }
 }

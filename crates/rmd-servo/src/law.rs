@@ -53,7 +53,7 @@ pub(crate) fn advance_velocity_reference(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{Gains, JointLimits, StalePolicy, StaleRule};
+    use crate::config::{Gains, JointLimits, LimitSource, StalePolicy, StaleRule};
 
     fn joint() -> JointServo {
         JointServo {
@@ -69,6 +69,9 @@ mod tests {
                 max_acceleration_rad_s2: 10.0,
                 max_jerk_rad_s3: 100.0,
                 max_effort_nm: 2.0,
+                position_min_from: LimitSource::ServoConfiguration,
+                position_max_from: LimitSource::ServoConfiguration,
+                velocity_from: LimitSource::ServoConfiguration,
             },
             stale: StaleRule {
                 after: core::time::Duration::from_millis(100),

@@ -80,8 +80,8 @@ mod state;
 pub mod trajectory;
 
 pub use config::{
-    Gains, JointLimits, JointServo, JointSettings, ServoConfig, ServoConfigError, ServoFile,
-    StalePolicy,
+    Gains, JointLimits, JointServo, JointSettings, LimitSource, ServoConfig, ServoConfigError,
+    ServoFile, StalePolicy,
 };
 pub use controller::ServoController;
 pub use error::{ServoError, TrajectoryRefusal};

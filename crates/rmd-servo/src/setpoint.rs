@@ -2,7 +2,7 @@
 
 use rmd_loop::JointId;
 
-use crate::config::JointServo;
+use crate::config::{EFFORT_KEY, JointServo};
 use crate::error::ServoError;
 
 /// A setpoint for one joint, in joint units (rad, rad/s, N·m).
@@ -69,14 +69,12 @@ impl Setpoint {
         let l = &joint.limits;
         let v = l.max_velocity_rad_s;
         let e = l.max_effort_nm;
-        let position = (
-            l.position_min_rad,
-            l.position_max_rad,
-            "position_min_rad/max",
-        );
-        let velocity = (-v, v, "max_velocity_rad_s");
-        let effort = (-e, e, "max_effort_nm");
-        let fields: &[(&'static str, f64, (f64, f64, &'static str))] = match *self {
+        let position = (l.position_min_rad, l.position_max_rad, l.position_keys());
+        let velocity_key = l.velocity_from.velocity_key();
+        let velocity = (-v, v, (velocity_key, velocity_key));
+        let effort = (-e, e, (EFFORT_KEY, EFFORT_KEY));
+        type Keys = (&'static str, &'static str);
+        let fields: &[(&'static str, f64, (f64, f64, Keys))] = match *self {
             Setpoint::Position {
                 position_rad,
                 velocity_ff_rad_s,
@@ -95,21 +93,22 @@ impl Setpoint {
             ],
             Setpoint::Effort { effort_nm } => &[("effort_nm", effort_nm, effort)],
         };
-        for &(field, value, (min, max, key)) in fields {
-            check_value(&joint.name, field, value, min, max, key)?;
+        for &(field, value, (min, max, keys)) in fields {
+            check_value(&joint.name, field, value, min, max, keys)?;
         }
         Ok(())
     }
 }
 
-/// `value` must be finite and within `[min, max]` (the servo configuration's `key`).
+/// `value` must be finite and within `[min, max]`; `keys` name the lower and the upper limit
+/// (with where each comes from).
 pub(crate) fn check_value(
     joint: &str,
     field: &'static str,
     value: f64,
     min: f64,
     max: f64,
-    key: &'static str,
+    keys: (&'static str, &'static str),
 ) -> Result<(), ServoError> {
     if !value.is_finite() {
         return Err(ServoError::NotFinite {
@@ -125,7 +124,7 @@ pub(crate) fn check_value(
             value,
             min,
             max,
-            key,
+            key: if value < min { keys.0 } else { keys.1 },
         });
     }
     Ok(())

@@ -105,7 +105,7 @@ fn setpoints_beyond_the_limits_are_refused_and_counted() {
     );
     assert_eq!(
         err.to_string(),
-        "joint `knee`: position_rad is 0.6, outside the joint's limits [-0.5, 0.5] (servo configuration: position_min_rad/max)"
+        "joint `knee`: position_rad is 0.6, outside the joint's limits [-0.5, 0.5] (servo configuration: position_max_rad)"
     );
     assert!(matches!(
         h.set_velocity("knee", 2.5, 0.0),
@@ -473,6 +473,99 @@ fn a_servo_configured_for_another_robot_halts_the_loop() {
     );
     bench.step(1);
     for i in 0..JOINTS.len() {
+        assert_eq!(bench.motor(i).mode, ControlMode::Off);
+    }
+}
+
+/// The leg with the joint limits of the examples' leg in its robot description (degrees), its
+/// power-up windows centred on the pose `pose_deg`.
+fn limited_leg(pose_deg: [f64; 4]) -> rmd_loop::Robot {
+    use rmd_loop::mapping::centred_zero_offset_deg;
+    use rmd_loop::robot::Direction;
+    let limits = [(-25.0, 25.0), (-100.0, 40.0), (5.0, 165.0), (-110.0, 30.0)];
+    common::leg(|i, motor| {
+        motor
+            .zero_offset_deg(centred_zero_offset_deg(9.0, Direction::Normal, pose_deg[i]))
+            .position_limits(limits[i].0, limits[i].1)
+            .velocity_limit(180.0)
+    })
+}
+
+#[test]
+fn a_target_beyond_the_robot_descriptions_limits_is_refused_before_anything_moves() {
+    // The finding behind the limits: `loop.set_position("knee", 100.0)` (radians, where the CLI
+    // speaks degrees) spun the simulated knee to 73 rad in 3 s. The description's knee turns
+    // from 5 to 165 degrees; the servo configuration has no position limits of its own.
+    let pose = [0.0, -30.0, 60.0, -30.0];
+    let robot = limited_leg(pose);
+    let config = rmd_servo::ServoConfig::from_toml(&robot, SERVO).unwrap();
+    let (servo, handle) = rmd_servo::ServoController::new(config);
+    let mut bench = Bench::with(robot, servo, handle, pose);
+    let h = &bench.handle;
+    let err = h.set_position("knee", 100.0, 0.0, 0.0).unwrap_err();
+    let (min, max) = (5f64.to_radians(), 165f64.to_radians());
+    assert!(
+        matches!(&err, ServoError::OutOfLimit { joint, field: "position_rad", value, min: lo, max: hi, .. }
+            if joint == "knee" && *value == 100.0 && *lo == min && *hi == max),
+        "{err}"
+    );
+    assert_eq!(
+        err.to_string(),
+        "joint `knee`: position_rad is 100, outside the joint's limits [0.087266, 2.879793] \
+         (robot description: position_max_deg)"
+    );
+    // A trajectory there too; a velocity beyond the servo's 2 rad/s (within the description's
+    // 180 deg/s).
+    let far = JointTrajectory::new(["knee"]).point(JointTrajectoryPoint::at(ms(3000), [100.0]));
+    assert!(matches!(
+        h.send_trajectory(&far),
+        Err(ServoError::Trajectory(TrajectoryRefusal::OutOfLimit { .. }))
+    ));
+    assert!(matches!(
+        h.set_velocity("knee", 2.5, 0.0),
+        Err(ServoError::OutOfLimit {
+            field: "velocity_rad_s",
+            ..
+        })
+    ));
+    assert_eq!(bench.state().unwrap().joints()[2].counters.rejected, 3);
+    // Nothing moved.
+    bench.run_s(3.0);
+    let knee = bench.truth_rad(2).to_degrees();
+    assert!((knee - 60.0).abs() < 0.5, "{knee}");
+    // Within the limits it goes: a velocity setpoint stops at the limit (the servo keeps its
+    // reference inside), and the knee rests there.
+    bench.handle.set_velocity("knee", 1.5, 0.0).unwrap();
+    bench.run_s(2.0);
+    let knee = bench.truth_rad(2).to_degrees();
+    assert!((164.0..=165.5).contains(&knee), "{knee}");
+    assert!(bench.finish().report.normal_stop);
+}
+
+#[test]
+fn an_effort_driving_a_joint_past_its_limit_is_refused_by_the_loop_and_then_a_fault() {
+    // Effort setpoints are not positions: the servo passes 15 N*m on. Below the servo the loop
+    // refuses the push once the knee is past 165 degrees; the knee's momentum carries it past
+    // the 5 degree margin all the same, which stops the run with every motor off.
+    let pose = [0.0, -30.0, 60.0, -30.0];
+    let robot = limited_leg(pose);
+    let config = rmd_servo::ServoConfig::from_toml(&robot, SERVO).unwrap();
+    let (servo, handle) = rmd_servo::ServoController::new(config);
+    let mut bench = Bench::with(robot, servo, handle, pose);
+    bench.handle.set_effort("knee", 15.0).unwrap();
+    bench.run_s(3.0);
+    let outcome = bench.outcome.take().expect("the loop stopped");
+    let r = &outcome.report;
+    let StopReason::Fault(rmd_loop::Fault::JointLimit { at, breach }) = r.stop_reason else {
+        panic!("{r}");
+    };
+    assert_eq!(at.joint.index(), 2);
+    assert!(
+        breach.value > 170.0 || breach.kind == rmd_loop::LimitKind::Velocity,
+        "{breach:?}"
+    );
+    assert!(r.stats.motors[2].counters.limited_commands > 0, "{r}");
+    for i in 0..4 {
         assert_eq!(bench.motor(i).mode, ControlMode::Off);
     }
 }

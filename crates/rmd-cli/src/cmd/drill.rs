@@ -319,6 +319,9 @@ fn short_stop(d: &Drill) -> String {
             Fault::TickStalled { bound, .. } => {
                 format!("tick stalled > {} ms", bound.as_millis())
             }
+            Fault::JointLimit { at, breach } => {
+                format!("beyond {}, {}", breach.kind, joint(at))
+            }
             Fault::RejectedCommand { .. } => "rejected command".to_string(),
         },
         StopReason::ControllerPanic(_) => "controller panicked".to_string(),

@@ -1,6 +1,7 @@
 //! The small operating-system layer of the loop thread: CPU pinning, `SCHED_FIFO` priority,
 //! memory locking, stack pre-faulting, the timer slack, and the CPU wake-up latency request
-//! (`/dev/cpu_dma_latency`); and where the loop's supervisor thread runs ([`supervisor_thread`]).
+//! (`/dev/cpu_dma_latency`); where the loop's supervisor thread runs ([`supervisor_thread`]);
+//! and the loop thread's scheduler statistics, read by the supervisor ([`thread_stats`]).
 //! The only place in rmd-loop with `unsafe` code.
 //!
 //! Each step is best effort: when a privilege is missing (no `CAP_SYS_NICE` / rtprio limit for
@@ -16,6 +17,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 pub mod supervisor_thread;
+pub mod thread_stats;
 
 pub use supervisor_thread::{SupervisorPlacement, SupervisorRequest, place_supervisor};
 
@@ -326,6 +328,9 @@ pub struct RtSetup {
     pub cpu_latency: Option<CpuLatencyHold>,
     /// Where a supervisor of this thread should run: off its CPU, above its priority.
     pub supervisor: SupervisorRequest,
+    /// This thread's scheduler statistics, for its supervisor (`None` where the kernel has
+    /// none).
+    pub thread_stats: Option<thread_stats::ThreadStats>,
 }
 
 /// Applies `request` to the calling thread and reports what was granted. Never fails: a step
@@ -381,6 +386,7 @@ pub fn apply_to_current_thread(request: &RtRequest) -> RtSetup {
         },
         cpu_latency: hold,
         supervisor,
+        thread_stats: thread_stats::ThreadStats::of_current_thread(),
     }
 }
 

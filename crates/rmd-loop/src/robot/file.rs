@@ -21,6 +21,9 @@
 //! gear_ratio = 6.0
 //! current_limit_amps = 8.0
 //! torque_constant_nm_per_amp = 0.52
+//! position_min_deg = -30.0   # joint limits: torque past them is refused, 5 degrees further a fault
+//! position_max_deg = 120.0
+//! velocity_limit_dps = 360.0
 //! ```
 //!
 //! The same in code:
@@ -36,6 +39,7 @@
 //! ```
 
 use core::time::Duration;
+use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
@@ -260,6 +264,27 @@ pub struct MotorConfig {
     /// A reported temperature at or above this is a fault (degrees Celsius).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub temperature_limit_celsius: Option<f64>,
+    /// The joint's lowest angle, degrees (joint side, as the controller reads it). Past it the
+    /// loop refuses torque that pushes the joint further down (zero torque that way, counted);
+    /// further than `limit_margin_deg` past it is a fault. Default: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_min_deg: Option<f64>,
+    /// The joint's highest angle, degrees; as `position_min_deg`, upwards.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_max_deg: Option<f64>,
+    /// The joint's fastest velocity either way, deg/s. Faster, the loop refuses torque that
+    /// speeds the joint up further (braking torque passes); faster than this plus
+    /// `velocity_margin_dps` is a fault. Default: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity_limit_dps: Option<f64>,
+    /// How far past a position limit the joint may be carried (by its momentum, a load, a
+    /// push) before the loop stops with a fault, degrees. Default 5.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub limit_margin_deg: Option<f64>,
+    /// How far above `velocity_limit_dps` the joint may go before the loop stops with a fault,
+    /// deg/s. Default: half the velocity limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity_margin_dps: Option<f64>,
 }
 
 fn default_current_limit() -> f64 {
@@ -282,6 +307,11 @@ impl MotorConfig {
             current_limit_amps: default_current_limit(),
             torque_constant_nm_per_amp: None,
             temperature_limit_celsius: None,
+            position_min_deg: None,
+            position_max_deg: None,
+            velocity_limit_dps: None,
+            limit_margin_deg: None,
+            velocity_margin_dps: None,
         }
     }
 
@@ -334,6 +364,27 @@ impl MotorConfig {
     /// Sets the temperature fault limit.
     pub fn temperature_limit(mut self, celsius: f64) -> Self {
         self.temperature_limit_celsius = Some(celsius);
+        self
+    }
+    /// Sets the joint's position limits (joint degrees).
+    pub fn position_limits(mut self, min_deg: f64, max_deg: f64) -> Self {
+        self.position_min_deg = Some(min_deg);
+        self.position_max_deg = Some(max_deg);
+        self
+    }
+    /// Sets the joint's velocity limit (deg/s, either way).
+    pub fn velocity_limit(mut self, dps: f64) -> Self {
+        self.velocity_limit_dps = Some(dps);
+        self
+    }
+    /// Sets how far past its position limits (degrees) the joint may go before it is a fault.
+    pub fn limit_margin(mut self, deg: f64) -> Self {
+        self.limit_margin_deg = Some(deg);
+        self
+    }
+    /// Sets how far above its velocity limit (deg/s) the joint may go before it is a fault.
+    pub fn velocity_margin(mut self, dps: f64) -> Self {
+        self.velocity_margin_dps = Some(dps);
         self
     }
 }
@@ -451,6 +502,10 @@ pub struct RobotConfig {
     /// Buses, in order; joints are numbered bus by bus in this order.
     #[serde(default, rename = "bus")]
     pub buses: Vec<BusConfig>,
+    /// The file the description was read from ([`read_config`](crate::robot::read_config)),
+    /// named in its errors; not part of the description itself.
+    #[serde(skip)]
+    pub source: Option<PathBuf>,
 }
 
 impl RobotConfig {
@@ -463,6 +518,7 @@ impl RobotConfig {
             },
             safe_stop: SafeStopConfig::default(),
             buses: Vec::new(),
+            source: None,
         }
     }
 
@@ -475,7 +531,7 @@ impl RobotConfig {
     /// Parses TOML text (syntax and types only; [`Robot::try_from`](crate::robot::Robot)
     /// checks the values).
     pub fn from_toml(text: &str) -> Result<Self, super::RobotError> {
-        toml::from_str(text).map_err(|e| super::RobotError::Parse(e.to_string()))
+        toml::from_str(text).map_err(|e| super::error::parse_error(e.to_string()))
     }
 
     /// The description as TOML.

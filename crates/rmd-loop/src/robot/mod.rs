@@ -30,6 +30,7 @@
 
 mod error;
 pub mod file;
+mod limits;
 
 use core::num::{NonZeroU32, NonZeroUsize};
 use core::ops::Range;
@@ -43,10 +44,14 @@ use rmd_protocol::{
 };
 
 pub use error::RobotError;
-use error::invalid;
+use error::{Shown, invalid};
 pub use file::{
     BusConfig, CpuLatencySetting, Direction, LoopConfig, MotorConfig, RejectedCommandPolicy,
     ReplyMode, RobotConfig, SafeStopConfig,
+};
+pub use limits::{
+    DEFAULT_LIMIT_MARGIN_DEG, JointLimits, MAX_LIMIT_DEG, MAX_LIMIT_MARGIN_DEG,
+    MAX_VELOCITY_LIMIT_DPS,
 };
 
 use crate::joint::JointId;
@@ -61,6 +66,24 @@ pub const MAX_JOINTS: usize = MAX_BUSES * MAX_MOTORS_PER_BUS;
 /// Largest torque current a v1.61 0x280 command can carry (iqControl 2000 = 32 A; other
 /// dialects: their own range).
 pub const MAX_COMMAND_AMPS: f64 = 32.0;
+
+/// The physically meaningful range of `gear_ratio` (motor turns per joint turn): from a 1:100
+/// step-up to a 1000:1 reduction.
+pub const GEAR_RATIO_RANGE: core::ops::RangeInclusive<f64> = 0.01..=1000.0;
+/// The largest `zero_offset_deg`, either way: ten turns of the joint.
+pub const MAX_ZERO_OFFSET_DEG: f64 = 3600.0;
+/// The physically meaningful range of `torque_constant_nm_per_amp` (joint side, N*m/A).
+pub const TORQUE_CONSTANT_RANGE: core::ops::RangeInclusive<f64> = 1e-4..=1000.0;
+/// The longest `turnaround_us` of a bus (a motor that takes longer is not answering).
+pub const MAX_TURNAROUND: Duration = Duration::from_millis(100);
+/// The longest `loop.stall_bound_ms`.
+pub const MAX_STALL_BOUND: Duration = Duration::from_secs(60);
+/// The most `loop.startup_probes`.
+pub const MAX_STARTUP_PROBES: u32 = 1000;
+/// The largest `loop.telemetry_capacity`, in ticks (allocated up front).
+pub const MAX_TELEMETRY_CAPACITY: usize = 65_536;
+/// The CPUs `loop.cpu` may name (`0..MAX_CPUS`, the kernel's `CPU_SETSIZE`).
+pub const MAX_CPUS: usize = 1024;
 
 /// A `SCHED_FIFO` priority, 1..=99.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -259,6 +282,8 @@ pub struct JointSpec {
     pub torque_constant_nm_per_amp: Option<f64>,
     /// A reported temperature at or above this is a fault.
     pub temperature_limit_celsius: Option<f64>,
+    /// Its position and velocity limits, enforced by the loop below every controller.
+    pub limits: JointLimits,
 }
 
 impl JointSpec {
@@ -383,20 +408,32 @@ impl Robot {
     }
 }
 
-/// Reads and parses (but does not check) a TOML robot description file.
+/// Reads and parses (but does not check) a TOML robot description file. The file is
+/// remembered ([`RobotConfig::source`]): every error about the description names it, the
+/// checks of [`Robot::try_from`] included.
 pub fn read_config(path: impl AsRef<Path>) -> Result<RobotConfig, RobotError> {
     let path = path.as_ref();
+    let shown = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|source| RobotError::Io {
-        path: path.display().to_string(),
+        path: shown.clone(),
         source,
     })?;
-    RobotConfig::from_toml(&text)
+    let mut config = RobotConfig::from_toml(&text).map_err(|e| e.in_file(Some(&shown)))?;
+    config.source = Some(path.to_path_buf());
+    Ok(config)
 }
 
 impl TryFrom<RobotConfig> for Robot {
     type Error = RobotError;
 
     fn try_from(config: RobotConfig) -> Result<Self, RobotError> {
+        let file = config.source.as_ref().map(|p| p.display().to_string());
+        Self::check(config).map_err(|e| e.in_file(file.as_deref()))
+    }
+}
+
+impl Robot {
+    fn check(config: RobotConfig) -> Result<Self, RobotError> {
         let settings = loop_settings(&config.loop_config)?;
         let safe_stop = safe_stop_settings(&config.safe_stop)?;
         if config.buses.is_empty() {
@@ -511,19 +548,31 @@ fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
             ),
         ));
     }
-    let at_least_one =
-        |key: &str, v: u32| NonZeroU32::new(v).ok_or_else(|| invalid(key, "must be at least 1"));
+    let count = |key: &str, v: u32, max: u32| {
+        NonZeroU32::new(v)
+            .filter(|n| n.get() <= max)
+            .ok_or_else(|| invalid(key, format!("is {v}, must be 1..={max}")))
+    };
+    if let Some(cpu) = l.cpu
+        && cpu >= MAX_CPUS
+    {
+        return Err(invalid(
+            "loop.cpu",
+            format!("is {cpu}, must be below {MAX_CPUS} (a CPU number as in /proc/cpuinfo)"),
+        ));
+    }
     let stall_bound = match l.stall_bound_ms {
         Some(ms) => Duration::from_millis(ms),
         None => (p * 10).max(Duration::from_millis(50)),
     };
-    if stall_bound <= p {
+    if stall_bound <= p || stall_bound > MAX_STALL_BOUND {
         return Err(invalid(
             "loop.stall_bound_ms",
             format!(
-                "is {} ms, must be longer than the period ({} us)",
+                "is {} ms, must be longer than the period ({} us) and at most {} ms",
                 stall_bound.as_millis(),
-                p.as_micros()
+                p.as_micros(),
+                MAX_STALL_BOUND.as_millis()
             ),
         ));
     }
@@ -542,13 +591,24 @@ fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
             lock_memory: l.lock_memory,
             cpu_dma_latency,
         },
-        missing_reply_fault_after: at_least_one(
+        // Any number of ticks (u32::MAX: never, for benchmarks).
+        missing_reply_fault_after: count(
             "loop.missing_reply_fault_after",
             l.missing_reply_fault_after,
+            u32::MAX,
         )?,
-        startup_probes: at_least_one("loop.startup_probes", l.startup_probes)?,
+        startup_probes: count("loop.startup_probes", l.startup_probes, MAX_STARTUP_PROBES)?,
         telemetry_capacity: NonZeroUsize::new(l.telemetry_capacity)
-            .ok_or_else(|| invalid("loop.telemetry_capacity", "must be at least 1"))?,
+            .filter(|n| n.get() <= MAX_TELEMETRY_CAPACITY)
+            .ok_or_else(|| {
+                invalid(
+                    "loop.telemetry_capacity",
+                    format!(
+                        "is {}, must be 1..={MAX_TELEMETRY_CAPACITY} ticks",
+                        l.telemetry_capacity
+                    ),
+                )
+            })?,
         allow_over_budget: l.allow_over_budget,
         rejected_command: l.rejected_command,
         stall_bound,
@@ -603,6 +663,17 @@ fn bus_spec(b: usize, bus: &BusConfig, key: &str, first: usize) -> Result<BusSpe
             ),
         ));
     }
+    let turnaround = Duration::from_micros(bus.turnaround_us);
+    if turnaround > MAX_TURNAROUND {
+        return Err(invalid(
+            format!("{key}.turnaround_us"),
+            format!(
+                "is {} us, must be at most {} us (a motor's time from request to reply)",
+                bus.turnaround_us,
+                MAX_TURNAROUND.as_micros()
+            ),
+        ));
+    }
     if bus.motors.is_empty() {
         return Err(invalid(
             format!("{key}.motor"),
@@ -646,7 +717,7 @@ fn bus_spec(b: usize, bus: &BusConfig, key: &str, first: usize) -> Result<BusSpe
         name,
         interface,
         bitrate: bus.bitrate,
-        turnaround: Duration::from_micros(bus.turnaround_us),
+        turnaround,
         zero_torque_ids,
         joints: first..first + bus.motors.len(),
     })
@@ -773,36 +844,57 @@ fn joint_spec(
         .gear_ratio
         .or(model.and_then(|md| md.gear_ratio).map(|g| g.value))
         .unwrap_or(1.0);
-    if !(gear_ratio.is_finite() && gear_ratio > 0.0) {
+    if !GEAR_RATIO_RANGE.contains(&gear_ratio) {
         return Err(invalid(
             format!("{key}.gear_ratio"),
-            format!("is {gear_ratio}, must be a positive number"),
+            format!(
+                "is {}, must be {}..={} (motor turns per joint turn: 9 for a 1:9 \
+                 gearbox)",
+                Shown(gear_ratio),
+                GEAR_RATIO_RANGE.start(),
+                GEAR_RATIO_RANGE.end()
+            ),
         ));
     }
     let torque_constant = m.torque_constant_nm_per_amp.or(model
         .and_then(|md| md.torque_constant_nm_per_a)
         .map(|kt| kt.value));
-    if !m.zero_offset_deg.is_finite() {
-        return Err(invalid(format!("{key}.zero_offset_deg"), "must be finite"));
+    if !(-MAX_ZERO_OFFSET_DEG..=MAX_ZERO_OFFSET_DEG).contains(&m.zero_offset_deg) {
+        return Err(invalid(
+            format!("{key}.zero_offset_deg"),
+            format!(
+                "is {}, must be within +-{MAX_ZERO_OFFSET_DEG} degrees of joint (ten turns)",
+                Shown(m.zero_offset_deg)
+            ),
+        ));
     }
     let amps = m.current_limit_amps;
     let scale = dialect.iq_control_scale();
     let max_amps = scale.max_amps();
-    if !(amps.is_finite() && amps > 0.0 && amps <= max_amps) {
+    // At least one step of the command's scale: a smaller limit would allow no torque at all.
+    let min_amps = scale.amps_per_lsb();
+    if !(amps.is_finite() && amps >= min_amps && amps <= max_amps) {
         return Err(invalid(
             format!("{key}.current_limit_amps"),
             format!(
-                "is {amps}, must be in (0, {max_amps}] A (the {} command range)",
+                "is {}, must be in [{min_amps}, {max_amps}] A (one step to the whole {} \
+                 command range)",
+                Shown(amps),
                 dialect
             ),
         ));
     }
     if let Some(kt) = torque_constant
-        && !(kt.is_finite() && kt > 0.0)
+        && !TORQUE_CONSTANT_RANGE.contains(&kt)
     {
         return Err(invalid(
             format!("{key}.torque_constant_nm_per_amp"),
-            format!("is {kt}, must be a positive number"),
+            format!(
+                "is {}, must be {}..={} N*m/A (at the joint, after the gearbox)",
+                Shown(kt),
+                TORQUE_CONSTANT_RANGE.start(),
+                TORQUE_CONSTANT_RANGE.end()
+            ),
         ));
     }
     if let Some(t) = m.temperature_limit_celsius
@@ -810,7 +902,7 @@ fn joint_spec(
     {
         return Err(invalid(
             format!("{key}.temperature_limit_celsius"),
-            format!("is {t}, must be in -40..=127 degC"),
+            format!("is {}, must be in -40..=127 degC", Shown(t)),
         ));
     }
     let name = match &m.name {
@@ -839,6 +931,7 @@ fn joint_spec(
         },
         torque_constant_nm_per_amp: torque_constant,
         temperature_limit_celsius: m.temperature_limit_celsius,
+        limits: limits::joint_limits(m, key)?,
     })
 }
 
@@ -896,7 +989,9 @@ mod tests {
 
     fn expect_invalid(text: &str, key: &str) {
         match Robot::from_toml(text) {
-            Err(RobotError::Invalid { key: k, problem }) => assert_eq!(k, key, "{problem}"),
+            Err(RobotError::Invalid {
+                key: k, problem, ..
+            }) => assert_eq!(k, key, "{problem}"),
             other => panic!("expected an error on {key}, got {other:?}"),
         }
     }
@@ -987,6 +1082,125 @@ mod tests {
     }
 
     #[test]
+    fn physically_absurd_values_are_refused_naming_their_key() {
+        let motor = "[[bus.motor]]\n        id = 2";
+        let on_motor = |line: &str| LEG.replace(motor, &format!("{motor}\n        {line}"));
+        for (line, key) in [
+            ("gear_ratio = 1e308", "bus[0].motor[1].gear_ratio"),
+            ("gear_ratio = 1e-308", "bus[0].motor[1].gear_ratio"),
+            ("gear_ratio = nan", "bus[0].motor[1].gear_ratio"),
+            ("gear_ratio = 0.0", "bus[0].motor[1].gear_ratio"),
+            ("zero_offset_deg = 1e308", "bus[0].motor[1].zero_offset_deg"),
+            (
+                "zero_offset_deg = -3601.0",
+                "bus[0].motor[1].zero_offset_deg",
+            ),
+            ("zero_offset_deg = inf", "bus[0].motor[1].zero_offset_deg"),
+            (
+                "torque_constant_nm_per_amp = 1e308",
+                "bus[0].motor[1].torque_constant_nm_per_amp",
+            ),
+            (
+                "torque_constant_nm_per_amp = 1e-308",
+                "bus[0].motor[1].torque_constant_nm_per_amp",
+            ),
+            (
+                "current_limit_amps = 1e-308",
+                "bus[0].motor[1].current_limit_amps",
+            ),
+            (
+                "temperature_limit_celsius = 1e308",
+                "bus[0].motor[1].temperature_limit_celsius",
+            ),
+        ] {
+            expect_invalid(&on_motor(line), key);
+        }
+        let on_loop = |line: &str| LEG.replace("[loop]", &format!("[loop]\n{line}"));
+        for (line, key) in [
+            (
+                "stall_bound_ms = 18446744073709551615",
+                "loop.stall_bound_ms",
+            ),
+            (
+                "missing_reply_fault_after = 0",
+                "loop.missing_reply_fault_after",
+            ),
+            ("startup_probes = 4294967295", "loop.startup_probes"),
+            (
+                "telemetry_capacity = 1000000000000",
+                "loop.telemetry_capacity",
+            ),
+            (
+                "reply_deadline_us = 18446744073709551615",
+                "loop.reply_deadline_us",
+            ),
+        ] {
+            expect_invalid(&on_loop(line), key);
+        }
+        expect_invalid(&LEG.replace("cpu = 1", "cpu = 4096"), "loop.cpu");
+        expect_invalid(
+            &LEG.replace(
+                "interface = \"can0\"",
+                "interface = \"can0\"\nturnaround_us = 18446744073709551615",
+            ),
+            "bus[0].turnaround_us",
+        );
+        expect_invalid(
+            &LEG.replace("rate_hz = 500.0", "rate_hz = 1e308"),
+            "loop.rate_hz",
+        );
+        // The edges of the ranges are accepted: a 1:100 step-up, a 1000:1 reduction.
+        for line in [
+            "gear_ratio = 0.01",
+            "gear_ratio = 1000.0",
+            "zero_offset_deg = -3600.0",
+        ] {
+            Robot::from_toml(&on_motor(line)).unwrap();
+        }
+    }
+
+    #[test]
+    fn errors_about_a_file_name_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("my_leg.toml");
+        let shown = path.display().to_string();
+        std::fs::write(&path, LEG.replace("gear_ratio = 6.0", "gear_ratio = 1e308")).unwrap();
+        let err = Robot::from_file(&path).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            format!(
+                "robot description {shown}: `bus[0].motor[0].gear_ratio` is 1e308, must be \
+                 0.01..=1000 (motor turns per joint turn: 9 for a 1:9 gearbox)"
+            )
+        );
+        // The programs read the file, change settings, then check: the file is still named.
+        let mut config = read_config(&path).unwrap();
+        config.loop_config.rate_hz = 100.0;
+        let err = Robot::try_from(config).unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with(&format!("robot description {shown}: `bus[0]")),
+            "{err}"
+        );
+        // Parse errors too.
+        std::fs::write(&path, "[loop]\nrate_hz = \"fast\"").unwrap();
+        let err = Robot::from_file(&path).unwrap_err();
+        assert!(
+            matches!(&err, RobotError::Parse { file: Some(f), .. } if *f == shown),
+            "{err}"
+        );
+        assert!(err.to_string().contains("rate_hz"), "{err}");
+        // Text without a file: no file named.
+        let err =
+            Robot::from_toml(&LEG.replace("gear_ratio = 6.0", "gear_ratio = 0.0")).unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with("robot description: `bus[0].motor[0].gear_ratio` is 0,"),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn the_cpu_latency_request_parses_and_defaults_to_zero_with_real_time_settings() {
         let latency = |text: &str| {
             Robot::from_toml(text)
@@ -1033,7 +1247,7 @@ mod tests {
             )
             .unwrap_err();
             assert!(
-                matches!(&err, RobotError::Parse(m) if m.contains("microseconds") && m.contains("off")),
+                matches!(&err, RobotError::Parse { message: m, .. } if m.contains("microseconds") && m.contains("off")),
                 "{bad}: {err}"
             );
         }
@@ -1055,12 +1269,12 @@ mod tests {
     fn unknown_keys_and_wrong_types_are_parse_errors_naming_the_key() {
         let err = Robot::from_toml(&LEG.replace("cpu = 1", "cpus = 1")).unwrap_err();
         assert!(
-            matches!(&err, RobotError::Parse(m) if m.contains("cpus")),
+            matches!(&err, RobotError::Parse { message: m, .. } if m.contains("cpus")),
             "{err}"
         );
         let err = Robot::from_toml(&LEG.replace("cpu = 1", "cpu = \"one\"")).unwrap_err();
         assert!(
-            matches!(&err, RobotError::Parse(m) if m.contains("cpu")),
+            matches!(&err, RobotError::Parse { message: m, .. } if m.contains("cpu")),
             "{err}"
         );
     }

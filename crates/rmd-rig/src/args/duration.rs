@@ -35,6 +35,31 @@ pub fn run_length(text: &str) -> Result<Duration, String> {
     parse(text, Bounds::positive_up_to(MAX_RUN))
 }
 
+/// `--stall-bound`: how long a tick may take before the supervisor ends the run; 1 ms up to
+/// a minute (the robot description then checks it against the period).
+///
+/// ```
+/// use core::time::Duration;
+/// use rmd_rig::args::duration::stall_bound;
+/// assert_eq!(stall_bound("200ms"), Ok(Duration::from_millis(200)));
+/// assert_eq!(stall_bound("0.5"), Ok(Duration::from_millis(500)));
+/// assert!(stall_bound("0").is_err());
+/// assert!(stall_bound("500us").is_err());
+/// assert!(stall_bound("2m").is_err());
+/// ```
+pub fn stall_bound(text: &str) -> Result<Duration, String> {
+    let bound = parse(text, Bounds::positive_up_to(MAX_STALL_BOUND))?;
+    if bound < Duration::from_millis(1) {
+        return Err(format!(
+            "`{text}`: the stall bound is whole milliseconds, at least 1ms"
+        ));
+    }
+    Ok(bound)
+}
+
+/// Longest `--stall-bound` (as `loop.stall_bound_ms` allows).
+pub const MAX_STALL_BOUND: Duration = rmd_loop::robot::MAX_STALL_BOUND;
+
 impl Bounds {
     /// 0 up to `max`.
     pub const fn up_to(max: Duration) -> Self {

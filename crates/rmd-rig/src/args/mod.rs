@@ -14,9 +14,10 @@
 //!     #[command(flatten)]
 //!     output: OutputArgs,
 //! }
-//! let args = Args::parse_from(["leg", "--iface", "can0", "--duration", "1500ms", "--fifo", "80"]);
+//! let args = Args::parse_from(["leg", "--iface", "can0", "--duration", "1500ms", "--fifo", "80", "--stall-bound", "200ms"]);
 //! assert_eq!(args.robot.iface, ["can0"]);
 //! assert_eq!(args.run.duration, Some(std::time::Duration::from_millis(1500)));
+//! assert_eq!(args.run.stall_bound, Some(std::time::Duration::from_millis(200)));
 //! assert_eq!(args.run.realtime.fifo, Some(80));
 //! // Seconds without a unit, and the examples' older spelling, work too.
 //! let args = Args::parse_from(["leg", "--seconds", "2.5", "--fifo-priority", "70", "--rate-hz", "500"]);
@@ -198,6 +199,12 @@ pub struct LoopArgs {
     /// How long to run: seconds (`10`) or with units (`1500ms`, `2m`).
     #[arg(long, visible_alias = "seconds", value_name = "DURATION", value_parser = duration::run_length)]
     pub duration: Option<Duration>,
+    /// End the run, every motor made safe, when a tick does not complete within this long
+    /// (`200ms`; default: the description's loop.stall_bound_ms, else ten periods and at
+    /// least 50 ms). On a busy machine without real-time priority the OS may not run the loop
+    /// for longer than that: the report then says so (see docs/realtime.md).
+    #[arg(long, value_name = "DURATION", value_parser = duration::stall_bound)]
+    pub stall_bound: Option<Duration>,
     /// The real-time setup.
     #[command(flatten)]
     pub realtime: RealtimeArgs,
@@ -208,6 +215,9 @@ impl LoopArgs {
     pub fn apply(&self, config: &mut RobotConfig) {
         if let Some(rate) = self.rate {
             config.loop_config.rate_hz = rate;
+        }
+        if let Some(bound) = self.stall_bound {
+            config.loop_config.stall_bound_ms = Some(bound.as_millis() as u64);
         }
         self.realtime.apply(config);
     }
@@ -260,6 +270,7 @@ mod tests {
         LoopArgs {
             rate: Some(500.0),
             duration: None,
+            stall_bound: Some(Duration::from_millis(250)),
             realtime: RealtimeArgs {
                 cpu: Some(1),
                 fifo: Some(80),
@@ -280,6 +291,7 @@ mod tests {
             ),
             (500.0, Some(1), Some(80), true, 50)
         );
+        assert_eq!(l.stall_bound_ms, Some(250));
         // Flags not given leave the description alone.
         let mut config = RobotConfig::new(250.0);
         config.loop_config.cpu = Some(3);

@@ -396,6 +396,22 @@ mod tests {
     }
 
     #[test]
+    fn joints_carry_the_robot_descriptions_limits() {
+        // The description's knee turns 5..165 degrees; the servo configuration says nothing:
+        // commands beyond them are refused here, before they reach the servo.
+        let robot = Robot::from_toml(
+            "[[bus]]\ninterface = \"can3\"\n[[bus.motor]]\nid = 1\nname = \"knee\"\n\
+             torque_constant_nm_per_amp = 2.0\nposition_min_deg = 5.0\nposition_max_deg = 165.0",
+        )
+        .unwrap();
+        let (_servo, handle) = ServoController::new(ServoConfig::defaults(&robot).unwrap());
+        let port = ServoPort::new(handle, &robot, VirtualClock::new()).unwrap();
+        let knee = &port.joints()[0].limits;
+        assert_eq!(knee.position_min_rad, Some(5f64.to_radians()));
+        assert_eq!(knee.position_max_rad, Some(165f64.to_radians()));
+    }
+
+    #[test]
     fn a_servo_of_another_robot_and_wrong_labels_are_refused() {
         let other = Robot::from_toml(
             "[[bus]]\ninterface = \"sim\"\n[[bus.motor]]\nid = 1\nname = \"elbow\"\n\

@@ -76,7 +76,50 @@ pub struct Gains {
     pub kd_nm_s_per_rad: f64,
 }
 
-/// The limits of one joint (joint side). Position limits may be infinite (none).
+/// Where one of a joint's position or velocity limits comes from: the tighter of the robot
+/// description's ([`JointSpec::limits`]) and the servo configuration's own.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub enum LimitSource {
+    /// The robot description (`position_min_deg`, `position_max_deg`, `velocity_limit_dps`),
+    /// or no limit in either.
+    #[default]
+    RobotDescription,
+    /// The servo configuration (`position_min_rad`, `position_max_rad`, `max_velocity_rad_s`,
+    /// or the built-in velocity limit).
+    ServoConfiguration,
+}
+
+impl LimitSource {
+    /// The key of a lower position limit from this source, as refusals name it.
+    pub fn min_key(self) -> &'static str {
+        match self {
+            LimitSource::RobotDescription => "robot description: position_min_deg",
+            LimitSource::ServoConfiguration => "servo configuration: position_min_rad",
+        }
+    }
+
+    /// The key of an upper position limit from this source, as refusals name it.
+    pub fn max_key(self) -> &'static str {
+        match self {
+            LimitSource::RobotDescription => "robot description: position_max_deg",
+            LimitSource::ServoConfiguration => "servo configuration: position_max_rad",
+        }
+    }
+
+    /// The key of a velocity limit from this source, as refusals name it.
+    pub fn velocity_key(self) -> &'static str {
+        match self {
+            LimitSource::RobotDescription => "robot description: velocity_limit_dps",
+            LimitSource::ServoConfiguration => "servo configuration: max_velocity_rad_s",
+        }
+    }
+}
+
+/// The key of the effort limit, as refusals name it.
+pub const EFFORT_KEY: &str = "servo configuration: max_effort_nm";
+
+/// The limits of one joint (joint side). Position limits may be infinite (none). Each is the
+/// tighter of the robot description's and the servo configuration's.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct JointLimits {
     /// Lowest position a setpoint or trajectory may ask for, rad (`-inf`: none).
@@ -91,12 +134,26 @@ pub struct JointLimits {
     pub max_jerk_rad_s3: f64,
     /// Largest commanded torque, N·m (> 0, at most what the current limit allows).
     pub max_effort_nm: f64,
+    /// Where the lower position limit comes from.
+    pub position_min_from: LimitSource,
+    /// Where the upper position limit comes from.
+    pub position_max_from: LimitSource,
+    /// Where the velocity limit comes from.
+    pub velocity_from: LimitSource,
 }
 
 impl JointLimits {
     /// Whether `position_rad` lies within the position limits.
     pub fn allows_position(&self, position_rad: f64) -> bool {
         position_rad >= self.position_min_rad && position_rad <= self.position_max_rad
+    }
+
+    /// The keys of the lower and upper position limits, as refusals name them.
+    pub fn position_keys(&self) -> (&'static str, &'static str) {
+        (
+            self.position_min_from.min_key(),
+            self.position_max_from.max_key(),
+        )
     }
 }
 
@@ -301,12 +358,33 @@ fn joint_servo(
         None,
         "position_max_rad",
     ))?;
-    let position_min_rad = min.unwrap_or(f64::NEG_INFINITY);
-    let position_max_rad = max.unwrap_or(f64::INFINITY);
+    // The description's limits bound the servo's: each limit is the tighter of the two.
+    let described = spec.limits;
+    let tighter = |servo: Option<f64>, described: f64, lower: bool| match servo {
+        Some(v) if (lower && v >= described) || (!lower && v <= described) => {
+            (v, LimitSource::ServoConfiguration)
+        }
+        _ => (described, LimitSource::RobotDescription),
+    };
+    let (position_min_rad, position_min_from) =
+        tighter(min, described.position_min_deg.to_radians(), true);
+    let (position_max_rad, position_max_from) =
+        tighter(max, described.position_max_deg.to_radians(), false);
     if position_min_rad >= position_max_rad {
+        let (key, whose) = match (min, max) {
+            (_, Some(_)) => (max_key, format!("`{min_key}` and the robot description")),
+            _ => (
+                min_key,
+                "the robot description's position_max_deg".to_string(),
+            ),
+        };
         return Err(src.invalid(
-            max_key,
-            format!("is {position_max_rad}, must be above `{min_key}` ({position_min_rad})"),
+            key,
+            format!(
+                "leaves no room: the joint's limits would be [{position_min_rad}, \
+                 {position_max_rad}] rad (with {whose}: position_min_deg {}, position_max_deg {})",
+                described.position_min_deg, described.position_max_deg
+            ),
         ));
     }
     let max_velocity_rad_s = positive(src.pick(
@@ -315,6 +393,11 @@ fn joint_servo(
         DEFAULT_MAX_VELOCITY_RAD_S,
         "max_velocity_rad_s",
     ))?;
+    let (max_velocity_rad_s, velocity_from) = tighter(
+        Some(max_velocity_rad_s),
+        described.velocity_max_dps.to_radians(),
+        false,
+    );
     let max_acceleration_rad_s2 = positive(src.pick(
         defaults,
         |s| s.max_acceleration_rad_s2,
@@ -377,6 +460,9 @@ fn joint_servo(
             max_acceleration_rad_s2,
             max_jerk_rad_s3,
             max_effort_nm,
+            position_min_from,
+            position_max_from,
+            velocity_from,
         },
         stale: StaleRule {
             after: Duration::from_millis(after_ms),
@@ -556,6 +642,99 @@ mod tests {
         let err =
             ServoConfig::from_toml(&robot, "[defaults]\nstale_policy = \"limp\"").unwrap_err();
         assert!(matches!(err, ServoConfigError::Parse(_)), "{err}");
+    }
+
+    /// A knee of 5..165 degrees and 120 deg/s in the robot description.
+    fn limited_robot() -> Robot {
+        Robot::try_from(
+            RobotConfig::new(1000.0).with_bus(
+                BusConfig::new("can0").with_motor(
+                    MotorConfig::new(1)
+                        .name("knee")
+                        .torque_constant(2.0)
+                        .position_limits(5.0, 165.0)
+                        .velocity_limit(60.0),
+                ),
+            ),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn the_robot_descriptions_limits_bound_the_servos() {
+        let robot = limited_robot();
+        let knee = robot.joint("knee").unwrap();
+        // No servo limits: the description's, in radians.
+        let c = ServoConfig::defaults(&robot).unwrap();
+        let l = c.joint(knee).limits;
+        assert_eq!(l.position_min_rad, 5f64.to_radians());
+        assert_eq!(l.position_max_rad, 165f64.to_radians());
+        assert_eq!(
+            l.position_keys(),
+            (
+                "robot description: position_min_deg",
+                "robot description: position_max_deg"
+            )
+        );
+        // 60 deg/s is below the built-in 2 rad/s: the description's.
+        assert_eq!(l.max_velocity_rad_s, 60f64.to_radians());
+        assert_eq!(l.velocity_from, LimitSource::RobotDescription);
+        // Each limit is the tighter of the two: a narrower servo limit is taken, a wider one
+        // is narrowed to the description's.
+        let c = ServoConfig::from_toml(
+            &robot,
+            "[joint.knee]\nposition_min_rad = -1.0\nposition_max_rad = 2.0\nmax_velocity_rad_s = 0.5",
+        )
+        .unwrap();
+        let l = c.joint(knee).limits;
+        assert_eq!(
+            (l.position_min_rad, l.position_max_rad),
+            (5f64.to_radians(), 2.0)
+        );
+        assert_eq!(
+            (l.position_min_from, l.position_max_from),
+            (
+                LimitSource::RobotDescription,
+                LimitSource::ServoConfiguration
+            )
+        );
+        assert_eq!(
+            (l.max_velocity_rad_s, l.velocity_from),
+            (0.5, LimitSource::ServoConfiguration)
+        );
+        let l = ServoConfig::from_toml(&robot, "[defaults]\nmax_velocity_rad_s = 9.0")
+            .unwrap()
+            .joint(knee)
+            .limits;
+        assert_eq!(
+            (l.max_velocity_rad_s, l.velocity_from),
+            (60f64.to_radians(), LimitSource::RobotDescription)
+        );
+        // Limits that leave no room between them are refused, naming the key.
+        assert_eq!(
+            invalid_on(&robot, "[joint.knee]\nposition_max_rad = 0.05"),
+            ("knee".into(), "joint.knee.position_max_rad".into())
+        );
+        assert_eq!(
+            invalid_on(&robot, "[defaults]\nposition_min_rad = 3.0"),
+            ("knee".into(), "defaults.position_min_rad".into())
+        );
+        // Without description limits nothing changes: none, and the built-in 2 rad/s.
+        let l = ServoConfig::defaults(&robot_plain()).unwrap().joints()[0].limits;
+        assert_eq!(l.position_min_rad, f64::NEG_INFINITY);
+        assert_eq!(l.max_velocity_rad_s, DEFAULT_MAX_VELOCITY_RAD_S);
+        assert_eq!(l.velocity_from, LimitSource::ServoConfiguration);
+    }
+
+    fn robot_plain() -> Robot {
+        robot()
+    }
+
+    fn invalid_on(robot: &Robot, text: &str) -> (String, String) {
+        match ServoConfig::from_toml(robot, text) {
+            Err(ServoConfigError::Invalid { joint, key, .. }) => (joint, key),
+            other => panic!("expected an invalid value, got {other:?}"),
+        }
     }
 
     #[test]

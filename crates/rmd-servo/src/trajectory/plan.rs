@@ -8,6 +8,9 @@ use super::segment::{Kin, Segment};
 use super::{JointTrajectory, TrajectoryReceipt, TrajectoryStart};
 use crate::config::{JointServo, ServoConfig};
 use crate::error::TrajectoryRefusal;
+
+/// The key of the acceleration limit, as refusals name it.
+const ACCELERATION_KEY: &str = "servo configuration: max_acceleration_rad_s2";
 use crate::state::ServoState;
 
 /// Checks `trajectory` for `joints` (already resolved, distinct) and plans it into `buffer`
@@ -118,7 +121,12 @@ fn targets(
 ) -> Result<Vec<(Kin, f64)>, TrajectoryRefusal> {
     let l = &servo.limits;
     let n = trajectory.points.len();
-    let value = |point: usize, field: &'static str, v: f64, min: f64, max: f64, key| {
+    let value = |point: usize,
+                 field: &'static str,
+                 v: f64,
+                 min: f64,
+                 max: f64,
+                 keys: (&'static str, &'static str)| {
         if !v.is_finite() {
             return Err(TrajectoryRefusal::NotFinite {
                 joint: servo.name.clone(),
@@ -135,7 +143,7 @@ fn targets(
                 value: v,
                 min,
                 max,
-                key,
+                key: if v < min { keys.0 } else { keys.1 },
             });
         }
         Ok(v)
@@ -151,7 +159,7 @@ fn targets(
                 p.positions[column],
                 l.position_min_rad,
                 l.position_max_rad,
-                "position_min_rad/max",
+                l.position_keys(),
             )
         })
         .collect::<Result<Vec<_>, _>>()?;
@@ -171,7 +179,10 @@ fn targets(
                 v[column],
                 -vmax,
                 vmax,
-                "max_velocity_rad_s",
+                (
+                    l.velocity_from.velocity_key(),
+                    l.velocity_from.velocity_key(),
+                ),
             )?,
             None if i + 1 == n => 0.0,
             None => {
@@ -195,7 +206,7 @@ fn targets(
                 a[column],
                 -amax,
                 amax,
-                "max_acceleration_rad_s2",
+                (ACCELERATION_KEY, ACCELERATION_KEY),
             )?,
             None => 0.0,
         };

@@ -191,6 +191,7 @@ impl Segment {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::LimitSource;
 
     const LIMITS: JointLimits = JointLimits {
         position_min_rad: f64::NEG_INFINITY,
@@ -199,6 +200,9 @@ mod tests {
         max_acceleration_rad_s2: 10.0,
         max_jerk_rad_s3: 100.0,
         max_effort_nm: 10.0,
+        position_min_from: LimitSource::ServoConfiguration,
+        position_max_from: LimitSource::ServoConfiguration,
+        velocity_from: LimitSource::ServoConfiguration,
     };
 
     fn kin(p: f64, v: f64, a: f64) -> Kin {

@@ -31,16 +31,20 @@ stale_policy = "never"
 
 /// The robot: zero offsets centre each power-up window (40 degrees of joint) on 0.
 pub fn robot() -> Robot {
+    leg(|_, motor| motor)
+}
+
+/// The robot with what `change` makes of joint `i`'s motor.
+pub fn leg(change: impl Fn(usize, MotorConfig) -> MotorConfig) -> Robot {
     let mut bus = BusConfig::new("sim");
     for (i, name) in JOINTS.iter().enumerate() {
-        bus = bus.with_motor(
-            MotorConfig::new(i as u8 + 1)
-                .name(name)
-                .gear_ratio(9.0)
-                .torque_constant(2.09)
-                .current_limit(8.0)
-                .zero_offset_deg(20.0),
-        );
+        let motor = MotorConfig::new(i as u8 + 1)
+            .name(name)
+            .gear_ratio(9.0)
+            .torque_constant(2.09)
+            .current_limit(8.0)
+            .zero_offset_deg(20.0);
+        bus = bus.with_motor(change(i, motor));
     }
     Robot::try_from(RobotConfig::new(1000.0).with_bus(bus)).unwrap()
 }
