@@ -1,9 +1,11 @@
 //! A tool that helps: suggestions for mistyped commands and flags, an example in every
 //! command's help, hints that work as printed.
 
+use std::process::{Command, Stdio};
+
 mod support;
 
-use support::fails;
+use support::{fails, ok, text};
 
 #[test]
 fn a_mistyped_command_or_flag_gets_a_suggestion() {
@@ -28,4 +30,108 @@ fn a_mistyped_command_or_flag_gets_a_suggestion() {
             args.join(" ")
         );
     }
+}
+
+/// The commands a message names between backticks.
+fn hinted(message: &str) -> Vec<Vec<String>> {
+    message
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .filter(|quoted| quoted.starts_with("rmd "))
+        .map(|command| {
+            command
+                .split_whitespace()
+                .skip(1)
+                .map(str::to_owned)
+                .collect()
+        })
+        .collect()
+}
+
+/// A hint that names a command gives it whole (bus and protocol options), and it runs as
+/// printed.
+#[test]
+fn a_hinted_command_runs_as_printed() {
+    // `rmd pid set` without a gain names the read that shows them, on the same motors.
+    let err = fails(
+        2,
+        &[
+            "pid",
+            "set",
+            "2",
+            "--sim",
+            "--sim-ids",
+            "2",
+            "--encoder-bits",
+            "16",
+        ],
+    );
+    let commands = hinted(&err);
+    assert_eq!(commands.len(), 1, "{err}");
+    let args: Vec<&str> = commands[0].iter().map(String::as_str).collect();
+    assert!(ok(&args).starts_with("motor 2: "), "{err}");
+
+    // A robot on several interfaces cannot be recorded with --log: one `rmd log` per
+    // interface, each complete (it fails here only because the interface does not exist).
+    let robot = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/robots/quadruped.toml"
+    );
+    let err = fails(
+        2,
+        &[
+            "status",
+            "--robot",
+            robot,
+            "--iface",
+            "vcan91,vcan92,vcan93,vcan94",
+            "--log",
+            "/dev/null",
+        ],
+    );
+    let commands = hinted(&err);
+    assert_eq!(commands.len(), 4, "{err}");
+    let dir = tempfile::tempdir().unwrap();
+    for (command, iface) in commands
+        .iter()
+        .zip(["vcan91", "vcan92", "vcan93", "vcan94"])
+    {
+        assert_eq!(command[..3], ["log", "--iface", iface], "{err}");
+        let out = Command::new(env!("CARGO_BIN_EXE_rmd"))
+            .args(command)
+            .current_dir(dir.path())
+            .stdin(Stdio::null())
+            .output()
+            .unwrap();
+        let stderr = text(&out.stderr);
+        assert_eq!(
+            out.status.code(),
+            Some(1),
+            "rmd {}: {stderr}",
+            command.join(" ")
+        );
+        assert!(
+            stderr.contains(&format!("ip link add dev {iface} type vcan")),
+            "{stderr}"
+        );
+    }
+    // An interface that cannot be opened leaves no empty log behind.
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+/// Simulated motors end with the command that runs them: no message sends the user to a
+/// later command for them (`rmd off 1 --sim` would talk to new motors).
+#[test]
+fn no_hint_names_a_later_command_for_simulated_motors() {
+    let out = ok(&["move", "1", "--deg", "10", "--sim"]);
+    assert!(out.contains("holding the position"), "{out}");
+    assert!(hinted(&out).is_empty(), "{out}");
+    // A motor of another family: the simulated motors' firmware was chosen by an option.
+    let err = fails(
+        1,
+        &["status", "1", "--sim", "--sim-firmware", "myactuator-v3"],
+    );
+    assert!(hinted(&err).is_empty(), "{err}");
+    assert!(err.contains("--sim-firmware chose"), "{err}");
 }
