@@ -1,6 +1,7 @@
 //! A tool that helps: suggestions for mistyped commands and flags, an example in every
 //! command's help, hints that work as printed.
 
+use std::path::Path;
 use std::process::{Command, Stdio};
 
 mod support;
@@ -134,4 +135,120 @@ fn no_hint_names_a_later_command_for_simulated_motors() {
     );
     assert!(hinted(&err).is_empty(), "{err}");
     assert!(err.contains("--sim-firmware chose"), "{err}");
+}
+
+/// The commands of `rmd PATH --help`'s command list, as paths.
+fn subcommands(path: &[String]) -> Vec<Vec<String>> {
+    let mut args: Vec<&str> = path.iter().map(String::as_str).collect();
+    args.push("--help");
+    let help = ok(&args);
+    let Some(list) = help.split("\nCommands:\n").nth(1) else {
+        return Vec::new();
+    };
+    list.lines()
+        .take_while(|line| line.starts_with("  "))
+        .filter_map(|line| line.split_whitespace().next())
+        .filter(|name| *name != "help")
+        .map(|name| path.iter().cloned().chain([name.to_owned()]).collect())
+        .collect()
+}
+
+/// Every command's path (`["pid", "get"]`), from the help of `rmd` and of each command.
+fn every_command() -> Vec<Vec<String>> {
+    let mut all = Vec::new();
+    let mut todo = subcommands(&[]);
+    while let Some(path) = todo.pop() {
+        todo.extend(subcommands(&path));
+        all.push(path);
+    }
+    all
+}
+
+/// The example lines of a help text.
+fn examples(help: &str) -> Vec<String> {
+    help.split("\nExamples:\n")
+        .nth(1)
+        .unwrap_or_default()
+        .lines()
+        .take_while(|line| line.starts_with("  "))
+        .map(|line| line.trim().to_owned())
+        .collect()
+}
+
+#[test]
+fn every_command_shows_an_example_of_itself() {
+    let all = every_command();
+    assert!(all.len() > 50, "{all:?}");
+    for path in all {
+        let mut args: Vec<&str> = path.iter().map(String::as_str).collect();
+        args.push("--help");
+        let help = ok(&args);
+        let lines = examples(&help);
+        assert!(
+            !lines.is_empty(),
+            "rmd {} --help has no example",
+            path.join(" ")
+        );
+        let own = format!("rmd {}", path.join(" "));
+        assert!(
+            lines
+                .iter()
+                .any(|line| line.contains(&own) || path[0] == "encode"),
+            "no example of `{own}` in {lines:?}"
+        );
+    }
+}
+
+/// Whether an example runs here, as printed, and ends by itself: no hardware (`--iface`), no
+/// real-time privileges (`--fifo`, `--cpu`), no shell beyond a pipe (`>`, `~`, `&&`), and not
+/// `rmd ros2` (a DDS node until Ctrl-C, tested in tests/ros2).
+fn runs_here(line: &str) -> bool {
+    !["--iface", "--fifo", "--cpu", ">", "~", "&&", "rmd ros2"]
+        .iter()
+        .any(|needs| line.contains(needs))
+}
+
+/// Every example that needs no hardware runs as printed, from the repository's root (the
+/// files it names are shipped there), and succeeds.
+#[test]
+fn every_example_that_needs_no_hardware_runs_as_printed() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    // Files the examples write go to a fresh directory that sees the repository's files.
+    let dir = tempfile::tempdir().unwrap();
+    for shipped in ["data", "examples", "crates"] {
+        std::os::unix::fs::symlink(root.join(shipped), dir.path().join(shipped)).unwrap();
+    }
+    let rmd_dir = Path::new(env!("CARGO_BIN_EXE_rmd")).parent().unwrap();
+    let path = format!(
+        "{}:{}",
+        rmd_dir.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let mut ran = 0;
+    for command in every_command() {
+        let mut args: Vec<&str> = command.iter().map(String::as_str).collect();
+        args.push("--help");
+        for line in examples(&ok(&args)) {
+            let line = line.split(" # ").next().unwrap().trim().to_owned();
+            if !runs_here(&line) {
+                continue;
+            }
+            let out = Command::new("bash")
+                .args(["-c", &format!("set -e -o pipefail; {line}")])
+                .env("PATH", &path)
+                .current_dir(dir.path())
+                .stdin(Stdio::null())
+                .output()
+                .unwrap();
+            assert!(
+                out.status.success(),
+                "`{line}`: exit {:?}\nstdout: {}\nstderr: {}",
+                out.status.code(),
+                text(&out.stdout),
+                text(&out.stderr)
+            );
+            ran += 1;
+        }
+    }
+    assert!(ran > 40, "only {ran} examples ran");
 }
