@@ -300,22 +300,11 @@ impl Diagnosis {
 
 #[cfg(test)]
 mod tests {
-    use clap::Parser;
     use rmd_sim::threaded::Lateness;
 
-    use super::super::trial::tests::trial;
+    use super::super::trial::tests::{args, trial};
     use super::*;
     use crate::cmd::bench::wire_limit::WireLimit;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        rate: RateArgs,
-    }
-
-    fn args(flags: &str) -> RateArgs {
-        Cli::parse_from(std::iter::once("rate").chain(flags.split_whitespace())).rate
-    }
 
     /// A trial at `rate_hz` of 10 000 slots, `missed` of them missed, the loop waking up to
     /// `wake_max_us` late, below its wire limit.
@@ -335,6 +324,11 @@ mod tests {
             frame_bits: (112, 126),
         });
         t
+    }
+
+    /// The flags of each suggestion.
+    fn flags(d: &Diagnosis) -> Vec<&str> {
+        d.tries.iter().map(|t| t.flags.as_str()).collect()
     }
 
     const BUSY: Machine = Machine {
@@ -370,9 +364,8 @@ mod tests {
             text.contains("148 deadline miss(es), 0 missing repl(ies), 0 skipped"),
             "{text}"
         );
-        let flags: Vec<&str> = d.tries.iter().map(|t| t.flags.as_str()).collect();
         assert_eq!(
-            flags,
+            flags(&d),
             [
                 "",
                 "--cpu 1 --fifo 80",
@@ -394,9 +387,8 @@ mod tests {
             text.contains("handed 3 repl(ies) over late, up to 9.0 ms (4 missed slot(s)"),
             "{text}"
         );
-        let flags: Vec<&str> = d.tries.iter().map(|t| t.flags.as_str()).collect();
         assert_eq!(
-            flags,
+            flags(&d),
             ["", "--sim inline", "--miss-budget-pct 1", "--sim virtual"]
         );
     }
@@ -413,8 +405,7 @@ mod tests {
         );
         // The machine's load does not matter on a virtual clock, nor a larger budget.
         assert!(!text.contains("load average"), "{text}");
-        let flags: Vec<&str> = d.tries.iter().map(|t| t.flags.as_str()).collect();
-        assert_eq!(flags, ["--rate 1000"]);
+        assert_eq!(flags(&d), ["--rate 1000"]);
     }
 
     #[test]

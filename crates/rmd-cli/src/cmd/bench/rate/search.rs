@@ -257,16 +257,8 @@ impl<'a> Search<'a> {
 
 #[cfg(test)]
 mod tests {
-    use clap::Parser;
-
-    use super::super::trial::tests::trial;
+    use super::super::trial::tests::{args, trial};
     use super::*;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        rate: RateArgs,
-    }
 
     fn at(rate_hz: f64, missed: u64) -> Trial {
         Trial {
@@ -277,7 +269,7 @@ mod tests {
 
     #[test]
     fn a_rate_is_judged_on_all_its_trials_pooled() {
-        let args = Cli::parse_from(["rate"]).rate;
+        let args = args("");
         let progress = Progress::timer(args.duration, false);
         let mut search = Search::new(&args, 1, &progress, 0, Instant::now());
         let budget = 0.001;
