@@ -15,18 +15,24 @@
 # with the machine (CPU, kernel, clock source, rustc, rt-tests) and the load average before
 # each figure recorded. Raw outputs go to target/figures/ (or --out).
 #
-# Usage: benches/all-figures.sh [--smoke] [--quiet-load L] [--max-wait S] [--cpu C] [--prio P]
-#                               [--doc FILE] [--img-dir DIR] [--out DIR]
+# Nothing tracked changes unless --write-docs is given: without it the page with the new blocks
+# is OUT/benchmarks.md and the plots are in OUT/img/ (compare them with the docs, then rerun
+# with --write-docs, or copy them over). Cargo runs with --locked (Cargo.lock is never rewritten).
+#
+# Usage: benches/all-figures.sh [--smoke] [--write-docs] [--quiet-load L] [--max-wait S]
+#                               [--cpu C] [--prio P] [--doc FILE] [--img-dir DIR] [--out DIR]
 #   --smoke         very short runs (1 s jitter rounds, 0.3 s rate trials, ...) to test the
-#                   script: every block says "smoke, not headline"
+#                   script, without waiting for a quiet machine: every block says "smoke, not
+#                   headline" (1 to 3 minutes once everything is built)
+#   --write-docs    write the blocks into --doc and the plots into --img-dir (tracked files)
 #   --quiet-load L  before each figure, wait until the 1-minute load average is below L
-#                   (default 0.5; 0 disables the wait)
+#                   (default 0.5, with --smoke 0; 0 disables the wait)
 #   --max-wait S    stop waiting S seconds after the start (for all figures together) and run
 #                   the rest anyway, saying so in the notes (default 1800)
 #   --cpu C         the loop's CPU (default 1; the simulators run on another one)
 #   --prio P        SCHED_FIFO priority of the loop and cyclictest (default 80)
-#   --doc FILE      the document to write (default docs/benchmarks.md)
-#   --img-dir DIR   where the SVG plots go (default docs/img)
+#   --doc FILE      the document whose blocks to fill (default docs/benchmarks.md)
+#   --img-dir DIR   where the SVG plots go (default OUT/img; with --write-docs docs/img)
 #
 # Fresh machine: needs Rust (rustup; rust-toolchain.toml picks the version) and, for
 # cyclictest, Debian's rt-tests, which this script installs with apt-get when it is missing.
@@ -37,18 +43,20 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 smoke=0
-quiet_load=0.5
+write_docs=0
+quiet_load=
 max_wait=1800
 cpu=1
 prio=80
 doc=docs/benchmarks.md
-img=docs/img
+img=
 out=target/figures
 
 die() { echo "error: $*" >&2; exit 2; }
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --smoke) smoke=1; shift ;;
+    --write-docs) write_docs=1; shift ;;
     --quiet-load) quiet_load=${2-}; shift 2 ;;
     --max-wait) max_wait=${2-}; shift 2 ;;
     --cpu) cpu=${2-}; shift 2 ;;
@@ -61,6 +69,11 @@ while [[ $# -gt 0 ]]; do
   esac
 done
 [[ -f $doc ]] || die "$doc not found"
+# A smoke run tests the script: it does not wait for a quiet machine unless asked.
+[[ -n $quiet_load ]] || { [[ $smoke -eq 1 ]] && quiet_load=0 || quiet_load=0.5; }
+if [[ -z $img ]]; then
+  if [[ $write_docs -eq 1 ]]; then img=docs/img; else img=$out/img; fi
+fi
 
 if [[ $smoke -eq 1 ]]; then
   jitter_rounds=1; jitter_seconds=1
@@ -104,8 +117,8 @@ wait_quiet() {
 stamp() { echo "- $1: $(date -u +%H:%M:%SZ), load average $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$out/notes.txt"; }
 
 echo "building (release): rmd, jitter_compare, bench_figures" >&2
-cargo build --release -q -p rmd-cli
-cargo build --release -q --example jitter_compare --example bench_figures
+cargo build --locked --release -q -p rmd-cli
+cargo build --locked --release -q --example jitter_compare --example bench_figures
 rmd=target/release/rmd
 figures=target/release/examples/bench_figures
 
@@ -127,7 +140,7 @@ failed=()
 check() { local status=$1 what=$2; [[ $status -eq 0 ]] || { failed+=("$what (exit $status)"); echo "FAILED: $what (exit $status)" | tee -a "$out/notes.txt" >&2; }; }
 
 wait_quiet; stamp "tick overhead"
-cargo bench --bench tick -- "${tick_args[@]}" 2>&1 | tee "$out/tick.txt"; check $? "cargo bench --bench tick"
+cargo bench --locked --bench tick -- "${tick_args[@]}" 2>&1 | tee "$out/tick.txt"; check $? "cargo bench --bench tick"
 # The same ticks' instructions (callgrind: deterministic), for the time per instruction.
 benches/tick-instructions.sh --json --no-time > "$out/tick-instructions.json"; check $? "tick-instructions.sh"
 "$figures" tick target/criterion "$out/tick.txt" "$out/tick-instructions.json" > "$out/tick.md"
@@ -157,7 +170,7 @@ done
 wait_quiet; stamp "protocol, trajectory and simulator costs"
 for bench in "--bench protocol" "--bench trajectory" "-p rmd-sim --bench exchange"; do
   # shellcheck disable=SC2086 # two words each, on purpose
-  cargo bench $bench -- "${tick_args[@]}" 2>&1 | tee -a "$out/other.txt"; check $? "cargo bench $bench"
+  cargo bench --locked $bench -- "${tick_args[@]}" 2>&1 | tee -a "$out/other.txt"; check $? "cargo bench $bench"
 done
 "$figures" criterion target/criterion "encode" "decode" "calculate" "sample" "simbus" "simmotors" \
   > "$out/other.md"
@@ -167,16 +180,22 @@ done
 stamp "done"
 set -e
 
+# The page the blocks go into: the document itself with --write-docs, else a copy in $out.
+page=$doc
+if [[ $write_docs -eq 0 ]]; then
+  page=$out/$(basename "$doc")
+  cp "$doc" "$page"
+fi
 # Each generated block: the label, then the table.
 put_block() {
   local name=$1 body=$2
-  grep -qx "<!-- figures:$name -->" "$doc" || die "$doc has no <!-- figures:$name --> block"
+  grep -qx "<!-- figures:$name -->" "$page" || die "$doc has no <!-- figures:$name --> block"
   { echo "_${label}._"; echo; cat "$body"; } > "$out/block-$name.md"
   awk -v begin="<!-- figures:$name -->" -v end="<!-- /figures:$name -->" -v file="$out/block-$name.md" '
     $0 == begin { print; while ((getline line < file) > 0) print line; skip = 1; next }
     $0 == end { skip = 0 }
-    !skip { print }' "$doc" > "$doc.tmp"
-  mv "$doc.tmp" "$doc"
+    !skip { print }' "$page" > "$page.tmp"
+  mv "$page.tmp" "$page"
 }
 cat "$out/machine.md" "$out/notes.txt" > "$out/machine-and-load.md"
 put_block machine "$out/machine-and-load.md"
@@ -187,7 +206,10 @@ put_block rate "$out/rate.md"
 put_block rate-blocking "$out/rate-blocking.md"
 put_block loop "$out/loop.md"
 put_block other "$out/other.md"
-echo "wrote $doc, $img/jitter-histograms.svg and $img/rate-vs-wire-limit.svg (raw outputs in $out/)"
+echo "wrote $page, $img/jitter-histograms.svg and $img/rate-vs-wire-limit.svg (raw outputs in $out/)"
+if [[ $write_docs -eq 0 ]]; then
+  echo "$doc and docs/img are unchanged: compare (diff $doc $page), then rerun with --write-docs to write them"
+fi
 if [[ ${#failed[@]} -gt 0 ]]; then
   echo "error: ${#failed[@]} figure(s) failed (noted in the machine block): ${failed[*]}" >&2
   exit 1

@@ -73,8 +73,8 @@ if ! command -v cyclictest >/dev/null 2>&1; then
 fi
 
 echo "building rmd and the comparison tool (release)" >&2
-cargo build --release -q -p rmd-cli
-cargo build --release -q --example jitter_compare
+cargo build --locked --release -q -p rmd-cli
+cargo build --locked --release -q --example jitter_compare
 rmd=target/release/rmd
 compare=target/release/examples/jitter_compare
 

@@ -73,10 +73,10 @@ fi
 
 # --- the inputs, written by our criterion bench ------------------------------------------------
 inputs=$work/inputs
-(cd "$root" && RMD_TRAJ_BENCH_DUMP="$inputs" cargo bench --quiet --bench trajectory >/dev/null)
+(cd "$root" && RMD_TRAJ_BENCH_DUMP="$inputs" cargo bench --locked --quiet --bench trajectory >/dev/null)
 
 # --- our harness -------------------------------------------------------------------------------
-CARGO_TARGET_DIR=$work/rust cargo build --quiet --release --manifest-path "$here/Cargo.toml"
+CARGO_TARGET_DIR=$work/rust cargo build --locked --quiet --release --manifest-path "$here/Cargo.toml"
 ours=$work/rust/release/rmd-traj-harness
 
 if $callgrind; then

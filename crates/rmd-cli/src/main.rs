@@ -13,22 +13,30 @@ mod output;
 
 use std::process::ExitCode;
 
-use clap::Parser;
+use clap::{CommandFactory, FromArgMatches};
 
 /// Tools for GYEMS / MyActuator RMD servo motors on CAN.
 ///
 /// Commands that talk to motors take `--iface IFACE` (a SocketCAN interface such as can0) or
 /// `--sim` (simulated motors in this process). Commands that move a motor turn it off when
 /// they end and on Ctrl-C.
-#[derive(Parser, Debug)]
+#[derive(clap::Parser, Debug)]
 #[command(name = "rmd", version, propagate_version = true)]
 pub(crate) struct Cli {
     #[command(subcommand)]
     command: cmd::Command,
 }
 
+/// `rmd`'s command line as clap builds it: [`Cli`] with an example in every command's help.
+pub(crate) fn command() -> clap::Command {
+    cmd::examples::attach(Cli::command())
+}
+
 fn main() -> ExitCode {
-    match Cli::try_parse() {
+    match command()
+        .try_get_matches()
+        .and_then(|matches| Cli::from_arg_matches(&matches).map_err(|e| e.format(&mut command())))
+    {
         Ok(cli) => cli.command.run(),
         Err(err) => output::report::clap_error(err),
     }

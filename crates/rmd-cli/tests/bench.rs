@@ -352,6 +352,81 @@ fn one_rate_trial_per_bus_count_passes_below_and_fails_above_the_wire_limit() {
     assert!(v["rate_hz"].is_null());
     assert!(v["zero_miss_rate_hz"].is_null());
     assert!(v["loop_added_us"].is_null());
+    // Why, and what to try.
+    let why = v["why_no_rate"].as_array().unwrap();
+    assert!(
+        why[0].as_str().unwrap().contains("above the wire limit"),
+        "{v}"
+    );
+    assert_eq!(v["what_to_try"][0]["flags"], "--rate 1000", "{v}");
+}
+
+/// A bus count that finds no rate says why and what to try, and the suggestion works as
+/// printed (its flag replacing the one given).
+#[test]
+fn rate_says_why_nothing_passed_and_what_to_try() {
+    let run = rmd("bench rate --virtual-time --rate 1400 --seconds 0.3");
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(
+        run.stdout
+            .contains("1 bus(es): no rate within the budget (0.1% of ticks missed) in 1 trial(s)"),
+        "{}",
+        run.stdout
+    );
+    assert!(
+        run.stdout.contains(
+            "1 bus(es): why: every rate tried is above the wire limit of its frames (1225.4 Hz)"
+        ),
+        "{}",
+        run.stdout
+    );
+    let tried = run
+        .stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("1 bus(es): try: "))
+        .unwrap_or_else(|| panic!("no suggestion in {}", run.stdout));
+    let flags = tried.split(": ").next().unwrap();
+    assert_eq!(flags, "--rate 1000");
+    let v = json(&format!(
+        "bench rate --virtual-time {flags} --seconds 0.3 --json"
+    ));
+    assert_eq!(v["rate_hz"], 1000.0, "{v}");
+    assert_eq!(v["why_no_rate"].as_array().unwrap().len(), 0, "{v}");
+}
+
+/// While it searches, every trial is followed by what the trials so far found.
+#[test]
+fn rate_reports_what_it_found_so_far_after_each_trial() {
+    let run = rmd("bench rate --virtual-time --seconds 0.2");
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let lines: Vec<&str> = run.stderr.lines().collect();
+    assert!(
+        lines[0].contains("a search runs about 10 to 20 trials"),
+        "{}",
+        run.stderr
+    );
+    let trials = lines.iter().filter(|l| l.starts_with("trial ")).count();
+    assert!(trials >= 3, "{}", run.stderr);
+    for (i, line) in lines.iter().enumerate() {
+        if line.starts_with("trial ") {
+            assert!(
+                lines[i + 1].starts_with("  so far (1 bus(es), "),
+                "{}",
+                run.stderr
+            );
+        }
+    }
+    // The last: the rate found, within the budget and with zero misses, and above it the
+    // lowest beyond (the wire limit is about 1225 Hz).
+    let last = lines
+        .iter()
+        .rev()
+        .find(|l| l.starts_with("  so far"))
+        .unwrap();
+    assert!(last.contains(&format!("{trials} trial(s)")), "{last}");
+    assert!(last.contains("within 0.1% up to 122"), "{last}");
+    assert!(last.contains("beyond it from 12"), "{last}");
+    assert!(last.contains("zero misses up to 122"), "{last}");
 }
 
 #[test]

@@ -995,6 +995,62 @@ fn status_of_a_robot_speaks_joint_names_and_joint_units() {
     assert!(err.contains("hip_aa, hip_fe, knee, ankle"), "{err}");
 }
 
+/// `rmd off|stop|run --robot FILE [JOINTS]`: the joints by name (all without names), each sent
+/// its command on its bus and confirmed.
+#[test]
+fn off_stop_run_take_joint_names() {
+    let robot = leg_robot();
+    let log = log_path("off-joints");
+    let log_arg = log.to_str().unwrap();
+    assert_eq!(
+        ok(&[
+            "off", "--robot", &robot, "--sim", "knee", "ankle", "--log", log_arg
+        ]),
+        "knee (motor 3 on bus leg): off\nankle (motor 4 on bus leg): off\n"
+    );
+    assert_eq!(
+        host_commands(&read_log(&log)),
+        [(3, Cmd::MotorOff), (4, Cmd::MotorOff)]
+    );
+    let every = ok(&["off", "--robot", &robot, "--sim"]);
+    assert_eq!(every.lines().count(), 4, "{every}");
+    for name in ["hip_aa", "hip_fe", "knee", "ankle"] {
+        assert!(every.contains(&format!("{name} (motor")), "{every}");
+    }
+    assert_eq!(
+        ok(&["stop", "--robot", &robot, "--sim", "hip_fe"]),
+        "hip_fe (motor 2 on bus leg): stopped (run resumes it)\n"
+    );
+    assert_eq!(
+        ok(&["run", "--robot", &robot, "--sim", "hip_fe,knee"]),
+        "hip_fe (motor 2 on bus leg): running\nknee (motor 3 on bus leg): running\n"
+    );
+    // A name the file does not have is a usage error that lists the names it has.
+    let err = fails(2, &["off", "--robot", &robot, "--sim", "elbow"]);
+    assert!(err.contains("hip_aa, hip_fe, knee, ankle"), "{err}");
+    // Without --robot the targets are motor ids, and there must be some.
+    let err = fails(2, &["off", "--sim"]);
+    assert!(err.contains("which motors?"), "{err}");
+}
+
+/// A command that takes motor ids refuses --robot instead of ignoring it (it used to talk to
+/// whatever --iface/--sim said, description unread).
+#[test]
+fn commands_without_joint_names_refuse_a_robot() {
+    let robot = leg_robot();
+    for args in [
+        &["scan", "--robot", &robot, "--sim"][..],
+        &["pid", "get", "1", "--robot", &robot, "--sim"],
+        &["torque", "1", "--amps", "0.1", "--robot", &robot, "--sim"],
+    ] {
+        let err = fails(2, args);
+        assert!(
+            err.contains("takes motor ids, not a robot's joints"),
+            "{err}"
+        );
+    }
+}
+
 #[test]
 fn move_by_joint_name_in_joint_degrees_and_monitor_by_joint() {
     let robot = leg_robot();
@@ -1031,7 +1087,10 @@ fn move_by_joint_name_in_joint_degrees_and_monitor_by_joint() {
         .collect();
     // Without --max-speed, 360 dps at the motor, as without --robot.
     assert_eq!(sent, [(3, 45.0, 360.0)]);
-    assert!(out.contains("`rmd off 3 --robot"), "{out}");
+    // Simulated motors end with the command: no `rmd off` to run afterwards (a later `rmd
+    // off --sim` would talk to new motors).
+    assert!(!out.contains("rmd off"), "{out}");
+    assert!(out.contains("nothing is left to release"), "{out}");
     // With it, joint degrees per second: 10 at the joint is 90 at the motor.
     let log = log_path("move-joint-speed");
     ok(&[

@@ -579,6 +579,14 @@ fn the_live_commands_work_against_rmd_sim_on_the_interface() {
     let moved = json(&ok_on(iface, &["status", "1", "--json"]));
     let angle = moved["motor_angle_degrees"].as_f64().unwrap();
     assert!((angle - 45.0).abs() <= 1.0, "motor 1 at {angle}°");
+    // The hint that releases it works as printed: `rmd off 1 --iface IFACE`.
+    let release = out
+        .split('`')
+        .nth(1)
+        .unwrap_or_else(|| panic!("no command in {out}"));
+    let words: Vec<&str> = release.split_whitespace().collect();
+    assert_eq!(words[..2], ["rmd", "off"], "{release}");
+    assert_eq!(ok(&words[1..]), "motor 1: off\n");
     ok_on(
         iface,
         &[

@@ -11,8 +11,16 @@
 //! A program that was stopped by a signal exits with [`EXIT_INTERRUPTED`] (130, as shells
 //! report SIGINT) after its motors are safe.
 //!
-//! The handler runs on the `ctrlc` crate's own thread (an ordinary thread, never the loop's),
-//! and is installed once per process by [`install`].
+//! A signal that repeats the one before (the same signal from the same process, within
+//! [`REPEAT_WINDOW`]) is that signal again, not a second request: GNU `timeout` sends its
+//! signal to the command and then to the command's process group, which holds the command too,
+//! so the command gets it twice, microseconds apart. It is not counted, and the notice thread
+//! says so. A terminal's Ctrl-C comes from the kernel (no sending process), so pressing it twice
+//! is always two requests.
+//!
+//! The handler runs on a thread of its own (`rmd-signal`, an ordinary thread, never the loop's),
+//! fed by `signal-hook`'s iterator with each signal's sender, and is installed once per process
+//! by [`install`].
 //!
 //! Invariant: the signal path acts and never writes. The handler only updates atomics, takes
 //! the watched loop's stopper (from a mutex nobody holds across I/O or a wait) and asks the
@@ -25,12 +33,16 @@
 
 use std::io::Write;
 use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, AtomicU8, AtomicU32, AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock, PoisonError};
 use std::thread::Thread;
+use std::time::{Duration, Instant};
 
 use rmd_bus::{Clock, Timestamp};
 use rmd_loop::Stopper;
+use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+use signal_hook::iterator::SignalsInfo;
+use signal_hook::iterator::exfiltrator::WithOrigin;
 
 use crate::error::RigError;
 
@@ -39,6 +51,12 @@ pub const EXIT_INTERRUPTED: u8 = 130;
 
 /// How long the third signal waits for motor-off to go out before the process exits anyway.
 pub const EXIT_WAIT: core::time::Duration = core::time::Duration::from_secs(2);
+
+/// A signal from the same process as the one before, the same signal, read this soon after it,
+/// repeats it (GNU `timeout`'s pair is microseconds apart; the window allows for the handler
+/// thread waiting for a CPU on a loaded machine, and is far shorter than two deliberate
+/// requests: a script that wants an emergency stop sends its second signal later).
+pub const REPEAT_WINDOW: Duration = Duration::from_millis(100);
 
 /// Signals received since the handler was installed.
 static COUNT: AtomicU32 = AtomicU32::new(0);
@@ -58,6 +76,34 @@ static NOTICE_THREAD: OnceLock<Thread> = OnceLock::new();
 const NOTICE_STOP: u8 = 1;
 /// A notice: the second signal was an emergency stop of the watched loop.
 const NOTICE_ESTOP: u8 = 2;
+/// A notice: a signal repeated the one before and was not counted ([`REPEATED`]).
+const NOTICE_REPEAT: u8 = 4;
+/// The last repeated signal, for its notice: its number, its sender, how long after the one it
+/// repeated it was read (microseconds).
+static REPEATED: (AtomicI32, AtomicI32, AtomicU64) =
+    (AtomicI32::new(0), AtomicI32::new(0), AtomicU64::new(0));
+
+/// One signal as the handler thread read it.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Arrival {
+    /// The signal (`SIGINT`, ...).
+    pub signal: i32,
+    /// The process that sent it; `None` when the kernel did (a terminal's Ctrl-C or hang-up).
+    pub sender: Option<i32>,
+    /// When it was read.
+    pub at: Instant,
+}
+
+impl Arrival {
+    /// Whether this arrival repeats `before`: the same signal from the same process, within
+    /// [`REPEAT_WINDOW`].
+    pub fn repeats(&self, before: &Arrival) -> bool {
+        self.signal == before.signal
+            && self.sender.is_some()
+            && self.sender == before.sender
+            && self.at.saturating_duration_since(before.at) < REPEAT_WINDOW
+    }
+}
 
 /// Marks the start of a command that drives motors itself, without a loop (`rmd torque`,
 /// `rmd move`): until [`motors_off_sent`] the third signal waits for its motor-off (at most
@@ -88,12 +134,25 @@ pub fn install() -> Result<Signals, RigError> {
     INSTALLED
         .get_or_init(|| {
             start_notices();
-            ctrlc::set_handler(|| {
-                // Nothing in `on_signal` panics; should anything ever, this thread must live on
-                // for the next signal.
-                let _ = catch_unwind(AssertUnwindSafe(on_signal));
-            })
-            .map_err(|e| e.to_string())
+            let mut incoming = SignalsInfo::<WithOrigin>::new([SIGINT, SIGTERM, SIGHUP])
+                .map_err(|e| format!("cannot handle SIGINT, SIGTERM and SIGHUP: {e}"))?;
+            std::thread::Builder::new()
+                .name("rmd-signal".to_owned())
+                .spawn(move || {
+                    let mut counted: Option<Arrival> = None;
+                    for origin in incoming.forever() {
+                        let arrival = Arrival {
+                            signal: origin.signal,
+                            sender: origin.process.map(|p| p.pid),
+                            at: Instant::now(),
+                        };
+                        // Nothing in `on_signal` panics; should anything ever, this thread must
+                        // live on for the next signal.
+                        let _ = catch_unwind(AssertUnwindSafe(|| on_signal(arrival, &mut counted)));
+                    }
+                })
+                .map(|_| ())
+                .map_err(|e| format!("cannot start the signal thread: {e}"))
         })
         .clone()
         .map(|()| Signals { _installed: () })
@@ -129,6 +188,32 @@ fn write_notices(pending: u8) {
         let _ = err
             .write_all(b"\ninterrupted again: EMERGENCY STOP; once more exits (after motor-off)\n");
     }
+    if pending & NOTICE_REPEAT != 0 {
+        let _ = err.write_all(
+            repeat_notice(
+                REPEATED.0.load(Ordering::Acquire),
+                REPEATED.1.load(Ordering::Acquire),
+                Duration::from_micros(REPEATED.2.load(Ordering::Acquire)),
+            )
+            .as_bytes(),
+        );
+    }
+}
+
+/// What the notice thread says of a signal that repeated the one before.
+fn repeat_notice(signal: i32, sender: i32, after: Duration) -> String {
+    let name = match signal {
+        SIGINT => "SIGINT",
+        SIGTERM => "SIGTERM",
+        SIGHUP => "SIGHUP",
+        _ => "signal",
+    };
+    format!(
+        "\ninterrupted: {name} from process {sender} again, {:.1} ms after the first: taken as \
+         the same request, not an emergency stop (GNU timeout signals a command, then its \
+         process group); another signal is an emergency stop\n",
+        after.as_secs_f64() * 1e3
+    )
 }
 
 /// Leaves `notice` for the notice thread (never writes, never blocks).
@@ -140,8 +225,26 @@ fn notify(notice: u8) {
 }
 
 /// Runs on the handler thread for every signal: acts, and leaves the telling to the notice
-/// thread.
-fn on_signal() {
+/// thread. `counted` is the last signal counted (a repeat of it is not counted).
+fn on_signal(arrival: Arrival, counted: &mut Option<Arrival>) {
+    if let Some(before) = counted
+        && arrival.repeats(before)
+        // Only while signals are counted: after `Signals::reset` a signal is a new request.
+        && COUNT.load(Ordering::SeqCst) > 0
+    {
+        REPEATED.0.store(arrival.signal, Ordering::Release);
+        REPEATED
+            .1
+            .store(arrival.sender.unwrap_or(0), Ordering::Release);
+        let after = arrival.at.saturating_duration_since(before.at);
+        REPEATED.2.store(
+            u64::try_from(after.as_micros()).unwrap_or(u64::MAX),
+            Ordering::Release,
+        );
+        notify(NOTICE_REPEAT);
+        return;
+    }
+    *counted = Some(arrival);
     let count = COUNT.fetch_add(1, Ordering::SeqCst) + 1;
     // Held by nobody across I/O or a wait: `watch` and `Watch::drop` only swap the value.
     let watched = WATCHED
@@ -236,5 +339,65 @@ pub struct Watch {
 impl Drop for Watch {
     fn drop(&mut self) {
         *WATCHED.lock().unwrap_or_else(PoisonError::into_inner) = None;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn arrival(signal: i32, sender: Option<i32>, at: Instant) -> Arrival {
+        Arrival { signal, sender, at }
+    }
+
+    #[test]
+    fn the_same_signal_from_the_same_process_at_once_repeats_it() {
+        let t0 = Instant::now();
+        let first = arrival(SIGTERM, Some(4242), t0);
+        // GNU timeout: the command, then its process group, microseconds apart.
+        let group = arrival(SIGTERM, Some(4242), t0 + Duration::from_micros(40));
+        assert!(group.repeats(&first));
+        // Later than the window: a second request.
+        let later = arrival(SIGTERM, Some(4242), t0 + REPEAT_WINDOW);
+        assert!(!later.repeats(&first));
+        // Another sender, another signal: a second request.
+        assert!(!arrival(SIGTERM, Some(4243), group.at).repeats(&first));
+        assert!(!arrival(SIGINT, Some(4242), group.at).repeats(&first));
+        // A terminal's Ctrl-C comes from the kernel: twice is two requests, however quick.
+        let key = arrival(SIGINT, None, t0);
+        assert!(!arrival(SIGINT, None, t0 + Duration::from_millis(1)).repeats(&key));
+    }
+
+    #[test]
+    fn a_repeat_is_not_counted_and_a_later_signal_is() {
+        // No loop watched: the first two signals only count (a third would exit).
+        COUNT.store(0, Ordering::SeqCst);
+        let mut counted = None;
+        let t0 = Instant::now();
+        on_signal(arrival(SIGTERM, Some(4242), t0), &mut counted);
+        on_signal(
+            arrival(SIGTERM, Some(4242), t0 + Duration::from_micros(40)),
+            &mut counted,
+        );
+        assert_eq!(COUNT.load(Ordering::SeqCst), 1);
+        assert_eq!(REPEATED.1.load(Ordering::SeqCst), 4242);
+        assert_eq!(REPEATED.2.load(Ordering::SeqCst), 40);
+        on_signal(
+            arrival(SIGTERM, Some(4242), t0 + REPEAT_WINDOW),
+            &mut counted,
+        );
+        assert_eq!(COUNT.load(Ordering::SeqCst), 2);
+        COUNT.store(0, Ordering::SeqCst);
+    }
+
+    #[test]
+    fn the_notice_of_a_repeat_names_the_signal_the_sender_and_the_gap() {
+        let notice = repeat_notice(SIGTERM, 4242, Duration::from_micros(40));
+        assert!(
+            notice.contains("SIGTERM from process 4242 again, 0.0 ms after the first"),
+            "{notice}"
+        );
+        assert!(notice.contains("not an emergency stop"), "{notice}");
+        assert!(notice.ends_with('\n'));
     }
 }

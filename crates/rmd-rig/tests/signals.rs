@@ -1,5 +1,6 @@
 //! The project's signal policy on a real signal: the first SIGINT stops the watched loop, the
-//! second is an emergency stop. Its own test binary: the handler is process-wide.
+//! second is an emergency stop, and the same signal from the same process at once (GNU
+//! `timeout`'s pair) is the first again. Its own test binary: the handler is process-wide.
 
 use core::time::Duration;
 
@@ -29,6 +30,10 @@ fn build() -> RtLoop<AnyBus, AnyClock, Idle> {
 
 fn raise_and_wait(signals: &signals::Signals, count: u32) {
     raise(Signal::SIGINT).unwrap();
+    wait_for(signals, count);
+}
+
+fn wait_for(signals: &signals::Signals, count: u32) {
     let give_up = std::time::Instant::now() + Duration::from_secs(10);
     while signals.count() < count {
         assert!(std::time::Instant::now() < give_up, "the handler never ran");
@@ -63,13 +68,34 @@ fn the_first_signal_stops_the_run_the_second_is_an_emergency_stop() {
     assert!(finished.outcome.report.safe_stop.all_off_confirmed());
     assert!(finished.outcome.report.stats.ticks > 0);
 
-    // A second loop, after a reset: two signals before it runs are an emergency stop.
+    // A second loop, after a reset: two signals before it runs are an emergency stop (the
+    // second sent after the window in which it would repeat the first).
     signals.reset();
     let rt = build();
-    let _watch = signals.watch(rt.stopper());
+    let watch = signals.watch(rt.stopper());
     raise_and_wait(&signals, 1);
+    std::thread::sleep(signals::REPEAT_WINDOW);
     raise_and_wait(&signals, 2);
     let out = rt.run(RunLimit::Forever);
     assert_eq!(out.report.stop_reason, StopReason::EmergencyStop);
+    assert!(out.report.safe_stop.all_off_confirmed());
+    drop(watch);
+
+    // A third: the same signal twice at once from this process, as GNU timeout sends it (to
+    // the command, then to its process group), is one request: the loop stops, no emergency
+    // stop. (Each raise runs the process's signal handler before it returns: two deliveries.
+    // Read apart, the second repeats the first; read together, they are one.)
+    std::thread::sleep(signals::REPEAT_WINDOW);
+    signals.reset();
+    let rt = build();
+    let _watch = signals.watch(rt.stopper());
+    raise(Signal::SIGINT).unwrap();
+    raise(Signal::SIGINT).unwrap();
+    wait_for(&signals, 1);
+    // Both are read well within a second.
+    std::thread::sleep(Duration::from_secs(1));
+    assert_eq!(signals.count(), 1, "the repeat was counted");
+    let out = rt.run(RunLimit::Forever);
+    assert_eq!(out.report.stop_reason, StopReason::Requested);
     assert!(out.report.safe_stop.all_off_confirmed());
 }

@@ -135,11 +135,13 @@ fn child() -> Result<(), String> {
         return Err(format!("the MCAP file was not finished: {telemetry}"));
     }
 
-    // 2. The second signal is an emergency stop (both counted before the loop runs).
+    // 2. The second signal is an emergency stop (both counted before the loop runs; the second
+    // after the window in which the same signal from the same process repeats the first).
     signals.reset();
     let (rt, sims) = open();
     let watch = signals.watch(rt.stopper());
     raise_and_wait(&signals, 1)?;
+    std::thread::sleep(signals::REPEAT_WINDOW);
     raise_and_wait(&signals, 2)?;
     let outcome = rt.run(RunLimit::Duration(LIMIT));
     drop(watch);

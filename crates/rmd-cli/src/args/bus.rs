@@ -17,7 +17,8 @@ use super::parse;
 /// Where the motors are, and how to talk to them (flattened into every live command).
 #[derive(Args, Debug, Clone)]
 pub(crate) struct BusArgs {
-    /// The robot description (TOML) whose joints to talk to, by name and in joint units;
+    /// The robot description (TOML) whose joints to talk to, by name and in joint units
+    /// (status, monitor, move, off, stop, run; the other commands refuse it);
     /// each bus on the interface the description names (`--sim`: simulated motors matching
     /// it; `--iface`: other interfaces, by bus order or `BUS=IFACE`).
     #[arg(long, value_name = "FILE")]

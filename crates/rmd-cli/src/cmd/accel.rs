@@ -71,6 +71,9 @@ fn get(id: MotorId, json: bool, args: &BusArgs) -> Result<(), CliError> {
 fn set(id: MotorId, accel: Accel, args: &BusArgs) -> Result<(), CliError> {
     let mut bus = Connection::open(args, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     let reply = bus.request(id, &Request::WriteAccelRam { accel })?;
+    let read_back = bus
+        .later(&format!("accel get {id}"))
+        .map_or_else(String::new, |get| format!(": read it back with `{get}`"));
     bus.finish()?;
     match reply {
         Reply::WriteAccelRam { accel: echoed } if echoed == accel => {
@@ -81,7 +84,7 @@ fn set(id: MotorId, accel: Accel, args: &BusArgs) -> Result<(), CliError> {
             Ok(())
         }
         Reply::WriteAccelRam { accel: echoed } => Err(CliError::Failed(format!(
-            "motor {id} echoed {} dps/s instead of {}: read it back with `rmd accel get {id}`",
+            "motor {id} echoed {} dps/s instead of {}{read_back}",
             echoed.dps_per_s(),
             accel.dps_per_s()
         ))),

@@ -10,7 +10,7 @@
 
 use std::process::ExitCode;
 
-use clap::{Args, CommandFactory};
+use clap::Args;
 use clap_complete::Shell;
 
 use crate::output::{console, report};
@@ -25,7 +25,7 @@ pub(crate) struct CompletionsArgs {
 
 /// Runs `rmd completions`.
 pub(crate) fn run(args: CompletionsArgs) -> ExitCode {
-    let mut command = crate::Cli::command();
+    let mut command = crate::command();
     let name = command.get_name().to_owned();
     // Generated into memory first: clap_complete panics when its writer fails (a closed pipe).
     let mut script = Vec::new();

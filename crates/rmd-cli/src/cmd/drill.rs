@@ -42,10 +42,7 @@ use crate::output::{errln, outln};
     be written), 2 on a usage error, 130 after Ctrl-C/SIGTERM/SIGHUP (the drill in progress is \
     stopped and judged, no other starts; a second signal is an emergency stop).\n\n\
     Telemetry of one drill (--fault): --mcap FILE, --csv FILE, --foxglove [ADDR] (docs/telemetry.md); \
-    not with --all or --chaos.\n\n\
-    Examples:\n  rmd drill --fault bus-off:50 --buses 2\n  rmd drill --all --virtual-time\n  \
-    rmd drill --chaos --seconds 60 --seed 7 --virtual-time --json\n  \
-    rmd drill --fault controller-hang:200 --virtual-time --mcap drill.mcap"
+    not with --all or --chaos."
 )]
 pub(crate) struct DrillArgs {
     #[arg(long, help = "The fault to inject (KIND[:ARG]; see below), at --at or at its own time with @SECONDS (--fault controller-hang:3000@0.5 --fault estop@0.52); repeatable", value_name = "KIND[:ARG][@SECONDS]", value_parser = timed_fault, required_unless_present_any = ["all", "chaos"], conflicts_with_all = ["all", "chaos"])]

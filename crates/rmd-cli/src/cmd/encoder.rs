@@ -131,6 +131,9 @@ fn set_offset(args: &OffsetArgs) -> Result<(), CliError> {
             encoder_offset: offset,
         },
     )?;
+    let read_back = bus
+        .later(&format!("encoder get {id}"))
+        .map_or_else(String::new, |get| format!(": read it back with `{get}`"));
     bus.finish()?;
     match reply {
         Reply::WriteEncoderOffset { encoder_offset } if encoder_offset == offset => {
@@ -138,7 +141,7 @@ fn set_offset(args: &OffsetArgs) -> Result<(), CliError> {
             Ok(())
         }
         Reply::WriteEncoderOffset { encoder_offset } => Err(CliError::Failed(format!(
-            "motor {id} reports offset {} instead of {}: read it back with `rmd encoder get {id}`",
+            "motor {id} reports offset {} instead of {}{read_back}",
             encoder_offset.raw(),
             offset.raw()
         ))),

@@ -49,12 +49,13 @@ fn log(args: &LogArgs) -> Result<(), CliError> {
     let to_stdout = args.file.as_os_str() == "-";
     // Set when the reader of stdout goes away (`rmd log --iface can0 - | head`): the log ends.
     let mut reader_gone = None;
+    // The interface first: one that cannot be opened leaves no empty file behind.
+    let bus = open_interface(&args.iface, Filter::Everything)?;
     let sink = if to_stdout {
         LogSink::stdout()?
     } else {
         LogSink::create(&args.file)?
     };
-    let bus = open_interface(&args.iface, Filter::Everything)?;
     let clock = MonotonicClock;
     let (mut bus, recording) = Recording::start(
         bus,

@@ -10,6 +10,7 @@ mod drill;
 mod drive;
 mod encode;
 mod encoder;
+pub(crate) mod examples;
 mod log;
 mod monitor;
 mod motion;

@@ -214,9 +214,11 @@ fn move_to(
     }
     let reply = bus.request(id, &request)?;
     if reply.status2().is_none() {
+        let check = bus
+            .later(&format!("status {id}"))
+            .map_or_else(String::new, |status| format!("; check with `{status}`"));
         return Err(CliError::Failed(format!(
-            "{label} answered {} with {}: the command may not have been taken; check with \
-             `rmd status {id}`",
+            "{label} answered {} with {}: the command may not have been taken{check}",
             request.command(),
             reply.command()
         )));
@@ -264,13 +266,18 @@ fn move_to(
     drop(progress);
     match outcome {
         Ok(elapsed) => {
+            let release = match bus.later(&format!("off {id}")) {
+                Some(off) => format!("holding the position (`{off}` releases it)"),
+                // Simulated in this process: nothing is left to release.
+                None => "holding the position (simulated motors end with this command: \
+                         nothing is left to release)"
+                    .to_owned(),
+            };
             outln!(
-                "{label}: at {:.2}° (target {}°) after {:.2} s; holding the position \
-                 (`rmd off {id} {}` releases it)",
+                "{label}: at {:.2}° (target {}°) after {:.2} s; {release}",
                 angle.unwrap_or(f64::NAN),
                 args.deg,
                 elapsed.as_secs_f64(),
-                bus.setup().option()
             )?;
             Ok(())
         }

@@ -136,14 +136,16 @@ fn get(id: MotorId, json: bool, args: &BusArgs) -> Result<(), CliError> {
 }
 
 fn set(args: &SetArgs) -> Result<(), CliError> {
-    if !args.any() {
-        return Err(CliError::Usage(
-            "give at least one gain to change (e.g. --speed-pid-kp 60); `rmd pid get` shows \
-             the current ones"
-                .into(),
-        ));
-    }
     let id = args.id;
+    if !args.any() {
+        let current = crate::live::hint::afresh(&args.bus, &format!("pid get {id}"))
+            .map_or_else(String::new, |get| {
+                format!("; `{get}` shows the current ones")
+            });
+        return Err(CliError::Usage(format!(
+            "give at least one gain to change (e.g. --speed-pid-kp 60){current}"
+        )));
+    }
     if args.rom {
         confirm::confirm(
             &format!("writing PID gains to the ROM of motor {id}"),
@@ -171,11 +173,16 @@ fn set(args: &SetArgs) -> Result<(), CliError> {
         Reply::WritePidRam(p) | Reply::WritePidRom(p) => p,
         other => return Err(CliError::unexpected_reply(id, &other)),
     };
+    let read_back = bus
+        .later(&format!("pid get {id}"))
+        .map_or_else(String::new, |get| {
+            format!("read them back with `{get}` and ")
+        });
     bus.finish()?;
     if echoed != gains {
         return Err(CliError::Failed(format!(
-            "motor {id} echoed other gains than written ({} instead of {}): read them back \
-             with `rmd pid get {id}` and try again",
+            "motor {id} echoed other gains than written ({} instead of {}): {read_back}try \
+             again",
             gains_text(&echoed),
             gains_text(&gains)
         )));

@@ -1,4 +1,5 @@
-//! `rmd off|stop|run IDS`: motor off (0x80), stop (0x81), run (0x88).
+//! `rmd off|stop|run IDS` (or `--robot FILE [JOINTS]`): motor off (0x80), stop (0x81), run
+//! (0x88).
 
 use std::process::ExitCode;
 
@@ -6,17 +7,20 @@ use clap::Args;
 use rmd_protocol::{Reply, Request};
 
 use crate::args::bus::BusArgs;
-use crate::args::ids::{self, IdList};
-use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::live::connect::{DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::live::motors::Motors;
 use crate::output::report::{self, CliError};
 use crate::output::{errln, outln};
 
 /// Arguments of `rmd off`, `rmd stop` and `rmd run`.
 #[derive(Args, Debug)]
+#[command(
+    after_help = "With --robot FILE: the joints by name (all of them without JOINTS), each on the bus the description names (--iface moves buses, --sim simulates them)."
+)]
 pub(crate) struct PowerArgs {
-    /// Motor id(s): 1, 1-4, 1,3, all.
-    #[arg(value_name = "IDS", value_parser = ids::parse)]
-    ids: IdList,
+    /// Motor id(s): 1, 1-4, 1,3, all; with --robot, joint names (none: every joint).
+    #[arg(value_name = "IDS|JOINTS")]
+    targets: Vec<String>,
     #[command(flatten)]
     bus: BusArgs,
 }
@@ -56,33 +60,36 @@ pub(crate) fn run(action: Action, args: PowerArgs) -> ExitCode {
 }
 
 fn apply(action: Action, args: &PowerArgs) -> Result<(), CliError> {
-    let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
+    let mut motors = Motors::open(&args.bus, &args.targets, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     let request = action.request();
     let mut failed = Vec::new();
-    for &motor in args.ids.ids() {
-        match bus.request(motor, &request) {
-            Ok(reply) if reply == expected(action) => outln!("motor {motor}: {}", action.done())?,
+    for motor in motors.motors().to_vec() {
+        match motors.request(&motor, &request) {
+            Ok(reply) if reply == expected(action) => {
+                outln!("{}: {}", motor.title(), action.done())?;
+            }
             Ok(reply) => {
                 errln!(
-                    "error: motor {motor} answered {} with {}: try again",
+                    "error: {} answered {} with {}: try again",
+                    motor.label(),
                     request.command(),
                     reply.command()
                 );
-                failed.push(motor.to_string());
+                failed.push(motor.label());
             }
             Err(error) if error.is_bus_failure() => return Err(error.into()),
             Err(error) => {
                 errln!("error: {error}");
-                failed.push(motor.to_string());
+                failed.push(motor.label());
             }
         }
     }
-    bus.finish()?;
+    motors.finish()?;
     if failed.is_empty() {
         Ok(())
     } else {
         Err(CliError::Failed(format!(
-            "motor(s) {} did not confirm (see above)",
+            "{} did not confirm (see above)",
             failed.join(", ")
         )))
     }

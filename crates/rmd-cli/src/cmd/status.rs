@@ -131,14 +131,7 @@ fn print_human(motor: &Motor, replies: &[Reply]) -> Result<(), WriteError> {
     for (label, value) in rows(replies, motor.width) {
         table.row([label.to_owned(), value]);
     }
-    let title = match &motor.joint {
-        Some(joint) => format!(
-            "{} (motor {} on bus {})",
-            joint.name, motor.id, joint.bus_name
-        ),
-        None => format!("motor {}", motor.id),
-    };
-    out!("{title}\n{}", table.render())
+    out!("{}\n{}", motor.title(), table.render())
 }
 
 /// The readings in words: `(label, value)` per line, in the order of [`READS`].

@@ -44,6 +44,11 @@ fn zero(args: &ZeroArgs) -> Result<(), CliError> {
     )?;
     let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     let reply = bus.request(id, &Request::WriteZeroRom)?;
+    let check = bus
+        .later(&format!("encoder get {id}"))
+        .map_or_else(String::new, |get| {
+            format!("; check with `{get}` after a power cycle")
+        });
     bus.finish()?;
     match reply {
         Reply::WriteZeroRom { encoder_offset } => {
@@ -55,8 +60,8 @@ fn zero(args: &ZeroArgs) -> Result<(), CliError> {
             Ok(())
         }
         other => Err(CliError::Failed(format!(
-            "motor {id} answered with an unexpected {} reply: the zero may not be written; \
-             check with `rmd encoder get {id}` after a power cycle",
+            "motor {id} answered with an unexpected {} reply: the zero may not be \
+             written{check}",
             other.command()
         ))),
     }

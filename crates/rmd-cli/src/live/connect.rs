@@ -54,6 +54,15 @@ impl Connection {
         default_timeout: Duration,
         default_retries: u32,
     ) -> Result<Self, CliError> {
+        if let Some(robot) = &args.robot {
+            // Joint names are for the commands that open `Motors`; here a description would
+            // be silently ignored and the command would talk to whatever --iface/--sim says.
+            return Err(CliError::Usage(format!(
+                "--robot {}: this command takes motor ids, not a robot's joints (--robot works \
+                 with status, monitor, move, off, stop and run): give --iface IFACE or --sim",
+                robot.display()
+            )));
+        }
         let (bus, setup): (Box<dyn CanBus>, Setup) = if args.sim {
             (
                 Box::new(simulated_bus(
@@ -180,6 +189,13 @@ impl Connection {
     /// What the bus is.
     pub(crate) fn setup(&self) -> &Setup {
         &self.policy.setup
+    }
+
+    /// `rmd WORDS` with the options that reach these motors from a later command (the
+    /// interface and protocol), or `None` for simulated motors, which end with this command
+    /// (see [`hint`](crate::live::hint)).
+    pub(crate) fn later(&self, words: &str) -> Option<String> {
+        crate::live::hint::later(&self.policy.setup, self.policy.dialect, self.width, words)
     }
 
     /// The motors' encoder width.

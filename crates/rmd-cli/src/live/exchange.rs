@@ -53,15 +53,6 @@ pub(crate) enum Setup {
 }
 
 impl Setup {
-    /// The command-line option that reaches the same bus (`--iface can0`, `--sim`).
-    pub(crate) fn option(&self) -> String {
-        match self {
-            Setup::Interface(iface) => format!("--iface {iface}"),
-            Setup::Simulator(ids) => format!("--sim --sim-ids {ids}"),
-            Setup::Robot(file) => format!("--robot {file} --sim"),
-        }
-    }
-
     /// A short name for messages (`can0`, `the simulator`).
     pub(crate) fn name(&self) -> String {
         match self {
@@ -85,6 +76,18 @@ impl Setup {
             Setup::Robot(file) => {
                 format!("the simulated motors are the ones {file} describes")
             }
+        }
+    }
+
+    /// Where to learn each motor's firmware: `rmd scan` on the interface, or the option that
+    /// chose the simulated motors' firmware.
+    fn firmware_advice(&self) -> String {
+        match self {
+            Setup::Interface(iface) => {
+                format!("`rmd scan --iface {iface}` identifies each motor's firmware")
+            }
+            Setup::Simulator(_) => "--sim-firmware chose the simulated motors' firmware".to_owned(),
+            Setup::Robot(file) => format!("the simulated motors run the firmware {file} describes"),
         }
     }
 }
@@ -166,7 +169,7 @@ pub(crate) enum ExchangeError {
     #[error(
         "motor {motor} sent an invalid reply to {command}: {error}; try again, and if it \
          persists check the wiring (corrupted frames) and the motor's firmware (protocol \
-         {dialect} expected: `rmd scan` identifies each motor's firmware, --protocol chooses)"
+         {dialect} expected, --protocol chooses; {})", setup.firmware_advice()
     )]
     BadReply {
         /// The motor asked.
@@ -177,12 +180,14 @@ pub(crate) enum ExchangeError {
         error: ProtocolError,
         /// The protocol spoken.
         dialect: Dialect,
+        /// What the bus is.
+        setup: Setup,
     },
     /// The motor answered on `0x240 + id`: MyActuator V3 firmware.
     #[error(
         "motor {motor} answered {command} on 0x{can_id:03X} (0x240 + id), as MyActuator V3 \
          firmware does: rmd-rt does not drive V3 motors (their 0x280 frame is a command to every \
-         motor, not torque); `rmd scan` identifies each motor's firmware"
+         motor, not torque); {}", setup.firmware_advice()
     )]
     OtherFirmware {
         /// The motor asked.
@@ -191,6 +196,8 @@ pub(crate) enum ExchangeError {
         command: Command,
         /// The identifier it answered on.
         can_id: u16,
+        /// What the bus is.
+        setup: Setup,
     },
     /// The request cannot be expressed in the protocol spoken (a current beyond its range).
     #[error("cannot send {command} to motor {motor} in protocol {dialect}: {error}")]
@@ -315,12 +322,14 @@ pub(crate) fn request(
             command,
             error,
             dialect: policy.dialect,
+            setup: policy.setup.clone(),
         }
     } else if let Some(can_id) = v3_answer {
         ExchangeError::OtherFirmware {
             motor,
             command,
             can_id,
+            setup: policy.setup.clone(),
         }
     } else if let Some(got) = mismatch {
         ExchangeError::Mismatch {

@@ -1,6 +1,7 @@
 //! Talking to motors on a live bus: [`connect`] (`--iface`/`--sim` to a bus, `--log`),
 //! [`motors`] (the motors of a command: ids on a bus, or a robot's joints by name),
-//! [`exchange`] (one request, one reply: timeout, retries, typed errors), [`interrupt`]
+//! [`exchange`] (one request, one reply: timeout, retries, typed errors), [`hint`] (the
+//! commands a message suggests: complete, and only where they can work), [`interrupt`]
 //! (Ctrl-C), [`safe_stop`] (motors off when a motion ends), [`confirm`] (ROM writes),
 //! [`recording`] (`--log`, never held by its reader), [`frames_mcap`] (`--mcap` of the commands
 //! that move motors).
@@ -9,6 +10,7 @@ pub(crate) mod confirm;
 pub(crate) mod connect;
 pub(crate) mod exchange;
 pub(crate) mod frames_mcap;
+pub(crate) mod hint;
 pub(crate) mod interrupt;
 pub(crate) mod motors;
 pub(crate) mod recording;

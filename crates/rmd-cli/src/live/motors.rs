@@ -50,6 +50,14 @@ impl Motor {
             None => format!("motor {}", self.id),
         }
     }
+
+    /// `knee (motor 3 on bus leg)` or `motor 3`, for a motor's heading.
+    pub(crate) fn title(&self) -> String {
+        match &self.joint {
+            Some(j) => format!("{} (motor {} on bus {})", j.name, self.id, j.bus_name),
+            None => format!("motor {}", self.id),
+        }
+    }
 }
 
 /// The open buses and the motors on them.
@@ -114,8 +122,25 @@ impl Motors {
         let placement = Placement::resolve(&robot, &overrides, PlacementDefault::Described)
             .map_err(|e| CliError::Usage(e.to_string()))?;
         if args.log.is_some() && robot.buses().len() > 1 {
+            // `rmd log` beside this command records an interface; simulated buses live in this
+            // process only.
+            let logs: Vec<String> = placement
+                .buses()
+                .iter()
+                .filter_map(|target| match target {
+                    BusTarget::SocketCan(iface) => {
+                        Some(format!("`rmd log --iface {iface} {iface}.log`"))
+                    }
+                    BusTarget::Simulator => None,
+                })
+                .collect();
+            let instead = if logs.is_empty() {
+                String::new()
+            } else {
+                format!(": run {} beside it instead", logs.join(" and "))
+            };
             return Err(CliError::Usage(format!(
-                "--log records one bus, and {} has {}: use `rmd log` on each interface instead",
+                "--log records one bus, and {} has {}{instead}",
                 path.display(),
                 robot.buses().len()
             )));

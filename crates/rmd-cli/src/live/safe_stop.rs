@@ -25,12 +25,17 @@ pub(crate) fn turn_off(bus: &mut Connection, motors: &[MotorId]) -> Result<(), S
         return Ok(());
     }
     let ids: Vec<String> = motors.iter().map(ToString::to_string).collect();
-    Err(format!(
-        "{}. THE MOTOR MAY STILL BE MOVING: turn it off with `rmd off {} {}`, or cut its power",
-        problems.join("; "),
-        ids.join(","),
-        bus.setup().option()
-    ))
+    Err(match bus.later(&format!("off {}", ids.join(","))) {
+        Some(off) => format!(
+            "{}. THE MOTOR MAY STILL BE MOVING: turn it off with `{off}`, or cut its power",
+            problems.join("; ")
+        ),
+        // In-process simulated motors: they end with this command.
+        None => format!(
+            "{} (simulated motors: they stop when this command ends)",
+            problems.join("; ")
+        ),
+    })
 }
 
 /// Ends a motion command: turns `motors` off, whatever `outcome` was, and merges what

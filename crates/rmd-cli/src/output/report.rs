@@ -70,7 +70,9 @@ pub(crate) fn failure(message: impl std::fmt::Display) -> ExitCode {
 }
 
 /// Reports a clap error: help and version go to stdout as usual (exit 0); a usage error is
-/// condensed into one line on stderr (clap's message without its usage block and tips).
+/// condensed into one line on stderr: clap's message without its usage block, with clap's
+/// suggestions for a mistyped name (`did you mean 'status'?`) and its tips that can work as
+/// printed.
 pub(crate) fn clap_error(err: clap::Error) -> ExitCode {
     use clap::error::ErrorKind;
     match err.kind() {
@@ -83,14 +85,70 @@ pub(crate) fn clap_error(err: clap::Error) -> ExitCode {
             ExitCode::from(USAGE)
         }
         _ => {
-            errln!("{}", one_line(&err.render().to_string()));
+            errln!("{}", usage_line(&err));
             ExitCode::from(USAGE)
         }
     }
 }
 
-/// clap's multi-line message as one line: the lines before `Usage:`, without tips and the
-/// "For more information" hint, joined.
+/// A clap usage error as one line: its message, then what clap suggests.
+fn usage_line(err: &clap::Error) -> String {
+    let mut line = one_line(&err.render().to_string());
+    let names = suggested_names(err);
+    if !names.is_empty() {
+        line.push_str(&format!("; did you mean {}?", either(&names)));
+    }
+    for tip in tips(err) {
+        line.push_str(&format!("; {tip}"));
+    }
+    line
+}
+
+/// The names clap found close to a mistyped subcommand, flag or value (its `suggestions`
+/// feature, by Jaro distance), quoted.
+fn suggested_names(err: &clap::Error) -> Vec<String> {
+    use clap::error::{ContextKind, ContextValue};
+    [
+        ContextKind::SuggestedSubcommand,
+        ContextKind::SuggestedArg,
+        ContextKind::SuggestedValue,
+    ]
+    .into_iter()
+    .flat_map(|kind| match err.get(kind) {
+        Some(ContextValue::String(name)) => vec![name.clone()],
+        Some(ContextValue::Strings(names)) => names.clone(),
+        _ => Vec::new(),
+    })
+    .map(|name| format!("'{name}'"))
+    .collect()
+}
+
+/// clap's other tips (`'pid get' exists`, `remove the '--' before it`), without "to pass
+/// '--amp' as a value, use '-- --amp'": no `rmd` command takes a value that starts with `--`
+/// as a positional argument, so that tip cannot work.
+fn tips(err: &clap::Error) -> Vec<String> {
+    use clap::error::{ContextKind, ContextValue};
+    match err.get(ContextKind::Suggested) {
+        Some(ContextValue::StyledStrs(tips)) => tips
+            .iter()
+            .map(ToString::to_string)
+            .filter(|tip| !tip.contains(" as a value, use "))
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// `'a'`, `'a' or 'b'`, `'a', 'b' or 'c'`.
+fn either(names: &[String]) -> String {
+    match names {
+        [] => String::new(),
+        [one] => one.clone(),
+        [rest @ .., last] => format!("{} or {last}", rest.join(", ")),
+    }
+}
+
+/// clap's multi-line message as one line: the lines before `Usage:`, without tips (see
+/// [`usage_line`]) and the "For more information" hint, joined.
 fn one_line(message: &str) -> String {
     message
         .lines()
@@ -121,6 +179,53 @@ mod tests {
             message.contains(&Reply::MotorOff.command().to_string()),
             "{message}"
         );
+    }
+
+    /// The one line `rmd ARGS` prints for its usage error.
+    fn usage_error_of(args: &[&str]) -> String {
+        use clap::Parser;
+        let err = crate::Cli::try_parse_from(std::iter::once("rmd").chain(args.iter().copied()))
+            .expect_err("a usage error");
+        usage_line(&err)
+    }
+
+    #[test]
+    fn suggestions_for_mistyped_names_are_kept() {
+        assert_eq!(
+            usage_error_of(&["staus"]),
+            "error: unrecognized subcommand 'staus'; did you mean 'status'?"
+        );
+        assert_eq!(
+            usage_error_of(&["torque", "1", "--sim", "--amp", "1"]),
+            "error: unexpected argument '--amp' found; did you mean '--amps'?"
+        );
+        assert_eq!(
+            usage_error_of(&["bench", "rat"]),
+            "error: unrecognized subcommand 'rat'; did you mean 'rate'?"
+        );
+        // A flag of a subcommand given before it: clap's tip says where it belongs.
+        assert_eq!(
+            usage_error_of(&["--sim", "status"]),
+            "error: unexpected argument '--sim' found; 'status --sim' exists"
+        );
+    }
+
+    #[test]
+    fn a_tip_that_cannot_work_is_left_out() {
+        // clap would add "to pass '--amp' as a value, use '-- --amp'": `rmd status 1 --sim --
+        // --amp` only fails differently (`--amp` is no motor id).
+        assert_eq!(
+            usage_error_of(&["status", "1", "--sim", "--amp"]),
+            "error: unexpected argument '--amp' found"
+        );
+    }
+
+    #[test]
+    fn either_joins_names() {
+        let names = |n: &[&str]| n.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(either(&names(&["'a'"])), "'a'");
+        assert_eq!(either(&names(&["'a'", "'b'"])), "'a' or 'b'");
+        assert_eq!(either(&names(&["'a'", "'b'", "'c'"])), "'a', 'b' or 'c'");
     }
 
     #[test]

@@ -15,12 +15,18 @@
 //! arrival to the end of the tick's work (the loop is then ready to send the next frame): its
 //! wake-up for the reply, the hand-off, decoding, the controller, statistics and telemetry.
 //!
+//! While it searches, each trial's line is followed by what the trials so far found. A bus count
+//! that finds no rate within the budget says why and what to try ([`diagnosis`]: the machine's
+//! load, stalls, the simulator's late replies); its zero-miss search is then not run (a rate with
+//! no miss would be within the budget).
+//!
 //! In real time each simulated bus runs on its own thread (`--sim thread`, the default), as real
 //! motors do, so that the loop thread is measured alone and the loop waits on every bus at
 //! once; `--sim inline` runs them inside the loop's thread (as before: the loop then also pays
 //! for their firmware and physics); `--virtual-time` runs everything on a virtual clock.
 
 mod attribution;
+mod diagnosis;
 mod search;
 mod trial;
 
@@ -37,6 +43,7 @@ use crate::output::errln;
 use crate::output::progress::{self, Progress};
 use crate::output::report;
 use crate::output::table::{Align, TextTable};
+use diagnosis::Machine;
 use rmd_rig::args::RealtimeArgs;
 use rmd_rig::args::duration::run_length;
 use search::Search;
@@ -183,13 +190,23 @@ pub(crate) fn run(mut args: RateArgs) -> ExitCode {
     if let Err(e) = rmd_rig::signals::install() {
         return report::failure(e);
     }
+    let machine = Machine::now();
+    let started = std::time::Instant::now();
     let mut results = Vec::new();
     let mut offset = 0;
     for &buses in &args.buses {
-        let mut search = Search::new(&args, buses, &progress, offset);
+        let mut search = Search::new(&args, buses, &progress, offset, started);
         let searched = match args.rate {
             Some(rate) => search.run(rate).map(|_| ()),
-            None => search.find(args.budget()).and_then(|()| search.find(0.0)),
+            // No rate within the budget: none has zero misses either (the stalls behind the
+            // misses cost the same share at any rate), so that search is not run.
+            None => search.find(args.budget()).and_then(|()| {
+                if search.best(args.budget()).is_some() {
+                    search.find(0.0)
+                } else {
+                    Ok(())
+                }
+            }),
         };
         offset += search.trials.len();
         match searched {
@@ -206,6 +223,7 @@ pub(crate) fn run(mut args: RateArgs) -> ExitCode {
         }
     }
     progress.clear();
+    let machine = machine.ended();
     let interrupted = rmd_rig::signals::interrupted();
     if interrupted {
         errln!("interrupted: the search stopped; what follows is from the trials run before");
@@ -214,9 +232,9 @@ pub(crate) fn run(mut args: RateArgs) -> ExitCode {
     for r in &results {
         found_all &= r.headline(&args).is_some();
         let text = if args.json {
-            format!("{}\n", summary_json(&args, r))
+            format!("{}\n", summary_json(&args, r, &machine))
         } else {
-            summary_text(&args, r)
+            summary_text(&args, r, &machine)
         };
         if let Err(code) = super::emit(&text) {
             return code;
@@ -238,9 +256,21 @@ pub(crate) fn run(mut args: RateArgs) -> ExitCode {
 }
 
 fn setup_line(args: &RateArgs) -> String {
+    let trials = if args.rate.is_some() {
+        "one trial per bus count".to_owned()
+    } else {
+        // Measured: 9 trials per bus count in virtual time, up to 20 on a noisy machine.
+        let trials = |n: u32| args.duration * n * args.buses.len() as u32;
+        format!(
+            "a search runs about 10 to 20 trials per bus count: {} to {} in all; --duration sets \
+             a trial's length",
+            minutes(trials(10)),
+            minutes(trials(20))
+        )
+    };
     format!(
-        "rmd bench rate: {} motor(s) x {} bus(es) at {} bit/s, {:.1} s per trial, spin {} us, \
-         cpu {}, SCHED_FIFO {}, simulated buses: {}{}, headline budget {}% of ticks",
+        "rmd bench rate: {} motor(s) x {} bus(es) at {} bit/s, {:.1} s per trial ({trials}), \
+         spin {} us, cpu {}, SCHED_FIFO {}, simulated buses: {}{}, headline budget {}% of ticks",
         args.motors,
         args.buses
             .iter()
@@ -266,8 +296,20 @@ fn setup_line(args: &RateArgs) -> String {
     )
 }
 
-fn summary_json(args: &RateArgs, r: &ByBusCount<'_>) -> Value {
+/// `45 s` or `6.5 min`.
+fn minutes(d: Duration) -> String {
+    if d < Duration::from_secs(120) {
+        format!("{:.0} s", d.as_secs_f64())
+    } else {
+        format!("{:.1} min", d.as_secs_f64() / 60.0)
+    }
+}
+
+fn summary_json(args: &RateArgs, r: &ByBusCount<'_>, machine: &Machine) -> Value {
     let headline = r.headline(args);
+    let diagnosis = headline
+        .is_none()
+        .then(|| diagnosis::diagnose(&r.search.trials, args, machine));
     let zero = r.zero();
     let ratio = |t: &Trial| t.wire_limit_hz().map(|w| t.rate_hz / w);
     json!({
@@ -295,11 +337,18 @@ fn summary_json(args: &RateArgs, r: &ByBusCount<'_>) -> Value {
         "zero_miss_passes": zero.map(|(_, n)| n),
         "loop_added_us": headline.map(|(t, _)| t.loop_added),
         "flaky_rates_hz": r.search.flaky_rates(args.budget()),
+        "load_average_start": machine.load_start,
+        "load_average_end": machine.load_end,
+        "cpus": machine.cpus,
+        "why_no_rate": diagnosis.as_ref().map_or(Vec::new(), |d| d.reasons.clone()),
+        "what_to_try": diagnosis.as_ref().map_or(Vec::new(), |d| {
+            d.tries.iter().map(|t| json!({"flags": t.flags, "why": t.why})).collect()
+        }),
         "trials": r.search.trials.iter().map(|t| t.to_json(args.budget())).collect::<Vec<_>>(),
     })
 }
 
-fn summary_text(args: &RateArgs, r: &ByBusCount<'_>) -> String {
+fn summary_text(args: &RateArgs, r: &ByBusCount<'_>, machine: &Machine) -> String {
     let buses = r.search.buses;
     let mut out = String::new();
     let of_limit = |t: &Trial| {
@@ -338,17 +387,36 @@ fn summary_text(args: &RateArgs, r: &ByBusCount<'_>) -> String {
                 t.loop_added.p50, t.loop_added.p99, t.loop_added.max
             );
         }
-        None => out += &format!("{buses} bus(es): no rate within the budget\n"),
+        None => {
+            out += &format!(
+                "{buses} bus(es): no rate within the budget ({}% of ticks missed) in {} trial(s)\n",
+                args.miss_budget_pct,
+                r.search.trials.len()
+            );
+            out += &diagnosis::diagnose(&r.search.trials, args, machine).text(buses);
+        }
     }
-    match r.zero() {
-        Some((t, passes)) => {
+    match (r.zero(), r.headline(args)) {
+        (Some((t, passes)), _) => {
             out += &format!(
                 "{buses} bus(es): {:.1} Hz with zero misses = {} (passed {passes} time(s))\n",
                 t.rate_hz,
                 of_limit(t)
             )
         }
-        None => out += &format!("{buses} bus(es): no rate with zero misses\n"),
+        (None, Some(_)) => {
+            out += &format!(
+                "{buses} bus(es): no rate with zero misses: {}\n",
+                diagnosis::why_no_zero(&r.search.trials)
+            )
+        }
+        (None, None) if args.rate.is_none() => {
+            out += &format!(
+                "{buses} bus(es): no rate with zero misses (none within the budget, so not \
+                 searched)\n"
+            )
+        }
+        (None, None) => out += &format!("{buses} bus(es): no rate with zero misses\n"),
     }
     let flaky = r.search.flaky_rates(args.budget());
     if !flaky.is_empty() {
@@ -414,8 +482,21 @@ fn comparison(args: &RateArgs, results: &[ByBusCount<'_>]) -> String {
             pct(h.zip(one_bus).map(|(t, one)| t.rate_hz / one)),
         ]);
     }
+    let none: Vec<String> = results
+        .iter()
+        .filter(|r| r.headline(args).is_none())
+        .map(|r| r.search.buses.to_string())
+        .collect();
+    let footnote = if none.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "-: no rate within the budget for {} bus(es): why and what to try above\n",
+            none.join(", ")
+        )
+    };
     format!(
-        "by bus count (headline: at most {}% of ticks missed):\n{}",
+        "by bus count (headline: at most {}% of ticks missed):\n{}{footnote}",
         args.miss_budget_pct,
         table.render()
     )

@@ -14,6 +14,8 @@
 //! the resolution; then run the rate found again (`--confirm` times), stepping down when the
 //! pooled share no longer holds.
 
+use std::time::Instant;
+
 use rmd_bus::wire::exchange_budget;
 
 use super::trial::{Trial, trial, within};
@@ -31,6 +33,8 @@ pub(super) struct Search<'a> {
     progress: &'a Progress,
     /// Trials run before this search (for their numbers).
     offset: usize,
+    /// When the first search of the run started (for the time so far).
+    started: Instant,
 }
 
 impl<'a> Search<'a> {
@@ -39,6 +43,7 @@ impl<'a> Search<'a> {
         buses: usize,
         progress: &'a Progress,
         offset: usize,
+        started: Instant,
     ) -> Self {
         Self {
             buses,
@@ -46,6 +51,7 @@ impl<'a> Search<'a> {
             args,
             progress,
             offset,
+            started,
         }
     }
 
@@ -72,7 +78,40 @@ impl<'a> Search<'a> {
             }
         }
         self.trials.push(t);
+        if !self.args.json {
+            self.progress.println(self.so_far());
+        }
         Ok(&self.trials[self.trials.len() - 1])
+    }
+
+    /// What the trials so far found: the highest rate within the budget and with zero misses,
+    /// and the lowest beyond the budget above it.
+    pub(super) fn so_far(&self) -> String {
+        let budget = self.args.budget();
+        let elapsed = self.started.elapsed().as_secs();
+        let best = |budget: f64| self.best(budget).map(|(t, _)| t.rate_hz);
+        let within = match best(budget) {
+            Some(rate) => format!("up to {rate:.1} Hz"),
+            None => "none yet".to_owned(),
+        };
+        let beyond = self
+            .trials
+            .iter()
+            .filter(|t| best(budget).is_none_or(|b| t.rate_hz > b))
+            .filter(|t| !self.holds(t.rate_hz, budget))
+            .map(|t| t.rate_hz)
+            .reduce(f64::min)
+            .map_or(String::new(), |r| format!(", beyond it from {r:.1} Hz"));
+        let zero = best(0.0).map_or("none yet".to_owned(), |r| format!("up to {r:.1} Hz"));
+        format!(
+            "  so far ({} bus(es), {} trial(s), {}m{:02}s in all): within {}% {within}{beyond}; \
+             zero misses {zero}",
+            self.buses,
+            self.trials.len(),
+            elapsed / 60,
+            elapsed % 60,
+            self.args.miss_budget_pct,
+        )
     }
 
     /// Every trial at exactly `rate_hz`, pooled: the share of all their tick slots that were
@@ -218,16 +257,8 @@ impl<'a> Search<'a> {
 
 #[cfg(test)]
 mod tests {
-    use clap::Parser;
-
-    use super::super::trial::tests::trial;
+    use super::super::trial::tests::{args, trial};
     use super::*;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        rate: RateArgs,
-    }
 
     fn at(rate_hz: f64, missed: u64) -> Trial {
         Trial {
@@ -238,9 +269,9 @@ mod tests {
 
     #[test]
     fn a_rate_is_judged_on_all_its_trials_pooled() {
-        let args = Cli::parse_from(["rate"]).rate;
+        let args = args("");
         let progress = Progress::timer(args.duration, false);
-        let mut search = Search::new(&args, 1, &progress, 0);
+        let mut search = Search::new(&args, 1, &progress, 0, Instant::now());
         let budget = 0.001;
         // 1100 Hz: one trial over the budget by a stall (12 of 10 000), one clean: 0.06%.
         search.trials.push(at(1100.0, 12));
@@ -266,6 +297,14 @@ mod tests {
         );
         assert_eq!(search.lowest_failure_above(1100.0, budget), 1200.0);
         assert_eq!(search.flaky_rates(budget), vec![1100.0]);
+        assert!(
+            search.so_far().starts_with(
+                "  so far (1 bus(es), 5 trial(s), 0m00s in all): within 0.1% up to 1100.0 Hz, \
+                 beyond it from 1200.0 Hz; zero misses up to 1000.0 Hz"
+            ),
+            "{}",
+            search.so_far()
+        );
         assert_eq!(search.pooled(900.0), None);
         assert!(
             !search.holds(900.0, budget),

@@ -368,6 +368,17 @@ fn traces_of<C: Clock>(sims: &[SimBus<C>]) -> Vec<Vec<Transmission>> {
 pub(super) mod tests {
     use super::*;
 
+    /// The arguments of `rmd bench rate FLAGS`.
+    pub(in crate::cmd::bench::rate) fn args(flags: &str) -> RateArgs {
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            rate: RateArgs,
+        }
+        <Cli as clap::Parser>::parse_from(std::iter::once("rate").chain(flags.split_whitespace()))
+            .rate
+    }
+
     /// A trial at 1 kHz with these counts (the other figures empty).
     pub(in crate::cmd::bench::rate) fn trial(
         ticks: u64,
