@@ -1,18 +1,28 @@
 //! `rmd torque ID` and `rmd speed ID`: drive a motor in torque or speed mode for a duration,
 //! then turn it off. The command is sent again at `--rate` (each reply is shown live), and
 //! Ctrl-C turns the motor off at once.
+//!
+//! The motor's protocol is learned first (`--protocol`, checked, or identified: see
+//! [`Connection`]), and the request built in it: `--amps` in the family's `iqControl` scale,
+//! rounded once to its nearest step (0.01 A on MyActuator V3), `--iq-control` as that family's
+//! raw value; a value the family cannot carry is refused before anything moves. A MyActuator V3
+//! motor with its brake locked has it released first, and locked again at the end.
 
 use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{ArgGroup, Args};
 use rmd_bus::{Clock, Timestamp};
-use rmd_protocol::{IqControl, MotorId, Request, SpeedControl, Status2};
+use rmd_protocol::{
+    Command, Dialect, MaxTorquePercent, MotorId, ProtocolError, Request, ScaledCurrent,
+    SpeedControl, Status2,
+};
 
 use crate::args::bus::BusArgs;
 use crate::args::parse;
 use crate::args::timing;
 use crate::live::connect::{Connection, DEFAULT_RETRIES, DEFAULT_TIMEOUT};
+use crate::live::exchange::ExchangeError;
 use crate::live::frames_mcap::FramesTelemetryArgs;
 use crate::live::interrupt;
 use crate::live::recording;
@@ -43,14 +53,17 @@ pub(crate) struct TorqueArgs {
     /// Motor id, 1..=32.
     #[arg(value_parser = parse::motor_id)]
     id: MotorId,
-    /// Torque current in amperes, -32..=32.
-    #[arg(long, value_parser = parse::iq_amps, allow_hyphen_values = true)]
-    amps: Option<IqControl>,
-    /// Torque current as raw iqControl, -2000..=2000.
-    #[arg(long, value_parser = parse::iq_control, allow_hyphen_values = true)]
-    iq_control: Option<IqControl>,
-    /// Turn the motor off early if its speed exceeds this, dps (motor side): an unloaded motor
-    /// in torque mode speeds up until its back-EMF limits it.
+    /// Torque current in amperes, within the motor's protocol's range (v1.61 ±32 A, LK-TECH MF
+    /// ±16.5 A, MG ±33 A; MyActuator V3 in 0.01 A steps).
+    #[arg(long, value_parser = parse::finite, allow_hyphen_values = true)]
+    amps: Option<f64>,
+    /// Torque current as the raw iqControl of the motor's protocol (v1.61 -2000..=2000 for
+    /// ±32 A, LK-TECH -2048..=2048, MyActuator V3 0.01 A per LSB).
+    #[arg(long, value_parser = parse::raw_int, allow_hyphen_values = true)]
+    iq_control: Option<i64>,
+    /// Turn the motor off early if its speed exceeds this, dps (as the motor reports it: the
+    /// motor side, or the output shaft on MyActuator V3): an unloaded motor in torque mode
+    /// speeds up until its back-EMF limits it.
     #[arg(long, value_name = "DPS", value_parser = parse::positive)]
     max_speed: Option<f64>,
     #[command(flatten)]
@@ -68,7 +81,7 @@ pub(crate) struct SpeedArgs {
     /// Motor id, 1..=32.
     #[arg(value_parser = parse::motor_id)]
     id: MotorId,
-    /// Speed in degrees per second (motor side).
+    /// Speed in degrees per second (motor side; the output shaft on MyActuator V3).
     #[arg(long, value_parser = parse::speed_dps, allow_hyphen_values = true)]
     dps: Option<SpeedControl>,
     /// Speed as raw speedControl, 0.01 dps per LSB.
@@ -84,19 +97,17 @@ pub(crate) struct SpeedArgs {
 
 /// Runs `rmd torque`.
 pub(crate) fn run_torque(args: TorqueArgs) -> ExitCode {
-    let Some(iq_control) = args.amps.or(args.iq_control) else {
-        return report::usage_error("give --amps or --iq-control");
+    let current = match (args.amps, args.iq_control) {
+        (Some(amps), _) => Current::Amps(amps),
+        (None, Some(raw)) => Current::Raw(raw),
+        (None, None) => return report::usage_error("give --amps or --iq-control"),
     };
-    let what = format!("torque {:.3} A", iq_control.amps());
     report::exit(args.telemetry.check("torque").and_then(|()| {
         drive(
             &args.bus,
             &args.telemetry,
             args.id,
-            Request::Torque {
-                iq_control: iq_control.into(),
-            },
-            &what,
+            Goal::Torque(current),
             &args.timing,
             args.max_speed,
         )
@@ -108,78 +119,125 @@ pub(crate) fn run_speed(args: SpeedArgs) -> ExitCode {
     let Some(speed_control) = args.dps.or(args.speed_control) else {
         return report::usage_error("give --dps or --speed-control");
     };
-    let what = format!("speed {:.2} dps", speed_control.dps());
     report::exit(args.telemetry.check("speed").and_then(|()| {
         drive(
             &args.bus,
             &args.telemetry,
             args.id,
-            Request::Speed {
-                speed_control,
-                max_torque: rmd_protocol::MaxTorquePercent::NONE,
-            },
-            &what,
+            Goal::Speed(speed_control),
             &args.timing,
             None,
         )
     }))
 }
 
+/// A torque current as given: amperes, or the raw value of the motor's protocol.
+#[derive(Copy, Clone, Debug)]
+enum Current {
+    Amps(f64),
+    Raw(i64),
+}
+
+/// What to drive the motor at.
+#[derive(Copy, Clone, Debug)]
+enum Goal {
+    Torque(Current),
+    Speed(SpeedControl),
+}
+
+impl Goal {
+    /// The request in `dialect`: a current in its `iqControl` scale (rounded once, to its
+    /// nearest step), checked against the family before anything is sent.
+    fn request(self, dialect: Dialect) -> Result<Request, ProtocolError> {
+        let request = match self {
+            Goal::Torque(current) => {
+                let scale = dialect.iq_control_scale();
+                Request::Torque {
+                    iq_control: match current {
+                        Current::Amps(amps) => ScaledCurrent::from_amps(amps, scale)?,
+                        Current::Raw(raw) => ScaledCurrent::new(raw, scale)?,
+                    },
+                }
+            }
+            Goal::Speed(speed_control) => Request::Speed {
+                speed_control,
+                max_torque: MaxTorquePercent::NONE,
+            },
+        };
+        dialect.check_request(&request)?;
+        Ok(request)
+    }
+
+    fn command(self) -> Command {
+        match self {
+            Goal::Torque(_) => Command::Torque,
+            Goal::Speed(_) => Command::Speed,
+        }
+    }
+}
+
+/// The request in words: `torque 1.000 A`, `speed 360.00 dps` (`at the output` on V3).
+fn describe(request: &Request, dialect: Dialect) -> String {
+    let shaft = if dialect.reports_output_shaft() {
+        " at the output"
+    } else {
+        ""
+    };
+    match request {
+        Request::Torque { iq_control } => format!("torque {:.3} A", iq_control.amps()),
+        Request::Speed { speed_control, .. } => {
+            format!("speed {:.2} dps{shaft}", speed_control.dps())
+        }
+        other => other.command().to_string(),
+    }
+}
+
 fn drive(
     bus_args: &BusArgs,
     telemetry: &FramesTelemetryArgs,
     id: MotorId,
-    request: Request,
-    what: &str,
+    goal: Goal,
     timing: &Timing,
     max_speed: Option<f64>,
 ) -> Result<(), CliError> {
     let mut bus = Connection::open(bus_args, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     bus.record_mcap(telemetry.mcap.as_deref())?;
+    // The motor's protocol, and the request in it, before anything moves the motor: a refusal
+    // sends nothing more.
+    let built = bus.dialect(id, goal.command()).and_then(|dialect| {
+        goal.request(dialect)
+            .map(|request| (request, dialect))
+            .map_err(|error| ExchangeError::Unencodable {
+                motor: id,
+                command: goal.command(),
+                dialect,
+                error,
+            })
+    });
+    let (request, dialect) = match built {
+        Ok(built) => built,
+        Err(error) => return recording::after(Err(error.into()), bus.finish()),
+    };
+    let plan = Plan {
+        id,
+        what: describe(&request, dialect),
+        request,
+        timing,
+        max_speed,
+    };
+    let what = &plan.what;
     interrupt::install_driving()?;
-    let start = bus.clock().now();
-    let mut schedule = Schedule::new(start, timing.duration, timing::period(timing.rate));
-    let mut sent: u32 = 0;
-    let mut last: Option<Status2> = None;
+    let mut driven = Driven::default();
     errln!(
         "motor {id}: {what} for {:.2} s (Ctrl-C stops it)",
         timing.duration.as_secs_f64()
     );
-    let progress = Progress::timer(timing.duration, progress::shown(false));
-    progress.set_prefix(format!("motor {id} "));
-    let outcome = loop {
-        if interrupt::requested() {
-            break Err(CliError::Interrupted(format!("{what} on motor {id}")));
-        }
-        match bus.request(id, &request) {
-            Ok(reply) => last = reply.status2().or(last),
-            Err(error) => break Err(error.into()),
-        }
-        sent = sent.saturating_add(1);
-        let now = bus.clock().now();
-        if let Some(status) = last {
-            progress.set_elapsed(now - start);
-            progress.set_message(reading(&status));
-            if let Some(limit) = max_speed
-                && status.speed.dps().abs() > limit
-            {
-                break Err(CliError::Failed(format!(
-                    "motor {id} reached {} dps, above --max-speed {limit}",
-                    status.speed.dps()
-                )));
-            }
-        }
-        let Some(wake) = schedule.next(now) else {
-            break Ok(());
-        };
-        if !interrupt::sleep_until(bus.clock(), wake) {
-            break Err(CliError::Interrupted(format!("{what} on motor {id}")));
-        }
-        if schedule.is_over(bus.clock().now()) {
-            break Ok(());
-        }
-    };
-    drop(progress);
+    let start = bus.clock().now();
+    let outcome = bus
+        .release_brake_to_move(id)
+        .map_err(CliError::from)
+        .and_then(|()| drive_at(&mut bus, &plan, &mut driven));
+    let Driven { sent, last } = driven;
     let elapsed = bus.clock().now() - start;
     let result = safe_stop::finish(&mut bus, &[id], outcome);
     // The motor is off: the log (a stalled reader is waited for a bounded time) comes after.
@@ -195,6 +253,69 @@ fn drive(
         last.map_or(String::new(), |s| format!("; last reply: {}", reading(&s)))
     )?;
     finished
+}
+
+/// A drive: which motor, what request, how long and how often, and the speed limit.
+struct Plan<'a> {
+    id: MotorId,
+    request: Request,
+    /// The request in words.
+    what: String,
+    timing: &'a Timing,
+    max_speed: Option<f64>,
+}
+
+/// What a drive did so far: commands sent, the last status 2 the motor answered.
+#[derive(Default)]
+struct Driven {
+    sent: u32,
+    last: Option<Status2>,
+}
+
+/// Sends the plan's request at its rate until its duration is over (or Ctrl-C, a failed
+/// exchange, the speed limit), noting what it did in `driven`.
+fn drive_at(bus: &mut Connection, plan: &Plan, driven: &mut Driven) -> Result<(), CliError> {
+    let Plan {
+        id,
+        ref request,
+        ref what,
+        timing,
+        max_speed,
+    } = *plan;
+    let start = bus.clock().now();
+    let mut schedule = Schedule::new(start, timing.duration, timing::period(timing.rate));
+    let progress = Progress::timer(timing.duration, progress::shown(false));
+    progress.set_prefix(format!("motor {id} "));
+    loop {
+        if interrupt::requested() {
+            return Err(CliError::Interrupted(format!("{what} on motor {id}")));
+        }
+        let reply = bus.request(id, request)?;
+        driven.last = reply.status2().or(driven.last);
+        driven.sent = driven.sent.saturating_add(1);
+        let now = bus.clock().now();
+        if let Some(status) = &driven.last {
+            progress.set_elapsed(now - start);
+            progress.set_message(reading(status));
+            if let Some(limit) = max_speed
+                && status.speed.dps().abs() > limit
+            {
+                return Err(CliError::Failed(format!(
+                    "motor {id} reached {} dps, above --max-speed {limit}",
+                    status.speed.dps()
+                )));
+            }
+        }
+        let Some(wake) = schedule.next(now) else {
+            return Ok(());
+        };
+        if !interrupt::sleep_until(bus.clock(), wake) {
+            return Err(CliError::Interrupted(format!("{what} on motor {id}")));
+        }
+        if schedule.is_over(bus.clock().now()) {
+            return Ok(());
+        }
+    }
 }
 
 /// Words for a rate below the one asked for: each command waits for the motor's reply, so a

@@ -1,9 +1,13 @@
 //! `rmd off|stop|run IDS`: motor off (0x80), stop (0x81), run (0x88).
+//!
+//! Off needs no protocol (the same frame in every family) and locks a MyActuator V3 motor's
+//! brake after it ([`Connection::motor_off`]); stop and run are sent in the motor's protocol,
+//! learned first: V3's stop holds the position, and V3 has no run.
 
 use std::process::ExitCode;
 
 use clap::Args;
-use rmd_protocol::{Reply, Request};
+use rmd_protocol::{ProtocolFamily, Reply, Request};
 
 use crate::args::bus::BusArgs;
 use crate::args::ids::{self, IdList};
@@ -41,11 +45,15 @@ impl Action {
         }
     }
 
-    fn done(self) -> &'static str {
-        match self {
-            Action::Off => "off",
-            Action::Stop => "stopped (run resumes it)",
-            Action::Run => "running",
+    /// What the motor does now, in its family's meaning of the command.
+    fn done(self, family: ProtocolFamily) -> &'static str {
+        match (self, family) {
+            (Action::Off, _) => "off",
+            (Action::Stop, ProtocolFamily::MyActuatorV3) => {
+                "stopped, holding its position (`rmd off` releases it)"
+            }
+            (Action::Stop, _) => "stopped (run resumes it)",
+            (Action::Run, _) => "running",
         }
     }
 }
@@ -60,8 +68,24 @@ fn apply(action: Action, args: &PowerArgs) -> Result<(), CliError> {
     let request = action.request();
     let mut failed = Vec::new();
     for &motor in args.ids.ids() {
+        if let Action::Off = action {
+            match bus.motor_off(motor) {
+                Ok(off) if off.brake_locked => outln!("motor {motor}: off, brake locked")?,
+                Ok(_) => outln!("motor {motor}: off")?,
+                Err(problem) => {
+                    errln!("error: {problem}");
+                    failed.push(motor.to_string());
+                }
+            }
+            continue;
+        }
         match bus.request(motor, &request) {
-            Ok(reply) if reply == expected(action) => outln!("motor {motor}: {}", action.done())?,
+            Ok(reply) if reply == expected(action) => {
+                let family = bus
+                    .family(motor)
+                    .map_or(ProtocolFamily::Unknown, |f| f.family());
+                outln!("motor {motor}: {}", action.done(family))?;
+            }
             Ok(reply) => {
                 errln!(
                     "error: motor {motor} answered {} with {}: try again",

@@ -2,6 +2,8 @@
 //! 2 and the multi-turn angle, read at `--rate`), until Ctrl-C, `q` or `--count`: on a terminal
 //! a live view with a plot per motor of the chosen signal above the table ([`view`], drawn with
 //! ratatui); elsewhere the table, one per reading; with `--json` one object per reading.
+//! Each motor is read in its own protocol (a mixed bus is fine); a MyActuator V3 motor's speed
+//! and angle are its output shaft's.
 //! `--sim --demo` moves the simulated motors gently ([`demo`]) so there is something to watch.
 
 mod demo;
@@ -14,7 +16,7 @@ use std::time::Duration;
 use clap::Args;
 use ratatui::crossterm::event::{self, Event, KeyEventKind};
 use rmd_bus::{Clock, MonotonicClock, Timestamp};
-use rmd_protocol::{Reply, Request, Status1};
+use rmd_protocol::{Reply, Request};
 use serde_json::{Value, json};
 use view::{Action, History, Sample, Screen, View};
 
@@ -444,8 +446,8 @@ fn cells(motor: &Motor, row: &Result<Vec<Reply>, String>) -> Vec<String> {
     let (mut status1, mut status2, mut angle) = (None, None, None);
     for reply in replies {
         match reply {
-            // The replies come in v1.61's shape (see `live::exchange`).
-            Reply::ReadStatus1(Status1::V161(s)) => status1 = Some(*s),
+            // In the motor's family's layout and scales (`live::exchange`).
+            Reply::ReadStatus1(s) => status1 = Some(*s),
             Reply::ReadStatus2(s) => status2 = Some(*s),
             Reply::ReadMultiTurnAngle { motor_angle } => {
                 angle = Some(match &motor.joint {
@@ -462,11 +464,11 @@ fn cells(motor: &Motor, row: &Result<Vec<Reply>, String>) -> Vec<String> {
     vec![
         id,
         s2.temperature.celsius().to_string(),
-        format!("{:.1}", s1.voltage.volts()),
+        format!("{:.1}", s1.volts()),
         format!("{:.2}", s2.iq.amps()),
         s2.speed.dps().to_string(),
         format!("{angle:.2}"),
-        readings::errors_text(s1.error_state),
+        readings::status1_errors_text(&s1),
     ]
 }
 
@@ -474,8 +476,8 @@ fn cells(motor: &Motor, row: &Result<Vec<Reply>, String>) -> Vec<String> {
 mod tests {
     use super::*;
     use rmd_protocol::{
-        CurrentScale, EncoderValue, MotorAngle, ScaledCurrent, Speed, Status2, StatusPosition,
-        Temperature, V161Status1,
+        CurrentScale, EncoderValue, MotorAngle, ScaledCurrent, Speed, Status1, Status2,
+        StatusPosition, Temperature, V161Status1,
     };
 
     #[test]
