@@ -202,6 +202,17 @@ fn drive(
 ) -> Result<(), CliError> {
     let mut bus = Connection::open(bus_args, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     bus.record_mcap(telemetry.mcap.as_deref())?;
+    drive_on(bus, id, goal, timing, max_speed)
+}
+
+/// [`drive`] on an open connection.
+fn drive_on(
+    mut bus: Connection,
+    id: MotorId,
+    goal: Goal,
+    timing: &Timing,
+    max_speed: Option<f64>,
+) -> Result<(), CliError> {
     // The motor's protocol, and the request in it, before anything moves the motor: a refusal
     // sends nothing more.
     let built = bus.dialect(id, goal.command()).and_then(|dialect| {
@@ -444,5 +455,177 @@ mod tests {
         assert_eq!(shortfall(49.0, 50.0), "");
         assert!(shortfall(2000.0, 20_000.0).contains("--rate 20000 is more than"));
         assert!(shortfall(2000.0, 1e300).contains("--rate 1e300 is more than"));
+    }
+
+    /// The simulator's ground truth while `rmd torque` / `rmd speed` drives a motor: the state
+    /// of the motor whenever one of its frames arrives, as the simulated firmware has it.
+    mod ground_truth {
+        use std::sync::{Arc, Mutex};
+
+        use clap::Parser;
+        use rmd_bus::{BusError, CanBus, CanFrame, MonotonicClock, Received};
+        use rmd_protocol::LkSeries;
+        use rmd_sim::{ControlMode, FirmwareFamily, MotorConfig, MotorSnapshot, SimBus, SimConfig};
+
+        use super::*;
+        use crate::live::exchange::Setup;
+
+        /// A simulated bus that notes the motor's snapshot each time one of its frames arrives.
+        struct Truthful {
+            sim: SimBus<MonotonicClock>,
+            seen: Arc<Mutex<Vec<MotorSnapshot>>>,
+        }
+
+        impl CanBus for Truthful {
+            fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+                self.sim.send(frame)
+            }
+            fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
+                let received = self.sim.recv_until(deadline)?;
+                if received.is_some() {
+                    let motor = MotorId::new(1).unwrap();
+                    let snapshot = self.sim.snapshot(motor).unwrap();
+                    self.seen.lock().unwrap().push(snapshot);
+                }
+                Ok(received)
+            }
+        }
+
+        #[derive(Parser)]
+        struct Cli {
+            #[command(flatten)]
+            bus: BusArgs,
+        }
+
+        /// Drives simulated motor 1 of `family` (a V3 motor with a brake, locked at power-up)
+        /// at `goal` for 150 ms with the options `options`; returns the truth seen on the way
+        /// and at the end.
+        fn drive_sim(
+            family: FirmwareFamily,
+            options: &[&str],
+            goal: Goal,
+        ) -> (Vec<MotorSnapshot>, MotorSnapshot) {
+            let mut argv = vec!["rmd", "--sim", "--sim-ids", "1"];
+            argv.extend_from_slice(options);
+            let args = Cli::parse_from(argv).bus;
+            let mut motor = MotorConfig::new(MotorId::new(1).unwrap());
+            motor.firmware.family = family;
+            motor.firmware.v3.has_brake = family == FirmwareFamily::MyActuatorV3;
+            let mut config = SimConfig::with_motors(0);
+            config.motors = vec![motor];
+            let seen = Arc::new(Mutex::new(Vec::new()));
+            let bus = Truthful {
+                sim: SimBus::new(MonotonicClock, config).unwrap(),
+                seen: Arc::clone(&seen),
+            };
+            let connection = Connection::on(
+                Box::new(bus),
+                Setup::Simulator(args.sim_ids.clone()),
+                &args,
+                args.encoder_bits,
+                DEFAULT_TIMEOUT,
+                DEFAULT_RETRIES,
+            )
+            .unwrap();
+            let timing = Timing {
+                duration: Duration::from_millis(150),
+                rate: 50.0,
+            };
+            drive_on(connection, MotorId::new(1).unwrap(), goal, &timing, None).unwrap();
+            let seen = seen.lock().unwrap().clone();
+            let last = *seen.last().unwrap();
+            (seen, last)
+        }
+
+        /// The families, the options naming them (none: identified) and 2 A on their scale.
+        fn cases() -> Vec<(FirmwareFamily, Vec<&'static str>, f64)> {
+            let mut cases = Vec::new();
+            for named in [false, true] {
+                // Named with --protocol, or identified (the series of LK motors given alone).
+                let name = |protocol: &[&'static str], series: &[&'static str]| {
+                    let mut all = if named { protocol.to_vec() } else { Vec::new() };
+                    all.extend_from_slice(series);
+                    all
+                };
+                // 2 A is 125 at 32/2000 A (2.0 A), 248 at 16.5/2048 A (1.998 A), 124 at
+                // 33/2048 A (1.998 A), 200 at 0.01 A (2.0 A).
+                cases.push((
+                    FirmwareFamily::V161,
+                    name(&["--protocol", "v1.61"], &[]),
+                    2.0,
+                ));
+                cases.push((
+                    FirmwareFamily::LkV23x(LkSeries::Mf),
+                    name(&["--protocol", "lk-v2.3x"], &["--lk-series", "mf"]),
+                    248.0 * 16.5 / 2048.0,
+                ));
+                cases.push((
+                    FirmwareFamily::LkV23x(LkSeries::Mg),
+                    name(&["--protocol", "lk-v2.3x"], &["--lk-series", "mg"]),
+                    124.0 * 33.0 / 2048.0,
+                ));
+                cases.push((
+                    FirmwareFamily::MyActuatorV3,
+                    name(&["--protocol", "myactuator-v3"], &[]),
+                    2.0,
+                ));
+            }
+            cases
+        }
+
+        #[test]
+        fn the_motor_is_commanded_the_asked_current_in_every_family() {
+            for (family, options, commanded) in cases() {
+                let (seen, last) = drive_sim(family, &options, Goal::Torque(Current::Amps(2.0)));
+                let torque: Vec<f64> = seen
+                    .iter()
+                    .filter_map(|s| match s.mode {
+                        ControlMode::Torque { current_a } => Some(current_a),
+                        _ => None,
+                    })
+                    .collect();
+                assert!(!torque.is_empty(), "{family:?} {options:?}: {seen:?}");
+                assert!(
+                    torque.iter().all(|&a| (a - commanded).abs() < 1e-12),
+                    "{family:?} {options:?}: {torque:?}, asked 2 A"
+                );
+                // The brake was released to drive (V3), and the motor energised; at the end the
+                // motor is off, and a V3 motor's brake locked again.
+                assert!(seen.iter().any(|s| s.energising), "{family:?}");
+                assert_eq!(last.mode, ControlMode::Off, "{family:?} {last:?}");
+                assert!(!last.energising);
+                if family == FirmwareFamily::MyActuatorV3 {
+                    assert!(seen.iter().any(|s| !s.brake_locked));
+                    assert!(last.brake_locked);
+                }
+            }
+        }
+
+        #[test]
+        fn the_motor_is_commanded_the_asked_speed_on_its_own_shaft() {
+            for (family, options, _) in cases() {
+                let speed = SpeedControl::from_dps(90.0).unwrap();
+                let (seen, last) = drive_sim(family, &options, Goal::Speed(speed));
+                // The firmware keeps motor-side targets: V3's 90 dps are the output's.
+                let ratio = if family == FirmwareFamily::MyActuatorV3 {
+                    MotorConfig::new(MotorId::new(1).unwrap()).motor.gear_ratio
+                } else {
+                    1.0
+                };
+                let targets: Vec<f64> = seen
+                    .iter()
+                    .filter_map(|s| match s.mode {
+                        ControlMode::Speed { target_dps } => Some(target_dps),
+                        _ => None,
+                    })
+                    .collect();
+                assert!(!targets.is_empty(), "{family:?}");
+                assert!(
+                    targets.iter().all(|&t| (t - 90.0 * ratio).abs() < 1e-9),
+                    "{family:?}: {targets:?}"
+                );
+                assert_eq!(last.mode, ControlMode::Off);
+            }
+        }
     }
 }

@@ -529,6 +529,7 @@ pub(crate) fn send(
 mod tests {
     use super::*;
     use rmd_bus::{Received, VirtualClock};
+    use rmd_protocol::ProtocolFamily;
     use rmd_sim::{FaultKind, FaultRule, SimBus, SimConfig};
 
     fn id(n: u8) -> MotorId {
@@ -548,6 +549,137 @@ mod tests {
         let mut config = SimConfig::with_motors(4).seed(3);
         config.faults.extend_from_slice(faults);
         (clock.clone(), SimBus::new(clock, config).unwrap())
+    }
+
+    /// Motors 1 (v1.61), 2 (LK-TECH MF) and 3 (MyActuator V3) on one simulated bus.
+    fn mixed() -> (VirtualClock, SimBus<VirtualClock>) {
+        use rmd_protocol::LkSeries;
+        use rmd_sim::FirmwareFamily;
+        let clock = VirtualClock::new();
+        let mut config = SimConfig::with_motors(3).seed(3);
+        let families = [
+            FirmwareFamily::V161,
+            FirmwareFamily::LkV23x(LkSeries::Mf),
+            FirmwareFamily::MyActuatorV3,
+        ];
+        for (motor, family) in config.motors.iter_mut().zip(families) {
+            motor.firmware.family = family;
+        }
+        (clock.clone(), SimBus::new(clock, config).unwrap())
+    }
+
+    const V3: Dialect = Dialect::MyActuatorV3(V3Firmware {
+        date: None,
+        max_torque: None,
+    });
+
+    #[test]
+    fn each_family_is_spoken_in_its_own_layout_and_a_wrong_one_is_named() {
+        let (clock, mut bus) = mixed();
+        let p = policy(0);
+        // V3 answers on 0x243, in its layout (status 1 with the brake byte).
+        let reply = request(&mut bus, &clock, &p, V3, id(3), &Request::ReadStatus1).unwrap();
+        assert!(matches!(
+            reply.status1(),
+            Some(rmd_protocol::Status1::V3(_))
+        ));
+        // v1.61 spoken to the V3 motor: it answers on 0x243, and is named for it.
+        let error = request(
+            &mut bus,
+            &clock,
+            &p,
+            Dialect::V161,
+            id(3),
+            &Request::ReadStatus1,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(error, ExchangeError::OtherFirmware { can_id: 0x243, .. }),
+            "{error}"
+        );
+        assert!(error.to_string().contains("as MyActuator V3 firmware does"));
+        // V3 spoken to the v1.61 motor: it answers on 0x141.
+        let error = request(&mut bus, &clock, &p, V3, id(1), &Request::ReadStatus1).unwrap_err();
+        assert!(
+            matches!(error, ExchangeError::OtherFirmware { can_id: 0x141, .. }),
+            "{error}"
+        );
+        // A command V3 lacks is refused before anything is sent.
+        let before = bus.stats();
+        let error = request(&mut bus, &clock, &p, V3, id(3), &Request::ReadPid).unwrap_err();
+        assert!(
+            matches!(error, ExchangeError::NotInFamily { .. }),
+            "{error}"
+        );
+        assert_eq!(bus.stats(), before);
+        // A current in another family's scale too: the codec refuses it.
+        let v161_amp = Request::Torque {
+            iq_control: rmd_protocol::IqControl::from_amps(1.0).unwrap().into(),
+        };
+        let error = request(&mut bus, &clock, &p, V3, id(3), &v161_amp).unwrap_err();
+        assert!(
+            matches!(
+                error,
+                ExchangeError::Unencodable {
+                    error: ProtocolError::ScaleMismatch { .. },
+                    ..
+                }
+            ),
+            "{error}"
+        );
+        assert_eq!(bus.stats(), before);
+    }
+
+    #[test]
+    fn motor_off_reaches_every_family_and_says_which_answered() {
+        let (clock, mut bus) = mixed();
+        for (motor, family) in [
+            (1, ProtocolFamily::V161),
+            (2, ProtocolFamily::V161),
+            (3, ProtocolFamily::MyActuatorV3),
+        ] {
+            let (reply, dialect) =
+                motor_off_any_family(&mut bus, &clock, &policy(0), id(motor)).unwrap();
+            assert_eq!(reply, Reply::MotorOff);
+            // LK-TECH answers on 0x140 + id, as v1.61 does.
+            assert_eq!(dialect.family(), family, "motor {motor}");
+        }
+        let error = motor_off_any_family(&mut bus, &clock, &policy(0), id(4)).unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .starts_with("motor 4 did not answer motor-off"),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn a_stale_v3_reply_is_not_an_answer() {
+        // A V3 motor answers a command it does not know with its previous reply
+        // (github.com/2b-t/myactuator_rmd issue 24): a 0xB2 reply to a 0x9A request is no
+        // status 1.
+        let stale = CanFrame::new(0x241, &[0xB2, 0, 0, 0, 0x7A, 0x1E, 0xB4, 0x78]).unwrap();
+        let mut bus = scripted(vec![BusMessage::Frame(stale)], None);
+        let clock = bus.clock.clone();
+        let error = request(
+            &mut bus,
+            &clock,
+            &policy(0),
+            V3,
+            id(1),
+            &Request::ReadStatus1,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                error,
+                ExchangeError::Mismatch {
+                    got: Command::ReadFirmwareDate,
+                    ..
+                }
+            ),
+            "{error}"
+        );
     }
 
     #[test]
