@@ -607,7 +607,15 @@ fn the_live_commands_work_against_rmd_sim_on_the_interface() {
         ],
     );
     let commands = host_commands(&log);
-    assert_eq!(commands.first(), Some(&(3, Cmd::Speed)));
+    // Motor 3 identified first (0x9A, 0x9C), then driven.
+    assert_eq!(
+        commands[..3],
+        [
+            (3, Cmd::ReadStatus1),
+            (3, Cmd::ReadStatus2),
+            (3, Cmd::Speed)
+        ]
+    );
     assert_eq!(commands.last(), Some(&(3, Cmd::MotorOff)));
     assert_eq!(
         ok_on(iface, &["off", "1-3"]),
@@ -660,13 +668,15 @@ fn rmd_log_records_the_bus_and_the_log_decodes_and_replays() {
         "recording",
     );
 
-    ok_on(iface, &["status", "1"]);
-    ok_on(iface, &["pid", "get", "2"]);
+    // Named, each motor's protocol is checked with one status-1 read, answered before the next
+    // request (identifying sends two requests at once, which a pairing by content cannot tell).
+    ok_on(iface, &["status", "1", "--protocol", "v1.61"]);
+    ok_on(iface, &["pid", "get", "2", "--protocol", "v1.61"]);
     interrupt(&logger);
     let (code, stderr) = wait(logger, logger_err);
     assert_eq!(code, 0, "{stderr}");
-    // Six status reads and one PID read, each request and its reply.
-    assert!(stderr.contains("recorded 14 frames"), "{stderr}");
+    // The check and six status reads, the check and one PID read, each request and its reply.
+    assert!(stderr.contains("recorded 18 frames"), "{stderr}");
 
     // The logger only listened, so every line is marked R: `rmd decode` pairs them by content.
     let out = rmd(&["decode", file.to_str().unwrap()]);
@@ -675,7 +685,7 @@ fn rmd_log_records_the_bus_and_the_log_decodes_and_replays() {
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();
-    assert_eq!(objects.len(), 14);
+    assert_eq!(objects.len(), 18);
     for pair in objects.chunks(2) {
         assert_eq!(pair[0]["direction"], "request");
         assert_eq!(pair[1]["direction"], "reply");
@@ -705,7 +715,7 @@ fn rmd_log_records_the_bus_and_the_log_decodes_and_replays() {
         .iter()
         .filter(|l| l.direction == Some(Direction::Rx))
         .count();
-    assert_eq!((sent, received), (7, 7));
+    assert_eq!((sent, received), (9, 9));
     drop(sim);
 }
 
@@ -830,5 +840,6 @@ fn fault_options_of_rmd_sim_act_on_the_interface() {
     assert!(err.contains("motor 1 did not answer"), "{err}");
     let (code, stderr) = sim.stop();
     assert_eq!(code, 0);
-    assert!(stderr.contains("2 dropped by fault injection"), "{stderr}");
+    // Two attempts at identifying it, each two requests.
+    assert!(stderr.contains("4 dropped by fault injection"), "{stderr}");
 }
