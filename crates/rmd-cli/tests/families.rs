@@ -242,10 +242,17 @@ fn an_lk_motor_of_unknown_series_is_not_driven() {
         &["torque", "1", "--amps", "1"][..],
         &["speed", "1", "--dps", "10"],
         &["move", "1", "--deg", "10"],
+        // Their replies carry a current too: status reads status 1, then refuses 0x9C.
+        &["status", "1"],
+        &["monitor", "--ids", "1", "--count", "1"],
     ] {
         let run = rmd_on("lk-no-series", &lk, command);
         run.failed();
-        assert_eq!(run.commands(), lk.identification(), "{command:?}");
+        let mut expected = lk.identification();
+        if command[0] != "torque" && command[0] != "speed" && command[0] != "move" {
+            expected.push(Cmd::ReadStatus1);
+        }
+        assert_eq!(run.commands(), expected, "{command:?}");
         assert!(run.stderr.contains("add --lk-series mf"), "{}", run.stderr);
     }
     // Off needs no series.

@@ -271,6 +271,19 @@ impl ExchangeError {
             ExchangeError::Send { .. } | ExchangeError::Receive { .. }
         )
     }
+
+    /// Whether the request cannot go to this motor at all as the command stands (its family
+    /// lacks it, or is not known well enough): asking again will not help, the command line
+    /// must change.
+    pub(crate) fn is_refusal(&self) -> bool {
+        matches!(
+            self,
+            ExchangeError::NotInFamily { .. }
+                | ExchangeError::LkSeriesNeeded { .. }
+                | ExchangeError::Unidentified { .. }
+                | ExchangeError::Unencodable { .. }
+        )
+    }
 }
 
 /// Pause between two sends refused because the transmit queue is full.

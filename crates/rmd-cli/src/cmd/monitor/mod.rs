@@ -360,7 +360,10 @@ fn scan(motors: &mut Motors, quick: bool, show: bool) -> Result<(), CliError> {
         let answer = connection.request(motor.id, &Request::ReadStatus1);
         connection.set_timeout(timeout);
         match answer {
+            // A motor whose family cannot be read as the command stands answered too: its
+            // reading says why.
             Ok(_) => found.push(motor.id),
+            Err(error) if error.is_refusal() => found.push(motor.id),
             Err(error) if error.is_bus_failure() => return Err(error.into()),
             Err(_) => {}
         }
@@ -394,7 +397,11 @@ fn read(motors: &mut Motors, motor: &Motor) -> Result<Result<Vec<Reply>, String>
     for request in &READS {
         match motors.request(motor, request) {
             Ok(reply) => replies.push(reply),
-            Err(error) if error.is_bus_failure() => return Err(error.into()),
+            // The bus is gone, or the motor cannot be read as the command stands (an LK-TECH
+            // motor without --lk-series): no later reading would do better.
+            Err(error) if error.is_bus_failure() || error.is_refusal() => {
+                return Err(error.into());
+            }
             Err(error) => return Ok(Err(error.to_string())),
         }
     }
