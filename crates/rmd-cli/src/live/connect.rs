@@ -452,7 +452,8 @@ impl Connection {
     /// Ends the connection: flushes the recording, if any, and says where it went (a stalled
     /// reader of the log is waited for at most [`FINISH_LIMIT`](crate::live::recording::FINISH_LIMIT)).
     /// Dropping a connection also flushes it, without the summary. An `--mcap` recording is
-    /// decoded in the protocol of the motor this command learned first.
+    /// decoded in the protocol of the lowest-id motor whose protocol this command learned
+    /// (the commands with --mcap drive one motor).
     pub(crate) fn finish(self) -> Result<(), CliError> {
         let Self {
             bus,
