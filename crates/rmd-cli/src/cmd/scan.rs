@@ -11,15 +11,15 @@ use std::time::Duration;
 
 use clap::Args;
 use rmd_protocol::{
-    Command, Dialect, Finding, FirmwareDate, Identification, LkSeries, MotorId, ProbeAnswers,
-    ProtocolFamily, Status1, V3Firmware,
+    Command, Dialect, Finding, FirmwareDate, Identification, LkSeries, ProbeAnswers,
+    ProtocolFamily, Reply, Status1, V3Firmware,
 };
 use serde_json::{Map, Value, json};
 
 use crate::args::bus::BusArgs;
 use crate::args::ids::{self, IdList};
 use crate::live::connect::Connection;
-use crate::output::json::FrameJson;
+use crate::output::json::reply_fields;
 use crate::output::progress::{self, Progress};
 use crate::output::readings;
 use crate::output::report::{self, CliError};
@@ -176,32 +176,12 @@ fn json_object(motor: &Found) -> Value {
     }
     map.insert("evidence".into(), Value::Object(facts));
     if let Some(status) = &motor.status1 {
-        map.extend(status_fields(id.motor, status));
+        map.extend(reply_fields(
+            &Reply::ReadStatus1(*status),
+            rmd_protocol::EncoderWidth::DEFAULT,
+        ));
     }
     Value::Object(map)
-}
-
-/// The fields of status 1 under `rmd decode`'s names (without the frame header).
-fn status_fields(motor: MotorId, status: &Status1) -> Map<String, Value> {
-    const HEADER: [&str; 4] = ["id", "can_id", "direction", "command"];
-    let header = FrameJson::new(
-        None,
-        None,
-        motor.can_id(),
-        "reply",
-        "",
-        rmd_protocol::EncoderWidth::DEFAULT,
-    );
-    let value = header
-        .reply(&rmd_protocol::Reply::ReadStatus1(*status))
-        .into_value();
-    match value {
-        Value::Object(map) => map
-            .into_iter()
-            .filter(|(key, _)| !HEADER.contains(&key.as_str()))
-            .collect(),
-        _ => Map::new(),
-    }
 }
 
 /// The table of the motors found.
@@ -262,7 +242,7 @@ fn dashes() -> (String, String, String) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rmd_protocol::{CanFrame, identify};
+    use rmd_protocol::{CanFrame, MotorId, identify};
 
     fn found(frames: &[[u8; 8]]) -> Found {
         let motor = MotorId::new(3).unwrap();
