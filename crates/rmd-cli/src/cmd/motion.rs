@@ -2,10 +2,9 @@
 //! angle limits checked before anything is sent; waits until the motor is there (Ctrl-C or a
 //! timeout turns it off), then leaves it holding the position.
 //!
-//! The motor's protocol is learned before the command is sent (see
-//! [`Connection`](crate::live::connect::Connection)): a MyActuator V3 motor has mode 2 only
-//! (0xA4, the output shaft's absolute angle, which its replies and 0x92 report too), and its
-//! brake released first if status 1 shows it locked.
+//! The motor's protocol is learned before the command is sent (see [`Connection`]): a
+//! MyActuator V3 motor has mode 2 only (0xA4, the output shaft's absolute angle, which its
+//! replies and 0x92 report too), and its brake released first if status 1 shows it locked.
 
 use std::process::ExitCode;
 use std::time::Duration;
