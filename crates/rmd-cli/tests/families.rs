@@ -209,6 +209,34 @@ fn torque_sends_the_asked_current_in_each_familys_scale() {
         }
         assert!(run.stdout.contains("then turned off"), "{}", run.stdout);
     }
+    // Named, V3 is checked with status 1 and asked its firmware date, then driven the same.
+    let v3_named = Family {
+        name: "myactuator-v3 named",
+        sim: &[
+            "--sim-firmware",
+            "myactuator-v3",
+            "--protocol",
+            "myactuator-v3",
+        ],
+        dialect: families()[3].dialect,
+    };
+    let run = rmd_on(
+        "torque-named",
+        &v3_named,
+        &["torque", "1", "--amps", "2", "--duration", "100ms"],
+    );
+    run.ok();
+    let commands = run.commands();
+    assert_eq!(
+        commands[..3],
+        [Cmd::ReadStatus1, Cmd::ReadFirmwareDate, Cmd::ReadStatus1]
+    );
+    assert!(commands.ends_with(&[Cmd::MotorOff, Cmd::BrakeLock]));
+    assert!(
+        run.sent[3..run.sent.len() - 2]
+            .iter()
+            .all(|r| matches!(r, Request::Torque { iq_control } if iq_control.raw() == 200))
+    );
     // --iq-control is the family's raw value: 100 is 1 A on V3.
     let v3 = &families()[3];
     let run = rmd_on(
