@@ -128,10 +128,19 @@ fn no_hint_names_a_later_command_for_simulated_motors() {
     let out = ok(&["move", "1", "--deg", "10", "--sim"]);
     assert!(out.contains("holding the position"), "{out}");
     assert!(hinted(&out).is_empty(), "{out}");
-    // A motor of another family: the simulated motors' firmware was chosen by an option.
+    // A motor of another family than --protocol names: the simulated motors' firmware was
+    // chosen by an option, so the hint names that option and no later command.
     let err = fails(
         1,
-        &["status", "1", "--sim", "--sim-firmware", "myactuator-v3"],
+        &[
+            "status",
+            "1",
+            "--sim",
+            "--sim-firmware",
+            "myactuator-v3",
+            "--protocol",
+            "v1.61",
+        ],
     );
     assert!(hinted(&err).is_empty(), "{err}");
     assert!(err.contains("--sim-firmware chose"), "{err}");

@@ -59,6 +59,16 @@ fn host_commands(log: &[Logged]) -> Vec<(u8, Cmd)> {
         .collect()
 }
 
+/// What a command without `--protocol` sends `motor` first: the identifying reads (0x9A,
+/// 0x9C), then `then`.
+fn identified(motor: u8, then: &[Cmd]) -> Vec<(u8, Cmd)> {
+    [Cmd::ReadStatus1, Cmd::ReadStatus2]
+        .iter()
+        .chain(then)
+        .map(|&c| (motor, c))
+        .collect()
+}
+
 #[test]
 fn scan_lists_the_simulated_motors() {
     let out = ok(&["scan", "--sim"]);
@@ -141,14 +151,14 @@ fn pid_set_changes_only_the_given_gains_in_ram() {
     let recorded = read_log(&log);
     assert_eq!(
         host_commands(&recorded),
-        [(3, Cmd::ReadPid), (3, Cmd::WritePidRam)]
+        identified(3, &[Cmd::ReadPid, Cmd::WritePidRam])
     );
     // Each request was answered by the motor (a reply follows it on the same id).
     let replies = recorded
         .iter()
         .filter(|l| l.direction == Direction::Rx)
         .count();
-    assert_eq!(replies, 2);
+    assert_eq!(replies, 4);
 
     let get = json_lines(&ok(&["pid", "get", "3", "--sim", "--json"])).remove(0);
     assert_eq!(get["id"], 3);
@@ -160,7 +170,7 @@ fn pid_set_changes_only_the_given_gains_in_ram() {
 fn rom_writes_need_a_confirmation_a_script_gives_with_yes() {
     let log = log_path("rom");
     let log_arg = log.to_str().unwrap();
-    // stdin is not a terminal here: refused, nothing sent (the bus is not even opened).
+    // stdin is not a terminal here: refused once the motor is identified, nothing written.
     let err = fails(
         1,
         &[
@@ -177,7 +187,7 @@ fn rom_writes_need_a_confirmation_a_script_gives_with_yes() {
     );
     assert!(err.contains("needs confirmation"), "{err}");
     assert!(err.contains("pass --yes"), "{err}");
-    assert!(!log.exists());
+    assert_eq!(host_commands(&read_log(&log)), identified(1, &[]));
 
     let out = ok(&[
         "pid",
@@ -194,7 +204,7 @@ fn rom_writes_need_a_confirmation_a_script_gives_with_yes() {
     assert!(out.contains("written to ROM"), "{out}");
     assert_eq!(
         host_commands(&read_log(&log)),
-        [(1, Cmd::ReadPid), (1, Cmd::WritePidRom)]
+        identified(1, &[Cmd::ReadPid, Cmd::WritePidRom])
     );
 
     let err = fails(1, &["zero", "2", "--sim", "--log", log_arg]);
@@ -204,7 +214,10 @@ fn rom_writes_need_a_confirmation_a_script_gives_with_yes() {
     );
     let out = ok(&["zero", "2", "--sim", "--yes", "--log", log_arg]);
     assert!(out.contains("power-cycle the motor"), "{out}");
-    assert_eq!(host_commands(&read_log(&log)), [(2, Cmd::WriteZeroRom)]);
+    assert_eq!(
+        host_commands(&read_log(&log)),
+        identified(2, &[Cmd::WriteZeroRom])
+    );
 }
 
 #[test]
@@ -281,9 +294,9 @@ fn move_reaches_the_target_within_limits() {
     assert!(out.starts_with("motor 1: at "), "{out}");
     assert!(out.contains("holding the position"), "{out}");
     let commands = host_commands(&read_log(&log));
-    assert_eq!(commands[0], (1, Cmd::Position2));
+    assert_eq!(commands[..3], identified(1, &[Cmd::Position2]));
     assert!(
-        commands[1..]
+        commands[3..]
             .iter()
             .all(|c| *c == (1, Cmd::ReadMultiTurnAngle))
     );
@@ -396,8 +409,9 @@ fn torque_and_speed_run_for_their_duration_then_turn_the_motor_off() {
     let commands = host_commands(&read_log(&log));
     let (last, drive) = commands.split_last().unwrap();
     assert_eq!(*last, (2, Cmd::MotorOff));
-    assert!(drive.len() >= 2, "{commands:?}");
-    assert!(drive.iter().all(|c| *c == (2, Cmd::Torque)));
+    assert_eq!(drive[..2], identified(2, &[]));
+    assert!(drive.len() >= 4, "{commands:?}");
+    assert!(drive[2..].iter().all(|c| *c == (2, Cmd::Torque)));
 
     let out = ok(&[
         "speed",
@@ -413,7 +427,7 @@ fn torque_and_speed_run_for_their_duration_then_turn_the_motor_off() {
     assert!(out.contains("speed -360.00 dps"), "{out}");
     let commands = host_commands(&read_log(&log));
     assert_eq!(commands.last(), Some(&(1, Cmd::MotorOff)));
-    assert_eq!(commands[0], (1, Cmd::Speed));
+    assert_eq!(commands[..3], identified(1, &[Cmd::Speed]));
 
     // A speed limit in torque mode: the unloaded motor speeds up past it and is turned off.
     let err = fails(
@@ -819,13 +833,23 @@ fn monitor_on_a_terminal_plots_and_restores_the_terminal_on_every_exit() {
 fn a_recorded_session_decodes_and_replays() {
     let log = log_path("session");
     let log_arg = log.to_str().unwrap();
-    ok(&["status", "1", "--sim", "--log", log_arg]);
+    // Named, the protocol is checked with one read of status 1; then the six reads. (Without
+    // --protocol the two identifying reads go out together, both before either reply.)
+    ok(&[
+        "status",
+        "1",
+        "--sim",
+        "--protocol",
+        "v1.61",
+        "--log",
+        log_arg,
+    ]);
     let recorded = read_log(&log);
-    // Six reads, each request followed by its reply.
-    assert_eq!(recorded.len(), 12);
+    // Seven reads, each request followed by its reply.
+    assert_eq!(recorded.len(), 14);
 
     let decoded = json_lines(&ok(&["decode", log_arg]));
-    assert_eq!(decoded.len(), 12);
+    assert_eq!(decoded.len(), 14);
     for pair in decoded.chunks(2) {
         assert_eq!(pair[0]["direction"], "request");
         assert_eq!(pair[1]["direction"], "reply");

@@ -55,16 +55,38 @@ fn status_of_lk_motors_reads_the_lk_layout() {
         "mg",
     ]);
     assert!(human.contains("voltage          48.0 V"), "{human}");
-    // Read as v1.61 (the default), the same motor shows issue 14's trap: DATA[3..=4] = 0x0012.
+    // Named v1.61, the same motor shows issue 14's trap: DATA[3..=4] = 0x0012 (the name is the
+    // user's word: 0x9A alone cannot always tell v1.61 from LK-TECH).
     let out = ok(&[
         "status",
         "1",
         "--sim",
         "--sim-firmware",
         "lk-v2.3x",
+        "--protocol",
+        "v1.61",
         "--json",
     ]);
     assert_eq!(json_lines(&out)[0]["voltage_volts"], 1.8);
+    // Not named: identified as LK-TECH, read in its layout with the series given...
+    let out = ok(&[
+        "status",
+        "1",
+        "--sim",
+        "--sim-firmware",
+        "lk-v2.3x",
+        "--lk-series",
+        "mg",
+        "--json",
+    ]);
+    assert_eq!(json_lines(&out)[0]["voltage_volts"], 48.0);
+    assert_eq!(json_lines(&out)[0]["firmware"], "lk-v2.3x");
+    // ...and without it the current (status 2) is not guessed.
+    let err = fails(1, &["status", "1", "--sim", "--sim-firmware", "lk-v2.3x"]);
+    assert!(
+        err.contains("add --lk-series mf (MF motors, ±16.5 A) or --lk-series mg"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -96,10 +118,12 @@ fn torque_on_an_lk_mf_motor_uses_its_scale() {
         .filter(|l| l.direction == Some(Direction::Tx))
         .map(|l| l.frame.to_string())
         .collect();
-    assert!(sent.len() >= 2, "{sent:?}");
+    assert!(sent.len() >= 3, "{sent:?}");
     let (last, drive) = sent.split_last().unwrap();
+    // The named protocol checked first (status 1 in LK-TECH's layout), then only MF torque.
+    assert_eq!(drive[0], "141#9A00000000000000");
     assert!(
-        drive.iter().all(|f| f == "141#A1000000F8000000"),
+        drive[1..].iter().all(|f| f == "141#A1000000F8000000"),
         "{sent:?}"
     );
     assert_eq!(last, "141#8000000000000000");
@@ -127,7 +151,7 @@ fn torque_on_an_lk_mf_motor_uses_its_scale() {
 }
 
 #[test]
-fn a_v3_motor_is_named_not_timed_out() {
+fn a_motor_of_another_family_than_named_is_named_not_timed_out() {
     let err = fails(
         1,
         &[
@@ -136,12 +160,38 @@ fn a_v3_motor_is_named_not_timed_out() {
             "--sim",
             "--sim-firmware",
             "myactuator-v3",
+            "--protocol",
+            "v1.61",
             "--timeout-ms",
             "5",
         ],
     );
     assert!(
-        err.contains("motor 2 answered read-status-1 on 0x242 (0x240 + id), as MyActuator V3"),
+        err.contains(
+            "motor 2 answered read-status-1 on 0x242 (0x240 + id), as MyActuator V3 firmware \
+             does, not protocol v1.61"
+        ),
+        "{err}"
+    );
+    let err = fails(
+        1,
+        &[
+            "torque",
+            "2",
+            "--amps",
+            "1",
+            "--sim",
+            "--protocol",
+            "myactuator-v3",
+            "--timeout-ms",
+            "5",
+        ],
+    );
+    assert!(
+        err.contains(
+            "motor 2 answered read-status-1 on 0x142 (0x140 + id), as v1.61 and LK-TECH \
+             firmware do, not protocol myactuator-v3"
+        ),
         "{err}"
     );
 }
@@ -150,9 +200,22 @@ fn a_v3_motor_is_named_not_timed_out() {
 fn protocol_and_firmware_options_are_checked() {
     let err = fails(2, &["status", "1", "--sim", "--protocol", "lk-v2.3x"]);
     assert!(err.contains("--lk-series mf or --lk-series mg"), "{err}");
-    // --lk-series alone is a mistake, unless it is the simulated LK motors' series.
-    let err = fails(2, &["status", "1", "--sim", "--lk-series", "mf"]);
+    // --lk-series with another protocol is a mistake, unless it is the simulated LK motors'
+    // series; alone, it is the series of the motors identified as LK-TECH.
+    let err = fails(
+        2,
+        &[
+            "status",
+            "1",
+            "--sim",
+            "--protocol",
+            "v1.61",
+            "--lk-series",
+            "mf",
+        ],
+    );
     assert!(err.contains("add --protocol lk-v2.3x"), "{err}");
+    ok(&["status", "1", "--sim", "--lk-series", "mf"]);
     ok(&[
         "status",
         "1",
@@ -172,22 +235,11 @@ fn protocol_and_firmware_options_are_checked() {
         err.contains("expected v1.61, lk-v2.3x or myactuator-v3"),
         "{err}"
     );
-    // The live commands do not drive V3 motors yet: refused before anything is sent.
-    for command in [&["status", "2"][..], &["torque", "2", "--amps", "1"][..]] {
-        let mut args = command.to_vec();
-        args.extend([
-            "--sim",
-            "--sim-firmware",
-            "myactuator-v3",
-            "--protocol",
-            "myactuator-v3",
-        ]);
-        let err = fails(2, &args);
-        assert!(
-            err.contains("the live commands do not drive MyActuator V3 motors yet"),
-            "{err}"
-        );
-    }
+    let err = fails(
+        2,
+        &["status", "1", "--sim", "--firmware-date", "2026042402"],
+    );
+    assert!(err.contains("add --protocol myactuator-v3"), "{err}");
 }
 
 /// `rmd scan ARGS --json`: the array's objects.

@@ -195,7 +195,8 @@ fn temp_file(name: &str) -> PathBuf {
     dir.join(name)
 }
 
-/// A request of every command for motor 1, built with the protocol crate.
+/// A request of every v1.61 command (what `rmd sim` runs by default) for motor 1, built with
+/// the protocol crate.
 fn every_request() -> Vec<Request> {
     let gains = PidParams {
         angle_pid_kp: 90,
@@ -205,7 +206,8 @@ fn every_request() -> Vec<Request> {
         iq_pid_kp: 20,
         iq_pid_ki: 10,
     };
-    let requests: Vec<Request> = Cmd::ALL
+    let requests: Vec<Request> = Dialect::V161
+        .commands()
         .iter()
         .map(|&command| {
             Request::without_fields(command).unwrap_or(match command {
@@ -243,7 +245,12 @@ fn every_request() -> Vec<Request> {
             })
         })
         .collect();
-    assert!(requests.iter().map(Request::command).eq(Cmd::ALL));
+    assert!(
+        requests
+            .iter()
+            .map(Request::command)
+            .eq(Dialect::V161.commands().iter().copied())
+    );
     requests
 }
 
@@ -615,7 +622,15 @@ fn the_live_commands_work_against_rmd_sim_on_the_interface() {
         ],
     );
     let commands = host_commands(&log);
-    assert_eq!(commands.first(), Some(&(3, Cmd::Speed)));
+    // Motor 3 identified first (0x9A, 0x9C), then driven.
+    assert_eq!(
+        commands[..3],
+        [
+            (3, Cmd::ReadStatus1),
+            (3, Cmd::ReadStatus2),
+            (3, Cmd::Speed)
+        ]
+    );
     assert_eq!(commands.last(), Some(&(3, Cmd::MotorOff)));
     assert_eq!(
         ok_on(iface, &["off", "1-3"]),
@@ -668,13 +683,15 @@ fn rmd_log_records_the_bus_and_the_log_decodes_and_replays() {
         "recording",
     );
 
-    ok_on(iface, &["status", "1"]);
-    ok_on(iface, &["pid", "get", "2"]);
+    // Named, each motor's protocol is checked with one status-1 read, answered before the next
+    // request (identifying sends two requests at once, which a pairing by content cannot tell).
+    ok_on(iface, &["status", "1", "--protocol", "v1.61"]);
+    ok_on(iface, &["pid", "get", "2", "--protocol", "v1.61"]);
     interrupt(&logger);
     let (code, stderr) = wait(logger, logger_err);
     assert_eq!(code, 0, "{stderr}");
-    // Six status reads and one PID read, each request and its reply.
-    assert!(stderr.contains("recorded 14 frames"), "{stderr}");
+    // The check and six status reads, the check and one PID read, each request and its reply.
+    assert!(stderr.contains("recorded 18 frames"), "{stderr}");
 
     // The logger only listened, so every line is marked R: `rmd decode` pairs them by content.
     let out = rmd(&["decode", file.to_str().unwrap()]);
@@ -683,7 +700,7 @@ fn rmd_log_records_the_bus_and_the_log_decodes_and_replays() {
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();
-    assert_eq!(objects.len(), 14);
+    assert_eq!(objects.len(), 18);
     for pair in objects.chunks(2) {
         assert_eq!(pair[0]["direction"], "request");
         assert_eq!(pair[1]["direction"], "reply");
@@ -713,7 +730,7 @@ fn rmd_log_records_the_bus_and_the_log_decodes_and_replays() {
         .iter()
         .filter(|l| l.direction == Some(Direction::Rx))
         .count();
-    assert_eq!((sent, received), (7, 7));
+    assert_eq!((sent, received), (9, 9));
     drop(sim);
 }
 
@@ -838,5 +855,6 @@ fn fault_options_of_rmd_sim_act_on_the_interface() {
     assert!(err.contains("motor 1 did not answer"), "{err}");
     let (code, stderr) = sim.stop();
     assert_eq!(code, 0);
-    assert!(stderr.contains("2 dropped by fault injection"), "{stderr}");
+    // Two attempts at identifying it, each two requests.
+    assert!(stderr.contains("4 dropped by fault injection"), "{stderr}");
 }

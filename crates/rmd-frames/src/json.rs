@@ -27,8 +27,8 @@ use rmd_protocol::{
     DecodedRequest, EncoderValue, EncoderWidth, FunctionControl, LkStatus1, MULTI_TORQUE_CAN_ID,
     MitCommand, MitFeedback, ModelPart, ModelText, MotorId, MultiTorque, PidParams, ProtocolError,
     Reply, Request, ScaledCurrent, SpinDirection, Status1, Status2, StatusPosition, Temperature,
-    V3_MOTION_BASE_ID, V3_MOTION_REPLY_BASE_ID, V3_REPLY_BASE_ID, V3ErrorState, V3Revision,
-    V3Status1, V161Status1,
+    V3_MOTION_BASE_ID, V3_MOTION_REPLY_BASE_ID, V3_REPLY_BASE_ID, V3ErrorState, V3Status1,
+    V161Status1,
 };
 use serde_json::{Map, Value, json};
 
@@ -272,12 +272,7 @@ impl FrameJson {
         self.put("voltage", json!(s.voltage.raw()));
         self.put("voltage_volts", json!(s.voltage.volts()));
         self.put("error_state", json!(s.error_state.raw()));
-        let names: Vec<&str> = V3_ERRORS
-            .iter()
-            .filter(|(flag, _)| s.error_state.contains(*flag))
-            .map(|(_, name)| *name)
-            .collect();
-        self.put("error_names", json!(names));
+        self.put("error_names", json!(v3_error_names(s.error_state)));
     }
 
     fn function(&mut self, f: &FunctionControl) {
@@ -479,11 +474,7 @@ impl FrameJson {
             | Reply::BrakeLock => {}
             Reply::ReadFirmwareDate(date) => {
                 self.put("firmware_date", json!(date.raw()));
-                let revision = match date.revision() {
-                    V3Revision::V4_3 => "V4.3",
-                    V3Revision::V4_4 => "V4.4",
-                };
-                self.put("firmware_revision", json!(revision));
+                self.put("firmware_revision", json!(date.revision().to_string()));
             }
             Reply::ReadModel(text) => {
                 if let ModelText::Chars { index, .. } = text {
@@ -524,6 +515,17 @@ fn motor_of(can_id: u16) -> Option<MotorId> {
             .and_then(|n| u8::try_from(n).ok())
             .and_then(|n| MotorId::new(n).ok())
     })
+}
+
+/// The names of the MyActuator V3 error flags set in `state` (`error_names`: `stall`,
+/// `low_voltage`, ...), in bit order; bits without a name are left out
+/// ([`V3ErrorState::unknown_bits`] has them).
+pub fn v3_error_names(state: V3ErrorState) -> Vec<&'static str> {
+    V3_ERRORS
+        .iter()
+        .filter(|(flag, _)| state.contains(*flag))
+        .map(|(_, name)| *name)
+        .collect()
 }
 
 /// V3's error flags and the names `error_names` gives them (V4.4 §2.13).

@@ -89,6 +89,16 @@ pub enum V3Revision {
     V4_4,
 }
 
+/// Formats as the manual's version, `V4.3` or `V4.4`.
+impl fmt::Display for V3Revision {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::V4_3 => "V4.3",
+            Self::V4_4 => "V4.4",
+        })
+    }
+}
+
 /// MyActuator V3 values: the firmware date and what depends on it, status 1 and its error
 /// flags, the watchdog, function control, the model string, and the fields V3 adds to commands
 /// v1.61 also has.

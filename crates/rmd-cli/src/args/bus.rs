@@ -13,6 +13,7 @@ use rmd_sim::FirmwareFamily;
 
 use super::ids::{self, IdList};
 use super::parse;
+use crate::live::family::ProtocolSource;
 
 /// Where the motors are, and how to talk to them (flattened into every live command).
 #[derive(Args, Debug, Clone)]
@@ -60,12 +61,14 @@ pub(crate) struct BusArgs {
 pub(crate) struct ProtocolArgs {
     /// The motors' protocol: v1.61 (GYEMS / MyActuator RMD), lk-v2.3x (LK-TECH MF / MG
     /// motors, with --lk-series) or myactuator-v3 (MyActuator's V3 driver: replies on
-    /// 0x240 + id, 0.01 A per LSB; `encode` and `decode` only). It decides the layouts and the
-    /// current scales.
-    #[arg(long, value_name = "PROTOCOL", value_parser = parse::protocol, default_value = "v1.61", global = true)]
-    pub(crate) protocol: ProtocolFamily,
+    /// 0x240 + id, 0.01 A per LSB). It decides the layouts and the current scales. Live
+    /// commands without it identify each motor from its answers to read-only requests before
+    /// sending anything else; `encode` and `decode` take v1.61 without it.
+    #[arg(long, value_name = "PROTOCOL", value_parser = parse::protocol, global = true)]
+    pub(crate) protocol: Option<ProtocolFamily>,
     /// The LK-TECH motor series, on which the current scale depends (with --protocol
-    /// lk-v2.3x): mf (16.5/2048 A per LSB, ±16.5 A) or mg (33/2048 A per LSB, ±33 A).
+    /// lk-v2.3x, or for the motors a live command identifies as LK-TECH): mf (16.5/2048 A per
+    /// LSB, ±16.5 A) or mg (33/2048 A per LSB, ±33 A).
     #[arg(long, value_name = "SERIES", value_parser = parse::lk_series, global = true)]
     pub(crate) lk_series: Option<LkSeries>,
     /// The MyActuator V3 firmware's version date, as 0xB2 reports it (with --protocol
@@ -80,22 +83,19 @@ pub(crate) struct ProtocolArgs {
 }
 
 impl ProtocolArgs {
-    /// The dialect named, or a usage message: `lk-v2.3x` needs `--lk-series`; `--lk-series`
-    /// alone is refused unless `series_used_elsewhere` (the simulated LK motors use it).
+    /// The dialect named (v1.61 when `--protocol` is not given), or a usage message:
+    /// `lk-v2.3x` needs `--lk-series`; `--lk-series` with another protocol is refused unless
+    /// `series_used_elsewhere` (the simulated LK motors use it).
     pub(crate) fn dialect_or(&self, series_used_elsewhere: bool) -> Result<Dialect, String> {
-        let v3_flag = match (self.firmware_date, self.motor_max_torque) {
-            (Some(_), _) => Some("--firmware-date"),
-            (None, Some(_)) => Some("--motor-max-torque"),
-            (None, None) => None,
-        };
-        if let Some(flag) = v3_flag
-            && self.protocol != ProtocolFamily::MyActuatorV3
+        let protocol = self.protocol.unwrap_or(ProtocolFamily::V161);
+        if let Some(flag) = self.v3_flag()
+            && protocol != ProtocolFamily::MyActuatorV3
         {
             return Err(format!(
                 "{flag} applies to MyActuator V3 motors: add --protocol myactuator-v3"
             ));
         }
-        if self.protocol == ProtocolFamily::MyActuatorV3 {
+        if protocol == ProtocolFamily::MyActuatorV3 {
             let max_torque = self
                 .motor_max_torque
                 .map(MotorMaxTorque::from_nm)
@@ -106,7 +106,7 @@ impl ProtocolArgs {
                 max_torque,
             }));
         }
-        match (self.protocol, self.lk_series) {
+        match (protocol, self.lk_series) {
             (ProtocolFamily::LkV23x, Some(series)) => Ok(Dialect::LkV23x(series)),
             (ProtocolFamily::LkV23x, None) => Err(
                 "--protocol lk-v2.3x needs the motors' series, --lk-series mf or --lk-series mg: \
@@ -124,6 +124,15 @@ impl ProtocolArgs {
     /// The dialect named (see [`dialect_or`](Self::dialect_or)).
     pub(crate) fn dialect(&self) -> Result<Dialect, String> {
         self.dialect_or(false)
+    }
+
+    /// The first option given that only MyActuator V3 motors take.
+    fn v3_flag(&self) -> Option<&'static str> {
+        match (self.firmware_date, self.motor_max_torque) {
+            (Some(_), _) => Some("--firmware-date"),
+            (None, Some(_)) => Some("--motor-max-torque"),
+            (None, None) => None,
+        }
     }
 }
 
@@ -158,19 +167,25 @@ impl BusArgs {
         }
     }
 
-    /// The dialect the live commands speak (`--protocol`, `--lk-series`), or a usage message.
-    /// MyActuator V3 is refused here, before anything is sent: the live commands do not speak
-    /// it yet (`rmd encode` and `rmd decode` do).
-    pub(crate) fn dialect(&self) -> Result<Dialect, String> {
+    /// How the live commands learn each motor's protocol: the one `--protocol` names (with
+    /// its `--lk-series`, `--firmware-date`, `--motor-max-torque`), or, without it, each
+    /// motor identified from its answers (LK-TECH motors of the `--lk-series` given); or a
+    /// usage message.
+    pub(crate) fn protocol_source(&self) -> Result<ProtocolSource, String> {
         let series_for_sim = self.sim_firmware.contains(&ProtocolFamily::LkV23x);
-        match self.protocol.dialect_or(series_for_sim)? {
-            Dialect::MyActuatorV3(_) => Err(
-                "--protocol myactuator-v3: the live commands do not drive MyActuator V3 motors \
-                 yet; `rmd encode --protocol myactuator-v3` and `rmd decode --protocol \
-                 myactuator-v3` speak it, and `rmd scan` identifies V3 motors"
-                    .to_owned(),
-            ),
-            dialect => Ok(dialect),
+        if self.protocol.protocol.is_some() {
+            return self
+                .protocol
+                .dialect_or(series_for_sim)
+                .map(ProtocolSource::Named);
         }
+        if let Some(flag) = self.protocol.v3_flag() {
+            return Err(format!(
+                "{flag} applies to MyActuator V3 motors: add --protocol myactuator-v3"
+            ));
+        }
+        Ok(ProtocolSource::Identify {
+            lk_series: self.protocol.lk_series,
+        })
     }
 }

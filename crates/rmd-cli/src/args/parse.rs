@@ -2,8 +2,8 @@
 //! a validated value or the protocol's one-line error out.
 
 use rmd_protocol::{
-    AngleControl, EncoderWidth, FirmwareDate, IqControl, LkSeries, MotorId, ProtocolError,
-    ProtocolFamily, SingleTurnAngle, SpeedControl,
+    AngleControl, EncoderWidth, FirmwareDate, LkSeries, MotorId, ProtocolError, ProtocolFamily,
+    SingleTurnAngle, SpeedControl,
 };
 
 fn int(text: &str) -> Result<i64, String> {
@@ -57,13 +57,11 @@ macro_rules! physical_parser {
     };
 }
 
-raw_parser!(iq_control, IqControl);
 raw_parser!(speed_control, SpeedControl);
 raw_parser!(angle_control, AngleControl);
 raw_parser!(single_turn_angle, SingleTurnAngle);
 raw_parser!(max_speed, rmd_protocol::MaxSpeed);
 raw_parser!(accel, rmd_protocol::Accel);
-physical_parser!(iq_amps, IqControl, from_amps);
 physical_parser!(speed_dps, SpeedControl, from_dps);
 physical_parser!(angle_deg, AngleControl, from_degrees);
 physical_parser!(single_turn_deg, SingleTurnAngle, from_degrees);

@@ -35,7 +35,7 @@ enum EncoderCommand {
     },
     /// Write the encoder offset (0x91): encoder = raw - offset. `--here` makes the present
     /// position zero. For a zero kept across power cycles, see `rmd zero`. LK-TECH firmware
-    /// keeps the offset in ROM: with `--protocol lk-v2.3x` this asks first (or `--yes`).
+    /// keeps the offset in ROM: to an LK-TECH motor this asks first (or `--yes`).
     Offset(OffsetArgs),
 }
 
@@ -107,7 +107,10 @@ fn set_offset(args: &OffsetArgs) -> Result<(), CliError> {
         })?),
         None => None,
     };
-    if args.bus.protocol.protocol == ProtocolFamily::LkV23x {
+    let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
+    // The motor's family first: LK-TECH firmware keeps the offset in ROM.
+    let command = rmd_protocol::Command::WriteEncoderOffset;
+    if bus.dialect(id, command)?.family() == ProtocolFamily::LkV23x {
         confirm::confirm(
             &format!("writing the encoder offset of motor {id} to ROM"),
             &format!(
@@ -117,7 +120,6 @@ fn set_offset(args: &OffsetArgs) -> Result<(), CliError> {
             args.yes,
         )?;
     }
-    let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     let offset = match given {
         Some(offset) => offset,
         None => match bus.request(id, &Request::ReadEncoder)? {

@@ -216,6 +216,14 @@ const EXAMPLES: &[(&str, &[&str])] = &[
         ],
     ),
     (
+        "watchdog",
+        &[
+            "rmd watchdog 1 100ms --sim --sim-firmware myactuator-v3 --yes   # written to ROM",
+            "rmd watchdog 1 100ms --iface can0                 # asks first",
+            "rmd watchdog 1 off --iface can0 --yes",
+        ],
+    ),
+    (
         "zero",
         &[
             "rmd zero 1 --iface can0                            # asks first; then power-cycle",

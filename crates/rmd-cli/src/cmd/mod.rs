@@ -22,6 +22,7 @@ mod scan;
 mod sim;
 mod status;
 mod traj;
+mod watchdog;
 mod zero;
 
 use std::process::ExitCode;
@@ -55,6 +56,9 @@ pub(crate) enum Command {
     Stop(power::PowerArgs),
     /// Motor run (0x88): resume after `rmd stop`.
     Run(power::PowerArgs),
+    /// A MyActuator V3 motor's communication watchdog (0xB3, ROM; asks first): output off and
+    /// brake locked when no frame comes for TIME.
+    Watchdog(watchdog::WatchdogArgs),
     /// Move to an angle (position modes 1..=4), within limits; waits until there.
     Move(motion::MoveArgs),
     /// Drive a torque current for a duration, then turn the motor off.
@@ -96,6 +100,7 @@ impl Command {
             Command::Off(args) => power::run(power::Action::Off, args),
             Command::Stop(args) => power::run(power::Action::Stop, args),
             Command::Run(args) => power::run(power::Action::Run, args),
+            Command::Watchdog(args) => watchdog::run(args),
             Command::Move(args) => motion::run(args),
             Command::Torque(args) => drive::run_torque(args),
             Command::Speed(args) => drive::run_speed(args),

@@ -1,13 +1,19 @@
 //! `rmd move ID --deg X`: a position command (modes 1..=4 of the protocol, 0xA3..=0xA6) with
 //! angle limits checked before anything is sent; waits until the motor is there (Ctrl-C or a
 //! timeout turns it off), then leaves it holding the position.
+//!
+//! The motor's protocol is learned before the command is sent (see [`Connection`]): a
+//! MyActuator V3 motor has mode 2 only (0xA4, the output shaft's absolute angle, which its
+//! replies and 0x92 report too), and its brake released first if status 1 shows it locked.
 
 use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{Args, ValueEnum};
 use rmd_bus::Clock;
-use rmd_protocol::{AngleControl, MaxSpeed, Reply, Request, SingleTurnAngle, SpinDirection};
+use rmd_protocol::{
+    AngleControl, Conversion, Dialect, MaxSpeed, Reply, Request, SingleTurnAngle, SpinDirection,
+};
 
 use crate::args::bus::BusArgs;
 use crate::args::parse;
@@ -39,8 +45,8 @@ pub(crate) struct MoveArgs {
     /// Motor id, 1..=32; with --robot, a joint name.
     #[arg(value_name = "MOTOR")]
     target: String,
-    /// Target angle, degrees (motor side; with --robot, joint side): multi-turn for modes 1 and
-    /// 2, 0..<360 for modes 3 and 4.
+    /// Target angle, degrees (motor side, the output shaft on MyActuator V3; with --robot,
+    /// joint side): multi-turn for modes 1 and 2, 0..<360 for modes 3 and 4.
     #[arg(long, value_parser = parse::finite, allow_hyphen_values = true)]
     deg: f64,
     /// Position mode: 1 (0xA3, multi-turn), 2 (0xA4, multi-turn with --max-speed), 3 (0xA5,
@@ -110,7 +116,11 @@ fn run_move(args: &MoveArgs) -> Result<(), CliError> {
     motors
         .connection(&motor)
         .record_mcap(args.telemetry.mcap.as_deref())?;
-    let moved = move_to(args, &mut motors, &motor, request);
+    // The motor's protocol before anything moves it: a mode it does not have is refused here.
+    let moved = motors
+        .dialect(&motor, request.command())
+        .map_err(CliError::from)
+        .and_then(|_| move_to(args, &mut motors, &motor, request));
     // Whatever happened, the recording (--log) is flushed and reported.
     let finished = motors.finish();
     moved.and(finished)
@@ -212,7 +222,14 @@ fn move_to(
         // Before the motor moves: from here Ctrl-C turns it off instead of killing us.
         interrupt::install_driving()?;
     }
-    let reply = bus.request(id, &request)?;
+    let sent = bus
+        .release_brake_to_move(id)
+        .and_then(|()| bus.request(id, &request));
+    let reply = match sent {
+        Ok(reply) => reply,
+        // The brake may be released, or the command taken: leave the motor off.
+        Err(error) => return safe_stop::finish(bus, &[id], Err(error.into())),
+    };
     if reply.status2().is_none() {
         let check = bus
             .later(&format!("status {id}"))
@@ -294,7 +311,17 @@ fn read_angle(bus: &mut Connection, motor: &Motor, single_turn: bool) -> Result<
     } else {
         Request::ReadMultiTurnAngle
     };
-    match bus.request(id, &request)? {
+    let reply = bus.request(id, &request)?;
+    // LK-TECH counts its single-turn angle over the output's turn (up to 36000 × gear ratio):
+    // the angle within one motor turn, as modes 3 and 4 take it, is its v1.61 form.
+    let reply = match reply {
+        Reply::LkSingleTurnAngle { .. } => bus
+            .dialect(id, request.command())?
+            .convert_reply(&reply, Dialect::V161, Conversion::Nearest)
+            .map_err(|e| CliError::Failed(format!("motor {id}: {e}")))?,
+        reply => reply,
+    };
+    match reply {
         Reply::ReadMultiTurnAngle { motor_angle } => Ok(match &motor.joint {
             Some(joint) => joint.map.joint_angle_deg(motor_angle.degrees()),
             None => motor_angle.degrees(),

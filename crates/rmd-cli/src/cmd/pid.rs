@@ -3,7 +3,7 @@
 use std::process::ExitCode;
 
 use clap::{Args, Subcommand};
-use rmd_protocol::{MotorId, PidParams, Reply, Request};
+use rmd_protocol::{Command, MotorId, PidParams, Reply, Request};
 
 use crate::args::bus::BusArgs;
 use crate::args::parse;
@@ -146,6 +146,16 @@ fn set(args: &SetArgs) -> Result<(), CliError> {
             "give at least one gain to change (e.g. --speed-pid-kp 60){current}"
         )));
     }
+    let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
+    // The motor's protocol first: one without these commands is refused before anything is
+    // asked or written.
+    let write = if args.rom {
+        Command::WritePidRom
+    } else {
+        Command::WritePidRam
+    };
+    bus.dialect(id, Command::ReadPid)?;
+    bus.dialect(id, write)?;
     if args.rom {
         confirm::confirm(
             &format!("writing PID gains to the ROM of motor {id}"),
@@ -156,7 +166,6 @@ fn set(args: &SetArgs) -> Result<(), CliError> {
             args.yes,
         )?;
     }
-    let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     let gains = args.apply(read(&mut bus, id)?);
     let (request, memory) = if args.rom {
         (

@@ -1,10 +1,14 @@
 //! `rmd off|stop|run IDS` (or `--robot FILE [JOINTS]`): motor off (0x80), stop (0x81), run
 //! (0x88).
+//!
+//! Off needs no protocol (the same frame in every family) and locks a MyActuator V3 motor's
+//! brake after it ([`Connection::motor_off`]); stop and run are sent in the motor's protocol,
+//! learned first: V3's stop holds the position, and V3 has no run.
 
 use std::process::ExitCode;
 
 use clap::Args;
-use rmd_protocol::{Reply, Request};
+use rmd_protocol::{ProtocolFamily, Reply, Request};
 
 use crate::args::bus::BusArgs;
 use crate::live::connect::{DEFAULT_RETRIES, DEFAULT_TIMEOUT};
@@ -45,11 +49,15 @@ impl Action {
         }
     }
 
-    fn done(self) -> &'static str {
-        match self {
-            Action::Off => "off",
-            Action::Stop => "stopped (run resumes it)",
-            Action::Run => "running",
+    /// What the motor does now, in its family's meaning of the command.
+    fn done(self, family: ProtocolFamily) -> &'static str {
+        match (self, family) {
+            (Action::Off, _) => "off",
+            (Action::Stop, ProtocolFamily::MyActuatorV3) => {
+                "stopped, holding its position (`rmd off` releases it)"
+            }
+            (Action::Stop, _) => "stopped (run resumes it)",
+            (Action::Run, _) => "running",
         }
     }
 }
@@ -64,9 +72,24 @@ fn apply(action: Action, args: &PowerArgs) -> Result<(), CliError> {
     let request = action.request();
     let mut failed = Vec::new();
     for motor in motors.motors().to_vec() {
+        if let Action::Off = action {
+            match motors.connection(&motor).motor_off(motor.id) {
+                Ok(off) if off.brake_locked => outln!("{}: off, brake locked", motor.title())?,
+                Ok(_) => outln!("{}: off", motor.title())?,
+                Err(problem) => {
+                    errln!("error: {problem}");
+                    failed.push(motor.label());
+                }
+            }
+            continue;
+        }
         match motors.request(&motor, &request) {
             Ok(reply) if reply == expected(action) => {
-                outln!("{}: {}", motor.title(), action.done())?;
+                let family = motors
+                    .connection(&motor)
+                    .family(motor.id)
+                    .map_or(ProtocolFamily::Unknown, |f| f.family());
+                outln!("{}: {}", motor.title(), action.done(family))?;
             }
             Ok(reply) => {
                 errln!(

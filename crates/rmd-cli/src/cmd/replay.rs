@@ -4,8 +4,11 @@
 //!
 //! Which frames: `host` (the requests, told apart from replies as `rmd decode` does), `motors`
 //! (the replies) or `all`. Sending motion commands onto a real interface asks first, and so does
-//! sending frames that write a motor's ROM ([`rom`]) anywhere; motors that received motion
-//! commands are turned off at the end and on Ctrl-C. Printing a log never asks.
+//! sending frames that write a motor's ROM ([`rom`], MyActuator V3's 0x280 broadcasts
+//! included) anywhere; motors that received motion commands, and MyActuator V3 motors that
+//! answered one (a 0x280 frame moves every V3 motor), are turned off at the end and on Ctrl-C,
+//! each with its own motor-off frame. Printing a log never asks. The frames are sent as
+//! recorded: nothing is scaled.
 //!
 //! The log is streamed, never held: one line at a time, at most
 //! [`MAX_LINE_BYTES`](rmd_bus::replay::MAX_LINE_BYTES) of it (a longer line is reported and
@@ -375,7 +378,7 @@ fn play_onto_bus(args: &ReplayArgs, selection: Frames, pace: Pace) -> Result<u64
             printer
                 .progress
                 .suspend(|| gaps.note(due, record.line, args.max_gap));
-            listen_until(&mut bus, due.at, &mut printer)?;
+            listen_until(&mut bus, due.at, &mut printer, &mut moved)?;
             note_moved(&record, &mut moved);
             let patience = bus.policy().timeout;
             let clock = *bus.clock();
@@ -392,7 +395,7 @@ fn play_onto_bus(args: &ReplayArgs, selection: Frames, pace: Pace) -> Result<u64
         }
         // What the last frames bring back.
         let tail = bus.clock().now() + bus.policy().timeout;
-        listen_until(&mut bus, tail, &mut printer)
+        listen_until(&mut bus, tail, &mut printer, &mut moved)
     })();
     let elapsed = bus.clock().now() - start;
     let Printer {
@@ -488,11 +491,31 @@ impl Printer {
     }
 }
 
-/// Receives (and prints) until `deadline`, or until Ctrl-C.
+/// Notes the MyActuator V3 motor that sent `frame` if it is its answer to a motion command (on
+/// `0x240 + id`): moving, whichever frame (single or 0x280) moved it.
+fn note_v3_moving(frame: &rmd_bus::CanFrame, moved: &mut Vec<MotorId>) {
+    let v3 = Dialect::MyActuatorV3(rmd_protocol::V3Firmware::default());
+    if let Ok((motor, reply)) = v3.decode_reply(frame)
+        && matches!(
+            reply,
+            rmd_protocol::Reply::Torque(_)
+                | rmd_protocol::Reply::Speed(_)
+                | rmd_protocol::Reply::Position2(_)
+        )
+        && !moved.contains(&motor)
+    {
+        moved.push(motor);
+        moved.sort();
+    }
+}
+
+/// Receives (and prints) until `deadline`, or until Ctrl-C; notes the MyActuator V3 motors
+/// that answered a motion command in `moved`.
 fn listen_until(
     bus: &mut Connection,
     deadline: Timestamp,
     printer: &mut Printer,
+    moved: &mut Vec<MotorId>,
 ) -> Result<(), CliError> {
     const SLICE: Duration = Duration::from_millis(20);
     loop {
@@ -507,6 +530,7 @@ fn listen_until(
         match bus.bus().recv_until(until) {
             Ok(Some(received)) => {
                 if let BusMessage::Frame(frame) = received.message {
+                    note_v3_moving(&frame, moved);
                     printer.received += 1;
                     printer.print(received.at, Direction::Rx, frame)?;
                 }

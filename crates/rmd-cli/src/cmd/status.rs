@@ -1,10 +1,13 @@
 //! `rmd status IDS`: everything a motor reports: status 1, 2 and 3, the encoder, the multi-turn
-//! and single-turn angles.
+//! and single-turn angles, those its protocol has (learned first: see
+//! [`Connection`](crate::live::connect::Connection)), each in its family's layout and scale. A
+//! MyActuator V3 motor reports the output shaft's speed and angles, its driver's temperature
+//! and brake, and its own error flags; it has no status 3 and no encoder read.
 
 use std::process::ExitCode;
 
 use clap::Args;
-use rmd_protocol::{EncoderWidth, Reply, Request, Status1};
+use rmd_protocol::{Command, Dialect, EncoderWidth, Reply, Request, Status1, StatusPosition};
 
 use crate::args::bus::BusArgs;
 use crate::live::connect::{DEFAULT_RETRIES, DEFAULT_TIMEOUT};
@@ -31,7 +34,7 @@ pub(crate) struct StatusArgs {
     bus: BusArgs,
 }
 
-/// The reads behind a status, in order.
+/// The reads behind a status, in order (those the motor's protocol has).
 pub(crate) const READS: [Request; 6] = [
     Request::ReadStatus1,
     Request::ReadStatus2,
@@ -51,11 +54,11 @@ fn status(args: &StatusArgs) -> Result<(), CliError> {
     let mut failed = Vec::new();
     for motor in motors.motors().to_vec() {
         match read_all(&mut motors, &motor) {
-            Ok(replies) => {
+            Ok((dialect, replies)) => {
                 if args.json {
-                    outln!("{}", json_object(&motor, &replies))?;
+                    outln!("{}", json_object(&motor, dialect, &replies))?;
                 } else {
-                    print_human(&motor, &replies)?;
+                    print_human(&motor, dialect, &replies)?;
                 }
             }
             Err(error) => {
@@ -83,9 +86,16 @@ fn status(args: &StatusArgs) -> Result<(), CliError> {
     }
 }
 
-/// One motor's JSON object: its readings, and with a robot its joint's name, bus and joint units.
-fn json_object(motor: &Motor, replies: &[Reply]) -> serde_json::Value {
+/// One motor's JSON object: its protocol (`firmware`, and a V3 motor's `firmware_date`), its
+/// readings, and with a robot its joint's name, bus and joint units.
+fn json_object(motor: &Motor, dialect: Dialect, replies: &[Reply]) -> serde_json::Value {
     let mut value = readings::object(motor.id, replies, motor.width);
+    if let serde_json::Value::Object(map) = &mut value {
+        map.insert("firmware".into(), dialect.name().into());
+        if let Some(date) = dialect.v3_firmware().and_then(|f| f.date) {
+            map.insert("firmware_date".into(), date.raw().into());
+        }
+    }
     name_it(&mut value, motor);
     if let (Some(joint), serde_json::Value::Object(map)) = (&motor.joint, &mut value) {
         map.insert("joint".into(), readings::joint_object(&joint.map, replies));
@@ -101,18 +111,21 @@ fn name_it(value: &mut serde_json::Value, motor: &Motor) {
     }
 }
 
-/// The replies to [`READS`].
+/// The motor's protocol, and its replies to the [`READS`] it has.
 fn read_all(
     motors: &mut Motors,
     motor: &Motor,
-) -> Result<Vec<Reply>, crate::live::exchange::ExchangeError> {
-    READS
+) -> Result<(Dialect, Vec<Reply>), crate::live::exchange::ExchangeError> {
+    let dialect = motors.dialect(motor, Command::ReadStatus1)?;
+    let replies = READS
         .iter()
+        .filter(|request| dialect.supports(request.command()))
         .map(|request| motors.request(motor, request))
-        .collect()
+        .collect::<Result<_, _>>()?;
+    Ok((dialect, replies))
 }
 
-fn print_human(motor: &Motor, replies: &[Reply]) -> Result<(), WriteError> {
+fn print_human(motor: &Motor, dialect: Dialect, replies: &[Reply]) -> Result<(), WriteError> {
     let mut table = TextTable::without_header(&[Align::Left, Align::Left])
         .indent(2)
         .gap(1);
@@ -128,26 +141,51 @@ fn print_human(motor: &Motor, replies: &[Reply]) -> Result<(), WriteError> {
         table.row(["joint velocity".to_owned(), show("velocity_dps", "°/s")]);
         table.row(["joint torque".to_owned(), show("torque_nm", "N·m")]);
     }
-    for (label, value) in rows(replies, motor.width) {
+    table.row(["protocol".to_owned(), dialect.to_string()]);
+    for (label, value) in rows(replies, motor.width, dialect.reports_output_shaft()) {
         table.row([label.to_owned(), value]);
     }
     out!("{}\n{}", motor.title(), table.render())
 }
 
-/// The readings in words: `(label, value)` per line, in the order of [`READS`].
-fn rows(replies: &[Reply], width: EncoderWidth) -> Vec<(&'static str, String)> {
+/// The readings in words: `(label, value)` per line, in the order of [`READS`], each in its
+/// family's meaning (`output`: the speed and multi-turn angle are the output shaft's, as
+/// MyActuator V3 reports them).
+fn rows(replies: &[Reply], width: EncoderWidth, output: bool) -> Vec<(&'static str, String)> {
     let mut rows = Vec::new();
     for reply in replies {
         match reply {
-            // The replies come in v1.61's shape (see `live::exchange`).
-            Reply::ReadStatus1(Status1::V161(s)) => {
-                rows.push(("temperature", format!("{} °C", s.temperature.celsius())));
-                rows.push(("voltage", format!("{:.1} V", s.voltage.volts())));
-                rows.push(("errors", readings::errors_text(s.error_state)));
+            Reply::ReadStatus1(s) => {
+                rows.push(("temperature", format!("{} °C", s.temperature().celsius())));
+                if let Status1::V3(v3) = s {
+                    rows.push((
+                        "driver temperature",
+                        format!("{} °C", v3.mos_temperature.celsius()),
+                    ));
+                    let brake = if v3.brake.is_released() {
+                        "released"
+                    } else {
+                        "locked"
+                    };
+                    rows.push(("brake", brake.to_owned()));
+                }
+                rows.push(("voltage", format!("{:.1} V", s.volts())));
+                if let Status1::Lk(lk) = s {
+                    rows.push(("bus current", format!("{:.2} A", lk.bus_current.amps())));
+                }
+                rows.push(("errors", readings::status1_errors_text(s)));
             }
             Reply::ReadStatus2(s) => {
                 rows.push(("torque current", format!("{:.2} A", s.iq.amps())));
-                rows.push(("speed", format!("{} dps", s.speed.dps())));
+                match s.position {
+                    StatusPosition::Encoder(_) => {
+                        rows.push(("speed", format!("{} dps", s.speed.dps())));
+                    }
+                    StatusPosition::OutputDegrees(angle) => {
+                        rows.push(("output speed", format!("{} dps", s.speed.dps())));
+                        rows.push(("output angle", format!("{}°", angle.degrees())));
+                    }
+                }
             }
             Reply::ReadStatus3(s) => rows.push((
                 "phase currents",
@@ -173,10 +211,21 @@ fn rows(replies: &[Reply], width: EncoderWidth) -> Vec<(&'static str, String)> {
                     width.bits()
                 ),
             )),
-            Reply::ReadMultiTurnAngle { motor_angle } => {
-                rows.push(("multi-turn angle", format!("{:.2}°", motor_angle.degrees())))
-            }
+            Reply::ReadMultiTurnAngle { motor_angle } => rows.push((
+                if output {
+                    "output multi-turn"
+                } else {
+                    "multi-turn angle"
+                },
+                format!("{:.2}°", motor_angle.degrees()),
+            )),
             Reply::ReadSingleTurnAngle { circle_angle } => {
+                rows.push(("single-turn", format!("{:.2}°", circle_angle.degrees())))
+            }
+            Reply::LkSingleTurnAngle { circle_angle } => {
+                rows.push(("single-turn", format!("{:.2}°", circle_angle.degrees())))
+            }
+            Reply::V3SingleTurnAngle { circle_angle } => {
                 rows.push(("single-turn", format!("{:.2}°", circle_angle.degrees())))
             }
             _ => {}

@@ -4,7 +4,7 @@
 use std::process::ExitCode;
 
 use clap::Args;
-use rmd_protocol::{MotorId, Reply, Request};
+use rmd_protocol::{Command, MotorId, Reply, Request};
 
 use crate::args::bus::BusArgs;
 use crate::args::parse;
@@ -33,6 +33,9 @@ pub(crate) fn run(args: ZeroArgs) -> ExitCode {
 
 fn zero(args: &ZeroArgs) -> Result<(), CliError> {
     let id = args.id;
+    let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
+    // The motor's protocol first: one without 0x19 is refused before anything is asked.
+    bus.dialect(id, Command::WriteZeroRom)?;
     confirm::confirm(
         &format!("writing the zero of motor {id} to ROM"),
         &format!(
@@ -42,7 +45,6 @@ fn zero(args: &ZeroArgs) -> Result<(), CliError> {
         ),
         args.yes,
     )?;
-    let mut bus = Connection::open(&args.bus, DEFAULT_TIMEOUT, DEFAULT_RETRIES)?;
     let reply = bus.request(id, &Request::WriteZeroRom)?;
     let check = bus
         .later(&format!("encoder get {id}"))

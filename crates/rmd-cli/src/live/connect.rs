@@ -1,18 +1,38 @@
 //! Opening the bus every live command talks to: `--iface IFACE` (SocketCAN) or `--sim`
 //! (simulated motors in this process, in real time, running the firmware of `--sim-firmware`),
-//! optionally recorded with `--log FILE`, speaking the protocol of `--protocol`.
+//! optionally recorded with `--log FILE`; and each motor's protocol, learned before the first
+//! request to it.
+//!
+//! # Each motor's protocol
+//!
+//! Every request goes through [`Connection::request`], which learns the motor's family first
+//! ([`Connection::dialect`]), once per command: named (`--protocol`, or the robot description's),
+//! it is checked by reading status 1 in it (a motor of another family answers on the other
+//! reply identifier); not named, the motor is identified from its answers to read-only
+//! requests ([`probe`], `rmd_protocol::identify`), and a MyActuator V3 motor's firmware date is
+//! read (0xB2: it chooses the V4.3 or V4.4 layouts). Only then is the request encoded, in that
+//! family's layouts and scales, or refused with what to use instead. So no frame that moves or
+//! writes a motor leaves before its family is known, and none in another family's scale.
+//!
+//! Motor off ([`Connection::motor_off`]) needs no family: 0x80 is the same frame everywhere.
 
+use std::collections::BTreeMap;
 use std::time::Duration;
 
 use rmd_bus::record::RecordOptions;
 use rmd_bus::{CanBus, MonotonicClock};
-use rmd_protocol::{EncoderWidth, MotorId, Reply, Request};
+use rmd_protocol::{
+    Command, Dialect, EncoderWidth, Finding, FirmwareDate, MotorId, ProtocolFamily, Reply, Request,
+    Status1, V3Firmware, identify,
+};
 use rmd_sim::{FirmwareFamily, MotorConfig, SimBus, SimConfig};
 
 use crate::args::bus::BusArgs;
 use crate::args::ids::IdList;
 use crate::live::exchange::{self, ExchangeError, Policy, Setup};
+use crate::live::family::{MotorFamily, ProtocolSource};
 use crate::live::frames_mcap::FramesMcap;
+use crate::live::probe::{Identified, ProbeTiming, probe};
 use crate::live::recording::{LogSink, Recording};
 use crate::output::report::CliError;
 
@@ -20,8 +40,13 @@ use crate::output::report::CliError;
 pub(crate) const DEFAULT_TIMEOUT: Duration = Duration::from_millis(50);
 /// Default retries of a request.
 pub(crate) const DEFAULT_RETRIES: u32 = 2;
+/// How long a MyActuator V3 motor may take to echo a brake release: 50 to 150 ms measured,
+/// and a host that gave up sooner left a motor half enabled (github.com/almond-bot/axol PR 45,
+/// which waits up to 1 s).
+const BRAKE_RELEASE_TIME: Duration = Duration::from_secs(1);
 
-/// An open bus: the bus (recorded if asked), its clock, and the exchange policy.
+/// An open bus: the bus (recorded if asked), its clock, the exchange policy, and what is known
+/// of each motor's protocol.
 pub(crate) struct Connection {
     bus: Box<dyn CanBus>,
     clock: MonotonicClock,
@@ -29,6 +54,19 @@ pub(crate) struct Connection {
     width: EncoderWidth,
     recording: Option<Recording>,
     frames_mcap: Option<FramesMcap>,
+    /// How each motor's protocol is learned.
+    source: ProtocolSource,
+    /// Motors whose protocol a robot description names (checked like `--protocol`).
+    named: BTreeMap<MotorId, Dialect>,
+    /// What this command learned of each motor's family.
+    families: BTreeMap<MotorId, MotorFamily>,
+}
+
+/// A motor turned off ([`Connection::motor_off`]).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub(crate) struct MotorOff {
+    /// Its brake was locked too (MyActuator V3).
+    pub(crate) brake_locked: bool,
 }
 
 /// The bus of a connection while its real one is being wrapped: sends and receives nothing.
@@ -110,7 +148,7 @@ impl Connection {
         default_timeout: Duration,
         default_retries: u32,
     ) -> Result<Self, CliError> {
-        let dialect = args.dialect().map_err(CliError::Usage)?;
+        let source = args.protocol_source().map_err(CliError::Usage)?;
         let (bus, recording) = match &args.log {
             None => (bus, None),
             Some(path) => {
@@ -131,11 +169,13 @@ impl Connection {
                     .map_or(default_timeout, Duration::from_millis),
                 retries: args.retries.unwrap_or(default_retries),
                 setup,
-                dialect,
             },
             width,
             recording,
             frames_mcap: None,
+            source,
+            named: BTreeMap::new(),
+            families: BTreeMap::new(),
         })
     }
 
@@ -150,20 +190,242 @@ impl Connection {
             Setup::Simulator(_) | Setup::Robot(_) => "sim".to_owned(),
         };
         let bus = std::mem::replace(&mut self.bus, Box::new(Detached));
-        let (bus, mcap) =
-            FramesMcap::start(bus, &name, path.to_owned(), self.policy.dialect, self.width)?;
+        let (bus, mcap) = FramesMcap::start(bus, &name, path.to_owned(), self.width)?;
         self.bus = bus;
         self.frames_mcap = Some(mcap);
         Ok(())
     }
 
-    /// Sends `request` to `motor` and returns its reply.
+    /// Names `motor`'s protocol, as a robot description does: checked, not identified.
+    pub(crate) fn name_protocol(&mut self, motor: MotorId, dialect: Dialect) {
+        self.named.insert(motor, dialect);
+    }
+
+    /// Sends `request` to `motor` in its protocol (learned first, see the module docs) and
+    /// returns its reply.
     pub(crate) fn request(
         &mut self,
         motor: MotorId,
         request: &Request,
     ) -> Result<Reply, ExchangeError> {
-        exchange::request(self.bus.as_mut(), &self.clock, &self.policy, motor, request)
+        let dialect = self.dialect(motor, request.command())?;
+        self.exchange_in(dialect, motor, request)
+    }
+
+    /// The dialect to send `command` to `motor` in, its family learned first if this command
+    /// has not yet; refused when the family does not have the command
+    /// ([`ExchangeError::NotInFamily`]) or its current's scale is not known
+    /// ([`ExchangeError::LkSeriesNeeded`]).
+    pub(crate) fn dialect(
+        &mut self,
+        motor: MotorId,
+        command: Command,
+    ) -> Result<Dialect, ExchangeError> {
+        let family = self.family(motor)?;
+        let dialect = family
+            .dialect_for(command)
+            .ok_or(ExchangeError::LkSeriesNeeded { motor, command })?;
+        if !dialect.supports(command) {
+            return Err(ExchangeError::NotInFamily {
+                motor,
+                command,
+                dialect,
+            });
+        }
+        Ok(dialect)
+    }
+
+    /// What is known of `motor`'s family, learned now if this command has not yet.
+    pub(crate) fn family(&mut self, motor: MotorId) -> Result<MotorFamily, ExchangeError> {
+        if let Some(&family) = self.families.get(&motor) {
+            return Ok(family);
+        }
+        let family = self.learn(motor)?;
+        self.families.insert(motor, family);
+        Ok(family)
+    }
+
+    /// Learns `motor`'s family (see the module docs).
+    fn learn(&mut self, motor: MotorId) -> Result<MotorFamily, ExchangeError> {
+        let source = match self.named.get(&motor) {
+            Some(&dialect) => ProtocolSource::Named(dialect),
+            None => self.source,
+        };
+        match source {
+            ProtocolSource::Named(dialect) => {
+                // Status 1 is read-only in every family, and answered on the family's own
+                // identifier: a motor of another family is found out here.
+                self.exchange_in(dialect, motor, &Request::ReadStatus1)?;
+                Ok(MotorFamily::Known(match dialect {
+                    Dialect::MyActuatorV3(firmware) if firmware.date.is_none() => {
+                        Dialect::MyActuatorV3(V3Firmware {
+                            date: Some(self.firmware_date(motor)?),
+                            ..firmware
+                        })
+                    }
+                    dialect => dialect,
+                }))
+            }
+            ProtocolSource::Identify { lk_series } => {
+                let identified = self.identify(motor)?;
+                let identification = identified.identification;
+                Ok(match identification.family {
+                    ProtocolFamily::V161 => MotorFamily::Known(Dialect::V161),
+                    ProtocolFamily::LkV23x => lk_series.map_or(MotorFamily::LkSeriesUnknown, |s| {
+                        MotorFamily::Known(Dialect::LkV23x(s))
+                    }),
+                    ProtocolFamily::MyActuatorV3 => {
+                        let date = match identified.firmware_date {
+                            Some(date) => date,
+                            None => self.firmware_date(motor)?,
+                        };
+                        MotorFamily::Known(Dialect::MyActuatorV3(V3Firmware::dated(date)))
+                    }
+                    ProtocolFamily::Unknown => {
+                        return Err(match identification.evidence.finding {
+                            Finding::NoAnswer => ExchangeError::NoReply {
+                                motor,
+                                command: Command::ReadStatus1,
+                                timeout: self.policy.timeout,
+                                attempts: self.policy.retries.saturating_add(1),
+                                setup: self.policy.setup.clone(),
+                                signs: Default::default(),
+                            },
+                            finding => ExchangeError::Unidentified { motor, finding },
+                        });
+                    }
+                })
+            }
+        }
+    }
+
+    /// Identifies `motor`'s family from its answers to the read-only probes (0x9A, 0x9C; a
+    /// motor answering as MyActuator V3 is then asked its model, 0xB5, and its firmware date,
+    /// 0xB2, `None` if it does not answer it). Errors: the bus failed.
+    pub(crate) fn identify(&mut self, motor: MotorId) -> Result<Identified, ExchangeError> {
+        let timing = ProbeTiming {
+            timeout: self.policy.timeout,
+            retries: self.policy.retries,
+        };
+        let answers = probe(self.bus.as_mut(), &self.clock, timing, motor)?;
+        let identification = identify(motor, &answers);
+        let firmware_date = if identification.family == ProtocolFamily::MyActuatorV3 {
+            match self.firmware_date(motor) {
+                Ok(date) => Some(date),
+                Err(error) if error.is_bus_failure() => return Err(error),
+                Err(_) => None,
+            }
+        } else {
+            None
+        };
+        Ok(Identified {
+            identification,
+            answers,
+            firmware_date,
+        })
+    }
+
+    /// A MyActuator V3 motor's firmware date (0xB2).
+    fn firmware_date(&mut self, motor: MotorId) -> Result<FirmwareDate, ExchangeError> {
+        let v3 = Dialect::MyActuatorV3(V3Firmware::default());
+        match self.exchange_in(v3, motor, &Request::ReadFirmwareDate)? {
+            Reply::ReadFirmwareDate(date) => Ok(date),
+            // The codec takes only a reply to the pending command.
+            other => Err(ExchangeError::Mismatch {
+                motor,
+                command: Command::ReadFirmwareDate,
+                got: other.command(),
+            }),
+        }
+    }
+
+    /// One exchange in `dialect`.
+    fn exchange_in(
+        &mut self,
+        dialect: Dialect,
+        motor: MotorId,
+        request: &Request,
+    ) -> Result<Reply, ExchangeError> {
+        exchange::request(
+            self.bus.as_mut(),
+            &self.clock,
+            &self.policy,
+            dialect,
+            motor,
+            request,
+        )
+    }
+
+    /// Readies `motor` to move. A MyActuator V3 motor whose status 1 shows its brake locked
+    /// gets it released (0x77: "this command cannot open the brake directly", V4.4 §2.18);
+    /// [`motor_off`](Self::motor_off) locks it again. Other families have no brake command.
+    pub(crate) fn release_brake_to_move(&mut self, motor: MotorId) -> Result<(), ExchangeError> {
+        if self.family(motor)?.family() != ProtocolFamily::MyActuatorV3 {
+            return Ok(());
+        }
+        let status = self.request(motor, &Request::ReadStatus1)?;
+        if let Some(Status1::V3(s)) = status.status1()
+            && !s.brake.is_released()
+        {
+            let timeout = self.policy.timeout;
+            self.policy.timeout = timeout.max(BRAKE_RELEASE_TIME);
+            let released = self.request(motor, &Request::BrakeRelease);
+            self.policy.timeout = timeout;
+            released?;
+        }
+        Ok(())
+    }
+
+    /// Turns `motor` off (0x80, confirmed by its echo): in its protocol if this command learned
+    /// it, else in whichever answers (the frame and its echo are the same in every family).
+    /// A MyActuator V3 motor then has its brake locked (0x78): the output is off, so a braked
+    /// joint holds; a motor without a brake only notes it (V4.4 §2.29). The error says what
+    /// was not confirmed.
+    pub(crate) fn motor_off(&mut self, motor: MotorId) -> Result<MotorOff, String> {
+        let known = self
+            .families
+            .get(&motor)
+            .and_then(|f| f.dialect_for(Command::MotorOff));
+        let (reply, dialect) = match known {
+            Some(dialect) => (
+                self.exchange_in(dialect, motor, &Request::MotorOff),
+                dialect,
+            ),
+            None => match exchange::motor_off_any_family(
+                self.bus.as_mut(),
+                &self.clock,
+                &self.policy,
+                motor,
+            ) {
+                Ok((reply, dialect)) => (Ok(reply), dialect),
+                Err(error) => (Err(error), Dialect::V161),
+            },
+        };
+        match reply {
+            Ok(Reply::MotorOff) => {}
+            Ok(other) => {
+                return Err(format!(
+                    "motor {motor} answered motor-off with {}",
+                    other.command()
+                ));
+            }
+            Err(error) => return Err(error.to_string()),
+        }
+        if dialect.family() != ProtocolFamily::MyActuatorV3 {
+            return Ok(MotorOff {
+                brake_locked: false,
+            });
+        }
+        match self.exchange_in(dialect, motor, &Request::BrakeLock) {
+            Ok(Reply::BrakeLock) => Ok(MotorOff { brake_locked: true }),
+            Ok(other) => Err(format!(
+                "motor {motor} is off, and answered brake-lock with {}: its brake may be released",
+                other.command()
+            )),
+            Err(error) => Err(format!(
+                "motor {motor} is off, but {error}: its brake may be released"
+            )),
+        }
     }
 
     /// The bus, for commands that do their own sending and receiving.
@@ -195,7 +457,7 @@ impl Connection {
     /// interface and protocol), or `None` for simulated motors, which end with this command
     /// (see [`hint`](crate::live::hint)).
     pub(crate) fn later(&self, words: &str) -> Option<String> {
-        crate::live::hint::later(&self.policy.setup, self.policy.dialect, self.width, words)
+        crate::live::hint::later(&self.policy.setup, &self.source, self.width, words)
     }
 
     /// The motors' encoder width.
@@ -205,12 +467,15 @@ impl Connection {
 
     /// Ends the connection: flushes the recording, if any, and says where it went (a stalled
     /// reader of the log is waited for at most [`FINISH_LIMIT`](crate::live::recording::FINISH_LIMIT)).
-    /// Dropping a connection also flushes it, without the summary.
+    /// Dropping a connection also flushes it, without the summary. An `--mcap` recording is
+    /// decoded in the protocol of the lowest-id motor whose protocol this command learned
+    /// (the commands with --mcap drive one motor).
     pub(crate) fn finish(self) -> Result<(), CliError> {
         let Self {
             bus,
             recording,
             frames_mcap,
+            families,
             ..
         } = self;
         drop(bus);
@@ -218,7 +483,11 @@ impl Connection {
             None => Ok(()),
             Some(recording) => recording.finish(),
         };
-        let mcap = frames_mcap.map_or(Ok(()), FramesMcap::finish);
+        let dialect = families.values().find_map(|family| match family {
+            MotorFamily::Known(dialect) => Some(*dialect),
+            MotorFamily::LkSeriesUnknown => None,
+        });
+        let mcap = frames_mcap.map_or(Ok(()), |mcap| mcap.finish(dialect.unwrap_or_default()));
         logged.and(mcap)
     }
 }

@@ -8,24 +8,26 @@
 //! (no acknowledgement, error-passive) sharpen the advice of a timeout; bus-off ends the
 //! exchange at once.
 //!
-//! Requests and replies are encoded and decoded in the connection's [`Dialect`] (`--protocol`):
-//! a torque request carries its current in amperes into the dialect's `iqControl` scale, and a
-//! reply is decoded with the dialect's layouts and scales, then handed to the commands in the
-//! v1.61 shape they print (rmd-protocol's nearest conversion, `Dialect::convert_reply`: an
-//! LK-TECH voltage to 0.1 V, an MF current to v1.61's 33/2048 A steps, the LK single-turn angle
-//! within one motor turn). A motor answering on `0x240 + id` runs MyActuator V3 firmware, which
-//! the live commands do not drive yet: that is its own error.
+//! Requests are encoded and replies decoded in the motor's [`Dialect`] (learned by the
+//! [`Connection`](crate::live::connect::Connection)), with rmd-protocol's codec alone: a request
+//! is sent only if it belongs to the dialect (its command, its current's scale), and a reply is
+//! taken only from the dialect's reply identifier with the pending command's byte
+//! (`Dialect::decode_answer`), in the dialect's own layouts and scales. A motor answering on the
+//! other families' identifier (`0x240 + id` for a v1.61 or LK-TECH request, `0x140 + id` for a
+//! MyActuator V3 one) speaks another protocol: that is its own error. [`motor_off_any_family`]
+//! is the one exchange without a dialect: 0x80 and its echo are the same bytes in every family.
 
 use std::fmt;
 use std::time::Duration;
 
 use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock, Timestamp};
 use rmd_protocol::{
-    Command, Conversion, Dialect, MotorId, ProtocolError, Reply, Request, ScaledCurrent,
-    V3_REPLY_BASE_ID,
+    Command, Dialect, Finding, MotorId, ProtocolError, Reply, Request, SINGLE_MOTOR_BASE_ID,
+    V3_REPLY_BASE_ID, V3Firmware,
 };
 
 use crate::args::ids::IdList;
+use crate::live::family::instead;
 use crate::output::report::CliError;
 
 /// Timeout and retries of each exchange, and what the bus is (for the advice in errors).
@@ -37,8 +39,6 @@ pub(crate) struct Policy {
     pub(crate) retries: u32,
     /// What the motors are on.
     pub(crate) setup: Setup,
-    /// The protocol the motors speak (`--protocol`).
-    pub(crate) dialect: Dialect,
 }
 
 /// What the motors are on, for advice in error messages.
@@ -169,7 +169,8 @@ pub(crate) enum ExchangeError {
     #[error(
         "motor {motor} sent an invalid reply to {command}: {error}; try again, and if it \
          persists check the wiring (corrupted frames) and the motor's firmware (protocol \
-         {dialect} expected, --protocol chooses; {})", setup.firmware_advice()
+         {} expected, --protocol chooses; {})",
+        dialect.map_or("of any family".to_owned(), |d| d.to_string()), setup.firmware_advice()
     )]
     BadReply {
         /// The motor asked.
@@ -178,17 +179,13 @@ pub(crate) enum ExchangeError {
         command: Command,
         /// What is wrong with the reply.
         error: ProtocolError,
-        /// The protocol spoken.
-        dialect: Dialect,
+        /// The protocol spoken (`None`: motor off, the same in every family).
+        dialect: Option<Dialect>,
         /// What the bus is.
         setup: Setup,
     },
-    /// The motor answered on `0x240 + id`: MyActuator V3 firmware.
-    #[error(
-        "motor {motor} answered {command} on 0x{can_id:03X} (0x240 + id), as MyActuator V3 \
-         firmware does: rmd-rt does not drive V3 motors (their 0x280 frame is a command to every \
-         motor, not torque); {}", setup.firmware_advice()
-    )]
+    /// The motor answered on the other families' reply identifier: it speaks another protocol.
+    #[error("{}", other_firmware(*motor, *command, *can_id, *expected, setup))]
     OtherFirmware {
         /// The motor asked.
         motor: MotorId,
@@ -196,8 +193,48 @@ pub(crate) enum ExchangeError {
         command: Command,
         /// The identifier it answered on.
         can_id: u16,
+        /// The protocol the request was sent in.
+        expected: Dialect,
         /// What the bus is.
         setup: Setup,
+    },
+    /// The motor's family does not have the command (as rmd-rt speaks it): nothing was sent.
+    #[error(
+        "motor {motor} speaks {dialect}, which has no {command} (0x{:02X}): {}; {command} was \
+         not sent",
+        command.code(), instead(dialect.family(), *command)
+    )]
+    NotInFamily {
+        /// The motor.
+        motor: MotorId,
+        /// The command refused.
+        command: Command,
+        /// The motor's protocol.
+        dialect: Dialect,
+    },
+    /// An LK-TECH motor of unknown series, asked a command with a current: nothing was sent.
+    #[error(
+        "motor {motor} answers as LK-TECH V2.3x firmware, whose current scale depends on the \
+         motor series, which its frames do not carry: add --lk-series mf (MF motors, ±16.5 A) \
+         or --lk-series mg (MG, ±33 A); {command} was not sent"
+    )]
+    LkSeriesNeeded {
+        /// The motor.
+        motor: MotorId,
+        /// The command refused.
+        command: Command,
+    },
+    /// The motor answered the identifying requests, but its family cannot be told from them.
+    #[error(
+        "cannot tell which protocol motor {motor} speaks: it {finding}; name it with --protocol \
+         (v1.61, lk-v2.3x with --lk-series, or myactuator-v3); `rmd scan` shows what each motor \
+         answers"
+    )]
+    Unidentified {
+        /// The motor.
+        motor: MotorId,
+        /// What its answers showed.
+        finding: Finding,
     },
     /// The request cannot be expressed in the protocol spoken (a current beyond its range).
     #[error("cannot send {command} to motor {motor} in protocol {dialect}: {error}")]
@@ -241,6 +278,19 @@ impl ExchangeError {
             ExchangeError::Send { .. } | ExchangeError::Receive { .. }
         )
     }
+
+    /// Whether the request cannot go to this motor at all as the command stands (its family
+    /// lacks it, or is not known well enough): asking again will not help, the command line
+    /// must change.
+    pub(crate) fn is_refusal(&self) -> bool {
+        matches!(
+            self,
+            ExchangeError::NotInFamily { .. }
+                | ExchangeError::LkSeriesNeeded { .. }
+                | ExchangeError::Unidentified { .. }
+                | ExchangeError::Unencodable { .. }
+        )
+    }
 }
 
 /// Pause between two sends refused because the transmit queue is full.
@@ -252,27 +302,168 @@ impl From<ExchangeError> for CliError {
     }
 }
 
-/// Sends `request` to `motor` and returns its reply (see the module docs).
+/// Why a motor answered on the other families' identifier, and what to do.
+fn other_firmware(
+    motor: MotorId,
+    command: Command,
+    can_id: u16,
+    expected: Dialect,
+    setup: &Setup,
+) -> String {
+    let (base, speaks) = if can_id >= V3_REPLY_BASE_ID {
+        ("0x240", "MyActuator V3 firmware does")
+    } else {
+        ("0x140", "v1.61 and LK-TECH firmware do")
+    };
+    format!(
+        "motor {motor} answered {command} on 0x{can_id:03X} ({base} + id), as {speaks}, not \
+         protocol {expected}: nothing else was sent to it; name its protocol rightly \
+         (--protocol, or the robot description's `protocol`), or leave --protocol out to have \
+         each motor identified ({})",
+        setup.firmware_advice()
+    )
+}
+
+/// What a received frame is to an exchange with one motor.
+enum Heard {
+    /// The answer.
+    Answer(Reply),
+    /// The motor's answer to another command.
+    Mismatch(Command),
+    /// The motor's answer, malformed.
+    Bad(ProtocolError),
+    /// An answer on the other families' identifier (a motor of another protocol).
+    OtherFamily(u16),
+    /// Not from this motor, or not an answer.
+    NotOurs,
+}
+
+/// Sends `request` to `motor` in `dialect` and returns its reply (see the module docs).
+/// Refused before anything is sent: a command the dialect does not have
+/// ([`ExchangeError::NotInFamily`]), a value it cannot carry ([`ExchangeError::Unencodable`]).
 pub(crate) fn request(
     bus: &mut dyn CanBus,
     clock: &dyn Clock,
     policy: &Policy,
+    dialect: Dialect,
     motor: MotorId,
     request: &Request,
 ) -> Result<Reply, ExchangeError> {
     let command = request.command();
-    let frame =
-        encode(policy.dialect, motor, request).map_err(|error| ExchangeError::Unencodable {
-            motor,
-            command,
-            dialect: policy.dialect,
-            error,
+    let frame = dialect
+        .encode(motor, request)
+        .map_err(|error| match error {
+            ProtocolError::UnsupportedCommand { .. } => ExchangeError::NotInFamily {
+                motor,
+                command,
+                dialect,
+            },
+            error => ExchangeError::Unencodable {
+                motor,
+                command,
+                dialect,
+                error,
+            },
         })?;
+    // The other families' reply identifier, and what a frame on it says.
+    let (other_id, other_is_request_echo) = match dialect {
+        Dialect::MyActuatorV3(_) => (SINGLE_MOTOR_BASE_ID + u16::from(motor.get()), true),
+        Dialect::V161 | Dialect::LkV23x(_) => (V3_REPLY_BASE_ID + u16::from(motor.get()), false),
+    };
+    let hear = |reply: &CanFrame| {
+        if reply.id() == dialect.reply_id(motor) {
+            match dialect.decode_answer(reply, motor, command) {
+                Ok(answer) => Heard::Answer(answer),
+                Err(ProtocolError::ReplyMismatch { got, .. }) => Heard::Mismatch(got),
+                Err(error) => Heard::Bad(error),
+            }
+        } else if reply.id() == other_id
+            && reply.data().first() == Some(&command.code())
+            // On 0x140 + id, the request itself (another program's, or our own looped back)
+            // is not an answer.
+            && !(other_is_request_echo && *reply == frame)
+        {
+            Heard::OtherFamily(reply.id())
+        } else {
+            Heard::NotOurs
+        }
+    };
+    let asked = Asked {
+        motor,
+        command,
+        dialect: Some(dialect),
+    };
+    exchange(bus, clock, policy, asked, &frame, hear)
+}
+
+/// Turns `motor` off (0x80) whatever its family: the request and its echo are the same bytes
+/// in every family, and the echo comes back on `0x140 + id` (v1.61, LK-TECH) or `0x240 + id`
+/// (MyActuator V3). What a safe stop sends to a motor whose family it has not learned. Returns
+/// the echo and the family whose identifier it came on (v1.61 for `0x140 + id`; a V3 dialect
+/// without a firmware date, which no command after motor off depends on).
+pub(crate) fn motor_off_any_family(
+    bus: &mut dyn CanBus,
+    clock: &dyn Clock,
+    policy: &Policy,
+    motor: MotorId,
+) -> Result<(Reply, Dialect), ExchangeError> {
+    let frame = Dialect::V161.motor_off(motor);
+    let v3 = Dialect::MyActuatorV3(V3Firmware::default());
+    let answered_on = std::cell::Cell::new(Dialect::V161);
+    let hear = |reply: &CanFrame| {
+        let dialect = if reply.id() == v3.reply_id(motor) {
+            v3
+        } else if reply.id() == Dialect::V161.reply_id(motor) {
+            Dialect::V161
+        } else {
+            return Heard::NotOurs;
+        };
+        match dialect.decode_answer(reply, motor, Command::MotorOff) {
+            Ok(answer) => {
+                answered_on.set(dialect);
+                Heard::Answer(answer)
+            }
+            Err(ProtocolError::ReplyMismatch { got, .. }) => Heard::Mismatch(got),
+            Err(error) => Heard::Bad(error),
+        }
+    };
+    let asked = Asked {
+        motor,
+        command: Command::MotorOff,
+        dialect: None,
+    };
+    let reply = exchange(bus, clock, policy, asked, &frame, hear)?;
+    Ok((reply, answered_on.get()))
+}
+
+/// Who is asked what, in which protocol (`None`: a frame the same in every family).
+#[derive(Copy, Clone, Debug)]
+struct Asked {
+    motor: MotorId,
+    command: Command,
+    dialect: Option<Dialect>,
+}
+
+/// Sends `frame` (the request `asked` describes) and waits for what `hear` takes as its
+/// answer, with the policy's timeout and retries.
+fn exchange(
+    bus: &mut dyn CanBus,
+    clock: &dyn Clock,
+    policy: &Policy,
+    asked: Asked,
+    frame: &CanFrame,
+    hear: impl Fn(&CanFrame) -> Heard,
+) -> Result<Reply, ExchangeError> {
+    let Asked {
+        motor,
+        command,
+        dialect,
+    } = asked;
     let attempts = policy.retries.saturating_add(1);
     let mut signs = BusSigns::default();
     let mut mismatch = None;
     let mut bad = None;
-    let mut v3_answer = None;
+    let mut other_family = None;
     let receive_error = |error| ExchangeError::Receive {
         motor,
         command,
@@ -280,7 +471,7 @@ pub(crate) fn request(
     };
     for _ in 0..attempts {
         drain(bus, &mut signs).map_err(receive_error)?;
-        send(bus, clock, &frame, policy.timeout).map_err(|error| ExchangeError::Send {
+        send(bus, clock, frame, policy.timeout).map_err(|error| ExchangeError::Send {
             motor,
             command,
             error,
@@ -292,78 +483,45 @@ pub(crate) fn request(
                     return Err(receive_error(BusError::BusOff));
                 }
                 BusMessage::Event(event) => signs.note(event),
-                BusMessage::Frame(reply) if reply.id() == motor.can_id() => {
-                    match policy
-                        .dialect
-                        .decode_reply_to(&reply, command)
-                        .and_then(|(_, reply)| {
-                            policy
-                                .dialect
-                                .convert_reply(&reply, Dialect::V161, Conversion::Nearest)
-                        }) {
-                        Ok(reply) => return Ok(reply),
-                        Err(ProtocolError::ReplyMismatch { got, .. }) => mismatch = Some(got),
-                        Err(error) => bad = Some(error),
-                    }
-                }
-                BusMessage::Frame(reply)
-                    if reply.id() == V3_REPLY_BASE_ID + u16::from(motor.get()) =>
-                {
-                    v3_answer = Some(reply.id());
-                }
-                // Another motor's frame: not ours.
-                BusMessage::Frame(_) => {}
+                BusMessage::Frame(reply) => match hear(&reply) {
+                    Heard::Answer(answer) => return Ok(answer),
+                    Heard::Mismatch(got) => mismatch = Some(got),
+                    Heard::Bad(error) => bad = Some(error),
+                    Heard::OtherFamily(can_id) => other_family = Some(can_id),
+                    Heard::NotOurs => {}
+                },
             }
         }
     }
-    Err(if let Some(error) = bad {
-        ExchangeError::BadReply {
+    Err(match (bad, other_family, mismatch, dialect) {
+        (Some(error), _, _, _) => ExchangeError::BadReply {
             motor,
             command,
             error,
-            dialect: policy.dialect,
+            dialect,
             setup: policy.setup.clone(),
-        }
-    } else if let Some(can_id) = v3_answer {
-        ExchangeError::OtherFirmware {
+        },
+        (None, Some(can_id), _, Some(expected)) => ExchangeError::OtherFirmware {
             motor,
             command,
             can_id,
+            expected,
             setup: policy.setup.clone(),
-        }
-    } else if let Some(got) = mismatch {
-        ExchangeError::Mismatch {
+        },
+        (None, _, Some(got), _) => ExchangeError::Mismatch {
             motor,
             command,
             got,
-        }
-    } else {
-        ExchangeError::NoReply {
+        },
+        _ => ExchangeError::NoReply {
             motor,
             command,
             timeout: policy.timeout,
             attempts,
             setup: policy.setup.clone(),
             signs,
-        }
-    })
-}
-
-/// The frame of `request` to `motor` in `dialect`. The commands build their torque request in
-/// amperes: its current goes into the dialect's `iqControl` scale (rounded to the nearest step;
-/// an error beyond the dialect's range). Every other request is encoded as it is.
-pub(crate) fn encode(
-    dialect: Dialect,
-    motor: MotorId,
-    request: &Request,
-) -> Result<CanFrame, ProtocolError> {
-    let request = match *request {
-        Request::Torque { iq_control } => Request::Torque {
-            iq_control: ScaledCurrent::from_amps(iq_control.amps(), dialect.iq_control_scale())?,
         },
-        other => other,
-    };
-    dialect.encode(motor, &request)
+    })
 }
 
 /// Discards what is already received (stale replies), keeping note of bus events.
@@ -400,6 +558,7 @@ pub(crate) fn send(
 mod tests {
     use super::*;
     use rmd_bus::{Received, VirtualClock};
+    use rmd_protocol::ProtocolFamily;
     use rmd_sim::{FaultKind, FaultRule, SimBus, SimConfig};
 
     fn id(n: u8) -> MotorId {
@@ -411,7 +570,6 @@ mod tests {
             timeout: Duration::from_millis(10),
             retries,
             setup: Setup::Simulator(crate::args::ids::parse("1-4").unwrap()),
-            dialect: Dialect::V161,
         }
     }
 
@@ -422,10 +580,149 @@ mod tests {
         (clock.clone(), SimBus::new(clock, config).unwrap())
     }
 
+    /// Motors 1 (v1.61), 2 (LK-TECH MF) and 3 (MyActuator V3) on one simulated bus.
+    fn mixed() -> (VirtualClock, SimBus<VirtualClock>) {
+        use rmd_protocol::LkSeries;
+        use rmd_sim::FirmwareFamily;
+        let clock = VirtualClock::new();
+        let mut config = SimConfig::with_motors(3).seed(3);
+        let families = [
+            FirmwareFamily::V161,
+            FirmwareFamily::LkV23x(LkSeries::Mf),
+            FirmwareFamily::MyActuatorV3,
+        ];
+        for (motor, family) in config.motors.iter_mut().zip(families) {
+            motor.firmware.family = family;
+        }
+        (clock.clone(), SimBus::new(clock, config).unwrap())
+    }
+
+    const V3: Dialect = Dialect::MyActuatorV3(V3Firmware {
+        date: None,
+        max_torque: None,
+    });
+
+    #[test]
+    fn each_family_is_spoken_in_its_own_layout_and_a_wrong_one_is_named() {
+        let (clock, mut bus) = mixed();
+        let p = policy(0);
+        // V3 answers on 0x243, in its layout (status 1 with the brake byte).
+        let reply = request(&mut bus, &clock, &p, V3, id(3), &Request::ReadStatus1).unwrap();
+        assert!(matches!(
+            reply.status1(),
+            Some(rmd_protocol::Status1::V3(_))
+        ));
+        // v1.61 spoken to the V3 motor: it answers on 0x243, and is named for it.
+        let error = request(
+            &mut bus,
+            &clock,
+            &p,
+            Dialect::V161,
+            id(3),
+            &Request::ReadStatus1,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(error, ExchangeError::OtherFirmware { can_id: 0x243, .. }),
+            "{error}"
+        );
+        assert!(error.to_string().contains("as MyActuator V3 firmware does"));
+        // V3 spoken to the v1.61 motor: it answers on 0x141.
+        let error = request(&mut bus, &clock, &p, V3, id(1), &Request::ReadStatus1).unwrap_err();
+        assert!(
+            matches!(error, ExchangeError::OtherFirmware { can_id: 0x141, .. }),
+            "{error}"
+        );
+        // A command V3 lacks is refused before anything is sent.
+        let before = bus.stats();
+        let error = request(&mut bus, &clock, &p, V3, id(3), &Request::ReadPid).unwrap_err();
+        assert!(
+            matches!(error, ExchangeError::NotInFamily { .. }),
+            "{error}"
+        );
+        assert_eq!(bus.stats(), before);
+        // A current in another family's scale too: the codec refuses it.
+        let v161_amp = Request::Torque {
+            iq_control: rmd_protocol::IqControl::from_amps(1.0).unwrap().into(),
+        };
+        let error = request(&mut bus, &clock, &p, V3, id(3), &v161_amp).unwrap_err();
+        assert!(
+            matches!(
+                error,
+                ExchangeError::Unencodable {
+                    error: ProtocolError::ScaleMismatch { .. },
+                    ..
+                }
+            ),
+            "{error}"
+        );
+        assert_eq!(bus.stats(), before);
+    }
+
+    #[test]
+    fn motor_off_reaches_every_family_and_says_which_answered() {
+        let (clock, mut bus) = mixed();
+        for (motor, family) in [
+            (1, ProtocolFamily::V161),
+            (2, ProtocolFamily::V161),
+            (3, ProtocolFamily::MyActuatorV3),
+        ] {
+            let (reply, dialect) =
+                motor_off_any_family(&mut bus, &clock, &policy(0), id(motor)).unwrap();
+            assert_eq!(reply, Reply::MotorOff);
+            // LK-TECH answers on 0x140 + id, as v1.61 does.
+            assert_eq!(dialect.family(), family, "motor {motor}");
+        }
+        let error = motor_off_any_family(&mut bus, &clock, &policy(0), id(4)).unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .starts_with("motor 4 did not answer motor-off"),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn a_stale_v3_reply_is_not_an_answer() {
+        // A V3 motor answers a command it does not know with its previous reply
+        // (github.com/2b-t/myactuator_rmd issue 24): a 0xB2 reply to a 0x9A request is no
+        // status 1.
+        let stale = CanFrame::new(0x241, &[0xB2, 0, 0, 0, 0x7A, 0x1E, 0xB4, 0x78]).unwrap();
+        let mut bus = scripted(vec![BusMessage::Frame(stale)], None);
+        let clock = bus.clock.clone();
+        let error = request(
+            &mut bus,
+            &clock,
+            &policy(0),
+            V3,
+            id(1),
+            &Request::ReadStatus1,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                error,
+                ExchangeError::Mismatch {
+                    got: Command::ReadFirmwareDate,
+                    ..
+                }
+            ),
+            "{error}"
+        );
+    }
+
     #[test]
     fn a_reply_comes_back_typed() {
         let (clock, mut bus) = sim(&[]);
-        let reply = request(&mut bus, &clock, &policy(0), id(2), &Request::ReadStatus1).unwrap();
+        let reply = request(
+            &mut bus,
+            &clock,
+            &policy(0),
+            Dialect::V161,
+            id(2),
+            &Request::ReadStatus1,
+        )
+        .unwrap();
         let status = reply.status1().unwrap();
         assert_eq!(status.temperature().celsius(), 25.0);
         // One exchange on a 1 Mbit/s bus: well under the timeout.
@@ -438,13 +735,29 @@ mod tests {
             .motor(id(1))
             .frames_window(0, 2);
         let (clock, mut bus) = sim(&[drop_two]);
-        let reply = request(&mut bus, &clock, &policy(2), id(1), &Request::ReadPid).unwrap();
+        let reply = request(
+            &mut bus,
+            &clock,
+            &policy(2),
+            Dialect::V161,
+            id(1),
+            &Request::ReadPid,
+        )
+        .unwrap();
         assert_eq!(reply.command(), Command::ReadPid);
         // Two timeouts were waited out first.
         assert!(clock.now() >= Timestamp::ZERO + Duration::from_millis(20));
 
         let (clock, mut bus) = sim(&[drop_two]);
-        let error = request(&mut bus, &clock, &policy(1), id(1), &Request::ReadPid).unwrap_err();
+        let error = request(
+            &mut bus,
+            &clock,
+            &policy(1),
+            Dialect::V161,
+            id(1),
+            &Request::ReadPid,
+        )
+        .unwrap_err();
         assert!(matches!(error, ExchangeError::NoReply { .. }), "{error}");
         assert_eq!(
             error.to_string(),
@@ -460,7 +773,15 @@ mod tests {
             setup: Setup::Interface("can0".into()),
             ..policy(0)
         };
-        let error = request(&mut bus, &clock, &policy, id(9), &Request::ReadStatus1).unwrap_err();
+        let error = request(
+            &mut bus,
+            &clock,
+            &policy,
+            Dialect::V161,
+            id(9),
+            &Request::ReadStatus1,
+        )
+        .unwrap_err();
         let text = error.to_string();
         assert!(text.starts_with("motor 9 did not answer read-status-1 within 10 ms (1 attempt)"));
         assert!(text.contains("that its CAN id is 9"), "{text}");
@@ -471,7 +792,15 @@ mod tests {
     fn a_malformed_reply_is_reported_when_no_good_one_comes() {
         let short = FaultRule::new(FaultKind::WrongDlc { dlc: 4 }).motor(id(3));
         let (clock, mut bus) = sim(&[short]);
-        let error = request(&mut bus, &clock, &policy(1), id(3), &Request::ReadAccel).unwrap_err();
+        let error = request(
+            &mut bus,
+            &clock,
+            &policy(1),
+            Dialect::V161,
+            id(3),
+            &Request::ReadAccel,
+        )
+        .unwrap_err();
         assert!(
             matches!(
                 error,
@@ -547,7 +876,15 @@ mod tests {
             None,
         );
         let clock = bus.clock.clone();
-        let error = request(&mut bus, &clock, &policy(2), id(1), &Request::MotorOff).unwrap_err();
+        let error = request(
+            &mut bus,
+            &clock,
+            &policy(2),
+            Dialect::V161,
+            id(1),
+            &Request::MotorOff,
+        )
+        .unwrap_err();
         assert_eq!(bus.sent, 3);
         assert!(
             matches!(
@@ -570,8 +907,15 @@ mod tests {
     fn bus_trouble_is_named_in_the_advice_and_bus_off_ends_at_once() {
         let mut bus = scripted(vec![BusMessage::Event(BusEvent::NoAck)], None);
         let clock = bus.clock.clone();
-        let error =
-            request(&mut bus, &clock, &policy(0), id(1), &Request::ReadStatus2).unwrap_err();
+        let error = request(
+            &mut bus,
+            &clock,
+            &policy(0),
+            Dialect::V161,
+            id(1),
+            &Request::ReadStatus2,
+        )
+        .unwrap_err();
         assert!(
             error.to_string().contains("no node acknowledges"),
             "{error}"
@@ -579,8 +923,15 @@ mod tests {
 
         let mut bus = scripted(vec![BusMessage::Event(BusEvent::BusOff)], None);
         let clock = bus.clock.clone();
-        let error =
-            request(&mut bus, &clock, &policy(5), id(1), &Request::ReadStatus2).unwrap_err();
+        let error = request(
+            &mut bus,
+            &clock,
+            &policy(5),
+            Dialect::V161,
+            id(1),
+            &Request::ReadStatus2,
+        )
+        .unwrap_err();
         assert_eq!(bus.sent, 1);
         assert!(error.is_bus_failure());
         assert!(error.to_string().contains("bus-off"), "{error}");
@@ -590,8 +941,15 @@ mod tests {
     fn a_full_transmit_queue_is_retried_then_reported() {
         let mut bus = scripted(vec![], Some(BusError::TxQueueFull));
         let clock = bus.clock.clone();
-        let error =
-            request(&mut bus, &clock, &policy(0), id(4), &Request::ReadStatus1).unwrap_err();
+        let error = request(
+            &mut bus,
+            &clock,
+            &policy(0),
+            Dialect::V161,
+            id(4),
+            &Request::ReadStatus1,
+        )
+        .unwrap_err();
         assert!(matches!(
             error,
             ExchangeError::Send {

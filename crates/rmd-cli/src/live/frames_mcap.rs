@@ -57,7 +57,6 @@ impl FramesTelemetryArgs {
 pub(crate) struct FramesMcap {
     path: PathBuf,
     writer: LogWriter<Vec<u8>>,
-    dialect: Dialect,
     width: EncoderWidth,
 }
 
@@ -68,7 +67,6 @@ impl FramesMcap {
         bus: Box<dyn CanBus>,
         interface: &str,
         path: PathBuf,
-        dialect: Dialect,
         width: EncoderWidth,
     ) -> Result<(Box<dyn CanBus>, Self), CliError> {
         // Fail before anything moves if the file cannot be written.
@@ -86,14 +84,14 @@ impl FramesMcap {
             Self {
                 path,
                 writer,
-                dialect,
                 width,
             },
         ))
     }
 
-    /// Writes the MCAP file (stop using the bus first) and says on stderr what it holds.
-    pub(crate) fn finish(self) -> Result<(), CliError> {
+    /// Writes the MCAP file, its frames decoded in `dialect` (stop using the bus first), and
+    /// says on stderr what it holds.
+    pub(crate) fn finish(self, dialect: Dialect) -> Result<(), CliError> {
         let (stats, log) = self
             .writer
             .finish_into_inner()
@@ -102,7 +100,7 @@ impl FramesMcap {
             &self.path,
             &[
                 ("source", "recorded by rmd".to_owned()),
-                ("protocol", self.dialect.name().to_owned()),
+                ("protocol", dialect.name().to_owned()),
                 ("encoder_bits", self.width.bits().to_string()),
             ],
         )?;
@@ -110,7 +108,7 @@ impl FramesMcap {
             Box::new(Cursor::new(log)),
             Mode::Auto,
             self.width,
-            self.dialect,
+            dialect,
             Output::Mcap(mcap),
         );
         let Ended::Done {

@@ -7,23 +7,24 @@
 //! interface only ([`later`]); a hint that asks the motors afresh (what `rmd pid get` shows
 //! before anything was written) works on the same simulated motors too ([`afresh`]).
 
-use rmd_protocol::{Dialect, EncoderWidth, ProtocolFamily};
+use rmd_protocol::{Dialect, EncoderWidth};
 
 use crate::args::bus::BusArgs;
 use crate::live::exchange::Setup;
+use crate::live::family::ProtocolSource;
 
 /// `rmd WORDS --iface IFACE [protocol options]`, a later command to the motors of `setup`, or
 /// `None` for simulated motors (they end with this command).
 pub(crate) fn later(
     setup: &Setup,
-    dialect: Dialect,
+    source: &ProtocolSource,
     width: EncoderWidth,
     words: &str,
 ) -> Option<String> {
     match setup {
         Setup::Interface(iface) => Some(format!(
             "rmd {words} --iface {iface}{}",
-            protocol_options(dialect, width)
+            protocol_options(source, width)
         )),
         Setup::Simulator(_) | Setup::Robot(_) => None,
     }
@@ -52,8 +53,8 @@ pub(crate) fn afresh(args: &BusArgs, words: &str) -> Option<String> {
         }
         (None, false) => return None,
     };
-    if args.protocol.protocol != ProtocolFamily::V161 {
-        command.push_str(&format!(" --protocol {}", args.protocol.protocol.name()));
+    if let Some(protocol) = args.protocol.protocol {
+        command.push_str(&format!(" --protocol {}", protocol.name()));
     }
     if let Some(series) = args.protocol.lk_series {
         command.push_str(&format!(" --lk-series {}", series.name()));
@@ -67,14 +68,21 @@ pub(crate) fn afresh(args: &BusArgs, words: &str) -> Option<String> {
 /// `--sim-ids`' default, as [`IdList`](crate::args::ids::IdList) shows it.
 const DEFAULT_SIM_IDS: &str = "1-4";
 
-/// The options that speak `dialect` to motors with encoders of `width`: nothing for the
-/// defaults (v1.61, 14 bits).
-fn protocol_options(dialect: Dialect, width: EncoderWidth) -> String {
+/// The options that reach motors of `source` with encoders of `width` the same way: the named
+/// protocol (nothing for v1.61), or the LK-TECH series of identified motors; nothing for the
+/// defaults (identified, 14 bits).
+fn protocol_options(source: &ProtocolSource, width: EncoderWidth) -> String {
     let mut options = String::new();
-    if dialect != Dialect::V161 {
-        options.push_str(&format!(" --protocol {}", dialect.name()));
-    }
-    if let Some(series) = dialect.lk_series() {
+    let series = match source {
+        ProtocolSource::Named(dialect) => {
+            if *dialect != Dialect::V161 {
+                options.push_str(&format!(" --protocol {}", dialect.name()));
+            }
+            dialect.lk_series()
+        }
+        ProtocolSource::Identify { lk_series } => *lk_series,
+    };
+    if let Some(series) = series {
         options.push_str(&format!(" --lk-series {}", series.name()));
     }
     if width != EncoderWidth::DEFAULT {
@@ -114,12 +122,12 @@ mod tests {
         let can0 = Setup::Interface("can0".into());
         let width = EncoderWidth::DEFAULT;
         assert_eq!(
-            later(&can0, Dialect::V161, width, "off 3").as_deref(),
+            later(&can0, &ProtocolSource::Named(Dialect::V161), width, "off 3").as_deref(),
             Some("rmd off 3 --iface can0")
         );
         let lk = later(
             &can0,
-            Dialect::LkV23x(LkSeries::Mf),
+            &ProtocolSource::Named(Dialect::LkV23x(LkSeries::Mf)),
             EncoderWidth::new(16).unwrap(),
             "encoder get 2",
         )
@@ -135,12 +143,22 @@ mod tests {
     fn no_later_command_for_simulated_motors() {
         let sim = Setup::Simulator(ids::parse("1-4").unwrap());
         assert_eq!(
-            later(&sim, Dialect::V161, EncoderWidth::DEFAULT, "off 1"),
+            later(
+                &sim,
+                &ProtocolSource::Named(Dialect::V161),
+                EncoderWidth::DEFAULT,
+                "off 1"
+            ),
             None
         );
         let robot = Setup::Robot("leg.toml".into());
         assert_eq!(
-            later(&robot, Dialect::V161, EncoderWidth::DEFAULT, "off 1"),
+            later(
+                &robot,
+                &ProtocolSource::Named(Dialect::V161),
+                EncoderWidth::DEFAULT,
+                "off 1"
+            ),
             None
         );
     }

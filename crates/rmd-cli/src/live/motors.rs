@@ -114,6 +114,13 @@ impl Motors {
         default_retries: u32,
     ) -> Result<Self, CliError> {
         let robot = Robot::from_file(path).map_err(|e| CliError::Usage(e.to_string()))?;
+        if let Some(protocol) = args.protocol.protocol {
+            return Err(CliError::Usage(format!(
+                "--protocol {protocol}: with --robot, each motor speaks the protocol {} names \
+                 (its `protocol`, `lk_series` or `model`)",
+                path.display()
+            )));
+        }
         let overrides = Overrides {
             simulate: args.sim,
             interfaces: args.iface.iter().cloned().collect(),
@@ -192,6 +199,7 @@ impl Motors {
             .into_iter()
             .map(|j| {
                 let spec = robot.spec(j);
+                buses[spec.bus].name_protocol(spec.motor, spec.dialect);
                 Motor {
                     id: spec.motor,
                     bus: spec.bus,
@@ -219,6 +227,15 @@ impl Motors {
         request: &Request,
     ) -> Result<Reply, ExchangeError> {
         self.buses[motor.bus].request(motor.id, request)
+    }
+
+    /// The dialect to send `command` to `motor` in (see [`Connection::dialect`]).
+    pub(crate) fn dialect(
+        &mut self,
+        motor: &Motor,
+        command: rmd_protocol::Command,
+    ) -> Result<rmd_protocol::Dialect, ExchangeError> {
+        self.buses[motor.bus].dialect(motor.id, command)
     }
 
     /// Keeps the motors for which `keep` holds.

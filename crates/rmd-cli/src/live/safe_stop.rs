@@ -1,7 +1,10 @@
 //! Leaving motors safe when a command that moves them ends, fails or is interrupted: each is
-//! turned off (0x80, the loop's safe state: no torque, no command), confirmed by its echo.
+//! turned off (0x80, the loop's safe state: no torque, no command), confirmed by its echo, one
+//! frame per motor on `0x140 + id` in every family (never a 0x280 frame, which is torque to
+//! v1.61 and LK-TECH motors and a command to every motor on a MyActuator V3 bus); then a V3
+//! motor has its brake locked (0x78) ([`Connection::motor_off`]).
 
-use rmd_protocol::{MotorId, Reply, Request};
+use rmd_protocol::MotorId;
 
 use crate::live::connect::Connection;
 use crate::output::report::CliError;
@@ -10,13 +13,8 @@ use crate::output::report::CliError;
 pub(crate) fn turn_off(bus: &mut Connection, motors: &[MotorId]) -> Result<(), String> {
     let mut problems = Vec::new();
     for &motor in motors {
-        match bus.request(motor, &Request::MotorOff) {
-            Ok(Reply::MotorOff) => {}
-            Ok(other) => problems.push(format!(
-                "motor {motor} answered motor-off with {}",
-                other.command()
-            )),
-            Err(error) => problems.push(error.to_string()),
+        if let Err(problem) = bus.motor_off(motor) {
+            problems.push(problem);
         }
     }
     // Sent (confirmed or not): a third Ctrl-C may now exit.

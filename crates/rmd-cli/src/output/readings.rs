@@ -1,7 +1,7 @@
 //! What the read commands print: one JSON object per motor (the reply fields under the names
 //! `rmd decode` uses), or short human-readable text.
 
-use rmd_protocol::{EncoderWidth, ErrorState, MotorId, Reply};
+use rmd_protocol::{EncoderWidth, ErrorState, MotorId, Reply, Status1, V3ErrorState};
 use serde_json::{Map, Value, json};
 
 use crate::output::json::reply_fields;
@@ -50,6 +50,31 @@ pub(crate) fn error_object(motor: MotorId, error: &str) -> Value {
     json!({"id": motor.get(), "error": error})
 }
 
+/// The error flags of a status 1, in its family's meaning, in words.
+pub(crate) fn status1_errors_text(status: &Status1) -> String {
+    match status {
+        Status1::V161(s) => errors_text(s.error_state),
+        Status1::Lk(s) => errors_text(s.error_state),
+        Status1::V3(s) => v3_errors_text(s.error_state),
+    }
+}
+
+/// A MyActuator V3 error code in words: `none`, `stall, low voltage`, ... (the names of
+/// `rmd decode`'s `error_names`), and `code 0x....` for bits without a name.
+pub(crate) fn v3_errors_text(state: V3ErrorState) -> String {
+    if state.is_clear() {
+        return "none".to_owned();
+    }
+    let mut parts: Vec<String> = crate::output::json::v3_error_names(state)
+        .into_iter()
+        .map(|name| name.replace('_', " "))
+        .collect();
+    if state.unknown_bits() != 0 {
+        parts.push(format!("code 0x{:04X}", state.unknown_bits()));
+    }
+    parts.join(", ")
+}
+
 /// The protection flags in words: `none`, `low voltage`, `over temperature`, and unknown bits.
 pub(crate) fn errors_text(state: ErrorState) -> String {
     let mut parts = Vec::new();
@@ -90,6 +115,15 @@ mod tests {
         assert_eq!(value["voltage_volts"], 48.0);
         assert_eq!(value["low_voltage"], true);
         assert!(value.get("command").is_none() && value.get("can_id").is_none());
+    }
+
+    #[test]
+    fn v3_error_codes_in_words() {
+        assert_eq!(v3_errors_text(V3ErrorState::from_raw(0)), "none");
+        assert_eq!(
+            v3_errors_text(V3ErrorState::from_raw(0x0004 | 0x1000 | 0x0100 | 0x0001)),
+            "low voltage, over speed, motor over temperature, code 0x0001"
+        );
     }
 
     #[test]

@@ -1,4 +1,6 @@
 //! Helpers shared by the tests that run the `rmd` binary and check its exit status and output.
+//! Each test binary uses the ones it needs.
+#![allow(dead_code)]
 
 use std::process::{Command, Output, Stdio};
 

@@ -343,7 +343,7 @@ pub(crate) fn run(args: DecodeArgs) -> ExitCode {
                 path,
                 &[
                     ("source", source),
-                    ("protocol", args.protocol.protocol.name().to_owned()),
+                    ("protocol", dialect.name().to_owned()),
                     ("encoder_bits", args.encoder_bits.bits().to_string()),
                 ],
             ) {

@@ -156,14 +156,20 @@ impl Pairing {
 
 /// Pairing on a MyActuator V3 bus, where the identifier says the direction: requests on
 /// `0x140 + id`, 0x280 (every motor) and `0x400 + id` (motion mode), replies on `0x240 + id`
-/// and `0x500 + id`. A reply is paired with the last request to its motor: a reply with another
-/// command byte is then an error (a V3 motor answers a command it does not know with its
-/// previous reply).
+/// and `0x500 + id`. A host may send a motor several requests before the replies (`rmd`
+/// identifies a motor with 0x9A and 0x9C at once): a reply pairs with the oldest unanswered
+/// request to its motor with the same command byte, or else with the last request, whose
+/// command it then does not match, an error (a V3 motor answers a command it does not know with
+/// its previous reply). At most [`V3_PENDING`] requests per motor wait; older ones are dropped.
 #[derive(Debug, Default)]
 pub(crate) struct V3Pairing {
-    /// The command byte waiting for its reply, per reply identifier (`0x240 + id`).
-    pending: HashMap<u16, u8>,
+    /// The command bytes waiting for their replies, oldest first, per reply identifier
+    /// (`0x240 + id`).
+    pending: HashMap<u16, Vec<u8>>,
 }
+
+/// How many unanswered requests per motor [`V3Pairing`] keeps.
+const V3_PENDING: usize = 8;
 
 impl V3Pairing {
     /// Classifies the next frame and updates the state.
@@ -184,13 +190,27 @@ impl V3Pairing {
             };
             for reply in replies {
                 match code {
-                    Some(code) => self.pending.insert(reply, code),
-                    None => self.pending.remove(&reply),
-                };
+                    Some(code) => {
+                        let waiting = self.pending.entry(reply).or_default();
+                        if waiting.len() == V3_PENDING {
+                            waiting.remove(0);
+                        }
+                        waiting.push(code);
+                    }
+                    None => {
+                        self.pending.remove(&reply);
+                    }
+                }
             }
             Role::Request
         } else if per_motor(V3_REPLY_BASE_ID) {
-            Role::Reply(self.pending.remove(&can_id).and_then(Command::from_code))
+            let waiting = self.pending.entry(can_id).or_default();
+            let answered = match code.and_then(|c| waiting.iter().position(|&w| w == c)) {
+                Some(at) => Some(waiting.remove(at)),
+                // Paired with the last request, which it does not answer.
+                None => waiting.pop(),
+            };
+            Role::Reply(answered.and_then(Command::from_code))
         } else if per_motor(V3_MOTION_REPLY_BASE_ID) {
             Role::Reply(None)
         } else {
@@ -358,6 +378,43 @@ mod tests {
         );
         assert_eq!(p.classify(0x401, &[0; 8]), Role::Request);
         assert_eq!(p.classify(0x501, &[1; 8]), Role::Reply(None));
+    }
+
+    #[test]
+    fn v3_requests_sent_together_pair_with_their_own_replies() {
+        let mut p = V3Pairing::default();
+        // 0x9A and 0x9C at once, their replies in order: each pairs with its own.
+        assert_eq!(
+            p.classify(0x141, &[0x9A, 0, 0, 0, 0, 0, 0, 0]),
+            Role::Request
+        );
+        assert_eq!(
+            p.classify(0x141, &[0x9C, 0, 0, 0, 0, 0, 0, 0]),
+            Role::Request
+        );
+        assert_eq!(
+            p.classify(0x241, &[0x9A, 1, 2, 3, 4, 5, 6, 7]),
+            Role::Reply(Some(Command::ReadStatus1))
+        );
+        assert_eq!(
+            p.classify(0x241, &[0x9C, 1, 2, 3, 4, 5, 6, 7]),
+            Role::Reply(Some(Command::ReadStatus2))
+        );
+        // A stale reply (another command than any pending) still pairs with the last request,
+        // which decoding then reports as a mismatch.
+        assert_eq!(
+            p.classify(0x141, &[0x9A, 0, 0, 0, 0, 0, 0, 0]),
+            Role::Request
+        );
+        assert_eq!(
+            p.classify(0x241, &[0xB2, 0, 0, 0, 0x7A, 0x1E, 0xB4, 0x78]),
+            Role::Reply(Some(Command::ReadStatus1))
+        );
+        // Many requests without replies: only the last few wait.
+        for _ in 0..20 {
+            p.classify(0x142, &[0x92, 0, 0, 0, 0, 0, 0, 0]);
+        }
+        assert_eq!(p.pending[&0x242].len(), V3_PENDING);
     }
 
     const A1: [u8; 8] = [0xA1, 0, 0, 0, 0, 0, 0, 0];

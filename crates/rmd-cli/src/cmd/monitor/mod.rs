@@ -2,6 +2,8 @@
 //! 2 and the multi-turn angle, read at `--rate`), until Ctrl-C, `q` or `--count`: on a terminal
 //! a live view with a plot per motor of the chosen signal above the table ([`view`], drawn with
 //! ratatui); elsewhere the table, one per reading; with `--json` one object per reading.
+//! Each motor is read in its own protocol (a mixed bus is fine); a MyActuator V3 motor's speed
+//! and angle are its output shaft's.
 //! `--sim --demo` moves the simulated motors gently ([`demo`]) so there is something to watch.
 
 mod demo;
@@ -14,7 +16,7 @@ use std::time::Duration;
 use clap::Args;
 use ratatui::crossterm::event::{self, Event, KeyEventKind};
 use rmd_bus::{Clock, MonotonicClock, Timestamp};
-use rmd_protocol::{Reply, Request, Status1};
+use rmd_protocol::{Reply, Request};
 use serde_json::{Value, json};
 use view::{Action, History, Sample, Screen, View};
 
@@ -358,7 +360,10 @@ fn scan(motors: &mut Motors, quick: bool, show: bool) -> Result<(), CliError> {
         let answer = connection.request(motor.id, &Request::ReadStatus1);
         connection.set_timeout(timeout);
         match answer {
+            // A motor whose family cannot be read as the command stands answered too: its
+            // reading says why.
             Ok(_) => found.push(motor.id),
+            Err(error) if error.is_refusal() => found.push(motor.id),
             Err(error) if error.is_bus_failure() => return Err(error.into()),
             Err(_) => {}
         }
@@ -392,7 +397,11 @@ fn read(motors: &mut Motors, motor: &Motor) -> Result<Result<Vec<Reply>, String>
     for request in &READS {
         match motors.request(motor, request) {
             Ok(reply) => replies.push(reply),
-            Err(error) if error.is_bus_failure() => return Err(error.into()),
+            // The bus is gone, or the motor cannot be read as the command stands (an LK-TECH
+            // motor without --lk-series): no later reading would do better.
+            Err(error) if error.is_bus_failure() || error.is_refusal() => {
+                return Err(error.into());
+            }
             Err(error) => return Ok(Err(error.to_string())),
         }
     }
@@ -444,8 +453,8 @@ fn cells(motor: &Motor, row: &Result<Vec<Reply>, String>) -> Vec<String> {
     let (mut status1, mut status2, mut angle) = (None, None, None);
     for reply in replies {
         match reply {
-            // The replies come in v1.61's shape (see `live::exchange`).
-            Reply::ReadStatus1(Status1::V161(s)) => status1 = Some(*s),
+            // In the motor's family's layout and scales (`live::exchange`).
+            Reply::ReadStatus1(s) => status1 = Some(*s),
             Reply::ReadStatus2(s) => status2 = Some(*s),
             Reply::ReadMultiTurnAngle { motor_angle } => {
                 angle = Some(match &motor.joint {
@@ -462,11 +471,11 @@ fn cells(motor: &Motor, row: &Result<Vec<Reply>, String>) -> Vec<String> {
     vec![
         id,
         s2.temperature.celsius().to_string(),
-        format!("{:.1}", s1.voltage.volts()),
+        format!("{:.1}", s1.volts()),
         format!("{:.2}", s2.iq.amps()),
         s2.speed.dps().to_string(),
         format!("{angle:.2}"),
-        readings::errors_text(s1.error_state),
+        readings::status1_errors_text(&s1),
     ]
 }
 
@@ -474,8 +483,8 @@ fn cells(motor: &Motor, row: &Result<Vec<Reply>, String>) -> Vec<String> {
 mod tests {
     use super::*;
     use rmd_protocol::{
-        CurrentScale, EncoderValue, MotorAngle, ScaledCurrent, Speed, Status2, StatusPosition,
-        Temperature, V161Status1,
+        CurrentScale, EncoderValue, MotorAngle, ScaledCurrent, Speed, Status1, Status2,
+        StatusPosition, Temperature, V161Status1,
     };
 
     #[test]

@@ -1,4 +1,6 @@
-//! Probing one motor id for its protocol family (the bus side of `rmd_protocol::identify`).
+//! Probing one motor id for its protocol family (the bus side of `rmd_protocol::identify`),
+//! for `rmd scan` and for every live command that learns a motor's family
+//! ([`Connection::identify`](crate::live::connect::Connection::identify)).
 //!
 //! For each id: discard stale frames, send the two probe requests (0x9A and 0x9C on
 //! `0x140 + id`), and offer every frame received on `0x140 + id` or `0x240 + id` until the
@@ -16,6 +18,17 @@ use rmd_protocol::{
 };
 
 use crate::live::exchange::{self, ExchangeError};
+
+/// A motor identified ([`Connection::identify`](crate::live::connect::Connection::identify)).
+#[derive(Copy, Clone, Debug)]
+pub(crate) struct Identified {
+    /// Its family, and the evidence.
+    pub(crate) identification: rmd_protocol::Identification,
+    /// What it answered to the probes.
+    pub(crate) answers: ProbeAnswers,
+    /// A MyActuator V3 motor's firmware date (0xB2), if it answered.
+    pub(crate) firmware_date: Option<rmd_protocol::FirmwareDate>,
+}
 
 /// How long to listen and how often to send again.
 #[derive(Copy, Clone, Debug)]

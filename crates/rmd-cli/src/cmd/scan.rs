@@ -1,32 +1,30 @@
 //! `rmd scan`: which motor ids answer on the bus, and the protocol family each one speaks.
 //!
 //! Every id is probed with 0x9A and 0x9C on `0x140 + id`, listening on `0x140 + id` and
-//! `0x240 + id` ([`probe()`]); `rmd_protocol::identify` names the family from the answers
-//! (`v1.61`, `lk-v2.3x`, `myactuator-v3` or `unknown`), and a V3 motor is asked its model. The
-//! status 1 of each motor is shown in its family's layout.
-
-mod probe;
+//! `0x240 + id` ([`Connection::identify`]); `rmd_protocol::identify` names the family from the
+//! answers (`v1.61`, `lk-v2.3x`, `myactuator-v3` or `unknown`), and a V3 motor is asked its
+//! model (0xB5) and firmware date (0xB2). The status 1 of each motor is shown in its family's
+//! layout.
 
 use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Args;
 use rmd_protocol::{
-    Command, Dialect, Finding, Identification, LkSeries, MotorId, ProbeAnswers, ProtocolFamily,
-    Status1, V3ErrorState, V3Firmware, identify,
+    Command, Dialect, Finding, FirmwareDate, Identification, LkSeries, ProbeAnswers,
+    ProtocolFamily, Reply, Status1, V3Firmware,
 };
 use serde_json::{Map, Value, json};
 
 use crate::args::bus::BusArgs;
 use crate::args::ids::{self, IdList};
 use crate::live::connect::Connection;
-use crate::output::json::FrameJson;
+use crate::output::json::reply_fields;
 use crate::output::progress::{self, Progress};
 use crate::output::readings;
 use crate::output::report::{self, CliError};
 use crate::output::table::{Align, TextTable};
 use crate::output::{errln, out, outln};
-use probe::{ProbeTiming, probe};
 
 /// Arguments of `rmd scan`.
 #[derive(Args, Debug)]
@@ -34,9 +32,10 @@ use probe::{ProbeTiming, probe};
     after_help = "Each id is probed with 0x9A and 0x9C (read-only in every family) on 0x140 + id; \
     answers are collected on 0x140 + id and 0x240 + id. The firmware column names the protocol \
     family: v1.61, lk-v2.3x (0x9A with LK-TECH's layout), myactuator-v3 (answers on 0x240 + id; \
-    its model is read with 0xB5) or unknown. --json: one array, an object per motor that \
-    answered: id, firmware, model (V3), ambiguous, evidence {reply_id, answered_status1, \
-    answered_status2, finding, v161_volts, lk_volts}, then its status 1 under rmd decode's names."
+    its model is read with 0xB5, its firmware date with 0xB2) or unknown. --json: one array, an \
+    object per motor that answered: id, firmware, model and firmware_date (V3), ambiguous, \
+    evidence {reply_id, answered_status1, answered_status2, finding, v161_volts, lk_volts}, then \
+    its status 1 under rmd decode's names."
 )]
 pub(crate) struct ScanArgs {
     /// Ids to try.
@@ -52,10 +51,11 @@ pub(crate) struct ScanArgs {
 /// A scan waits this long per id by default (absent ids cost the whole timeout).
 const SCAN_TIMEOUT: Duration = Duration::from_millis(20);
 
-/// A motor that answered: its identification and status 1, if it could be read.
+/// A motor that answered: its identification, status 1 and (V3) firmware date, if read.
 struct Found {
     identification: Identification,
     status1: Option<Status1>,
+    firmware_date: Option<FirmwareDate>,
 }
 
 /// Runs `rmd scan`.
@@ -65,10 +65,6 @@ pub(crate) fn run(args: ScanArgs) -> ExitCode {
 
 fn scan(args: &ScanArgs) -> Result<(), CliError> {
     let mut bus = Connection::open(&args.bus, SCAN_TIMEOUT, 0)?;
-    let timing = ProbeTiming {
-        timeout: bus.policy().timeout,
-        retries: bus.policy().retries,
-    };
     let mut found = Vec::new();
     let progress = Progress::counter(
         args.ids.ids().len() as u64,
@@ -79,13 +75,13 @@ fn scan(args: &ScanArgs) -> Result<(), CliError> {
     for (done, &motor) in args.ids.ids().iter().enumerate() {
         progress.set_position(done as u64);
         progress.set_message(format!("found {}", found.len()));
-        let clock = *bus.clock();
-        let answers = probe(bus.bus(), &clock, timing, motor)?;
-        let identification = identify(motor, &answers);
+        let identified = bus.identify(motor)?;
+        let identification = identified.identification;
         if identification.evidence.reply_id.is_some() {
             found.push(Found {
+                status1: status1(&identification, &identified.answers),
                 identification,
-                status1: status1(&identification, &answers),
+                firmware_date: identified.firmware_date,
             });
         }
     }
@@ -159,6 +155,13 @@ fn json_object(motor: &Found) -> Value {
     if let Some(model) = evidence.model_str() {
         map.insert("model".into(), json!(model));
     }
+    if let Some(date) = motor.firmware_date {
+        map.insert("firmware_date".into(), json!(date.raw()));
+        map.insert(
+            "firmware_revision".into(),
+            json!(date.revision().to_string()),
+        );
+    }
     map.insert("ambiguous".into(), json!(ambiguous(id)));
     let mut facts = Map::new();
     if let Some(reply_id) = evidence.reply_id {
@@ -173,32 +176,12 @@ fn json_object(motor: &Found) -> Value {
     }
     map.insert("evidence".into(), Value::Object(facts));
     if let Some(status) = &motor.status1 {
-        map.extend(status_fields(id.motor, status));
+        map.extend(reply_fields(
+            &Reply::ReadStatus1(*status),
+            rmd_protocol::EncoderWidth::DEFAULT,
+        ));
     }
     Value::Object(map)
-}
-
-/// The fields of status 1 under `rmd decode`'s names (without the frame header).
-fn status_fields(motor: MotorId, status: &Status1) -> Map<String, Value> {
-    const HEADER: [&str; 4] = ["id", "can_id", "direction", "command"];
-    let header = FrameJson::new(
-        None,
-        None,
-        motor.can_id(),
-        "reply",
-        "",
-        rmd_protocol::EncoderWidth::DEFAULT,
-    );
-    let value = header
-        .reply(&rmd_protocol::Reply::ReadStatus1(*status))
-        .into_value();
-    match value {
-        Value::Object(map) => map
-            .into_iter()
-            .filter(|(key, _)| !HEADER.contains(&key.as_str()))
-            .collect(),
-        _ => Map::new(),
-    }
 }
 
 /// The table of the motors found.
@@ -217,19 +200,25 @@ fn table(found: &[Found]) -> TextTable {
             Some(s) => (
                 format!("{} °C", s.temperature().celsius()),
                 format!("{:.1} V", s.volts()),
-                match s {
-                    Status1::V3(v3) => v3_errors_text(v3.error_state),
-                    Status1::V161(v) => readings::errors_text(v.error_state),
-                    Status1::Lk(lk) => readings::errors_text(lk.error_state),
-                },
+                readings::status1_errors_text(s),
             ),
             None => dashes(),
         };
         let note = match id.family {
-            ProtocolFamily::MyActuatorV3 => match id.evidence.model_str() {
-                Some(model) => format!("model {model}; not driven by rmd-rt"),
-                None => "not driven by rmd-rt".to_owned(),
-            },
+            ProtocolFamily::MyActuatorV3 => {
+                let model = id
+                    .evidence
+                    .model_str()
+                    .map(|model| format!("model {model}"));
+                let firmware = motor
+                    .firmware_date
+                    .map(|date| format!("firmware {date} ({})", date.revision()));
+                [model, firmware]
+                    .into_iter()
+                    .flatten()
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            }
             ProtocolFamily::Unknown => id.evidence.finding.to_string(),
             _ if ambiguous(id) => id.evidence.finding.to_string(),
             _ => String::new(),
@@ -250,34 +239,10 @@ fn dashes() -> (String, String, String) {
     ("-".to_owned(), "-".to_owned(), "-".to_owned())
 }
 
-/// A V3 error code in words (MyActuator Servo Motor Control Protocol V4.3, §2.14).
-fn v3_errors_text(state: V3ErrorState) -> String {
-    const NAMES: [(V3ErrorState, &str); 5] = [
-        (V3ErrorState::STALL, "stall"),
-        (V3ErrorState::LOW_VOLTAGE, "low voltage"),
-        (V3ErrorState::OVER_VOLTAGE, "over voltage"),
-        (V3ErrorState::OVER_CURRENT, "over current"),
-        (V3ErrorState::MOTOR_OVER_TEMPERATURE, "over temperature"),
-    ];
-    if state.raw() == 0 {
-        return "none".to_owned();
-    }
-    let mut parts: Vec<String> = NAMES
-        .iter()
-        .filter(|(flag, _)| state.contains(*flag))
-        .map(|(_, name)| (*name).to_owned())
-        .collect();
-    let known = NAMES.iter().fold(0u16, |bits, (flag, _)| bits | flag.raw());
-    if state.raw() & !known != 0 {
-        parts.push(format!("code 0x{:04X}", state.raw() & !known));
-    }
-    parts.join(", ")
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rmd_protocol::CanFrame;
+    use rmd_protocol::{CanFrame, MotorId, identify};
 
     fn found(frames: &[[u8; 8]]) -> Found {
         let motor = MotorId::new(3).unwrap();
@@ -289,6 +254,7 @@ mod tests {
         Found {
             status1: status1(&identification, &answers),
             identification,
+            firmware_date: None,
         }
     }
 
@@ -323,11 +289,34 @@ mod tests {
     }
 
     #[test]
-    fn v3_error_codes_in_words() {
-        assert_eq!(v3_errors_text(V3ErrorState::from_raw(0)), "none");
-        assert_eq!(
-            v3_errors_text(V3ErrorState::from_raw(0x0004 | 0x1000 | 0x0100)),
-            "low voltage, over temperature, code 0x0100"
+    fn a_v3_motor_shows_its_model_and_firmware_date() {
+        let motor = MotorId::new(2).unwrap();
+        let mut answers = ProbeAnswers::new();
+        answers.offer(
+            motor,
+            &CanFrame::new(0x242, &[0x9A, 30, 31, 0, 0xE0, 1, 0x04, 0]).unwrap(),
+        );
+        answers.offer(
+            motor,
+            &CanFrame::new(0x242, &[0xB5, b'X', b'8', b'S', b'2', b'V', b'1', b'0']).unwrap(),
+        );
+        let identification = identify(motor, &answers);
+        let found = Found {
+            status1: status1(&identification, &answers),
+            identification,
+            firmware_date: Some(FirmwareDate::from_raw(2_026_042_402)),
+        };
+        let value = json_object(&found);
+        assert_eq!(value["firmware"], "myactuator-v3");
+        assert_eq!(value["model"], "X8S2V10");
+        assert_eq!(value["firmware_date"], 2_026_042_402);
+        assert_eq!(value["firmware_revision"], "V4.4");
+        assert_eq!(value["voltage_volts"], 48.0);
+        let rendered = table(&[found]).render();
+        assert!(rendered.contains("low voltage"), "{rendered}");
+        assert!(
+            rendered.contains("model X8S2V10, firmware 2026042402 (V4.4)"),
+            "{rendered}"
         );
     }
 }
