@@ -14,7 +14,7 @@ use rmd_loop::{
 use rmd_protocol::{
     AngleControl, Dialect, LkSeries, MULTI_TORQUE_CAN_ID, MaxSpeed, ProtocolFamily, Request,
 };
-use rmd_sim::{ControlMode, FirmwareFamily, Node, SimBus, SimConfig};
+use rmd_sim::{ControlMode, FirmwareFamily, Node, SharedSimBus, SimBus, SimConfig};
 
 /// Pushes a constant joint current on every joint.
 struct Constant(f64);
@@ -215,7 +215,7 @@ fn a_motor_declared_undriven_is_commanded_zero_torque() {
 fn lk_motors_are_driven_with_their_own_current_scales() {
     for (series, name) in [(LkSeries::Mf, "mf"), (LkSeries::Mg, "mg")] {
         let clock = VirtualClock::new();
-        let bus = SharedSim::new(sim_of(&clock, &[1], FirmwareFamily::LkV23x(series)));
+        let bus = SharedSimBus::new(sim_of(&clock, &[1], FirmwareFamily::LkV23x(series)));
         let robot = robot_of(
             BusConfig::new("can0").with_motor(MotorConfig::new(1).protocol("lk-v2.3x", Some(name))),
         );
@@ -229,7 +229,7 @@ fn lk_motors_are_driven_with_their_own_current_scales() {
         }
         // The firmware applies 1 A: the command was scaled for this series (v1.61's scale would
         // give about half of it on MF), and the feedback reads it back with the reply scale.
-        let applied = bus.snapshot(id(1)).current_a;
+        let applied = bus.lock().snapshot(id(1)).unwrap().current_a;
         assert!(
             (applied - 1.0).abs() < 0.02,
             "{name}: the motor applies {applied} A"
@@ -246,7 +246,7 @@ fn lk_motors_are_driven_with_their_own_current_scales() {
             "{name}"
         );
         assert!(out.report.safe_stop.all_off_confirmed(), "{name}");
-        assert!(!bus.snapshot(id(1)).energising, "{name}");
+        assert!(!bus.lock().snapshot(id(1)).unwrap().energising, "{name}");
     }
 }
 

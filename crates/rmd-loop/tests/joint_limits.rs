@@ -11,7 +11,7 @@ use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
 use rmd_loop::{
     Commands, Controller, Fault, Feedback, Flow, LimitKind, Robot, RtLoop, StopReason, TickContext,
 };
-use rmd_sim::{ControlMode, GravityLink, SimBus};
+use rmd_sim::{ControlMode, GravityLink, SharedSimBus, SimBus};
 
 /// One RMD-X8-class joint (1:9, 2.09 N*m/A), its power-up window centred on 0 degrees, with
 /// the limits `motor` adds.
@@ -34,11 +34,11 @@ fn sim_for(
     clock: &VirtualClock,
     start_deg: f64,
     gravity: Option<GravityLink>,
-) -> SharedSim {
+) -> SharedSimBus<VirtualClock> {
     let mut config = rmd_rig::sim::sim_configs(robot, 3).remove(0);
     config.motors[0].initial_output_angle_deg = start_deg;
     config.motors[0].load.gravity = gravity;
-    SharedSim::new(SimBus::new(clock.clone(), config).unwrap())
+    SharedSimBus::new(SimBus::new(clock.clone(), config).unwrap())
 }
 
 /// A 2 kg link 0.3 m long, horizontal at 0 degrees: it falls towards -90 without torque.
@@ -66,7 +66,7 @@ impl Controller for Push {
 fn run<K: Controller>(
     robot: Robot,
     clock: VirtualClock,
-    bus: &SharedSim,
+    bus: &SharedSimBus<VirtualClock>,
     controller: K,
     ticks: u64,
 ) -> (rmd_loop::LoopOutcome<K>, (f64, f64, f64)) {
@@ -76,7 +76,7 @@ fn run<K: Controller>(
     let mut reason = StopReason::TickLimit;
     for _ in 0..ticks {
         let step = running.step();
-        let truth = bus.snapshot(id(1));
+        let truth = bus.lock().snapshot(id(1)).unwrap();
         low = low.min(truth.output_angle_deg);
         high = high.max(truth.output_angle_deg);
         fastest = fastest.max((truth.motor_speed_dps / GEAR).abs());
@@ -104,7 +104,7 @@ fn a_controller_driving_far_past_a_limit_is_held_at_it_within_the_margin() {
     pd.kd = 0.002;
     let (out, (low, high, fastest)) = run(robot, clock, &bus, pd, 3000);
     let r = &out.report;
-    let rest = bus.snapshot(id(1)).output_angle_deg;
+    let rest = bus.lock().snapshot(id(1)).unwrap().output_angle_deg;
     let limited = r.stats.motors[0].counters.limited_commands;
     println!(
         "PD to 100 rad, limits -20..30 deg: highest {high:.2} deg, resting {rest:.2} deg, \
@@ -184,7 +184,7 @@ fn a_joint_carried_past_its_margin_is_a_fault_and_every_motor_ends_off() {
         r.stop_description
     );
     // Ground truth: the motor is off.
-    assert_eq!(bus.snapshot(id(1)).mode, ControlMode::Off);
+    assert_eq!(bus.lock().snapshot(id(1)).unwrap().mode, ControlMode::Off);
     assert!(r.safe_stop.all_off_confirmed());
 }
 
@@ -203,7 +203,7 @@ fn a_joint_that_powers_up_beyond_its_margin_never_gets_torque() {
         out.report
     );
     assert_eq!(out.report.stats.ticks, 1);
-    let truth = bus.snapshot(id(1));
+    let truth = bus.lock().snapshot(id(1)).unwrap();
     assert_eq!(truth.mode, ControlMode::Off);
     assert!((truth.output_angle_deg - 15.0).abs() < 0.01, "{truth:?}");
 }
@@ -243,5 +243,5 @@ fn a_joint_spun_faster_than_its_velocity_limit_is_held_and_then_a_fault() {
         (LimitKind::Velocity, 60.0, 30.0)
     );
     assert!(breach.value < -90.0, "{breach:?}");
-    assert_eq!(bus.snapshot(id(1)).mode, ControlMode::Off);
+    assert_eq!(bus.lock().snapshot(id(1)).unwrap().mode, ControlMode::Off);
 }

@@ -13,13 +13,10 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use common::*;
-use std::sync::{Arc, Mutex};
-
-use rmd_bus::{BusError, CanBus, Received, Timestamp, VirtualClock};
+use rmd_bus::VirtualClock;
 use rmd_loop::{RtLoop, StopReason};
-use rmd_protocol::CanFrame;
 use rmd_rig::telemetry::{TelemetryOutputs, TelemetrySinks, spawn_feed};
-use rmd_sim::{FaultKind, FaultRule, SimBus};
+use rmd_sim::{FaultKind, FaultRule, SharedSimBus};
 use rmd_telemetry::LiveOptions;
 
 struct Counting;
@@ -67,25 +64,6 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// A simulated bus shared by the loop thread and the supervisor.
-#[derive(Clone)]
-struct Shared(Arc<Mutex<SimBus<VirtualClock>>>);
-
-impl Shared {
-    fn new(bus: SimBus<VirtualClock>) -> Self {
-        Self(Arc::new(Mutex::new(bus)))
-    }
-}
-
-impl CanBus for Shared {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
-        self.0.lock().unwrap().send(frame)
-    }
-    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
-        self.0.lock().unwrap().recv_until(deadline)
-    }
-}
-
 #[test]
 fn steady_state_ticks_allocate_nothing() {
     // Two buses of four motors, with faults on the way (drops, late and corrupt replies, a
@@ -111,8 +89,8 @@ fn steady_state_ticks_allocate_nothing() {
     ];
     // Shared with the supervisor, which watches every tick from its own thread (and must not
     // allocate either: the counting allocator counts every thread).
-    let bus0 = Shared::new(sim(&clock, 4, 21, &faults));
-    let bus1 = Shared::new(sim(&clock, 4, 22, &faults));
+    let bus0 = SharedSimBus::new(sim(&clock, 4, 21, &faults));
+    let bus1 = SharedSimBus::new(sim(&clock, 4, 22, &faults));
     let mut config = robot_config(1000.0, 2, 4);
     config.loop_config.missing_reply_fault_after = 1000;
     with_limits(&mut config);
@@ -165,8 +143,8 @@ fn every_sink_on() {
     let faults = [FaultRule::new(FaultKind::DropReply)
         .multi_torque()
         .with_probability(0.02)];
-    let bus0 = Shared::new(sim(&clock, 4, 31, &faults));
-    let bus1 = Shared::new(sim(&clock, 4, 32, &faults));
+    let bus0 = SharedSimBus::new(sim(&clock, 4, 31, &faults));
+    let bus1 = SharedSimBus::new(sim(&clock, 4, 32, &faults));
     let mut config = robot_config(1000.0, 2, 4);
     config.loop_config.missing_reply_fault_after = 1000;
     // A small mailbox: the loop waits for the feed thread now and then (virtual time).

@@ -12,12 +12,12 @@ use core::time::Duration;
 use common::*;
 use rmd_bus::MonotonicClock;
 use rmd_loop::{Fault, RtLoop, RunLimit, StallCause, StopReason};
-use rmd_sim::{ControlMode, SimBus, SimConfig};
+use rmd_sim::{ControlMode, SharedSimBus, SimBus, SimConfig};
 
 #[test]
 fn a_stopped_process_is_a_stall_the_os_caused() {
     let bus =
-        SharedSim::new(SimBus::new(MonotonicClock, SimConfig::with_motors(4).seed(9)).unwrap());
+        SharedSimBus::new(SimBus::new(MonotonicClock, SimConfig::with_motors(4).seed(9)).unwrap());
     // A bound far below the 400 ms stop and far above what a loaded machine does to a thread
     // that is not stopped (tens of milliseconds).
     let mut config = robot_config(1000.0, 1, 4);
@@ -59,6 +59,6 @@ fn a_stopped_process_is_a_stall_the_os_caused() {
     );
     // Ground truth: every motor off.
     for m in 1..=4 {
-        assert_eq!(bus.snapshot(id(m)).mode, ControlMode::Off);
+        assert_eq!(bus.lock().snapshot(id(m)).unwrap().mode, ControlMode::Off);
     }
 }

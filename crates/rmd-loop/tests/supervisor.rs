@@ -5,50 +5,38 @@
 mod common;
 
 use core::time::Duration;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use common::*;
-use rmd_bus::{BusError, CanBus, MonotonicClock, Received, Timestamp};
+use rmd_bus::MonotonicClock;
 use rmd_loop::report::SafeStopBy;
 use rmd_loop::supervisor::SafetyPort;
 use rmd_loop::{
     Commands, Controller, Fault, Feedback, Flow, RtLoop, RunLimit, StallCause, StopReason,
     TickContext, TickStage,
 };
-use rmd_protocol::CanFrame;
-use rmd_sim::{ControlMode, SimBus, SimConfig};
+use rmd_sim::{ControlMode, SharedSimBus, SimBus, SimConfig};
 
-/// A simulated bus shared by the loop thread and the supervisor.
-#[derive(Clone)]
-struct SharedBus(Arc<Mutex<SimBus<MonotonicClock>>>);
+/// A simulated bus shared by the loop thread and the supervisor, in real time.
+type SharedBus = SharedSimBus<MonotonicClock>;
 
-impl CanBus for SharedBus {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
-        self.0.lock().unwrap().send(frame)
-    }
-    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
-        self.0.lock().unwrap().recv_until(deadline)
-    }
+fn shared_bus(seed: u64) -> SharedBus {
+    SharedSimBus::new(SimBus::new(MonotonicClock, SimConfig::with_motors(4).seed(seed)).unwrap())
 }
 
-impl SharedBus {
-    fn new(seed: u64) -> Self {
-        Self(Arc::new(Mutex::new(
-            SimBus::new(MonotonicClock, SimConfig::with_motors(4).seed(seed)).unwrap(),
-        )))
-    }
-    fn modes(&self) -> Vec<ControlMode> {
-        let mut bus = self.0.lock().unwrap();
-        (1..=4).map(|m| bus.snapshot(id(m)).unwrap().mode).collect()
-    }
-    fn all_off(&self) -> bool {
-        self.modes().iter().all(|m| *m == ControlMode::Off)
-    }
-    fn port(&self) -> SafetyPort {
-        Box::new(self.clone())
-    }
+fn modes(bus: &SharedBus) -> Vec<ControlMode> {
+    let mut bus = bus.lock();
+    (1..=4).map(|m| bus.snapshot(id(m)).unwrap().mode).collect()
+}
+
+fn all_off(bus: &SharedBus) -> bool {
+    modes(bus).iter().all(|m| *m == ControlMode::Off)
+}
+
+fn port(bus: &SharedBus) -> SafetyPort {
+    Box::new(bus.clone())
 }
 
 /// Pushes 1 A on every joint; at the first tick from `hang_at` on (a loaded machine may skip
@@ -116,7 +104,7 @@ fn supervised_with(
     let robot = rmd_loop::Robot::try_from(config).unwrap();
     RtLoop::new(robot, MonotonicClock, vec![bus.clone()], controller)
         .unwrap()
-        .supervise(vec![bus.port()])
+        .supervise(vec![port(bus)])
         .unwrap()
 }
 
@@ -132,11 +120,11 @@ fn wait_until(what: &str, within: Duration, mut f: impl FnMut() -> bool) {
 /// controller had not returned from its hang by then (`after`: what ended too late).
 fn assert_off_while_hanging(bus: &SharedBus, returned: &AtomicBool, after: &str) {
     wait_until("torque", Duration::from_secs(10), || {
-        bus.modes()
+        modes(bus)
             .iter()
             .all(|m| matches!(m, ControlMode::Torque { .. }))
     });
-    wait_until("every motor off", Duration::from_secs(10), || bus.all_off());
+    wait_until("every motor off", Duration::from_secs(10), || all_off(bus));
     assert!(
         !returned.load(Ordering::SeqCst),
         "the motors went off only after {after}"
@@ -145,7 +133,7 @@ fn assert_off_while_hanging(bus: &SharedBus, returned: &AtomicBool, after: &str)
 
 #[test]
 fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
-    let bus = SharedBus::new(41);
+    let bus = shared_bus(41);
     let returned = Arc::new(AtomicBool::new(false));
     let hung_at = Arc::new(AtomicU64::new(0));
     // A bound of 300 ms (a loaded test machine stalls for tens of milliseconds at times): the
@@ -200,7 +188,7 @@ fn a_hanging_controller_is_stopped_by_the_supervisor_before_it_returns() {
     assert_eq!(r.safe_stop.by, SafeStopBy::Supervisor);
     assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
     // When the controller came back, the loop sent nothing more: the motors stayed off.
-    assert!(bus.all_off(), "{:?}", bus.modes());
+    assert!(all_off(&bus), "{:?}", modes(&bus));
 }
 
 #[test]
@@ -246,7 +234,7 @@ fn spin_until_stopped(
     seed: u64,
     configure: impl FnOnce(&mut rmd_loop::robot::LoopConfig),
 ) -> (rmd_loop::LoopReport, u64) {
-    let bus = SharedBus::new(seed);
+    let bus = shared_bus(seed);
     let returned = Arc::new(AtomicBool::new(false));
     let hung_at = Arc::new(AtomicU64::new(0));
     let mut config = robot_config(1000.0, 1, 4);
@@ -264,7 +252,7 @@ fn spin_until_stopped(
     .unwrap();
     assert_off_while_hanging(&bus, &returned, "the busy loop ended");
     let report = handle.join().unwrap().report;
-    assert!(bus.all_off(), "{:?}", bus.modes());
+    assert!(all_off(&bus), "{:?}", modes(&bus));
     (report, hung_at.load(Ordering::SeqCst))
 }
 
@@ -324,7 +312,7 @@ fn a_controller_spinning_under_sched_fifo_is_stopped_by_the_supervisor_before_it
 
 #[test]
 fn an_emergency_stop_acts_at_once_while_the_controller_hangs() {
-    let bus = SharedBus::new(42);
+    let bus = shared_bus(42);
     let returned = Arc::new(AtomicBool::new(false));
     let hung_at = Arc::new(AtomicU64::new(0));
     // A stall bound longer than the hang: only the emergency stop can end it early.
@@ -338,13 +326,13 @@ fn an_emergency_stop_acts_at_once_while_the_controller_hangs() {
     let handle = rt.spawn(RunLimit::Forever).unwrap();
     let stopper = handle.stopper();
     wait_until("torque", Duration::from_secs(10), || {
-        bus.modes()
+        modes(&bus)
             .iter()
             .all(|m| matches!(m, ControlMode::Torque { .. }))
     });
     std::thread::sleep(Duration::from_millis(250)); // well inside the hang (starts at tick 200)
     stopper.emergency_stop();
-    wait_until("every motor off", Duration::from_secs(2), || bus.all_off());
+    wait_until("every motor off", Duration::from_secs(2), || all_off(&bus));
     assert!(
         !returned.load(Ordering::SeqCst),
         "the motors went off while the controller hung"
@@ -353,12 +341,12 @@ fn an_emergency_stop_acts_at_once_while_the_controller_hangs() {
     let out = handle.join().unwrap();
     assert_eq!(out.report.stop_reason, StopReason::EmergencyStop);
     assert_eq!(out.report.safe_stop.by, SafeStopBy::Supervisor);
-    assert!(bus.all_off());
+    assert!(all_off(&bus));
 }
 
 #[test]
 fn a_healthy_supervised_run_ends_with_the_loops_own_safe_stop() {
-    let bus = SharedBus::new(43);
+    let bus = shared_bus(43);
     let rt = RtLoop::new(
         realtime_robot(1000.0, 1, 4),
         MonotonicClock,
@@ -366,11 +354,11 @@ fn a_healthy_supervised_run_ends_with_the_loops_own_safe_stop() {
         PdTo::hold(4),
     )
     .unwrap()
-    .supervise(vec![bus.port()])
+    .supervise(vec![port(&bus)])
     .unwrap();
     let out = rt.run(RunLimit::Ticks(500));
     assert_eq!(out.report.stop_reason, StopReason::TickLimit);
     assert_eq!(out.report.safe_stop.by, SafeStopBy::Loop);
     assert!(out.report.safe_stop.all_off_confirmed());
-    assert!(bus.all_off());
+    assert!(all_off(&bus));
 }

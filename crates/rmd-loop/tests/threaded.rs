@@ -8,34 +8,19 @@ use core::time::Duration;
 use std::sync::{Arc, Mutex};
 
 use common::*;
-use rmd_bus::{BusError, CanBus, Clock, MonotonicClock, Received, Timestamp, VirtualClock};
+use rmd_bus::{Clock, MonotonicClock, VirtualClock};
 use rmd_loop::{Commands, Controller, Feedback, Flow, RtLoop, RunLimit, StopReason, TickContext};
-use rmd_protocol::CanFrame;
-use rmd_sim::{ControlMode, SimBus, SimConfig};
+use rmd_sim::{ControlMode, SharedSimBus, SimBus, SimConfig};
 
-/// A simulated bus the test can still inspect after the loop thread took it.
-#[derive(Clone)]
-struct SharedBus<C: Clock>(Arc<Mutex<SimBus<C>>>);
-
-impl<C: Clock> CanBus for SharedBus<C> {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
-        self.0.lock().unwrap().send(frame)
-    }
-    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
-        self.0.lock().unwrap().recv_until(deadline)
-    }
+/// A simulated bus of `motors` motors the test can still inspect after the loop thread took it.
+fn shared_bus<C: Clock>(clock: C, motors: u8) -> SharedSimBus<C> {
+    SharedSimBus::new(SimBus::new(clock, SimConfig::with_motors(motors).seed(5)).unwrap())
 }
 
-impl<C: Clock> SharedBus<C> {
-    fn new(clock: C, motors: u8) -> Self {
-        Self(Arc::new(Mutex::new(
-            SimBus::new(clock, SimConfig::with_motors(motors).seed(5)).unwrap(),
-        )))
-    }
-    fn all_off(&self, motors: u8) -> bool {
-        let mut bus = self.0.lock().unwrap();
-        (1..=motors).all(|m| bus.snapshot(id(m)).unwrap().mode == ControlMode::Off)
-    }
+/// Whether motors 1..=`motors` are all off.
+fn all_off<C: Clock>(bus: &SharedSimBus<C>, motors: u8) -> bool {
+    let mut bus = bus.lock();
+    (1..=motors).all(|m| bus.snapshot(id(m)).unwrap().mode == ControlMode::Off)
 }
 
 /// Records how the loop ended, for loops the test cannot join.
@@ -114,7 +99,7 @@ fn a_few_seconds_at_one_kilohertz_in_real_time() {
 #[test]
 fn snapshots_are_readable_while_the_loop_runs() {
     let clock = VirtualClock::new();
-    let bus = SharedBus::new(clock.clone(), 4);
+    let bus = shared_bus(clock.clone(), 4);
     let rt = RtLoop::new(robot(1000.0, 1, 4), clock, vec![bus.clone()], PdTo::hold(4)).unwrap();
     let handle = rt.spawn(RunLimit::Forever).unwrap();
     let first = loop {
@@ -133,13 +118,13 @@ fn snapshots_are_readable_while_the_loop_runs() {
     let out = handle.stop().unwrap();
     assert_eq!(out.report.stop_reason, StopReason::Requested);
     assert!(out.report.stats.ticks >= second.ticks);
-    assert!(bus.all_off(4));
+    assert!(all_off(&bus, 4));
 }
 
 #[test]
 fn an_emergency_stop_from_another_thread_makes_every_motor_safe() {
     let clock = MonotonicClock;
-    let bus = SharedBus::new(clock, 4);
+    let bus = shared_bus(clock, 4);
     let rt = RtLoop::new(
         realtime_robot(1000.0, 1, 4),
         clock,
@@ -159,13 +144,13 @@ fn an_emergency_stop_from_another_thread_makes_every_motor_safe() {
     assert_eq!(out.report.stop_reason, StopReason::EmergencyStop);
     assert!(!out.report.normal_stop);
     assert!(out.report.safe_stop.all_off_confirmed());
-    assert!(bus.all_off(4));
+    assert!(all_off(&bus, 4));
 }
 
 #[test]
 fn dropping_the_handle_stops_the_loop_safely() {
     let clock = MonotonicClock;
-    let bus = SharedBus::new(clock, 4);
+    let bus = shared_bus(clock, 4);
     let stop = Arc::new(Mutex::new(None));
     let rt = RtLoop::new(
         realtime_robot(500.0, 1, 4),
@@ -179,20 +164,20 @@ fn dropping_the_handle_stops_the_loop_safely() {
     let handle = rt.spawn(RunLimit::Forever).unwrap();
     std::thread::sleep(Duration::from_millis(100));
     {
-        let mut sim = bus.0.lock().unwrap();
+        let mut sim = bus.lock();
         let mode = sim.snapshot(id(1)).unwrap().mode;
         assert!(matches!(mode, ControlMode::Torque { .. }), "{mode:?}");
     }
     drop(handle);
     assert_eq!(*stop.lock().unwrap(), Some(StopReason::HandleDropped));
-    assert!(bus.all_off(4));
+    assert!(all_off(&bus, 4));
 }
 
 #[test]
 fn missing_privileges_are_reported_not_fatal() {
     // Asks for SCHED_FIFO, which an unprivileged test run may not get; either way the loop runs.
     let clock = VirtualClock::new();
-    let bus = SharedBus::new(clock.clone(), 2);
+    let bus = shared_bus(clock.clone(), 2);
     let mut config = robot_config(1000.0, 1, 2);
     config.loop_config.fifo_priority = Some(10);
     config.loop_config.cpu = Some(0);

@@ -1,41 +1,15 @@
 //! One bus of a run: simulated motors or a SocketCAN interface; and the supervisor's own way onto
 //! it (a second socket on the interface, or a second handle to the simulated bus).
 
-use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
-
 use rmd_bus::{BusError, CanBus, Readiness, Received, Timestamp};
 use rmd_loop::supervisor::SafetyPort;
 use rmd_protocol::CanFrame;
-use rmd_sim::SimBus;
 
 use crate::clock::AnyClock;
 
-/// A simulated bus shared by the loop thread and the supervisor (the simulated motors are one
-/// world: both see the same wire). The loop thread takes its lock only inside a bus call.
-#[derive(Clone, Debug)]
-pub struct SharedSim(Arc<Mutex<SimBus<AnyClock>>>);
-
-impl SharedSim {
-    /// Shares `bus`.
-    pub fn new(bus: SimBus<AnyClock>) -> Self {
-        Self(Arc::new(Mutex::new(bus)))
-    }
-
-    /// The simulated bus (to look at the simulated motors).
-    pub fn lock(&self) -> MutexGuard<'_, SimBus<AnyClock>> {
-        self.0.lock().unwrap_or_else(PoisonError::into_inner)
-    }
-}
-
-impl CanBus for SharedSim {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
-        self.lock().send(frame)
-    }
-
-    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
-        self.lock().recv_until(deadline)
-    }
-}
+/// A simulated bus of a run, on the run's clock, shared by the loop thread and the supervisor
+/// (the simulated motors are one world: both see the same wire).
+pub type SharedSim = rmd_sim::SharedSimBus<AnyClock>;
 
 /// One bus of a run.
 #[derive(Debug)]

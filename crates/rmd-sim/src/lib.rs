@@ -17,6 +17,8 @@
 //! - [`SimMotors`]: the motors of a bus as firmware (frames in, timed replies out), usable on a
 //!   real CAN interface too;
 //! - [`SimBus`]: motors behind the simulated wire, implementing [`rmd_bus::CanBus`];
+//! - [`SharedSimBus`]: one `SimBus` behind several handles (the loop thread, a supervisor, a
+//!   program looking at the motors), each a `CanBus`;
 //! - [`threaded`]: a `SimBus` on a thread of its own, used through lock-free queues (Linux).
 //!
 //! See `docs/simulator.md` in the repository for what is and is not modelled.
@@ -55,6 +57,7 @@ pub mod motors;
 pub mod params;
 pub mod physics;
 mod request;
+mod shared;
 #[cfg(target_os = "linux")]
 pub mod threaded;
 pub mod wire;
@@ -69,4 +72,5 @@ pub use motor::{MotorSnapshot, MotorStats, SimMotor, TrapStats};
 pub use motors::{Replies, ScheduledFrame, SimMotors};
 pub use params::{GravityLink, LoadParams, MotorParams, STANDARD_GRAVITY};
 pub use physics::SUBSTEP;
+pub use shared::SharedSimBus;
 pub use wire::{Node, Transmission, WireTiming};

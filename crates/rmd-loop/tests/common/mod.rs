@@ -159,35 +159,3 @@ impl Controller for PdTo {
 }
 
 pub const MS: Duration = Duration::from_millis(1);
-
-/// A simulated bus the test can look at while the loop drives it (on any clock).
-pub struct SharedSim<C: rmd_bus::Clock = VirtualClock>(
-    pub std::sync::Arc<std::sync::Mutex<SimBus<C>>>,
-);
-
-impl<C: rmd_bus::Clock> Clone for SharedSim<C> {
-    fn clone(&self) -> Self {
-        Self(std::sync::Arc::clone(&self.0))
-    }
-}
-
-impl<C: rmd_bus::Clock> SharedSim<C> {
-    pub fn new(bus: SimBus<C>) -> Self {
-        Self(std::sync::Arc::new(std::sync::Mutex::new(bus)))
-    }
-    pub fn snapshot(&self, motor: MotorId) -> rmd_sim::MotorSnapshot {
-        self.0.lock().unwrap().snapshot(motor).unwrap()
-    }
-}
-
-impl<C: rmd_bus::Clock> rmd_bus::CanBus for SharedSim<C> {
-    fn send(&mut self, frame: &rmd_protocol::CanFrame) -> Result<(), rmd_bus::BusError> {
-        self.0.lock().unwrap().send(frame)
-    }
-    fn recv_until(
-        &mut self,
-        deadline: rmd_bus::Timestamp,
-    ) -> Result<Option<rmd_bus::Received>, rmd_bus::BusError> {
-        self.0.lock().unwrap().recv_until(deadline)
-    }
-}

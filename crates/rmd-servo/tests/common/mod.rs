@@ -4,14 +4,14 @@
 #![allow(dead_code, unreachable_pub)]
 
 use std::ops::ControlFlow;
-use std::sync::{Arc, Mutex, Once};
+use std::sync::Once;
 
-use rmd_bus::{BusError, CanBus, Received, Timestamp, VirtualClock};
+use rmd_bus::VirtualClock;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
 use rmd_loop::{LoopOutcome, Robot, RtLoop, Running, StopReason, TelemetryReceiver};
-use rmd_protocol::{CanFrame, MotorId};
+use rmd_protocol::MotorId;
 use rmd_servo::{ServoConfig, ServoController, ServoHandle, ServoState};
-use rmd_sim::{MotorSnapshot, SimBus};
+use rmd_sim::{MotorSnapshot, SharedSimBus};
 
 /// The joints, in order (motor ids 1..=4).
 pub const JOINTS: [&str; 4] = ["hip_aa", "hip_fe", "knee", "ankle"];
@@ -49,23 +49,11 @@ pub fn leg(change: impl Fn(usize, MotorConfig) -> MotorConfig) -> Robot {
     Robot::try_from(RobotConfig::new(1000.0).with_bus(bus)).unwrap()
 }
 
-/// A simulated bus shared by the loop and the test (the test reads the motors between ticks).
-#[derive(Clone)]
-pub struct Shared(pub Arc<Mutex<SimBus<VirtualClock>>>);
-
-impl CanBus for Shared {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
-        self.0.lock().unwrap().send(frame)
-    }
-    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
-        self.0.lock().unwrap().recv_until(deadline)
-    }
-}
-
 /// A servo in a running loop, stepped by the test.
 pub struct Bench {
-    pub running: Option<Running<Shared, VirtualClock, ServoController>>,
-    pub bus: Shared,
+    pub running: Option<Running<SharedSimBus<VirtualClock>, VirtualClock, ServoController>>,
+    /// The simulated bus, shared with the loop (the test reads the motors between ticks).
+    pub bus: SharedSimBus<VirtualClock>,
     pub handle: ServoHandle,
     pub robot: Robot,
     /// How the loop ended, if it ended on its own.
@@ -98,7 +86,7 @@ impl Bench {
             motor.initial_output_angle_deg = deg;
         }
         let bus = rmd_rig::open::sim_buses(&clock, sims).unwrap().remove(0);
-        let bus = Shared(Arc::new(Mutex::new(bus)));
+        let bus = SharedSimBus::new(bus);
         let mut rt = RtLoop::new(robot.clone(), clock, vec![bus.clone()], controller).unwrap();
         let telemetry = rt.telemetry();
         let running = match rt.start() {
@@ -164,7 +152,7 @@ impl Bench {
     /// The simulated motor of joint `i` (ground truth).
     pub fn motor(&self, i: usize) -> MotorSnapshot {
         let id = MotorId::new(i as u8 + 1).unwrap();
-        self.bus.0.lock().unwrap().snapshot(id).unwrap()
+        self.bus.lock().snapshot(id).unwrap()
     }
 
     /// Joint `i`'s true angle, rad (the simulated output; direction normal).
