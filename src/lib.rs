@@ -16,51 +16,41 @@
 //!   driven by joint name from ordinary threads;
 //! - [`drill`]: fault drills on simulated motors, judged by the simulated firmware (`rmd drill`).
 //!
-//! A controller by joint names, a robot from its description, simulated motors, a run:
+//! A complete program: a controller by joint names, a robot from its description, simulated
+//! motors, a supervised run ([`prelude`] has every name it uses):
 //!
 //! ```
-//! use std::time::Duration;
-//! use rmd_rt::rig::{Placement, Rig, SimTime, sim};
-//! use rmd_rt::{Commands, Controller, Feedback, Flow, JointId, Robot, RtLoop, RunLimit, StopReason, TickContext};
+//! use rmd_rt::prelude::*;
 //!
-//! /// The smallest useful controller: hold the elbow at a target angle.
-//! struct Hold { elbow: JointId, target_deg: f64 }
+//! /// Holds a joint at a target angle: current = kp * error - kd * velocity.
+//! struct Hold { joint: JointId, target_deg: f64 }
 //!
 //! impl Controller for Hold {
 //!     fn update(&mut self, _: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
-//!         let elbow = fb[self.elbow].joint;
-//!         cmd.set_current(self.elbow, 0.8 * (self.target_deg - elbow.angle_deg) - 0.03 * elbow.velocity_dps);
+//!         let state = fb[self.joint].joint;
+//!         cmd.set_current(self.joint, 0.8 * (self.target_deg - state.angle_deg) - 0.03 * state.velocity_dps);
 //!         Flow::Continue
 //!     }
 //! }
 //!
-//! // One RMD-X8-class motor (1:9 gearbox), at most 3 A, at 1 kHz.
-//! let robot = Robot::from_toml(r#"
-//!     [[bus]]
-//!     interface = "can0"
-//!     [[bus.motor]]
-//!     id = 1
-//!     name = "elbow"
-//!     gear_ratio = 9.0
-//!     torque_constant_nm_per_amp = 2.09
-//!     current_limit_amps = 3.0
-//! "#)?;
-//! let hold = Hold { elbow: robot.joint("elbow")?, target_deg: 10.0 };
-//!
-//! // Simulated motors matching the description, in virtual time (`Placement::resolve` with
-//! // the command line's `--iface` picks real interfaces instead).
-//! let rig = Rig::open(&robot, &Placement::simulated(&robot, SimTime::Virtual), sim::sim_configs(&robot, 1))?;
-//! let mut rt = RtLoop::new(robot, rig.clock, rig.buses, hold)?;
-//! let telemetry = rt.telemetry();
-//! let outcome = rt.spawn(RunLimit::Duration(Duration::from_secs(2)))?.join()?;
-//!
-//! assert_eq!(outcome.report.stop_reason, StopReason::TickLimit);
-//! assert!(outcome.report.safe_stop.all_off_confirmed());
-//! let elbow = telemetry.latest().unwrap().joints()[0].feedback.joint;
-//! assert!((elbow.angle_deg - 10.0).abs() < 0.3);
-//! println!("{}", outcome.report); // latencies, misses, per-joint counters, safe stop
-//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! fn main() -> Result<(), Box<dyn std::error::Error>> {
+//!     // One RMD-X8-class motor on can0, joint "arm", with its limits (a shipped example).
+//!     let robot = Robot::from_file("examples/robots/pd_hold.toml")?;
+//!     let hold = Hold { joint: robot.joint("arm")?, target_deg: 10.0 };
+//!     // Simulated motors in virtual time. On the real bus: `Rig::open` with the command
+//!     // line's placement (`Placement::resolve`: `--iface can0`, `--sim`).
+//!     let rig = Rig::simulated(&robot, SimTime::Virtual)?;
+//!     // Supervised: a hung controller or bus is stopped from another thread.
+//!     let outcome = rig.into_loop(robot, hold)?.run(RunLimit::Duration(Duration::from_secs(2)));
+//!     println!("{}", outcome.report); // latencies, misses, per-joint counters, safe stop
+//! #   assert_eq!(outcome.report.stop_reason, StopReason::TickLimit);
+//! #   assert!(outcome.report.safe_stop.all_off_confirmed(), "{}", outcome.report);
+//!     Ok(())
+//! }
 //! ```
+//!
+//! [`RtLoop::new`] builds a loop without that supervisor (tests, and loops whose buses have no
+//! second way in); [`rig::Rig::into_loop`] is the supervised way.
 
 pub use rmd_bus as bus;
 pub use rmd_drill as drill;
@@ -75,6 +65,17 @@ pub use rmd_loop::{
     Commands, Controller, Fault, Feedback, Flow, JointArray, JointFeedback, JointId, LoopHandle,
     LoopOutcome, LoopReport, Robot, RtLoop, RunLimit, StopReason, TickContext,
 };
+
+/// The names a controller program uses: the controller trait and what it sees and writes each
+/// tick, the robot description, and the rig that opens its buses (simulated or SocketCAN).
+pub mod prelude {
+    pub use crate::rig::{Placement, Rig, SimTime};
+    pub use rmd_loop::{
+        Commands, Controller, Fault, Feedback, Flow, JointId, LoopOutcome, LoopReport, Robot,
+        RunLimit, StopReason, TickContext,
+    };
+    pub use std::time::Duration;
+}
 
 /// docs/controller.md, whose code blocks `cargo test --doc` compiles and runs (the guide's
 /// complete 4-joint program among them).

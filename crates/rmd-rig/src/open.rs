@@ -57,6 +57,22 @@ impl Rig {
         })
     }
 
+    /// Every bus of `robot` on simulated motors matching its description
+    /// ([`sim_configs`](crate::sim::sim_configs), seeded [`Rig::SIM_SEED`]), in `time`: the
+    /// shortest way to try a controller. [`Rig::open`] with [`Placement::resolve`] picks real
+    /// interfaces from the command line instead.
+    pub fn simulated(robot: &Robot, time: crate::SimTime) -> Result<Self, RigError> {
+        Self::open(
+            robot,
+            &Placement::simulated(robot, time),
+            crate::sim::sim_configs(robot, Self::SIM_SEED),
+        )
+    }
+
+    /// The seed of [`Rig::simulated`]'s motors (their encoder noise and injected faults): runs
+    /// repeat exactly.
+    pub const SIM_SEED: u64 = 1;
+
     /// The loop of `robot` on these buses with `controller`, supervised: the supervisor gets its
     /// own way onto every bus (a second socket, or a second handle to the simulated bus).
     pub fn into_loop<K: Controller>(
