@@ -40,7 +40,7 @@ impl AnyBus {
             AnyBus::SocketCan(bus) => {
                 use rmd_bus::socketcan::SocketCanBus;
                 let iface = bus.iface().to_string();
-                SocketCanBus::open(&iface, &crate::open::loop_socket_options())
+                SocketCanBus::open(&iface, &loop_socket_options())
                     .map(|port| Box::new(port) as SafetyPort)
                     .map_err(|source| crate::RigError::Open {
                         bus: format!("{iface} (the supervisor's socket)"),
@@ -75,4 +75,14 @@ impl CanBus for AnyBus {
             AnyBus::SocketCan(bus) => bus.readiness(),
         }
     }
+}
+
+/// The loop's socket: the motors' replies on `0x140 + id`, and `0x240 + id` (where MyActuator V3
+/// firmware answers: the start-up identification must see it to refuse it).
+#[cfg(target_os = "linux")]
+pub(crate) fn loop_socket_options() -> rmd_bus::socketcan::SocketCanOptions {
+    rmd_bus::socketcan::SocketCanOptions::new().accept_ids(
+        rmd_protocol::V3_REPLY_BASE_ID + u16::from(rmd_protocol::MotorId::MIN)
+            ..=rmd_protocol::V3_REPLY_BASE_ID + u16::from(rmd_protocol::MotorId::MAX),
+    )
 }

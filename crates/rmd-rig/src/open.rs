@@ -92,22 +92,12 @@ impl Rig {
 #[cfg(target_os = "linux")]
 fn open_socketcan(bus: &str, iface: &str) -> Result<AnyBus, RigError> {
     use rmd_bus::socketcan::SocketCanBus;
-    SocketCanBus::open(iface, &loop_socket_options())
+    SocketCanBus::open(iface, &crate::bus::loop_socket_options())
         .map(|bus| AnyBus::SocketCan(Box::new(bus)))
         .map_err(|source| RigError::Open {
             bus: bus.to_string(),
             source,
         })
-}
-
-/// The loop's socket: the motors' replies on `0x140 + id`, and `0x240 + id` (where MyActuator V3
-/// firmware answers: the start-up identification must see it to refuse it).
-#[cfg(target_os = "linux")]
-pub(crate) fn loop_socket_options() -> rmd_bus::socketcan::SocketCanOptions {
-    rmd_bus::socketcan::SocketCanOptions::new().accept_ids(
-        rmd_protocol::V3_REPLY_BASE_ID + u16::from(rmd_protocol::MotorId::MIN)
-            ..=rmd_protocol::V3_REPLY_BASE_ID + u16::from(rmd_protocol::MotorId::MAX),
-    )
 }
 
 #[cfg(not(target_os = "linux"))]

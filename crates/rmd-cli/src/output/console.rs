@@ -3,8 +3,9 @@
 //!
 //! - stdout ([`outln!`](crate::output::outln), [`write_all`]): a write that fails because the
 //!   reader closed the pipe returns [`WriteError::Closed`], which a command turns into
-//!   [`CliError::OutputClosed`]: it stops writing and ends quietly (a command that moved motors
-//!   still turns them off first). Any other write error is a failure (exit 1).
+//!   [`CliError::OutputClosed`](crate::output::report::CliError::OutputClosed): it stops
+//!   writing and ends quietly (a command that moved motors still turns them off first). Any
+//!   other write error is a failure (exit 1).
 //! - stderr ([`errln!`](crate::output::errln)): messages for the user, written if anyone
 //!   listens; a closed stderr is ignored, so that the command still finishes its job.
 
@@ -12,8 +13,6 @@ use std::fmt;
 use std::io::{self, Write};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-
-use crate::output::report::CliError;
 
 /// Set once a write to stdout found the pipe closed: later writes fail at once.
 static STDOUT_CLOSED: AtomicBool = AtomicBool::new(false);
@@ -36,15 +35,6 @@ impl WriteError {
             WriteError::Closed
         } else {
             WriteError::Failed(error)
-        }
-    }
-}
-
-impl From<WriteError> for CliError {
-    fn from(error: WriteError) -> Self {
-        match error {
-            WriteError::Closed => CliError::OutputClosed,
-            WriteError::Failed(_) => CliError::Failed(error.to_string()),
         }
     }
 }
@@ -135,6 +125,7 @@ impl<W: Write> Write for WatchedSink<W> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::output::report::CliError;
 
     /// A writer whose reader has gone.
     struct Broken;

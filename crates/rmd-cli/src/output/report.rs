@@ -4,6 +4,7 @@ use std::process::ExitCode;
 
 use rmd_protocol::{MotorId, Reply};
 
+use crate::output::console::WriteError;
 use crate::output::errln;
 
 /// Exit code for a usage error (bad or missing argument), as clap uses.
@@ -159,6 +160,15 @@ fn one_line(message: &str) -> String {
         })
         .collect::<Vec<_>>()
         .join(" ")
+}
+
+impl From<WriteError> for CliError {
+    fn from(error: WriteError) -> Self {
+        match error {
+            WriteError::Closed => CliError::OutputClosed,
+            WriteError::Failed(_) => CliError::Failed(error.to_string()),
+        }
+    }
 }
 
 #[cfg(test)]

@@ -41,7 +41,7 @@ use rmd_loop::{Robot, RunLimit};
 
 use crate::error::RigError;
 use crate::placement::{Overrides, Placement, PlacementDefault};
-use crate::runner::Display;
+use crate::runner::progress::Display;
 
 /// Where the robot is: its description and its buses.
 #[derive(clap::Args, Debug, Clone, Default, PartialEq, Eq)]

@@ -15,7 +15,7 @@
 //! # }
 //! ```
 
-mod progress;
+pub(crate) mod progress;
 
 use std::io::Write;
 use std::path::Path;
