@@ -17,11 +17,10 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crate::process::Owner;
-use rmd_bus::Timestamp;
-use rmd_loop::{Freshness, Robot, TelemetryReceiver, TelemetrySample};
+use rmd_loop::{Robot, TelemetryReceiver, TelemetrySample};
 use rmd_telemetry::{
-    JointInfo, JointRecord, LiveOptions, LiveSink, LoopTiming, McapOptions, McapSink, Pipeline,
-    PipelineStats, Producer, ReplyAge, RunLayout, Telemetry, TickRecord,
+    JointInfo, LiveOptions, LiveSink, LoopTiming, McapOptions, McapSink, Pipeline, PipelineStats,
+    Producer, RunLayout, Telemetry, TickRecord,
 };
 
 /// How often the thread looks for new samples.
@@ -300,19 +299,7 @@ fn record(sample: &TelemetrySample, misses_before: u64) -> TickRecord {
     let since_start_ns = (sample.time_s.max(0.0) * 1e9).round() as u64;
     let mut record = TickRecord::new(sample.tick, since_start_ns, sample.scheduled.as_nanos());
     for (slot, joint) in record.joints.iter_mut().zip(sample.joints()) {
-        let f = &joint.feedback;
-        let reply = (f.received_at != Timestamp::ZERO).then(|| reply_age(f, sample.scheduled));
-        *slot = JointRecord {
-            position_rad: f.joint.angle_rad(),
-            velocity_rad_s: f.joint.velocity_rad_s(),
-            effort_nm: f.joint.torque_nm,
-            current_a: f.motor.current_amps,
-            commanded_a: joint.command_amps,
-            temperature_c: f.motor.temperature_celsius,
-            voltage_v: None,
-            error_flags: None,
-            reply,
-        };
+        *slot = rmd_rig::telemetry::joint_record(joint, sample.taken_at);
     }
     let times = &sample.times;
     record.timing = LoopTiming {
@@ -329,19 +316,4 @@ fn record(sample: &TelemetrySample, misses_before: u64) -> TickRecord {
         *slot = *value;
     }
     record
-}
-
-/// How old a joint's reply is at its tick: ticks by the loop's freshness, microseconds from its
-/// reception to the tick's scheduled time (0 for a reply received after it).
-fn reply_age(f: &rmd_loop::JointFeedback, scheduled: Timestamp) -> ReplyAge {
-    let ticks = match f.freshness {
-        Freshness::Fresh { .. } => 0,
-        Freshness::Late { age_ticks } => age_ticks.max(1),
-        Freshness::Missing { ticks_since_reply } => ticks_since_reply.max(1),
-    };
-    let micros = scheduled.signed_nanos_since(f.received_at).max(0) / 1000;
-    ReplyAge {
-        ticks,
-        micros: u32::try_from(micros).unwrap_or(u32::MAX),
-    }
 }

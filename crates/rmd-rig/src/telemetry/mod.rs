@@ -59,7 +59,7 @@ use rmd_telemetry::{
 };
 
 pub use feed::{FeedThread, spawn_feed};
-pub use record::Recorder;
+pub use record::{Recorder, joint_record};
 
 /// The sinks a run writes (the `--csv`, `--mcap` and `--foxglove` flags); all `None`: no
 /// telemetry at all.

@@ -17,17 +17,23 @@ fn us(ns: u64) -> f64 {
     ns as f64 * 1e-3
 }
 
-/// One joint of a sample as a record.
-fn joint_record(joint: &JointSample, taken_at: rmd_bus::Timestamp) -> JointRecord {
+/// One joint of a sample as a telemetry record (rmd-rig's recorder and the Python package's
+/// both use this one). The reply's age is counted at `taken_at`, when the sample was taken
+/// (after the tick's replies were collected): ticks by the loop's freshness, microseconds since
+/// the reply was received. A joint whose motor never answered has no reply age.
+pub fn joint_record(joint: &JointSample, taken_at: rmd_bus::Timestamp) -> JointRecord {
     let f = &joint.feedback;
     let ticks = match f.freshness {
         Freshness::Fresh { .. } => 0,
         Freshness::Late { age_ticks } => age_ticks.max(1),
         Freshness::Missing { ticks_since_reply } => ticks_since_reply.max(1),
     };
-    let micros = taken_at
-        .checked_duration_since(f.received_at)
-        .map_or(0, |age| u32::try_from(age.as_micros()).unwrap_or(u32::MAX));
+    let reply = (f.received_at != rmd_bus::Timestamp::ZERO).then(|| {
+        let micros = taken_at
+            .checked_duration_since(f.received_at)
+            .map_or(0, |age| u32::try_from(age.as_micros()).unwrap_or(u32::MAX));
+        ReplyAge { ticks, micros }
+    });
     JointRecord {
         position_rad: f.joint.angle_rad(),
         velocity_rad_s: f.joint.velocity_rad_s(),
@@ -38,8 +44,7 @@ fn joint_record(joint: &JointSample, taken_at: rmd_bus::Timestamp) -> JointRecor
         // The loop's exchange (0x280 and its 0xA1 replies) carries neither.
         voltage_v: None,
         error_flags: None,
-        // The loop starts the controller, and publishes, only once every motor has answered.
-        reply: Some(ReplyAge { ticks, micros }),
+        reply,
     }
 }
 
@@ -217,6 +222,15 @@ mod tests {
             (12.0, 3.5, Some(800.0))
         );
         assert_eq!(record.signals[..2], [7.0, 0.0]);
+    }
+
+    #[test]
+    fn a_joint_whose_motor_never_answered_has_no_reply_age() {
+        let mut s = sample(3, 0, 0);
+        s.joints_mut()[1].feedback.received_at = Timestamp::ZERO;
+        let record = record_of(&s);
+        assert_eq!(record.joints[1].reply, None);
+        assert_eq!(record.joints[0].reply, Some(ReplyAge::fresh(100)));
     }
 
     #[test]
