@@ -5,7 +5,9 @@ use std::sync::Arc;
 
 use rmd_loop::commands::MAX_SIGNALS;
 use rmd_loop::mailbox::{Receiver, Sender, mailbox};
-use rmd_loop::{Commands, Controller, Feedback, Flow, JointId, StopReason, TickContext};
+use rmd_loop::{
+    Commands, Controller, Feedback, Flow, JointFeedback, JointId, StopReason, TickContext,
+};
 
 use crate::config::{JointServo, ServoConfig, StalePolicy};
 use crate::handle::ServoHandle;
@@ -490,7 +492,7 @@ impl ServoController {
         j.counters.stale_events += 1;
     }
 
-    /// This tick's torque for one joint; fills its status.
+    /// This tick's torque for one joint: the step of its mode, clamped, sent; its status written.
     fn run_joint(
         &mut self,
         joint: usize,
@@ -503,6 +505,31 @@ impl ServoController {
         let f = fb[id];
         let (p, v) = (f.joint.angle_rad(), f.joint.velocity_rad_s());
         self.check_stale(joint, now, p);
+        let step = self.step(joint, now, dt, p, v);
+        let (effort, clamped) = law::clamp_effort(
+            step.effort,
+            self.config.joints()[joint].limits.max_effort_nm,
+        );
+        cmd.set_torque(id, effort);
+        if let Some(position) = step.finished {
+            // The trajectory is over: hold its last point.
+            self.set_mode(joint, Mode::Hold { position });
+            self.joints[joint].since_s = now;
+        }
+        if clamped {
+            self.joints[joint].counters.clamped += 1;
+        }
+        let error = step.reference.map(|r| r.p - p);
+        if joint < self.signals {
+            cmd.set_signal(joint, error.unwrap_or(0.0));
+        }
+        self.write_status(joint, &f, &step, effort, error);
+    }
+
+    /// The step of `joint`'s mode at `now`, measured at position `p` and velocity `v`: its
+    /// reference, feed-forward and unclamped effort. Advances a velocity reference and a
+    /// trajectory's point; says when a trajectory ended.
+    fn step(&mut self, joint: usize, now: f64, dt: f64, p: f64, v: f64) -> Step {
         let servo = &self.config.joints()[joint];
         let mut finished = None;
         let (reference, effort_ff, effort) = match self.joints[joint].mode {
@@ -577,32 +604,35 @@ impl ServoController {
                 }
             },
         };
-        let (effort, clamped) = law::clamp_effort(effort, servo.limits.max_effort_nm);
-        cmd.set_torque(id, effort);
-        if let Some(position) = finished {
-            // The trajectory is over: hold its last point.
-            self.set_mode(joint, Mode::Hold { position });
-            self.joints[joint].since_s = now;
+        Step {
+            reference,
+            effort_ff,
+            effort,
+            finished,
         }
-        let j = &mut self.joints[joint];
-        if clamped {
-            j.counters.clamped += 1;
-        }
-        let error = reference.map(|r| r.p - p);
-        if joint < self.signals {
-            cmd.set_signal(joint, error.unwrap_or(0.0));
-        }
+    }
+
+    /// Writes `joint`'s status for this tick: what its motor said and what the servo did.
+    fn write_status(
+        &mut self,
+        joint: usize,
+        f: &JointFeedback,
+        step: &Step,
+        effort: f64,
+        error: Option<f64>,
+    ) {
+        let j = &self.joints[joint];
         let status = &mut self.state.joints_mut()[joint];
-        status.position_rad = p;
-        status.velocity_rad_s = v;
+        status.position_rad = f.joint.angle_rad();
+        status.velocity_rad_s = f.joint.velocity_rad_s();
         status.effort_nm = f.joint.torque_nm.unwrap_or(0.0);
         status.fresh = f.is_fresh();
         status.received_at = f.received_at;
         status.temperature_celsius = f.motor.temperature_celsius;
         status.current_amps = f.motor.current_amps;
         status.mode = j.mode.public();
-        status.reference = reference.map(Reference::from_kin);
-        status.effort_ff_nm = effort_ff;
+        status.reference = step.reference.map(Reference::from_kin);
+        status.effort_ff_nm = step.effort_ff;
         status.commanded_effort_nm = effort;
         status.position_error_rad = error;
         status.stale = j.stale;
@@ -632,6 +662,18 @@ impl ServoController {
         }
         self.publish(ctx);
     }
+}
+
+/// One joint's step in its mode, before the effort limit.
+struct Step {
+    /// Where the joint should be (none in effort and zero-torque modes).
+    reference: Option<Kin>,
+    /// The feed-forward effort, N·m.
+    effort_ff: f64,
+    /// The effort the mode asks, N·m.
+    effort: f64,
+    /// The last point of a trajectory that ended this tick.
+    finished: Option<f64>,
 }
 
 /// The state of `column` of `buffer` at loop time `now`, starting the search at `point`:
