@@ -215,14 +215,14 @@ fn check(doc: &Path) -> Checked {
         let load_fault = LOAD_FAULTS
             .iter()
             .find(|fault| ended.output.contains(*fault))
-            .filter(|_| ended.code == Some(1) && ended.stopped.is_none());
+            .filter(|_| ended.code == Some(1) && ended.stopped != Some("timeout"));
         let problem = if ended.stopped == Some("timeout") {
             Some(format!("still running after {TIMEOUT:?}"))
-        } else if ended.ended_early {
-            Some("documented to run until Ctrl-C, it ended by itself".to_owned())
         } else if let Some(fault) = load_fault {
             checked.load_faults.push(format!("{place} ({fault} ...)"));
             None
+        } else if ended.ended_early {
+            Some("documented to run until Ctrl-C, it ended by itself".to_owned())
         } else if !ended.code.is_some_and(|code| expected.contains(&code)) {
             Some(format!(
                 "exit status {:?} (expected {expected:?})",
