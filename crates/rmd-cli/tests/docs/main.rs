@@ -278,7 +278,14 @@ fn every_command_in_the_docs_runs_as_printed_or_says_what_it_needs() {
     results.sort_by(|a, b| a.0.cmp(&b.0));
 
     let mut total = Checked::default();
-    for (_, checked) in results {
+    for (doc, checked) in results {
+        println!(
+            "docs: {}: {} commands, {} run and passed, {} marked",
+            doc.display(),
+            checked.commands,
+            checked.ran.len(),
+            checked.marked
+        );
         total.commands += checked.commands;
         total.ran.extend(checked.ran);
         total.marked += checked.marked;
