@@ -72,6 +72,9 @@ pub(crate) struct DocCommand {
     pub(crate) needs: Vec<Need>,
     /// Its comment says `until Ctrl-C`: it runs until interrupted.
     pub(crate) until_ctrl_c: bool,
+    /// In a `console` block, the first line of output the document shows after it (none when
+    /// it elides with `...`).
+    pub(crate) shown: Option<String>,
 }
 
 /// A document's command that cannot be read.
@@ -90,16 +93,19 @@ const SESSION: [&str; 3] = ["console", "shell-session", ""];
 
 /// Every command of the Markdown text `doc`, in order.
 pub(crate) fn commands(doc: &str) -> Result<Vec<DocCommand>, MarkerError> {
-    let mut found = Vec::new();
+    let mut found: Vec<DocCommand> = Vec::new();
     let mut fence: Option<String> = None;
     // A block's own `# needs:` line: applies to the rest of the block.
     let mut block_needs: Vec<Need> = Vec::new();
     // A command continued with a backslash: its first line and text so far.
     let mut pending: Option<(usize, String)> = None;
+    // The last command came from a `console` block and its output has not been seen yet.
+    let mut awaiting_output = false;
     for (index, raw) in doc.lines().enumerate() {
         let number = index + 1;
         let trimmed = raw.trim_start();
         if let Some(info) = trimmed.strip_prefix("```") {
+            awaiting_output = false;
             if fence.is_none() {
                 let language = info.split([',', ' ']).next().unwrap_or("");
                 fence = Some(language.to_owned());
@@ -137,7 +143,16 @@ pub(crate) fn commands(doc: &str) -> Result<Vec<DocCommand>, MarkerError> {
         } else if SESSION.contains(&language) {
             match trimmed.strip_prefix("$ ") {
                 Some(command) => (number, String::new(), command),
-                None => continue,
+                None => {
+                    if std::mem::take(&mut awaiting_output)
+                        && !trimmed.is_empty()
+                        && !trimmed.contains("...")
+                        && let Some(last) = found.last_mut()
+                    {
+                        last.shown = Some(raw.trim_end().to_owned());
+                    }
+                    continue;
+                }
             }
         } else {
             continue;
@@ -166,7 +181,9 @@ pub(crate) fn commands(doc: &str) -> Result<Vec<DocCommand>, MarkerError> {
             text: prefix + code,
             needs,
             until_ctrl_c,
+            shown: None,
         });
+        awaiting_output = !shell;
     }
     Ok(found)
 }
@@ -273,6 +290,8 @@ mod tests {
         assert_eq!(found[3].needs, [Need::Root, Need::Long]);
         assert_eq!(found[5].needs, [Need::Ros2]);
         assert_eq!(found[6].needs, [Need::Ros2, Need::Long]);
+        assert_eq!(found[4].shown.as_deref(), Some("motor 1"));
+        assert_eq!(found[0].shown, None);
     }
 
     #[test]

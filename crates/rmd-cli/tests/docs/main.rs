@@ -140,6 +140,14 @@ fn named_files(command: &str) -> Vec<&str> {
         .collect()
 }
 
+/// Whether `output` has the line `shown`, spacing aside (column widths may change).
+fn printed(output: &str, shown: &str) -> bool {
+    let shown: Vec<&str> = shown.split_whitespace().collect();
+    output
+        .lines()
+        .any(|line| line.split_whitespace().eq(shown.iter().copied()))
+}
+
 /// What checking one document found.
 #[derive(Default)]
 struct Checked {
@@ -181,6 +189,7 @@ fn check(doc: &Path) -> Checked {
         text,
         needs,
         until_ctrl_c,
+        shown,
     } in found
     {
         let place = format!("{}:{line}", doc.display());
@@ -229,7 +238,9 @@ fn check(doc: &Path) -> Checked {
                 ended.code
             ))
         } else {
-            None
+            shown
+                .filter(|shown| !printed(&ended.output, shown))
+                .map(|shown| format!("the document shows `{shown}`, its output has no such line"))
         };
         println!(
             "{place}: {:>6.2} s  {}  {command}",
@@ -369,4 +380,13 @@ fn the_getting_started_robot_file_is_the_one_it_shows() {
         "examples/robots/arm.toml ends with the description docs/getting-started.md shows"
     );
     assert!(doc.contains("--robot examples/robots/arm.toml"));
+}
+
+#[test]
+fn a_shown_output_line_is_found_whatever_its_spacing() {
+    let output = "id  firmware   note\n 1  v1.61      none\n";
+    assert!(printed(output, "id firmware note"));
+    assert!(printed(output, " 1  v1.61  none"));
+    assert!(!printed(output, "id firmware"));
+    assert!(!printed(output, "motor 1"));
 }
