@@ -1,8 +1,8 @@
 //! Trajectory calculation time (`cargo bench --bench trajectory`).
 //!
-//! Inputs are drawn like the reference vectors (`shared/testdata/trajectory/SCHEMA.md`): limits
-//! log-uniform (vMax in [0.5, 500], vMax/aMax in [0.01, 5], aMax/jMax in [0.002, 2]), distance
-//! |pf − p0|/vMax in [0.001, 50], positions in ±360, 20 % of the current states outside the limits,
+//! Inputs are drawn like the reference vectors (`crates/rmd-traj-vectors/tests/data/SCHEMA.md`):
+//! limits log-uniform (vMax in [0.5, 500], vMax/aMax in [0.01, 5], aMax/jMax in [0.002, 2]),
+//! distance |pf − p0|/vMax in [0.001, 50], positions in ±360, 20 % of the current states outside the limits,
 //! 15 % asymmetric minimum limits, non-zero target velocity/acceleration; 6 axes: 40 % all rest to
 //! rest, 40 % the same limits on every axis. They are generated before the timed region; the
 //! "fresh" benchmarks cycle through 4096 different inputs, the "repeated" ones use one input.

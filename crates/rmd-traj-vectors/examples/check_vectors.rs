@@ -1,4 +1,4 @@
-//! Checks a vectors file (schema of `shared/testdata/trajectory/SCHEMA.md`) against rmd-traj,
+//! Checks a vectors file (schema of `tests/data/SCHEMA.md`) against rmd-traj,
 //! the same as `rmd traj check FILE`: `cargo run -p rmd-traj-vectors --example check_vectors --
 //! FILE`. Exit status 1 if any case failed, 2 if the file cannot be read.
 

@@ -1,7 +1,7 @@
 //! # rmd-traj-vectors
 //!
 //! Checks [`rmd_traj`] against a file of reference test vectors (schema version 1 of
-//! `shared/testdata/trajectory/SCHEMA.md`, the reference implementation's answers). The checker
+//! `tests/data/SCHEMA.md`, the reference implementation's answers). The checker
 //! lives outside `rmd-traj` so that the trajectory library stays `no_std` with no dependency but
 //! `libm`; `rmd traj check FILE` and the example `check_vectors` wrap [`check_vectors`].
 //!
