@@ -60,7 +60,8 @@ enum Mode {
     Exit status: 0 when the run ended normally (its --seconds), 130 after a signal, 1 on a \
     fault or an emergency stop that ended the run, 2 on a usage error.\n\n\
     Examples:\n  rmd ros2 --robot examples/robots/leg4.toml --sim\n  \
-    rmd ros2 --robot leg.toml --servo leg-servo.toml --namespace /leg --domain-id 7 --yes"
+    rmd ros2 --robot examples/robots/leg4.toml --servo examples/servo/leg4.toml \
+    --iface can0 --namespace /leg --domain-id 7 --yes"
 )]
 pub(crate) struct Ros2Args {
     #[command(flatten)]
