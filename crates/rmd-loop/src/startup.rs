@@ -12,11 +12,10 @@ use rmd_protocol::{
 };
 
 use crate::engine::Parts;
-use crate::exchange::Collected;
-use crate::exchange::frames::ZERO_TORQUE;
+use crate::exchange::{Collected, Torque};
 use crate::os::{self, CpuLatencyRequest, RtRequest, RtSetup};
 use crate::report::{Fault, IdentifiedMotor, MotorRef, StopReason};
-use crate::robot::LoopSettings;
+use crate::robot::{ExchangeKind, LoopSettings};
 
 /// Stack pre-faulted at start.
 const PREFAULT_STACK_BYTES: usize = 512 * 1024;
@@ -60,14 +59,20 @@ pub(crate) fn identify_motors<B: CanBus, C: Clock>(
         shared,
         ..
     } = parts;
-    let ids = multi_torque_ids();
     let mut found = Vec::new();
     for (b, link) in exchange.links.iter_mut().enumerate() {
         if let Some(request) = shared.stop.pending() {
             return Err(request.into());
         }
-        let mut answers = [ProbeAnswers::new(); MULTI_TORQUE_MOTORS];
-        for id in ids {
+        // A 0x280 frame reaches ids 1..=4, described or not; a per-motor bus addresses its
+        // described motors only.
+        let ids: Vec<MotorId> = match link.exchange {
+            ExchangeKind::MultiTorque => multi_torque_ids().to_vec(),
+            ExchangeKind::PerMotor => link.joints().map(|j| robot.joints()[j].motor).collect(),
+        };
+        let multi_torque = link.exchange == ExchangeKind::MultiTorque;
+        let mut answers = vec![ProbeAnswers::new(); ids.len()];
+        for &id in &ids {
             for frame in probe_requests(id) {
                 // A refused frame leaves that motor unidentified (the 0x280 probe still waits for
                 // it); only bus-off or a lost interface stop the start.
@@ -126,7 +131,7 @@ pub(crate) fn identify_motors<B: CanBus, C: Clock>(
             if !answered && joint.is_none() {
                 continue;
             }
-            check(robot, b, *id, joint, &identification)?;
+            check(robot, b, *id, joint, &identification, multi_torque)?;
             found.push(IdentifiedMotor {
                 bus: b,
                 motor: *id,
@@ -150,13 +155,15 @@ fn multi_torque_ids() -> [MotorId; MULTI_TORQUE_MOTORS] {
     [id(1), id(2), id(3), id(4)]
 }
 
-/// Whether the loop may start with motor `id` of bus `b` identified as `identification`.
+/// Whether the loop may start with motor `id` of bus `b` identified as `identification`, the bus
+/// exchanging torque with 0x280 frames when `multi_torque`.
 fn check(
     robot: &crate::robot::Robot,
     b: usize,
     id: MotorId,
     joint: Option<crate::joint::JointId>,
     identification: &Identification,
+    multi_torque: bool,
 ) -> Result<(), StopReason> {
     let family = identification.family;
     let Some(joint) = joint else {
@@ -178,8 +185,9 @@ fn check(
     let described = robot.spec(joint).dialect.family();
     let refuse = match family {
         // Its 0x280 frame is a command byte for every motor, or nothing is known (answers on both
-        // reply ids): never drive it with 0x280 frames.
-        ProtocolFamily::MyActuatorV3 => true,
+        // reply ids): never drive it with 0x280 frames. On a per-motor bus it is driven with its
+        // own 0xA1 requests if it is described as V3.
+        ProtocolFamily::MyActuatorV3 => multi_torque || described != family,
         // Answers that identify no family: what 0x280 means to it is not known. (No answer at
         // all is left to the start-up probe, which names a motor that never answers.)
         ProtocolFamily::Unknown => identification.evidence.finding != Finding::NoAnswer,
@@ -218,7 +226,7 @@ pub(crate) fn probe<B: CanBus, C: Clock>(parts: &mut Parts<B, C>) -> Result<(), 
         for b in 0..exchange.links.len() {
             if !exchange.bus_complete(b) {
                 exchange
-                    .send(b, &ZERO_TORQUE, 0, sent_at, stats)
+                    .send(b, Torque::Zero, 0, sent_at, stats)
                     .map_err(StopReason::Fault)?;
             }
         }

@@ -1,5 +1,6 @@
-//! The exchange of one tick: one 0x280 frame out on every bus, the motors' replies in, matched
-//! to their requests, and the accounting of what did not come.
+//! The exchange of one tick: every bus's requests out (one 0x280 frame on a `multi-torque` bus,
+//! one 0xA1 request per motor on a `per-motor` bus), the motors' replies in, matched to their
+//! requests by reply id and command byte, and the accounting of what did not come.
 //!
 //! - [`frames`]: the torque frame, and what each motor's reply looks like (decided once);
 //! - [`pending`]: which of a motor's requests a reply answers;
@@ -19,12 +20,13 @@ mod send;
 
 use crate::bus_link::BusLink;
 use crate::feedback::JointFeedback;
-use crate::robot::{ReplyMode, Robot};
+use crate::robot::{ExchangeKind, ReplyMode, Robot};
 
 use frames::{TorqueSlots, ZERO_TORQUE};
 use motor::MotorLink;
 
 pub(crate) use collect::Collected;
+pub(crate) use send::Torque;
 
 /// The buses, the per-motor link state and feedback, and the staged commands.
 #[derive(Debug)]
@@ -32,7 +34,8 @@ pub(crate) struct Exchange<B> {
     pub(crate) links: Vec<BusLink<B>>,
     pub(crate) motors: Vec<MotorLink>,
     pub(crate) feedback: Vec<JointFeedback>,
-    /// The torque commands each bus sends in the next tick.
+    /// The torque commands each `multi-torque` bus sends in the next tick (a `per-motor` bus's
+    /// are each motor's [`MotorLink::request`]).
     pub(crate) staged: Vec<TorqueSlots>,
     /// Per bus: its motors without fresh feedback yet in this tick.
     owed: Vec<usize>,
@@ -59,6 +62,7 @@ impl<B> Exchange<B> {
             .map(|(spec, bus)| BusLink {
                 bus,
                 joints: spec.joint_range(),
+                exchange: spec.exchange,
                 commanded: false,
             })
             .collect::<Vec<_>>();
@@ -66,7 +70,10 @@ impl<B> Exchange<B> {
             .joints()
             .iter()
             .enumerate()
-            .map(|(i, j)| MotorLink::new(i, j, robot.buses()[j.bus].bitrate))
+            .map(|(i, j)| {
+                let bus = &robot.buses()[j.bus];
+                MotorLink::new(i, j, bus.bitrate, bus.exchange == ExchangeKind::PerMotor)
+            })
             .collect();
         let reply_motors = links
             .iter()

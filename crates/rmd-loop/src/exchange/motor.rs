@@ -6,9 +6,9 @@
 use core::time::Duration;
 
 use rmd_bus::Timestamp;
-use rmd_protocol::{CurrentScale, MotorId, Status2};
+use rmd_protocol::{CanFrame, CurrentScale, Dialect, MotorId, Status2, StatusPosition};
 
-use super::frames::ReplyExpectation;
+use super::frames::{ReplyExpectation, torque_request, zero_iq};
 use super::pending::{PendingRequests, RESYNC_AFTER, min_round_trip};
 use crate::feedback::{Freshness, JointFeedback, JointState, MotorState, RawStatus};
 use crate::joint::JointId;
@@ -79,6 +79,14 @@ pub(crate) struct MotorLink {
     pub(crate) command: CommandScale,
     /// Index in the 0x280 frame (id - 1).
     pub(crate) slot: usize,
+    /// The dialect of its requests (the per-motor 0xA1).
+    pub(crate) dialect: Dialect,
+    /// Its bus sends it its own 0xA1 request (`per-motor`), not a 0x280 slot.
+    pub(crate) per_motor: bool,
+    /// Its next 0xA1 request (`per-motor` buses): the staged command.
+    pub(crate) request: CanFrame,
+    /// Its zero-torque 0xA1 request.
+    pub(crate) zero_request: CanFrame,
     /// The largest encoder reading its width allows.
     max_encoder: u16,
     pub(crate) map: JointMap,
@@ -100,8 +108,10 @@ pub(crate) struct MotorLink {
 }
 
 impl MotorLink {
-    /// The link of joint `index`, `joint`, on a bus at `bitrate` bit/s.
-    pub(crate) fn new(index: usize, joint: &JointSpec, bitrate: u32) -> Self {
+    /// The link of joint `index`, `joint`, on a bus at `bitrate` bit/s, which sends it its own
+    /// request when `per_motor`.
+    pub(crate) fn new(index: usize, joint: &JointSpec, bitrate: u32, per_motor: bool) -> Self {
+        let zero_request = torque_request(joint.dialect, joint.motor, zero_iq(joint.dialect));
         Self {
             at: MotorRef {
                 joint: JointId::from_index(index),
@@ -112,6 +122,10 @@ impl MotorLink {
             expect: ReplyExpectation::torque(joint),
             command: CommandScale::new(joint),
             slot: joint.slot(),
+            dialect: joint.dialect,
+            per_motor,
+            request: zero_request,
+            zero_request,
             max_encoder: joint.encoder.max_value(),
             map: JointMap::from_spec(joint),
             unwrapper: EncoderUnwrapper::new(joint.encoder),
@@ -188,9 +202,13 @@ impl MotorLink {
         feedback: &mut JointFeedback,
         counters: &mut MotorCounters,
     ) -> ReplyClass {
-        let Some(encoder) = status.encoder().filter(|e| e.raw() <= self.max_encoder) else {
-            counters.bad_frames += 1;
-            return ReplyClass::Unexpected;
+        let reading = match status.position {
+            StatusPosition::Encoder(e) if e.raw() <= self.max_encoder => Reading::Encoder(e.raw()),
+            StatusPosition::OutputDegrees(a) => Reading::OutputDegrees(a.raw()),
+            StatusPosition::Encoder(_) => {
+                counters.bad_frames += 1;
+                return ReplyClass::Unexpected;
+            }
         };
         let at_ns = at.as_nanos();
         let Some((sent_tick, sent_at)) = self.pending.answer(at_ns, self.min_round_trip_ns) else {
@@ -219,10 +237,22 @@ impl MotorLink {
         let elapsed_ns = self
             .last_reply_ns
             .map_or(0, |last| at_ns.saturating_sub(last));
-        let speed_dps = status.speed.dps();
-        let motor_deg = self
-            .unwrapper
-            .update_ns(encoder.raw(), speed_dps, elapsed_ns);
+        let (motor_deg, speed_dps, raw_position) = match reading {
+            Reading::Encoder(raw) => {
+                let speed_dps = status.speed.dps();
+                let motor_deg = self.unwrapper.update_ns(raw, speed_dps, elapsed_ns);
+                (motor_deg, speed_dps, raw)
+            }
+            // The output shaft, multi-turn from its zero: the rotor is `gear_ratio` times it.
+            Reading::OutputDegrees(deg) => {
+                let ratio = self.map.gear_ratio();
+                (
+                    f64::from(deg) * ratio,
+                    status.speed.dps() * ratio,
+                    deg as u16,
+                )
+            }
+        };
         let current_amps = status.iq.amps();
         self.last_reply_ns = Some(at_ns);
         self.ticks_since_reply = 0;
@@ -247,13 +277,22 @@ impl MotorLink {
                 temperature: status.temperature.raw(),
                 iq: status.iq.raw(),
                 speed: status.speed.raw(),
-                encoder: encoder.raw(),
+                encoder: raw_position,
             },
             freshness,
             received_at: at,
         };
         class
     }
+}
+
+/// The position a status-2 reply carries.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+enum Reading {
+    /// v1.61 and LK-TECH: the single-turn encoder, in range for its width.
+    Encoder(u16),
+    /// MyActuator V3: the output shaft's angle, whole degrees from its zero.
+    OutputDegrees(i16),
 }
 
 /// The longest round trip the estimate takes in (one hour): anything longer is no reply.
@@ -290,7 +329,7 @@ mod tests {
                 .with_bus(BusConfig::new("can0").with_motor(MotorConfig::new(2).gear_ratio(2.0))),
         )
         .unwrap();
-        let m = MotorLink::new(0, &robot.joints()[0], 1_000_000);
+        let m = MotorLink::new(0, &robot.joints()[0], 1_000_000, false);
         let c = MotorCounters::new(0, m.id);
         (m, JointFeedback::UNSET, c)
     }

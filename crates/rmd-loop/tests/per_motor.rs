@@ -1,0 +1,329 @@
+//! The per-motor exchange: one 0xA1 request per motor per tick, in the motor's own family, all of
+//! a tick's requests before any reply; MyActuator V3 motors driven this way (never a 0x280
+//! frame on their bus, the safe stop included), and v1.61 motors beyond id 4. Judged by the
+//! simulated firmware's ground truth, in virtual time.
+
+mod common;
+
+use common::*;
+use rmd_bus::VirtualClock;
+use rmd_loop::robot::{BusConfig, ExchangeKind, MotorConfig, RobotConfig};
+use rmd_loop::{Commands, Controller, Feedback, Flow, Robot, RtLoop, RunLimit, TickContext};
+use rmd_protocol::{Dialect, MULTI_TORQUE_CAN_ID, ProtocolFamily, V3Firmware};
+use rmd_sim::{ControlMode, FaultKind, FaultRule, Node, SimBus, SimConfig};
+
+const V3: Dialect = Dialect::MyActuatorV3(V3Firmware {
+    date: None,
+    max_torque: None,
+});
+
+/// Pushes a constant joint current on every joint.
+struct Constant(f64);
+
+impl Controller for Constant {
+    fn update(&mut self, _: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
+        for (joint, _) in fb.iter() {
+            cmd.set_current(joint, self.0);
+        }
+        Flow::Continue
+    }
+}
+
+/// A bus of motors `ids`, each speaking `dialects[i]`, RMD-X8-class (1:9, 2.09 N*m/A).
+fn motors(mut bus: BusConfig, ids: &[u8], dialects: &[Dialect]) -> BusConfig {
+    for (&n, d) in ids.iter().zip(dialects) {
+        bus = bus.with_motor(
+            MotorConfig::new(n)
+                .protocol(d.name(), None)
+                .gear_ratio(GEAR)
+                .torque_constant(KT)
+                .current_limit(10.0),
+        );
+    }
+    bus
+}
+
+fn sim_of(
+    clock: &VirtualClock,
+    ids: &[u8],
+    dialects: &[Dialect],
+    faults: &[FaultRule],
+) -> SimBus<VirtualClock> {
+    let mut config = SimConfig::with_motors(0).seed(11);
+    config.motors = ids
+        .iter()
+        .zip(dialects)
+        .map(|(&n, d)| {
+            let mut m = rmd_sim::MotorConfig::new(id(n));
+            m.firmware.speak(*d);
+            m
+        })
+        .collect();
+    for f in faults {
+        config = config.fault(*f);
+    }
+    let mut bus = SimBus::new(clock.clone(), config).unwrap();
+    bus.record_trace(1_000_000);
+    bus
+}
+
+fn sent_multi_torque(bus: &SimBus<VirtualClock>) -> bool {
+    bus.trace()
+        .iter()
+        .any(|t| t.from == Node::Host && t.frame.id() == MULTI_TORQUE_CAN_ID)
+}
+
+#[test]
+fn v3_motors_are_driven_per_motor_and_never_see_a_0x280_frame() {
+    let clock = VirtualClock::new();
+    let ids = [1, 2, 3];
+    let mut bus = sim_of(&clock, &ids, &[V3; 3], &[]);
+    let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(motors(
+        BusConfig::new("can0"),
+        &ids,
+        &[V3; 3],
+    )))
+    .unwrap();
+    assert_eq!(robot.buses()[0].exchange, ExchangeKind::PerMotor);
+    let mut rt = RtLoop::new(robot, clock, vec![&mut bus], Constant(1.0)).unwrap();
+    let telemetry = rt.telemetry();
+    let mut running = match rt.start() {
+        Ok(running) => running,
+        Err(out) => {
+            eprintln!("{}", out.report);
+            panic!("refused: {}", out.report.stop_description)
+        }
+    };
+    for _ in 0..300 {
+        assert!(running.step().is_continue());
+    }
+    let sample = telemetry.latest().unwrap();
+    // The loop reads 1 A back in V3's 0.01 A scale.
+    for j in sample.joints() {
+        assert!(j.feedback.freshness.is_fresh(), "{:?}", j.feedback);
+        assert!(
+            (j.feedback.motor.current_amps - 1.0).abs() < 0.02,
+            "{:?}",
+            j.feedback
+        );
+    }
+    let out = running.finish(rmd_loop::StopReason::Requested);
+    let r = &out.report;
+    assert!(
+        r.identified
+            .iter()
+            .all(|m| m.family == ProtocolFamily::MyActuatorV3)
+    );
+    assert_eq!(r.stats.missing_replies, 0, "{r}");
+    assert_eq!(r.stats.late_replies, 0, "{r}");
+    assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
+    // Ground truth: the firmware applied 1 A (V3's 0.01 A/LSB, not v1.61's 32/2000 A), the
+    // output turned, the loop's joint angle (output degrees, whole) followed it; then off.
+    drop(out);
+    assert!(
+        !sent_multi_torque(&bus),
+        "a 0x280 frame went out on a V3 bus"
+    );
+    for &m in &ids {
+        let snap = bus.snapshot(id(m)).unwrap();
+        assert_eq!(snap.mode, ControlMode::Off, "motor {m}: {snap:?}");
+        assert!(!snap.energising);
+    }
+    // Every tick's three requests went out before the first of its replies.
+    let frames: Vec<_> = bus
+        .trace()
+        .iter()
+        .filter(|t| t.frame.data()[0] == 0xA1)
+        .collect();
+    let ticks = frames.chunks(6).filter(|c| c.len() == 6);
+    let mut checked = 0;
+    for tick in ticks.take(200) {
+        let from: Vec<Node> = tick.iter().map(|t| t.from).collect();
+        if from[..3].iter().all(|f| *f == Node::Host) {
+            assert!(from[3..].iter().all(|f| *f != Node::Host), "{from:?}");
+            let mut req: Vec<u16> = tick[..3].iter().map(|t| t.frame.id()).collect();
+            let mut rep: Vec<u16> = tick[3..].iter().map(|t| t.frame.id()).collect();
+            req.sort_unstable();
+            rep.sort_unstable();
+            assert_eq!(req, [0x141, 0x142, 0x143]);
+            assert_eq!(rep, [0x241, 0x242, 0x243]);
+            checked += 1;
+        }
+    }
+    assert!(
+        checked > 150,
+        "only {checked} ticks in request-then-reply order"
+    );
+}
+
+#[test]
+fn v3_feedback_follows_the_output_shaft_in_whole_degrees() {
+    let clock = VirtualClock::new();
+    let ids = [1, 2, 3];
+    let mut bus = sim_of(&clock, &ids, &[V3; 3], &[]);
+    let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(motors(
+        BusConfig::new("can0"),
+        &ids,
+        &[V3; 3],
+    )))
+    .unwrap();
+    let targets = [20.0, -35.0, 60.0];
+    let out = RtLoop::new(robot, clock, vec![&mut bus], PdTo::new(&targets))
+        .unwrap()
+        .run(RunLimit::Ticks(2000));
+    let r = &out.report;
+    assert_eq!(r.stats.missing_replies, 0, "{r}");
+    assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
+    for (&m, target) in ids.iter().zip(targets) {
+        let snap = bus.snapshot(id(m)).unwrap();
+        // The joint is the output shaft (direction normal, zero offset 0): held at the target
+        // within the resolution of V3's status (1 degree) and the PD's steady error.
+        assert!(
+            (snap.output_angle_deg - target).abs() < 2.0,
+            "motor {m}: output at {} deg, target {target}",
+            snap.output_angle_deg
+        );
+    }
+}
+
+#[test]
+fn v161_motors_beyond_id_4_are_driven_per_motor() {
+    let clock = VirtualClock::new();
+    let ids = [1, 2, 5, 6, 7, 32];
+    let d = [Dialect::V161; 6];
+    let bus = rmd_sim::SharedSimBus::new(sim_of(&clock, &ids, &d, &[]));
+    let bus_config = motors(BusConfig::new("can0"), &ids, &d).exchange(ExchangeKind::PerMotor);
+    let robot = Robot::try_from(RobotConfig::new(500.0).with_bus(bus_config)).unwrap();
+    let mut rt = RtLoop::new(robot, clock, vec![bus.clone()], Constant(1.5)).unwrap();
+    let telemetry = rt.telemetry();
+    let mut running = match rt.start() {
+        Ok(running) => running,
+        Err(out) => {
+            eprintln!("{}", out.report);
+            panic!("refused: {}", out.report.stop_description)
+        }
+    };
+    for _ in 0..100 {
+        assert!(running.step().is_continue());
+    }
+    for j in telemetry.latest().unwrap().joints() {
+        assert!(j.feedback.freshness.is_fresh(), "{:?}", j.feedback);
+    }
+    let commanded: Vec<(u8, f64)> = ids
+        .iter()
+        .filter_map(|&m| match bus.lock().snapshot(id(m)).unwrap().mode {
+            ControlMode::Torque { current_a } => Some((m, current_a)),
+            _ => None,
+        })
+        .collect();
+    let out = running.finish(rmd_loop::StopReason::Requested);
+    assert_eq!(out.report.stats.missing_replies, 0);
+    // Ground truth, before the stop: each firmware ran the commanded 1.5 A in v1.61's scale
+    // (32 A / 2000: 94 steps, 1.504 A).
+    assert_eq!(commanded.len(), ids.len());
+    for (m, amps) in &commanded {
+        assert!((amps - 1.5).abs() < 0.01, "motor {m} commanded {amps} A");
+    }
+    assert!(
+        out.report.safe_stop.all_off_confirmed(),
+        "{}",
+        out.report.safe_stop
+    );
+    let mut sim = bus.lock();
+    assert!(!sent_multi_torque(&sim));
+    for &m in &ids {
+        assert_eq!(
+            sim.snapshot(id(m)).unwrap().mode,
+            ControlMode::Off,
+            "motor {m}"
+        );
+    }
+}
+
+#[test]
+fn a_bus_mixing_families_drives_each_motor_in_its_own_scale() {
+    let clock = VirtualClock::new();
+    let ids = [1, 2];
+    let d = [Dialect::V161, V3];
+    let bus = rmd_sim::SharedSimBus::new(sim_of(&clock, &ids, &d, &[]));
+    let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(motors(
+        BusConfig::new("can0"),
+        &ids,
+        &d,
+    )))
+    .unwrap();
+    let rt = RtLoop::new(robot, clock, vec![bus.clone()], Constant(2.0)).unwrap();
+    let mut running = match rt.start() {
+        Ok(running) => running,
+        Err(out) => {
+            eprintln!("{}", out.report);
+            panic!("refused: {}", out.report.stop_description)
+        }
+    };
+    for _ in 0..100 {
+        assert!(running.step().is_continue());
+    }
+    for m in ids {
+        let applied = bus.lock().snapshot(id(m)).unwrap().current_a;
+        assert!(
+            (applied - 2.0).abs() < 0.03,
+            "motor {m} applies {applied} A"
+        );
+    }
+    let out = running.finish(rmd_loop::StopReason::Requested);
+    assert!(
+        out.report.safe_stop.all_off_confirmed(),
+        "{}",
+        out.report.safe_stop
+    );
+    let mut sim = bus.lock();
+    assert!(!sent_multi_torque(&sim));
+    for m in ids {
+        assert_eq!(sim.snapshot(id(m)).unwrap().mode, ControlMode::Off);
+    }
+}
+
+#[test]
+fn lost_and_late_v3_replies_are_counted_against_their_own_motor_only() {
+    let clock = VirtualClock::new();
+    let ids = [1, 2, 3];
+    // Motor 2 drops 5 replies, motor 3 answers 5 replies 1.5 ms late.
+    let faults = [
+        FaultRule::new(FaultKind::DropReply)
+            .motor(id(2))
+            .frames_window(100, 5),
+        FaultRule::new(FaultKind::LateReply {
+            delay: core::time::Duration::from_micros(1500),
+        })
+        .motor(id(3))
+        .frames_window(200, 5),
+    ];
+    let mut bus = sim_of(&clock, &ids, &[V3; 3], &faults);
+    let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(motors(
+        BusConfig::new("can0"),
+        &ids,
+        &[V3; 3],
+    )))
+    .unwrap();
+    let out = RtLoop::new(robot, clock, vec![&mut bus], PdTo::hold(3))
+        .unwrap()
+        .run(RunLimit::Ticks(500));
+    let r = &out.report;
+    let m: Vec<_> = r.stats.motors.iter().map(|j| j.counters).collect();
+    assert_eq!((m[0].missing_replies, m[0].late_replies), (0, 0), "{r}");
+    // Five lost replies: five ticks missing, then the matching resynchronises (late while in
+    // doubt); nothing it receives is unexpected.
+    assert!(m[1].missing_replies >= 5, "{r}");
+    assert_eq!(m[1].unexpected_replies, 0, "{r}");
+    // Late replies count late (their tick missing), whatever came in their place.
+    assert!(m[2].late_replies >= 1, "{r}");
+    assert!(m[2].missing_replies >= 2, "{r}");
+    assert_eq!(
+        r.stats.late_replies,
+        m.iter().map(|c| c.late_replies).sum::<u64>()
+    );
+    assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
+    drop(out);
+    assert!(!sent_multi_torque(&bus));
+    assert_safe(&mut bus, 3);
+}
