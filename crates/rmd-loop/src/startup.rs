@@ -225,6 +225,10 @@ pub(crate) fn probe<B: CanBus, C: Clock>(parts: &mut Parts<B, C>) -> Result<(), 
         let sent_at = clock.now();
         for b in 0..exchange.links.len() {
             if !exchange.bus_complete(b) {
+                // The previous probe's requests were waited for long enough: a reply still to
+                // come (or one that came unreadable) must not be taken as this probe's, which
+                // would measure a round trip of a whole probe timeout.
+                exchange.give_up_pending(b);
                 exchange
                     .send(b, Torque::Zero, 0, sent_at, stats)
                     .map_err(StopReason::Fault)?;

@@ -327,3 +327,40 @@ fn lost_and_late_v3_replies_are_counted_against_their_own_motor_only() {
     assert!(!sent_multi_torque(&bus));
     assert_safe(&mut bus, 3);
 }
+
+#[test]
+fn an_unreadable_probe_reply_does_not_skew_the_round_trip_and_a_lost_reply_resynchronises() {
+    // Motor 2's answer to the first start-up probe comes unreadable (5 bytes), so the probe asks
+    // again; its 31st torque reply is lost. The probe's round trip must be the second probe's,
+    // not the first request's (a whole probe timeout), or the matching could not tell a lost
+    // reply for hundreds of ticks.
+    let clock = VirtualClock::new();
+    let torque = rmd_protocol::Command::Torque;
+    let faults = [
+        FaultRule::new(FaultKind::WrongDlc { dlc: 5 })
+            .command(torque)
+            .motor(id(2))
+            .frames_window(0, 1),
+        FaultRule::new(FaultKind::DropReply)
+            .command(torque)
+            .motor(id(2))
+            .frames_window(31, 1),
+    ];
+    let ids = [1, 2, 3];
+    let mut bus = sim_of(&clock, &ids, &[V3; 3], &faults);
+    let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(motors(
+        BusConfig::new("can0"),
+        &ids,
+        &[V3; 3],
+    )))
+    .unwrap();
+    let out = RtLoop::new(robot, clock, vec![&mut bus], PdTo::hold(3))
+        .unwrap()
+        .run(RunLimit::Ticks(300));
+    let r = &out.report;
+    let m2 = r.stats.motors[1].counters;
+    assert_eq!(m2.bad_frames, 1, "{r}");
+    // One tick missing for the lost reply, then two late while in doubt.
+    assert!(m2.missing_replies <= 3 && m2.late_replies <= 2, "{r}");
+    assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
+}

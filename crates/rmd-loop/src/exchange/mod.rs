@@ -139,6 +139,13 @@ impl<B> Exchange<B> {
         self.owed_total = self.owed_total.saturating_sub(1);
     }
 
+    /// Forgets the outstanding requests of bus `b`'s motors (before the probe asks again).
+    pub(crate) fn give_up_pending(&mut self, b: usize) {
+        for m in self.links[b].joints() {
+            self.motors[m].pending.clear();
+        }
+    }
+
     /// Forgets every outstanding request (after the probe, whose replies were waited for).
     /// Pipelined, the probe's replies then stand as the first tick's feedback: in that mode a
     /// tick is answered by the request before it, and the probe's was the one before tick 0.
