@@ -369,7 +369,9 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 )));
             }
         };
-        if let Err(reason) = startup::probe(&mut parts) {
+        if let Err(reason) =
+            startup::release_brakes(&mut parts).and_then(|()| startup::probe(&mut parts))
+        {
             return Err(Box::new(finish::finish(
                 parts, controller, reason, realtime, None, None, identified,
             )));

@@ -7,8 +7,8 @@ use core::time::Duration;
 
 use rmd_bus::{BusMessage, CanBus, Clock};
 use rmd_protocol::{
-    Finding, Identification, MULTI_TORQUE_MOTORS, MotorId, ProbeAnswers, ProtocolFamily, identify,
-    probe_requests,
+    Command, Finding, Identification, MULTI_TORQUE_MOTORS, MotorId, ProbeAnswers, ProtocolFamily,
+    Request, identify, probe_requests,
 };
 
 use crate::engine::Parts;
@@ -203,6 +203,87 @@ fn check(
         }));
     }
     Ok(())
+}
+
+/// Releases the holding brake (0x77) of every motor described with one (MyActuator V3) before
+/// any torque (a locked brake keeps the output off: "this command cannot open the brake
+/// directly", V4.4 §2.18), each confirmed by its echo within the identification's timeout; a
+/// motor that does not confirm stops the start. Its bus then counts as commanded: the safe stop
+/// locks the brake again.
+pub(crate) fn release_brakes<B: CanBus, C: Clock>(
+    parts: &mut Parts<B, C>,
+) -> Result<(), StopReason> {
+    let timeout = probe_timeout(parts.robot.settings());
+    let Parts {
+        exchange,
+        clock,
+        robot,
+        shared,
+        ..
+    } = parts;
+    for (b, link) in exchange.links.iter_mut().enumerate() {
+        let braked: Vec<usize> = link.joints().filter(|&j| robot.joints()[j].brake).collect();
+        if braked.is_empty() {
+            continue;
+        }
+        if let Some(request) = shared.stop.pending() {
+            return Err(request.into());
+        }
+        link.commanded = true;
+        for &j in &braked {
+            let spec = &robot.joints()[j];
+            // Only V3 motors have a brake (checked with the description).
+            let Ok(frame) = spec.dialect.encode(spec.motor, &Request::BrakeRelease) else {
+                continue;
+            };
+            match link.bus.send(&frame) {
+                Ok(()) | Err(rmd_bus::BusError::TxQueueFull | rmd_bus::BusError::Io(_)) => {}
+                Err(rmd_bus::BusError::BusOff) => {
+                    return Err(StopReason::Fault(Fault::BusOff { bus: b }));
+                }
+                Err(error) => return Err(StopReason::Fault(Fault::Bus { bus: b, error })),
+            }
+        }
+        let give_up = clock.now() + timeout;
+        let mut released = vec![false; braked.len()];
+        while !released.iter().all(|r| *r) {
+            let Ok(Some(received)) = link.bus.recv_until(give_up) else {
+                break;
+            };
+            if let BusMessage::Frame(frame) = received.message {
+                for (&j, done) in braked.iter().zip(&mut released) {
+                    let spec = &robot.joints()[j];
+                    *done |= spec
+                        .dialect
+                        .decode_answer(&frame, spec.motor, Command::BrakeRelease)
+                        .is_ok();
+                }
+            }
+        }
+        let missing = released.iter().filter(|r| !**r).count();
+        if let Some(j) = braked
+            .iter()
+            .zip(&released)
+            .find(|(_, r)| !**r)
+            .map(|(j, _)| *j)
+        {
+            return Err(StopReason::Fault(Fault::StartupTimeout {
+                at: exchange_motor_ref(robot, j),
+                missing,
+            }));
+        }
+    }
+    Ok(())
+}
+
+/// Joint `j`'s motor, as faults name it.
+fn exchange_motor_ref(robot: &crate::robot::Robot, j: usize) -> MotorRef {
+    let spec = &robot.joints()[j];
+    MotorRef {
+        joint: crate::joint::JointId::from_index(j),
+        bus: spec.bus,
+        motor: spec.motor,
+    }
 }
 
 /// The start-up probe: one zero-torque exchange at a time, waiting generously for replies,

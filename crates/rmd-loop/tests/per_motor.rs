@@ -364,3 +364,76 @@ fn an_unreadable_probe_reply_does_not_skew_the_round_trip_and_a_lost_reply_resyn
     assert!(m2.missing_replies <= 3 && m2.late_replies <= 2, "{r}");
     assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
 }
+
+#[test]
+fn braked_v3_motors_are_released_before_torque_and_locked_after_motor_off() {
+    let clock = VirtualClock::new();
+    let ids = [1, 2];
+    let mut config = SimConfig::with_motors(0).seed(5);
+    config.motors = ids
+        .iter()
+        .map(|&n| {
+            let mut m = rmd_sim::MotorConfig::new(id(n));
+            m.firmware.speak(V3);
+            m.firmware.v3.has_brake = true;
+            m
+        })
+        .collect();
+    let mut sim = SimBus::new(clock.clone(), config).unwrap();
+    sim.record_trace(100_000);
+    let bus = rmd_sim::SharedSimBus::new(sim);
+    assert!(
+        bus.lock().snapshot(id(1)).unwrap().brake_locked,
+        "locked at power-up"
+    );
+    let mut bus_config = motors(BusConfig::new("can0"), &ids, &[V3; 2]);
+    for m in &mut bus_config.motors {
+        m.brake = true;
+    }
+    let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(bus_config)).unwrap();
+    let rt = RtLoop::new(robot, clock, vec![bus.clone()], Constant(1.0)).unwrap();
+    let mut running = match rt.start() {
+        Ok(running) => running,
+        Err(out) => {
+            eprintln!("{}", out.report);
+            panic!("refused: {}", out.report.stop_description)
+        }
+    };
+    for _ in 0..50 {
+        assert!(running.step().is_continue());
+    }
+    for m in ids {
+        let snap = bus.lock().snapshot(id(m)).unwrap();
+        assert!(!snap.brake_locked, "motor {m}: brake still locked");
+        assert!(snap.energising, "motor {m} does not apply torque: {snap:?}");
+    }
+    let out = running.finish(rmd_loop::StopReason::Requested);
+    let report = &out.report.safe_stop;
+    assert!(report.all_off_confirmed(), "{report}");
+    assert!(
+        report.motors.iter().all(|m| m.brake_locked == Some(true)),
+        "{report:?}"
+    );
+    let mut sim = bus.lock();
+    for m in ids {
+        let snap = sim.snapshot(id(m)).unwrap();
+        assert_eq!(snap.mode, ControlMode::Off, "motor {m}");
+        assert!(
+            snap.brake_locked,
+            "motor {m}: brake not locked after the stop"
+        );
+    }
+    // The lock went out after the motor-off, and no 0x280 frame ever did.
+    assert!(!sent_multi_torque(&sim));
+    let host: Vec<u8> = sim
+        .trace()
+        .iter()
+        .filter(|t| t.from == Node::Host && t.frame.id() == 0x141)
+        .map(|t| t.frame.data()[0])
+        .collect();
+    let off = host.iter().rposition(|&c| c == 0x80).unwrap();
+    let lock = host.iter().rposition(|&c| c == 0x78).unwrap();
+    let release = host.iter().position(|&c| c == 0x77).unwrap();
+    let first_torque = host.iter().position(|&c| c == 0xA1).unwrap();
+    assert!(release < first_torque && off < lock, "{host:02X?}");
+}
