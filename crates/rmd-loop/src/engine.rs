@@ -27,7 +27,6 @@ use rmd_protocol::ScaledCurrent;
 use crate::bus_link::BusLink;
 use crate::commands::{Commands, MAX_SIGNALS, Rejections};
 use crate::controller::{Controller, Flow, TickContext};
-use crate::exchange::frames::torque_request;
 use crate::exchange::{Exchange, Torque};
 use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
@@ -784,9 +783,10 @@ impl<B, C> Parts<B, C> {
             counters.clamped_commands += u64::from(clamped);
             let iq = ScaledCurrent::saturating(raw, command.scale);
             *amps = iq.amps();
-            if motor.per_motor {
-                motor.request = torque_request(motor.dialect, motor.id, iq);
-            } else if let Some(slot) = exchange
+            // Both forms, unconditionally (cheaper than asking which the bus sends): a
+            // `per-motor` bus's staged 0x280 slots are never sent.
+            motor.staged = iq;
+            if let Some(slot) = exchange
                 .staged
                 .get_mut(motor.at.bus)
                 .and_then(|slots| slots.get_mut(motor.slot))

@@ -20,7 +20,7 @@ mod send;
 
 use crate::bus_link::BusLink;
 use crate::feedback::JointFeedback;
-use crate::robot::{ExchangeKind, ReplyMode, Robot};
+use crate::robot::{ReplyMode, Robot};
 
 use frames::{TorqueSlots, ZERO_TORQUE};
 use motor::MotorLink;
@@ -34,8 +34,8 @@ pub(crate) struct Exchange<B> {
     pub(crate) links: Vec<BusLink<B>>,
     pub(crate) motors: Vec<MotorLink>,
     pub(crate) feedback: Vec<JointFeedback>,
-    /// The torque commands each `multi-torque` bus sends in the next tick (a `per-motor` bus's
-    /// are each motor's [`MotorLink::request`]).
+    /// The torque commands each `multi-torque` bus sends in the next tick (a `per-motor` bus
+    /// sends each motor's [`MotorLink::staged`]).
     pub(crate) staged: Vec<TorqueSlots>,
     /// Per bus: its motors without fresh feedback yet in this tick.
     owed: Vec<usize>,
@@ -70,10 +70,7 @@ impl<B> Exchange<B> {
             .joints()
             .iter()
             .enumerate()
-            .map(|(i, j)| {
-                let bus = &robot.buses()[j.bus];
-                MotorLink::new(i, j, bus.bitrate, bus.exchange == ExchangeKind::PerMotor)
-            })
+            .map(|(i, j)| MotorLink::new(i, j, robot.buses()[j.bus].bitrate))
             .collect();
         let reply_motors = links
             .iter()

@@ -6,9 +6,9 @@
 use core::time::Duration;
 
 use rmd_bus::Timestamp;
-use rmd_protocol::{CanFrame, CurrentScale, Dialect, MotorId, Status2, StatusPosition};
+use rmd_protocol::{CurrentScale, Dialect, MotorId, ScaledCurrent, Status2, StatusPosition};
 
-use super::frames::{ReplyExpectation, torque_request, zero_iq};
+use super::frames::{ReplyExpectation, zero_iq};
 use super::pending::{PendingRequests, RESYNC_AFTER, min_round_trip};
 use crate::feedback::{Freshness, JointFeedback, JointState, MotorState, RawStatus};
 use crate::joint::JointId;
@@ -81,12 +81,10 @@ pub(crate) struct MotorLink {
     pub(crate) slot: usize,
     /// The dialect of its requests (the per-motor 0xA1).
     pub(crate) dialect: Dialect,
-    /// Its bus sends it its own 0xA1 request (`per-motor`), not a 0x280 slot.
-    pub(crate) per_motor: bool,
-    /// Its next 0xA1 request (`per-motor` buses): the staged command.
-    pub(crate) request: CanFrame,
-    /// Its zero-torque 0xA1 request.
-    pub(crate) zero_request: CanFrame,
+    /// The torque command staged for its next request, in its dialect's command scale (a
+    /// `per-motor` bus sends it as its own 0xA1; a `multi-torque` bus sends its slot of the
+    /// bus's staged 0x280 frame).
+    pub(crate) staged: ScaledCurrent,
     /// The largest encoder reading its width allows.
     max_encoder: u16,
     pub(crate) map: JointMap,
@@ -108,10 +106,8 @@ pub(crate) struct MotorLink {
 }
 
 impl MotorLink {
-    /// The link of joint `index`, `joint`, on a bus at `bitrate` bit/s, which sends it its own
-    /// request when `per_motor`.
-    pub(crate) fn new(index: usize, joint: &JointSpec, bitrate: u32, per_motor: bool) -> Self {
-        let zero_request = torque_request(joint.dialect, joint.motor, zero_iq(joint.dialect));
+    /// The link of joint `index`, `joint`, on a bus at `bitrate` bit/s.
+    pub(crate) fn new(index: usize, joint: &JointSpec, bitrate: u32) -> Self {
         Self {
             at: MotorRef {
                 joint: JointId::from_index(index),
@@ -123,9 +119,7 @@ impl MotorLink {
             command: CommandScale::new(joint),
             slot: joint.slot(),
             dialect: joint.dialect,
-            per_motor,
-            request: zero_request,
-            zero_request,
+            staged: zero_iq(joint.dialect),
             max_encoder: joint.encoder.max_value(),
             map: JointMap::from_spec(joint),
             unwrapper: EncoderUnwrapper::new(joint.encoder),
@@ -329,7 +323,7 @@ mod tests {
                 .with_bus(BusConfig::new("can0").with_motor(MotorConfig::new(2).gear_ratio(2.0))),
         )
         .unwrap();
-        let m = MotorLink::new(0, &robot.joints()[0], 1_000_000, false);
+        let m = MotorLink::new(0, &robot.joints()[0], 1_000_000);
         let c = MotorCounters::new(0, m.id);
         (m, JointFeedback::UNSET, c)
     }

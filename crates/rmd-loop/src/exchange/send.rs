@@ -4,7 +4,7 @@
 use rmd_bus::{BusError, CanBus, Timestamp};
 
 use super::Exchange;
-use super::frames::{ZERO_TORQUE, torque_frame};
+use super::frames::{ZERO_TORQUE, torque_frame, torque_request, zero_iq};
 use crate::report::Fault;
 use crate::robot::ExchangeKind;
 use crate::stats::LoopStats;
@@ -52,11 +52,11 @@ impl<B: CanBus> Exchange<B> {
             ExchangeKind::PerMotor => {
                 for m in link.joints() {
                     let motor = &mut self.motors[m];
-                    let frame = match torque {
-                        Torque::Staged => motor.request,
-                        Torque::Zero => motor.zero_request,
+                    let iq = match torque {
+                        Torque::Staged => motor.staged,
+                        Torque::Zero => zero_iq(motor.dialect),
                     };
-                    match link.bus.send(&frame) {
+                    match link.bus.send(&torque_request(motor.dialect, motor.id, iq)) {
                         Ok(()) => motor.pending.push(tick, at),
                         Err(error) => sent_error(b, error, stats)?,
                     }
