@@ -72,7 +72,15 @@ fn every_shipped_description_is_a_valid_robot() {
         }
     }
     names.sort();
-    assert_eq!(names, ["leg4.toml", "pd_hold.toml", "quadruped.toml"]);
+    assert_eq!(
+        names,
+        [
+            "leg4-v3.toml",
+            "leg4.toml",
+            "pd_hold.toml",
+            "quadruped.toml"
+        ]
+    );
 }
 
 #[test]
