@@ -8,26 +8,14 @@ mod common;
 use common::*;
 use rmd_bus::VirtualClock;
 use rmd_loop::robot::{BusConfig, ExchangeKind, MotorConfig, RobotConfig};
-use rmd_loop::{Commands, Controller, Feedback, Flow, Robot, RtLoop, RunLimit, TickContext};
-use rmd_protocol::{Dialect, MULTI_TORQUE_CAN_ID, ProtocolFamily, V3Firmware};
+use rmd_loop::{Robot, RtLoop, RunLimit};
+use rmd_protocol::{Dialect, ProtocolFamily, V3Firmware};
 use rmd_sim::{ControlMode, FaultKind, FaultRule, Node, SimBus, SimConfig};
 
 const V3: Dialect = Dialect::MyActuatorV3(V3Firmware {
     date: None,
     max_torque: None,
 });
-
-/// Pushes a constant joint current on every joint.
-struct Constant(f64);
-
-impl Controller for Constant {
-    fn update(&mut self, _: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
-        for (joint, _) in fb.iter() {
-            cmd.set_current(joint, self.0);
-        }
-        Flow::Continue
-    }
-}
 
 /// A bus of motors `ids`, each speaking `dialects[i]`, RMD-X8-class (1:9, 2.09 N*m/A).
 fn motors(mut bus: BusConfig, ids: &[u8], dialects: &[Dialect]) -> BusConfig {
@@ -67,12 +55,6 @@ fn sim_of(
     bus
 }
 
-fn sent_multi_torque(bus: &SimBus<VirtualClock>) -> bool {
-    bus.trace()
-        .iter()
-        .any(|t| t.from == Node::Host && t.frame.id() == MULTI_TORQUE_CAN_ID)
-}
-
 #[test]
 fn v3_motors_are_driven_per_motor_and_never_see_a_0x280_frame() {
     let clock = VirtualClock::new();
@@ -87,13 +69,7 @@ fn v3_motors_are_driven_per_motor_and_never_see_a_0x280_frame() {
     assert_eq!(robot.buses()[0].exchange, ExchangeKind::PerMotor);
     let mut rt = RtLoop::new(robot, clock, vec![&mut bus], Constant(1.0)).unwrap();
     let telemetry = rt.telemetry();
-    let mut running = match rt.start() {
-        Ok(running) => running,
-        Err(out) => {
-            eprintln!("{}", out.report);
-            panic!("refused: {}", out.report.stop_description)
-        }
-    };
+    let mut running = started(rt);
     for _ in 0..300 {
         assert!(running.step().is_continue());
     }
@@ -196,13 +172,7 @@ fn v161_motors_beyond_id_4_are_driven_per_motor() {
     let robot = Robot::try_from(RobotConfig::new(500.0).with_bus(bus_config)).unwrap();
     let mut rt = RtLoop::new(robot, clock, vec![bus.clone()], Constant(1.5)).unwrap();
     let telemetry = rt.telemetry();
-    let mut running = match rt.start() {
-        Ok(running) => running,
-        Err(out) => {
-            eprintln!("{}", out.report);
-            panic!("refused: {}", out.report.stop_description)
-        }
-    };
+    let mut running = started(rt);
     for _ in 0..100 {
         assert!(running.step().is_continue());
     }
@@ -253,13 +223,7 @@ fn a_bus_mixing_families_drives_each_motor_in_its_own_scale() {
     )))
     .unwrap();
     let rt = RtLoop::new(robot, clock, vec![bus.clone()], Constant(2.0)).unwrap();
-    let mut running = match rt.start() {
-        Ok(running) => running,
-        Err(out) => {
-            eprintln!("{}", out.report);
-            panic!("refused: {}", out.report.stop_description)
-        }
-    };
+    let mut running = started(rt);
     for _ in 0..100 {
         assert!(running.step().is_continue());
     }
@@ -392,13 +356,7 @@ fn braked_v3_motors_are_released_before_torque_and_locked_after_motor_off() {
     }
     let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(bus_config)).unwrap();
     let rt = RtLoop::new(robot, clock, vec![bus.clone()], Constant(1.0)).unwrap();
-    let mut running = match rt.start() {
-        Ok(running) => running,
-        Err(out) => {
-            eprintln!("{}", out.report);
-            panic!("refused: {}", out.report.stop_description)
-        }
-    };
+    let mut running = started(rt);
     for _ in 0..50 {
         assert!(running.step().is_continue());
     }
