@@ -2,7 +2,7 @@
 //! (0x88).
 //!
 //! Off needs no protocol (the same frame in every family) and locks a MyActuator V3 motor's
-//! brake after it ([`Connection::motor_off`]); stop and run are sent in the motor's protocol,
+//! brake after it ([`crate::live::connect::Connection::motor_off`]); stop and run are sent in the motor's protocol,
 //! learned first: V3's stop holds the position, and V3 has no run.
 
 use std::process::ExitCode;
