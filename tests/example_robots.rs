@@ -74,7 +74,13 @@ fn every_shipped_description_is_a_valid_robot() {
     names.sort();
     assert_eq!(
         names,
-        ["arm.toml", "leg4.toml", "pd_hold.toml", "quadruped.toml"]
+        [
+            "arm.toml",
+            "leg4-v3.toml",
+            "leg4.toml",
+            "pd_hold.toml",
+            "quadruped.toml"
+        ]
     );
 }
 

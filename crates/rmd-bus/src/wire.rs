@@ -163,9 +163,43 @@ pub fn frame_duration(frame: &CanFrame, bitrate: u32) -> Duration {
 /// assert_eq!(t, Duration::from_micros(875));
 /// ```
 pub const fn exchange_budget(motors: u32, bitrate: u32, turnaround: Duration) -> Duration {
-    let bits = worst_case_frame_bits(8) * (1 + motors);
-    let wire = bits_to_duration(bits, bitrate);
-    wire.saturating_add(turnaround)
+    exchange_budget_of(1, motors, bitrate, turnaround)
+}
+
+/// Worst-case duration of one exchange of `requests` request frames and `replies` replies on
+/// one bus, every frame 8 bytes with worst-case stuffing: the requests go out back to back;
+/// the first motor answers `turnaround` after the first request, and the replies follow each
+/// other. So the replies start when the last request is through or when the first motor's
+/// turnaround ends, whichever is later: `max(requests * F, F + turnaround) + replies * F`.
+/// With one request (a 0x280 frame) that is [`exchange_budget`].
+///
+/// ```
+/// use core::time::Duration;
+/// use rmd_bus::wire::exchange_budget_of;
+/// let t = Duration::from_micros(200);
+/// // Three per-motor requests (405 us) outlast the first motor's turnaround (335 us): 810 us.
+/// assert_eq!(exchange_budget_of(3, 3, 1_000_000, t), Duration::from_micros(810));
+/// // One request: 135 + 200 + 3 * 135 = 740 us.
+/// assert_eq!(exchange_budget_of(1, 3, 1_000_000, t), Duration::from_micros(740));
+/// ```
+pub const fn exchange_budget_of(
+    requests: u32,
+    replies: u32,
+    bitrate: u32,
+    turnaround: Duration,
+) -> Duration {
+    let frame = bits_to_duration(worst_case_frame_bits(8), bitrate);
+    let requests_done = bits_to_duration(worst_case_frame_bits(8) * requests, bitrate);
+    let first_ready = frame.saturating_add(turnaround);
+    let start = if requests_done.as_nanos() > first_ready.as_nanos() {
+        requests_done
+    } else {
+        first_ready
+    };
+    start.saturating_add(bits_to_duration(
+        worst_case_frame_bits(8) * replies,
+        bitrate,
+    ))
 }
 
 #[cfg(test)]

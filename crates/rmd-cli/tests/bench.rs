@@ -505,11 +505,11 @@ fn run_flags_speak_the_examples_vocabulary_and_take_units() {
     }
 }
 
-/// Stable: `rmd bench loop --sim-firmware myactuator-v3` refuses to start (exit 1, the
-/// firmware named) before any torque frame is sent.
+/// `rmd bench loop --sim-firmware lk-v2.3x` refuses to start (exit 1, the firmware named) before
+/// any torque frame is sent: the benchmark robot is described as v1.61.
 #[test]
 fn bench_loop_refuses_firmware_it_cannot_drive_before_any_torque() {
-    for (firmware, named) in [("myactuator-v3", "MyActuator V3"), ("lk-v2.3x", "LK-TECH")] {
+    for (firmware, named) in [("lk-v2.3x", "LK-TECH")] {
         let out = assert_cmd::Command::cargo_bin("rmd")
             .unwrap()
             .args([
@@ -533,6 +533,53 @@ fn bench_loop_refuses_firmware_it_cannot_drive_before_any_torque() {
             assert_eq!(motor["commanded"], false, "{motor}");
         }
     }
+}
+
+/// Stable: `rmd bench loop --sim-firmware myactuator-v3 [--motors N]` runs V3 motors on the
+/// per-motor exchange; a rate beyond the wire budget exits non-zero before any frame, naming the
+/// highest rate the layout can carry.
+#[test]
+fn bench_loop_runs_v3_motors_per_motor_and_refuses_a_rate_beyond_the_wire() {
+    let v = json(
+        "bench loop --sim-firmware myactuator-v3 --motors 3 --virtual-time --duration 1s --json",
+    );
+    assert_eq!(v["ticks"], 1000, "{v}");
+    assert_eq!(v["missing_replies"], 0, "{v}");
+    let motors = v["safe_stop"]["motors"].as_array().unwrap();
+    assert_eq!(motors.len(), 3);
+    for motor in motors {
+        assert_eq!(motor["off_confirmed"], true, "{motor}");
+    }
+    let families: Vec<&str> = v["identified"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["family"].as_str().unwrap())
+        .collect();
+    assert_eq!(families, ["myactuator-v3"; 3], "{v}");
+    let tracking = v["bench"]["tracking_max_error_deg"].as_f64().unwrap();
+    assert!(tracking < 3.0, "{v}");
+    // Four V3 motors need 1080 us a tick at worst: 833 Hz at most with the default deadline.
+    let out = assert_cmd::Command::cargo_bin("rmd")
+        .unwrap()
+        .args([
+            "bench",
+            "loop",
+            "--sim-firmware",
+            "myactuator-v3",
+            "--motors",
+            "4",
+        ])
+        .args(["--virtual-time", "--duration", "1s", "--json"])
+        .output()
+        .unwrap();
+    assert_ne!(out.status.code(), Some(0));
+    assert!(out.stdout.is_empty(), "no report: nothing ran");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("highest rate this bus can carry is 833 Hz"),
+        "{err}"
+    );
 }
 
 #[test]

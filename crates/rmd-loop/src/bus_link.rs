@@ -2,12 +2,16 @@
 
 use core::ops::Range;
 
+use crate::robot::ExchangeKind;
+
 /// A bus and the consecutive range of joints (motors) it carries.
 #[derive(Debug)]
 pub(crate) struct BusLink<B> {
     pub(crate) bus: B,
     pub(crate) joints: Range<usize>,
-    /// Whether a 0x280 frame was ever sent on it (before that, nothing needs undoing).
+    /// How torque is exchanged on it.
+    pub(crate) exchange: ExchangeKind,
+    /// Whether torque was ever sent on it (before that, nothing needs undoing).
     pub(crate) commanded: bool,
 }
 

@@ -27,7 +27,7 @@ use rmd_protocol::ScaledCurrent;
 use crate::bus_link::BusLink;
 use crate::commands::{Commands, MAX_SIGNALS, Rejections};
 use crate::controller::{Controller, Flow, TickContext};
-use crate::exchange::Exchange;
+use crate::exchange::{Exchange, Torque};
 use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
 use crate::guard::LimitGuard;
@@ -368,7 +368,9 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 )));
             }
         };
-        if let Err(reason) = startup::probe(&mut parts) {
+        if let Err(reason) =
+            startup::release_brakes(&mut parts).and_then(|()| startup::probe(&mut parts))
+        {
             return Err(Box::new(finish::finish(
                 parts, controller, reason, realtime, None, None, identified,
             )));
@@ -404,6 +406,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                         .map(|(bus, spec)| BusLink {
                             bus,
                             joints: spec.joint_range(),
+                            exchange: spec.exchange,
                             // The supervisor acts while the loop ticks: torque was commanded.
                             commanded: true,
                         })
@@ -560,12 +563,11 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         exchange.begin_tick();
         let sent_at = clock.now();
         for b in 0..exchange.links.len() {
-            let slots = exchange.staged[b];
             // Never after the supervisor took over (it may be sending motor-off right now).
             if !shared.watch.begin_send() {
                 return Err(StopReason::EmergencyStop); // replaced by the supervisor's reason
             }
-            let sent = exchange.send(b, &slots, timing.index, sent_at, stats);
+            let sent = exchange.send(b, Torque::Staged, timing.index, sent_at, stats);
             shared.watch.end_send();
             sent.map_err(StopReason::Fault)?;
         }
@@ -772,7 +774,7 @@ impl<B, C> Parts<B, C> {
         // Slots of no described motor keep the zero they were built with.
         for ((motor, amps), counters) in exchange
             .motors
-            .iter()
+            .iter_mut()
             .zip(&mut self.command_amps)
             .zip(&mut self.stats.motors)
         {
@@ -781,6 +783,9 @@ impl<B, C> Parts<B, C> {
             counters.clamped_commands += u64::from(clamped);
             let iq = ScaledCurrent::saturating(raw, command.scale);
             *amps = iq.amps();
+            // Both forms, unconditionally (cheaper than asking which the bus sends): a
+            // `per-motor` bus's staged 0x280 slots are never sent.
+            motor.staged = iq;
             if let Some(slot) = exchange
                 .staged
                 .get_mut(motor.at.bus)

@@ -37,9 +37,11 @@ impl JointState {
 /// The motor side of a joint's state, in the motor's own frame and units.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct MotorState {
-    /// Continuous rotor angle, degrees (the single-turn encoder unwrapped by the loop).
+    /// Continuous rotor angle, degrees (the single-turn encoder unwrapped by the loop; for a
+    /// MyActuator V3 motor, which reports its output shaft in whole degrees, that angle times
+    /// the gear ratio).
     pub angle_deg: f64,
-    /// Rotor speed, deg/s (1 dps resolution).
+    /// Rotor speed, deg/s (1 dps resolution; V3: the output's 1 dps times the gear ratio).
     pub speed_dps: f64,
     /// Torque current, amperes (motor sign).
     pub current_amps: f64,
@@ -52,11 +54,13 @@ pub struct MotorState {
 pub struct RawStatus {
     /// `temperature`, 1 degC per LSB.
     pub temperature: i8,
-    /// `iq`, torque current, -2048..=2048 for -33..=33 A.
+    /// `iq`, torque current, in the motor family's scale (v1.61: -2048..=2048 for -33..=33 A;
+    /// MyActuator V3: 0.01 A per LSB).
     pub iq: i16,
-    /// `speed`, 1 dps per LSB.
+    /// `speed`, 1 dps per LSB (V3: the output shaft's).
     pub speed: i16,
-    /// `encoder`, single-turn position.
+    /// `encoder`, single-turn position; for MyActuator V3 the output shaft's angle (int16, 1
+    /// degree per LSB) as its two's-complement bits.
     pub encoder: u16,
 }
 

@@ -151,9 +151,14 @@ const JOINT_LIMIT_ADVICE: &str = ": every motor was made safe (what carried it t
 
 fn firmware_problem(family: ProtocolFamily, described: ProtocolFamily, finding: Finding) -> String {
     match family {
+        ProtocolFamily::MyActuatorV3 if described != ProtocolFamily::MyActuatorV3 => format!(
+            "its firmware speaks MyActuator V3 (it answers on 0x240 + id) but the description \
+             says {described}: describe it with protocol = \"myactuator-v3\" (its bus then \
+             exchanges torque per motor); nothing was sent"
+        ),
         ProtocolFamily::MyActuatorV3 => "its firmware speaks MyActuator V3 (it answers on \
              0x240 + id): a 0x280 frame is a command byte executed by every motor on the bus, not \
-             per-motor torque, so the loop cannot drive it; nothing was sent"
+             per-motor torque, so its bus must use exchange = \"per-motor\"; nothing was sent"
             .to_string(),
         ProtocolFamily::Unknown => format!(
             "its answers identify no firmware family ({finding}), so what a 0x280 frame would \

@@ -1,5 +1,8 @@
 //! Making the motors safe when the loop ends, whatever the reason: zero torque (one 0x280 frame
-//! per bus), then motor-off (0x80) to every motor, confirmed by each motor's echo.
+//! on a `multi-torque` bus; one zero 0xA1 request per motor, in its own family, on a
+//! `per-motor` bus: never a 0x280 frame there), then motor-off (0x80) to every motor, confirmed
+//! by each motor's echo; then, for MyActuator V3 motors with a brake, brake lock (0x78),
+//! confirmed the same way.
 //!
 //! A stop that finishes, bus by bus, each on its own so that a fault on one never abandons the
 //! others:
@@ -18,12 +21,12 @@ use core::fmt;
 use core::time::Duration;
 
 use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, Clock, Timestamp};
-use rmd_protocol::{Command, Dialect, MotorId, Reply};
+use rmd_protocol::{Command, MotorId, Request};
 use serde::Serialize;
 
 use crate::bus_link::BusLink;
-use crate::exchange::frames::{ZERO_TORQUE, torque_frame};
-use crate::robot::{Robot, SafeStopSettings};
+use crate::exchange::frames::{ZERO_TORQUE, torque_frame, torque_request, zero_iq};
+use crate::robot::{ExchangeKind, JointSpec, Robot, SafeStopSettings};
 
 /// What the safe stop did for one motor.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
@@ -38,12 +41,15 @@ pub struct MotorSafeStop {
     /// Whether the run ever commanded its bus (a 0x280 frame); if not, nothing was sent to it
     /// (the start stopped before any torque) and there is nothing to undo.
     pub commanded: bool,
-    /// A zero-torque 0x280 frame was queued on its bus.
+    /// Zero torque was queued to it (its bus's 0x280 frame, or its own zero 0xA1 request).
     pub zero_torque_sent: bool,
     /// Motor-off (0x80) commands queued to it.
     pub off_attempts: u32,
     /// The motor answered the motor-off command.
     pub off_confirmed: bool,
+    /// For a motor with a brake (MyActuator V3): whether it confirmed brake lock (0x78) after
+    /// motor-off; `None` without a brake.
+    pub brake_locked: Option<bool>,
 }
 
 fn serialize_motor_id<S: serde::Serializer>(id: &MotorId, s: S) -> Result<S::Ok, S::Error> {
@@ -137,7 +143,7 @@ impl fmt::Display for SafeStopReport {
         if commanded == 0 {
             return f.write_str(
                 "safe stop: nothing to do: no torque was commanded (the run stopped before the \
-                 first 0x280 frame)",
+                 first torque frame)",
             );
         }
         let confirmed = self.motors.iter().filter(|m| m.off_confirmed).count();
@@ -158,6 +164,20 @@ impl fmt::Display for SafeStopReport {
                 m.motor.get(),
                 m.bus,
                 why(m, bus)
+            )?;
+        }
+        for m in self
+            .motors
+            .iter()
+            .filter(|m| m.off_confirmed && m.brake_locked == Some(false))
+        {
+            write!(
+                f,
+                "\n  joint {} (motor {} on bus {}): off, but its brake was NOT CONFIRMED LOCKED \
+                 (0x78): `rmd off` locks it; hold the joint before cutting power",
+                m.joint,
+                m.motor.get(),
+                m.bus
             )?;
         }
         Ok(())
@@ -189,12 +209,17 @@ fn why(m: &MotorSafeStop, bus: Option<&BusSafeStop>) -> String {
 /// Progress of the safe stop on one bus.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 enum Phase {
-    /// Zero torque is next.
-    Zero,
+    /// Zero torque to the bus's motors from this one (index in description order) on (on a
+    /// `multi-torque` bus, the one 0x280 frame when `next` is the first).
+    Zero { next: usize },
     /// Motor-off to the bus's motors from this one (index in description order) on.
     Off { next: usize },
     /// Waiting for confirmations since the last round was sent.
     Confirm { round_sent: Timestamp },
+    /// Brake lock to the bus's braked motors from this one on (every motor confirmed off).
+    Lock { next: usize },
+    /// Waiting for brake-lock confirmations since the last round was sent.
+    ConfirmLock { round_sent: Timestamp },
     /// Finished.
     Done,
 }
@@ -230,6 +255,7 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
                 zero_torque_sent: false,
                 off_attempts: 0,
                 off_confirmed: false,
+                brake_locked: j.brake.then_some(false),
             })
             .collect(),
         buses: Vec::with_capacity(links.len()),
@@ -239,8 +265,10 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
     let deadline = start + settings.deadline;
     let mut stops: Vec<BusStop> = links
         .iter()
-        .map(|_| BusStop {
-            phase: Phase::Zero,
+        .map(|link| BusStop {
+            phase: Phase::Zero {
+                next: link.joints.start,
+            },
             bus_off_since: None,
             last_error: None,
         })
@@ -257,7 +285,7 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
             if outcomes[b].is_some() {
                 continue;
             }
-            step_bus(link, stop, ids, &mut report, now, settings);
+            step_bus(link, stop, ids, robot.joints(), &mut report, now, settings);
             outcomes[b] = match stop.phase {
                 Phase::Done => Some(BusStopOutcome::Confirmed {
                     after_ms: ms(now - start),
@@ -273,10 +301,16 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
             };
         }
         if !off_sent_told
-            && stops
-                .iter()
-                .zip(&outcomes)
-                .all(|(s, o)| o.is_some() || matches!(s.phase, Phase::Confirm { .. } | Phase::Done))
+            && stops.iter().zip(&outcomes).all(|(s, o)| {
+                o.is_some()
+                    || matches!(
+                        s.phase,
+                        Phase::Confirm { .. }
+                            | Phase::Lock { .. }
+                            | Phase::ConfirmLock { .. }
+                            | Phase::Done
+                    )
+            })
         {
             off_sent_told = true;
             on_off_sent();
@@ -323,24 +357,39 @@ fn step_bus<B: CanBus>(
     link: &mut BusLink<B>,
     stop: &mut BusStop,
     ids: &[MotorId],
+    joints: &[JointSpec],
     report: &mut SafeStopReport,
     now: Timestamp,
     settings: &SafeStopSettings,
 ) {
-    receive(link, stop, ids, report, now);
+    receive(link, stop, ids, joints, report, now);
     loop {
         match stop.phase {
-            Phase::Zero => match link.bus.send(&torque_frame(&ZERO_TORQUE)) {
-                Ok(()) => {
-                    for m in link.joints() {
-                        report.motors[m].zero_torque_sent = true;
+            Phase::Zero { next } if next >= link.joints.end => {
+                stop.phase = Phase::Off {
+                    next: link.joints.start,
+                };
+            }
+            Phase::Zero { next } => {
+                let (frame, reached) = match link.exchange {
+                    // One 0x280 frame for the bus's motors 1..=4.
+                    ExchangeKind::MultiTorque => (torque_frame(&ZERO_TORQUE), link.joints()),
+                    // Each motor's own zero request, in its family's scale.
+                    ExchangeKind::PerMotor => {
+                        let d = joints[next].dialect;
+                        (torque_request(d, ids[next], zero_iq(d)), next..next + 1)
                     }
-                    stop.phase = Phase::Off {
-                        next: link.joints.start,
-                    };
+                };
+                match link.bus.send(&frame) {
+                    Ok(()) => {
+                        for m in reached.clone() {
+                            report.motors[m].zero_torque_sent = true;
+                        }
+                        stop.phase = Phase::Zero { next: reached.end };
+                    }
+                    Err(e) => return note(stop, e, now),
                 }
-                Err(e) => return note(stop, e, now),
-            },
+            }
             Phase::Off { next } if next >= link.joints.end => {
                 stop.phase = Phase::Confirm { round_sent: now };
             }
@@ -349,7 +398,8 @@ fn step_bus<B: CanBus>(
                     stop.phase = Phase::Off { next: next + 1 };
                     continue;
                 }
-                match link.bus.send(&Dialect::V161.motor_off(ids[next])) {
+                // Motor-off is the same frame in every family (0x140 + id, 0x80).
+                match link.bus.send(&joints[next].dialect.motor_off(ids[next])) {
                     Ok(()) => {
                         report.motors[next].off_attempts += 1;
                         stop.phase = Phase::Off { next: next + 1 };
@@ -359,11 +409,47 @@ fn step_bus<B: CanBus>(
             }
             Phase::Confirm { round_sent } => {
                 if link.joints().all(|m| report.motors[m].off_confirmed) {
-                    stop.phase = Phase::Done;
+                    stop.phase = Phase::Lock {
+                        next: link.joints.start,
+                    };
+                    continue;
                 } else if now - round_sent >= settings.retry_every {
                     // Another round of motor-off for the unconfirmed (not zero torque again: a
-                    // 0x280 frame would put the motors already off back in torque mode).
+                    // torque frame would put the motors already off back in torque mode).
                     stop.phase = Phase::Off {
+                        next: link.joints.start,
+                    };
+                    continue;
+                }
+                return;
+            }
+            Phase::Lock { next } if next >= link.joints.end => {
+                stop.phase = Phase::ConfirmLock { round_sent: now };
+            }
+            Phase::Lock { next } => {
+                if report.motors[next].brake_locked != Some(false) {
+                    stop.phase = Phase::Lock { next: next + 1 };
+                    continue;
+                }
+                let lock = joints[next].dialect.encode(ids[next], &Request::BrakeLock);
+                // Only V3 motors have a brake (checked with the description): `lock` is a frame.
+                let Ok(frame) = lock else {
+                    stop.phase = Phase::Lock { next: next + 1 };
+                    continue;
+                };
+                match link.bus.send(&frame) {
+                    Ok(()) => stop.phase = Phase::Lock { next: next + 1 },
+                    Err(e) => return note(stop, e, now),
+                }
+            }
+            Phase::ConfirmLock { round_sent } => {
+                if link
+                    .joints()
+                    .all(|m| report.motors[m].brake_locked != Some(false))
+                {
+                    stop.phase = Phase::Done;
+                } else if now - round_sent >= settings.retry_every {
+                    stop.phase = Phase::Lock {
                         next: link.joints.start,
                     };
                     continue;
@@ -375,12 +461,14 @@ fn step_bus<B: CanBus>(
     }
 }
 
-/// Takes in everything the bus has received: motor-off echoes confirm their motor; bus-off and
-/// restart events start and end the wait for the controller.
+/// Takes in everything the bus has received: motor-off and brake-lock echoes (each decoded in
+/// its motor's family, on its reply id) confirm their motor; bus-off and restart events start
+/// and end the wait for the controller.
 fn receive<B: CanBus>(
     link: &mut BusLink<B>,
     stop: &mut BusStop,
     ids: &[MotorId],
+    joints: &[JointSpec],
     report: &mut SafeStopReport,
     now: Timestamp,
 ) {
@@ -388,12 +476,15 @@ fn receive<B: CanBus>(
         match link.bus.recv_until(now) {
             Ok(Some(received)) => match received.message {
                 BusMessage::Frame(frame) => {
-                    // Motor-off's echo has the same layout in every dialect rmd-rt drives.
-                    if let Ok((id, Reply::MotorOff)) =
-                        Dialect::V161.decode_reply_to(&frame, Command::MotorOff)
-                        && let Some(m) = link.joints().find(|&m| ids[m] == id)
-                    {
-                        report.motors[m].off_confirmed = true;
+                    for m in link.joints() {
+                        let d = joints[m].dialect;
+                        if d.decode_answer(&frame, ids[m], Command::MotorOff).is_ok() {
+                            report.motors[m].off_confirmed = true;
+                        } else if report.motors[m].brake_locked.is_some()
+                            && d.decode_answer(&frame, ids[m], Command::BrakeLock).is_ok()
+                        {
+                            report.motors[m].brake_locked = Some(true);
+                        }
                     }
                     // Any frame received means the controller is on the bus again.
                     stop.bus_off_since = None;

@@ -7,16 +7,15 @@ use core::time::Duration;
 
 use rmd_bus::{BusMessage, CanBus, Clock};
 use rmd_protocol::{
-    Finding, Identification, MULTI_TORQUE_MOTORS, MotorId, ProbeAnswers, ProtocolFamily, identify,
-    probe_requests,
+    Command, Finding, Identification, MULTI_TORQUE_MOTORS, MotorId, ProbeAnswers, ProtocolFamily,
+    Request, identify, probe_requests,
 };
 
 use crate::engine::Parts;
-use crate::exchange::Collected;
-use crate::exchange::frames::ZERO_TORQUE;
+use crate::exchange::{Collected, Torque};
 use crate::os::{self, CpuLatencyRequest, RtRequest, RtSetup};
 use crate::report::{Fault, IdentifiedMotor, MotorRef, StopReason};
-use crate::robot::LoopSettings;
+use crate::robot::{ExchangeKind, LoopSettings};
 
 /// Stack pre-faulted at start.
 const PREFAULT_STACK_BYTES: usize = 512 * 1024;
@@ -60,14 +59,20 @@ pub(crate) fn identify_motors<B: CanBus, C: Clock>(
         shared,
         ..
     } = parts;
-    let ids = multi_torque_ids();
     let mut found = Vec::new();
     for (b, link) in exchange.links.iter_mut().enumerate() {
         if let Some(request) = shared.stop.pending() {
             return Err(request.into());
         }
-        let mut answers = [ProbeAnswers::new(); MULTI_TORQUE_MOTORS];
-        for id in ids {
+        // A 0x280 frame reaches ids 1..=4, described or not; a per-motor bus addresses its
+        // described motors only.
+        let ids: Vec<MotorId> = match link.exchange {
+            ExchangeKind::MultiTorque => multi_torque_ids().to_vec(),
+            ExchangeKind::PerMotor => link.joints().map(|j| robot.joints()[j].motor).collect(),
+        };
+        let multi_torque = link.exchange == ExchangeKind::MultiTorque;
+        let mut answers = vec![ProbeAnswers::new(); ids.len()];
+        for &id in &ids {
             for frame in probe_requests(id) {
                 // A refused frame leaves that motor unidentified (the 0x280 probe still waits for
                 // it); only bus-off or a lost interface stop the start.
@@ -126,7 +131,7 @@ pub(crate) fn identify_motors<B: CanBus, C: Clock>(
             if !answered && joint.is_none() {
                 continue;
             }
-            check(robot, b, *id, joint, &identification)?;
+            check(robot, b, *id, joint, &identification, multi_torque)?;
             found.push(IdentifiedMotor {
                 bus: b,
                 motor: *id,
@@ -150,13 +155,15 @@ fn multi_torque_ids() -> [MotorId; MULTI_TORQUE_MOTORS] {
     [id(1), id(2), id(3), id(4)]
 }
 
-/// Whether the loop may start with motor `id` of bus `b` identified as `identification`.
+/// Whether the loop may start with motor `id` of bus `b` identified as `identification`, the bus
+/// exchanging torque with 0x280 frames when `multi_torque`.
 fn check(
     robot: &crate::robot::Robot,
     b: usize,
     id: MotorId,
     joint: Option<crate::joint::JointId>,
     identification: &Identification,
+    multi_torque: bool,
 ) -> Result<(), StopReason> {
     let family = identification.family;
     let Some(joint) = joint else {
@@ -178,8 +185,9 @@ fn check(
     let described = robot.spec(joint).dialect.family();
     let refuse = match family {
         // Its 0x280 frame is a command byte for every motor, or nothing is known (answers on both
-        // reply ids): never drive it with 0x280 frames.
-        ProtocolFamily::MyActuatorV3 => true,
+        // reply ids): never drive it with 0x280 frames. On a per-motor bus it is driven with its
+        // own 0xA1 requests if it is described as V3.
+        ProtocolFamily::MyActuatorV3 => multi_torque || described != family,
         // Answers that identify no family: what 0x280 means to it is not known. (No answer at
         // all is left to the start-up probe, which names a motor that never answers.)
         ProtocolFamily::Unknown => identification.evidence.finding != Finding::NoAnswer,
@@ -195,6 +203,87 @@ fn check(
         }));
     }
     Ok(())
+}
+
+/// Releases the holding brake (0x77) of every motor described with one (MyActuator V3) before
+/// any torque (a locked brake keeps the output off: "this command cannot open the brake
+/// directly", V4.4 §2.18), each confirmed by its echo within the identification's timeout; a
+/// motor that does not confirm stops the start. Its bus then counts as commanded: the safe stop
+/// locks the brake again.
+pub(crate) fn release_brakes<B: CanBus, C: Clock>(
+    parts: &mut Parts<B, C>,
+) -> Result<(), StopReason> {
+    let timeout = probe_timeout(parts.robot.settings());
+    let Parts {
+        exchange,
+        clock,
+        robot,
+        shared,
+        ..
+    } = parts;
+    for (b, link) in exchange.links.iter_mut().enumerate() {
+        let braked: Vec<usize> = link.joints().filter(|&j| robot.joints()[j].brake).collect();
+        if braked.is_empty() {
+            continue;
+        }
+        if let Some(request) = shared.stop.pending() {
+            return Err(request.into());
+        }
+        link.commanded = true;
+        for &j in &braked {
+            let spec = &robot.joints()[j];
+            // Only V3 motors have a brake (checked with the description).
+            let Ok(frame) = spec.dialect.encode(spec.motor, &Request::BrakeRelease) else {
+                continue;
+            };
+            match link.bus.send(&frame) {
+                Ok(()) | Err(rmd_bus::BusError::TxQueueFull | rmd_bus::BusError::Io(_)) => {}
+                Err(rmd_bus::BusError::BusOff) => {
+                    return Err(StopReason::Fault(Fault::BusOff { bus: b }));
+                }
+                Err(error) => return Err(StopReason::Fault(Fault::Bus { bus: b, error })),
+            }
+        }
+        let give_up = clock.now() + timeout;
+        let mut released = vec![false; braked.len()];
+        while !released.iter().all(|r| *r) {
+            let Ok(Some(received)) = link.bus.recv_until(give_up) else {
+                break;
+            };
+            if let BusMessage::Frame(frame) = received.message {
+                for (&j, done) in braked.iter().zip(&mut released) {
+                    let spec = &robot.joints()[j];
+                    *done |= spec
+                        .dialect
+                        .decode_answer(&frame, spec.motor, Command::BrakeRelease)
+                        .is_ok();
+                }
+            }
+        }
+        let missing = released.iter().filter(|r| !**r).count();
+        if let Some(j) = braked
+            .iter()
+            .zip(&released)
+            .find(|(_, r)| !**r)
+            .map(|(j, _)| *j)
+        {
+            return Err(StopReason::Fault(Fault::StartupTimeout {
+                at: exchange_motor_ref(robot, j),
+                missing,
+            }));
+        }
+    }
+    Ok(())
+}
+
+/// Joint `j`'s motor, as faults name it.
+fn exchange_motor_ref(robot: &crate::robot::Robot, j: usize) -> MotorRef {
+    let spec = &robot.joints()[j];
+    MotorRef {
+        joint: crate::joint::JointId::from_index(j),
+        bus: spec.bus,
+        motor: spec.motor,
+    }
 }
 
 /// The start-up probe: one zero-torque exchange at a time, waiting generously for replies,
@@ -217,8 +306,12 @@ pub(crate) fn probe<B: CanBus, C: Clock>(parts: &mut Parts<B, C>) -> Result<(), 
         let sent_at = clock.now();
         for b in 0..exchange.links.len() {
             if !exchange.bus_complete(b) {
+                // The previous probe's requests were waited for long enough: a reply still to
+                // come (or one that came unreadable) must not be taken as this probe's, which
+                // would measure a round trip of a whole probe timeout.
+                exchange.give_up_pending(b);
                 exchange
-                    .send(b, &ZERO_TORQUE, 0, sent_at, stats)
+                    .send(b, Torque::Zero, 0, sent_at, stats)
                     .map_err(StopReason::Fault)?;
             }
         }

@@ -8,25 +8,9 @@ mod common;
 use common::*;
 use rmd_bus::VirtualClock;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
-use rmd_loop::{
-    Commands, Controller, Fault, Feedback, Flow, Robot, RtLoop, RunLimit, StopReason, TickContext,
-};
-use rmd_protocol::{
-    AngleControl, Dialect, LkSeries, MULTI_TORQUE_CAN_ID, MaxSpeed, ProtocolFamily, Request,
-};
-use rmd_sim::{ControlMode, FirmwareFamily, Node, SharedSimBus, SimBus, SimConfig};
-
-/// Pushes a constant joint current on every joint.
-struct Constant(f64);
-
-impl Controller for Constant {
-    fn update(&mut self, _: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
-        for (joint, _) in fb.iter() {
-            cmd.set_current(joint, self.0);
-        }
-        Flow::Continue
-    }
-}
+use rmd_loop::{Fault, Robot, RtLoop, RunLimit, StopReason};
+use rmd_protocol::{AngleControl, Dialect, LkSeries, MaxSpeed, ProtocolFamily, Request};
+use rmd_sim::{ControlMode, FirmwareFamily, SharedSimBus, SimBus, SimConfig};
 
 fn robot_of(bus: BusConfig) -> Robot {
     Robot::try_from(RobotConfig::new(1000.0).with_bus(bus)).unwrap()
@@ -39,13 +23,6 @@ fn sim_of(clock: &VirtualClock, ids: &[u8], family: FirmwareFamily) -> SimBus<Vi
         .map(|&n| rmd_sim::MotorConfig::new(id(n)))
         .collect();
     SimBus::new(clock.clone(), config.firmware_family(family)).unwrap()
-}
-
-/// Whether any 0x280 frame went out on the simulated wire.
-fn sent_multi_torque(bus: &SimBus<VirtualClock>) -> bool {
-    bus.trace()
-        .iter()
-        .any(|t| t.from == Node::Host && t.frame.id() == MULTI_TORQUE_CAN_ID)
 }
 
 #[test]

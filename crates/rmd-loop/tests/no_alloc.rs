@@ -129,7 +129,85 @@ fn steady_state_ticks_allocate_nothing() {
     assert_eq!(allocations, 0, "allocations in 2000 steady-state ticks");
     drop(rt);
 
+    per_motor_v3_bus();
     every_sink_on();
+}
+
+/// A per-motor bus of MyActuator V3 motors (one 0xA1 request each per tick) beside a
+/// multi-torque v1.61 bus, with faults on the per-motor requests: nothing allocates either.
+fn per_motor_v3_bus() {
+    ALLOCATIONS.store(0, Ordering::SeqCst);
+    let clock = VirtualClock::new();
+    let torque = rmd_protocol::Command::Torque;
+    let faults = [
+        FaultRule::new(FaultKind::DropReply)
+            .command(torque)
+            .with_probability(0.02),
+        FaultRule::new(FaultKind::WrongDlc { dlc: 5 })
+            .command(torque)
+            .with_probability(0.02),
+        FaultRule::new(FaultKind::LateReply {
+            delay: core::time::Duration::from_micros(400),
+        })
+        .command(torque)
+        .with_probability(0.02),
+        FaultRule::new(FaultKind::TxStall {
+            duration: core::time::Duration::from_millis(15),
+        })
+        .command(torque)
+        .frames_window(2100, 1),
+    ];
+    let mut v3 = rmd_sim::SimConfig::with_motors(3).seed(41);
+    for f in faults {
+        v3 = v3.fault(f);
+    }
+    let v3 = v3.firmware_family(rmd_sim::FirmwareFamily::MyActuatorV3);
+    let bus0 = SharedSimBus::new(rmd_sim::SimBus::new(clock.clone(), v3).unwrap());
+    let bus1 = SharedSimBus::new(sim(&clock, 4, 42, &[]));
+    let mut config = robot_config(1000.0, 2, 4);
+    config.buses[0].motors.truncate(3);
+    config.buses[0].protocol = Some("myactuator-v3".to_string());
+    config.loop_config.missing_reply_fault_after = 1000;
+    with_limits(&mut config);
+    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    assert_eq!(
+        robot.buses()[0].exchange,
+        rmd_loop::robot::ExchangeKind::PerMotor
+    );
+    let mut rt = RtLoop::new(
+        robot,
+        clock.clone(),
+        vec![bus0.clone(), bus1.clone()],
+        PdTo::new(&[10.0; 7]),
+    )
+    .unwrap()
+    .supervise(vec![Box::new(bus0), Box::new(bus1)])
+    .unwrap();
+    let telemetry = rt.telemetry();
+    let mut rt = rt.start().unwrap();
+    for _ in 0..100 {
+        let step = rt.step();
+        assert!(step.is_continue(), "{step:?}");
+    }
+    COUNTING.store(true, Ordering::SeqCst);
+    for _ in 0..2_000 {
+        assert!(rt.step().is_continue());
+        let _ = telemetry.try_recv();
+    }
+    COUNTING.store(false, Ordering::SeqCst);
+    let allocations = ALLOCATIONS.load(Ordering::SeqCst);
+    let stats = rt.stats().summary();
+    let v3_motors = &stats.motors[..3];
+    assert!(
+        v3_motors.iter().any(|m| m.counters.missing_replies > 0)
+            && v3_motors.iter().any(|m| m.counters.bad_frames > 0)
+            && stats.buses[0].tx_errors > 0,
+        "faults happened on the per-motor bus: {stats}"
+    );
+    assert_eq!(
+        allocations, 0,
+        "allocations in 2000 steady-state ticks with a per-motor V3 bus"
+    );
 }
 
 /// The loop with every sink on: its own thread allocates nothing in steady ticks, and every

@@ -1,9 +1,9 @@
-//! The frames of an exchange: the 0x280 torque frame out, and what each motor's reply looks
-//! like, decided once per motor ([`ReplyExpectation`]).
+//! The frames of an exchange: the 0x280 torque frame or the per-motor 0xA1 requests out, and
+//! what each motor's reply looks like, decided once per motor ([`ReplyExpectation`]).
 
 use rmd_protocol::{
-    CanFrame, Command, CurrentScale, Dialect, MULTI_TORQUE_MOTORS, MultiTorque, ScaledCurrent,
-    Status2,
+    CanFrame, Command, CurrentScale, Dialect, MULTI_TORQUE_MOTORS, MotorId, MultiTorque, Request,
+    ScaledCurrent, Status2,
 };
 
 use crate::robot::JointSpec;
@@ -25,6 +25,21 @@ pub(crate) fn torque_frame(slots: &TorqueSlots) -> CanFrame {
     MultiTorque::new(*slots).encode()
 }
 
+/// The 0xA1 torque request of `iq` to `motor` in its `dialect` (`0x140 + id`). `iq` is in the
+/// dialect's command scale (the loop builds it so); were it not, the frame would be motor-off,
+/// never a current in another family's scale.
+#[inline]
+pub(crate) fn torque_request(dialect: Dialect, motor: MotorId, iq: ScaledCurrent) -> CanFrame {
+    dialect
+        .encode(motor, &Request::Torque { iq_control: iq })
+        .unwrap_or_else(|_| dialect.motor_off(motor))
+}
+
+/// Zero torque in `dialect`'s command scale.
+pub(crate) fn zero_iq(dialect: Dialect) -> ScaledCurrent {
+    ScaledCurrent::saturating(0, dialect.iq_control_scale())
+}
+
 /// The reply a motor owes for a request, decided once when the loop is built: the CAN id it
 /// comes on, the command byte in its DATA\[0\], and the dialect its status is read in. Matching
 /// a received frame is then an id comparison per motor of the bus, and decoding it one check
@@ -40,11 +55,12 @@ pub(crate) struct ReplyExpectation {
 }
 
 impl ReplyExpectation {
-    /// What joint `joint`'s motor answers to the 0x280 torque frame: the 0xA1 reply (status 2)
-    /// on its reply id, with its dialect's `iq` scale.
+    /// What joint `joint`'s motor answers to a torque request (the 0x280 frame or its own
+    /// 0xA1): the 0xA1 reply (status 2) on its dialect's reply id (`0x140 + id`, V3
+    /// `0x240 + id`), with its dialect's `iq` scale.
     pub(crate) fn torque(joint: &JointSpec) -> Self {
         Self {
-            can_id: joint.motor.can_id(),
+            can_id: joint.dialect.reply_id(joint.motor),
             command: Command::Torque.code(),
             dialect: joint.dialect,
         }

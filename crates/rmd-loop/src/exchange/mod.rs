@@ -1,5 +1,6 @@
-//! The exchange of one tick: one 0x280 frame out on every bus, the motors' replies in, matched
-//! to their requests, and the accounting of what did not come.
+//! The exchange of one tick: every bus's requests out (one 0x280 frame on a `multi-torque` bus,
+//! one 0xA1 request per motor on a `per-motor` bus), the motors' replies in, matched to their
+//! requests by reply id and command byte, and the accounting of what did not come.
 //!
 //! - [`frames`]: the torque frame, and what each motor's reply looks like (decided once);
 //! - [`pending`]: which of a motor's requests a reply answers;
@@ -25,6 +26,7 @@ use frames::{TorqueSlots, ZERO_TORQUE};
 use motor::MotorLink;
 
 pub(crate) use collect::Collected;
+pub(crate) use send::Torque;
 
 /// The buses, the per-motor link state and feedback, and the staged commands.
 #[derive(Debug)]
@@ -32,7 +34,8 @@ pub(crate) struct Exchange<B> {
     pub(crate) links: Vec<BusLink<B>>,
     pub(crate) motors: Vec<MotorLink>,
     pub(crate) feedback: Vec<JointFeedback>,
-    /// The torque commands each bus sends in the next tick.
+    /// The torque commands each `multi-torque` bus sends in the next tick (a `per-motor` bus
+    /// sends each motor's [`MotorLink::staged`]).
     pub(crate) staged: Vec<TorqueSlots>,
     /// Per bus: its motors without fresh feedback yet in this tick.
     owed: Vec<usize>,
@@ -59,6 +62,7 @@ impl<B> Exchange<B> {
             .map(|(spec, bus)| BusLink {
                 bus,
                 joints: spec.joint_range(),
+                exchange: spec.exchange,
                 commanded: false,
             })
             .collect::<Vec<_>>();
@@ -130,6 +134,13 @@ impl<B> Exchange<B> {
         // first fresh reply of the tick gets here.
         self.owed[b] = self.owed[b].saturating_sub(1);
         self.owed_total = self.owed_total.saturating_sub(1);
+    }
+
+    /// Forgets the outstanding requests of bus `b`'s motors (before the probe asks again).
+    pub(crate) fn give_up_pending(&mut self, b: usize) {
+        for m in self.links[b].joints() {
+            self.motors[m].pending.clear();
+        }
     }
 
     /// Forgets every outstanding request (after the probe, whose replies were waited for).

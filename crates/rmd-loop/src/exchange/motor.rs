@@ -6,9 +6,9 @@
 use core::time::Duration;
 
 use rmd_bus::Timestamp;
-use rmd_protocol::{CurrentScale, MotorId, Status2};
+use rmd_protocol::{CurrentScale, Dialect, MotorId, ScaledCurrent, Status2, StatusPosition};
 
-use super::frames::ReplyExpectation;
+use super::frames::{ReplyExpectation, zero_iq};
 use super::pending::{PendingRequests, RESYNC_AFTER, min_round_trip};
 use crate::feedback::{Freshness, JointFeedback, JointState, MotorState, RawStatus};
 use crate::joint::JointId;
@@ -79,6 +79,12 @@ pub(crate) struct MotorLink {
     pub(crate) command: CommandScale,
     /// Index in the 0x280 frame (id - 1).
     pub(crate) slot: usize,
+    /// The dialect of its requests (the per-motor 0xA1).
+    pub(crate) dialect: Dialect,
+    /// The torque command staged for its next request, in its dialect's command scale (a
+    /// `per-motor` bus sends it as its own 0xA1; a `multi-torque` bus sends its slot of the
+    /// bus's staged 0x280 frame).
+    pub(crate) staged: ScaledCurrent,
     /// The largest encoder reading its width allows.
     max_encoder: u16,
     pub(crate) map: JointMap,
@@ -112,6 +118,8 @@ impl MotorLink {
             expect: ReplyExpectation::torque(joint),
             command: CommandScale::new(joint),
             slot: joint.slot(),
+            dialect: joint.dialect,
+            staged: zero_iq(joint.dialect),
             max_encoder: joint.encoder.max_value(),
             map: JointMap::from_spec(joint),
             unwrapper: EncoderUnwrapper::new(joint.encoder),
@@ -188,9 +196,13 @@ impl MotorLink {
         feedback: &mut JointFeedback,
         counters: &mut MotorCounters,
     ) -> ReplyClass {
-        let Some(encoder) = status.encoder().filter(|e| e.raw() <= self.max_encoder) else {
-            counters.bad_frames += 1;
-            return ReplyClass::Unexpected;
+        let reading = match status.position {
+            StatusPosition::Encoder(e) if e.raw() <= self.max_encoder => Reading::Encoder(e.raw()),
+            StatusPosition::OutputDegrees(a) => Reading::OutputDegrees(a.raw()),
+            StatusPosition::Encoder(_) => {
+                counters.bad_frames += 1;
+                return ReplyClass::Unexpected;
+            }
         };
         let at_ns = at.as_nanos();
         let Some((sent_tick, sent_at)) = self.pending.answer(at_ns, self.min_round_trip_ns) else {
@@ -219,10 +231,22 @@ impl MotorLink {
         let elapsed_ns = self
             .last_reply_ns
             .map_or(0, |last| at_ns.saturating_sub(last));
-        let speed_dps = status.speed.dps();
-        let motor_deg = self
-            .unwrapper
-            .update_ns(encoder.raw(), speed_dps, elapsed_ns);
+        let (motor_deg, speed_dps, raw_position) = match reading {
+            Reading::Encoder(raw) => {
+                let speed_dps = status.speed.dps();
+                let motor_deg = self.unwrapper.update_ns(raw, speed_dps, elapsed_ns);
+                (motor_deg, speed_dps, raw)
+            }
+            // The output shaft, multi-turn from its zero: the rotor is `gear_ratio` times it.
+            Reading::OutputDegrees(deg) => {
+                let ratio = self.map.gear_ratio();
+                (
+                    f64::from(deg) * ratio,
+                    status.speed.dps() * ratio,
+                    deg as u16,
+                )
+            }
+        };
         let current_amps = status.iq.amps();
         self.last_reply_ns = Some(at_ns);
         self.ticks_since_reply = 0;
@@ -247,13 +271,22 @@ impl MotorLink {
                 temperature: status.temperature.raw(),
                 iq: status.iq.raw(),
                 speed: status.speed.raw(),
-                encoder: encoder.raw(),
+                encoder: raw_position,
             },
             freshness,
             received_at: at,
         };
         class
     }
+}
+
+/// The position a status-2 reply carries.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+enum Reading {
+    /// v1.61 and LK-TECH: the single-turn encoder, in range for its width.
+    Encoder(u16),
+    /// MyActuator V3: the output shaft's angle, whole degrees from its zero.
+    OutputDegrees(i16),
 }
 
 /// The longest round trip the estimate takes in (one hour): anything longer is no reply.

@@ -1,41 +1,79 @@
-//! Sending a bus's 0x280 frame.
+//! Sending a bus's torque requests: its 0x280 frame (`multi-torque`), or one 0xA1 request per
+//! motor (`per-motor`), all of them before any reply is collected.
 
 use rmd_bus::{BusError, CanBus, Timestamp};
 
 use super::Exchange;
-use super::frames::{TorqueSlots, torque_frame};
+use super::frames::{ZERO_TORQUE, torque_frame, torque_request, zero_iq};
 use crate::report::Fault;
+use crate::robot::ExchangeKind;
 use crate::stats::LoopStats;
 
+/// What a send carries.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub(crate) enum Torque {
+    /// The commands staged in the previous tick.
+    Staged,
+    /// Zero for every motor (the start-up probe).
+    Zero,
+}
+
 impl<B: CanBus> Exchange<B> {
-    /// Sends `slots` as one 0x280 frame on bus `b` and records the request, sent at `at` in
-    /// `tick`, for each of its motors. A full transmit queue is counted and rides through (its
-    /// motors will miss this tick); bus-off and a lost interface are faults.
+    /// Sends `torque` on bus `b` (one 0x280 frame, or one request per motor) and records the
+    /// request, sent at `at` in `tick`, for each motor it went to. A full transmit queue is
+    /// counted and rides through (the motors not reached will miss this tick); bus-off and a
+    /// lost interface are faults.
     pub(crate) fn send(
         &mut self,
         b: usize,
-        slots: &TorqueSlots,
+        torque: Torque,
         tick: u64,
         at: Timestamp,
         stats: &mut LoopStats,
     ) -> Result<(), Fault> {
         let link = &mut self.links[b];
         link.commanded = true;
-        match link.bus.send(&torque_frame(slots)) {
-            Ok(()) => {
+        match link.exchange {
+            ExchangeKind::MultiTorque => {
+                let slots = match torque {
+                    Torque::Staged => &self.staged[b],
+                    Torque::Zero => &ZERO_TORQUE,
+                };
+                match link.bus.send(&torque_frame(slots)) {
+                    Ok(()) => {
+                        for m in link.joints() {
+                            self.motors[m].pending.push(tick, at);
+                        }
+                        Ok(())
+                    }
+                    Err(error) => sent_error(b, error, stats),
+                }
+            }
+            ExchangeKind::PerMotor => {
                 for m in link.joints() {
-                    self.motors[m].pending.push(tick, at);
+                    let motor = &mut self.motors[m];
+                    let iq = match torque {
+                        Torque::Staged => motor.staged,
+                        Torque::Zero => zero_iq(motor.dialect),
+                    };
+                    match link.bus.send(&torque_request(motor.dialect, motor.id, iq)) {
+                        Ok(()) => motor.pending.push(tick, at),
+                        Err(error) => sent_error(b, error, stats)?,
+                    }
                 }
                 Ok(())
             }
-            Err(error) => {
-                stats.buses[b].tx_errors += 1;
-                match error {
-                    BusError::TxQueueFull | BusError::Io(_) => Ok(()),
-                    BusError::BusOff => Err(Fault::BusOff { bus: b }),
-                    error => Err(Fault::Bus { bus: b, error }),
-                }
-            }
         }
+    }
+}
+
+/// A refused send: counted; a full queue or a transient error rides through, bus-off and a lost
+/// interface are faults.
+fn sent_error(b: usize, error: BusError, stats: &mut LoopStats) -> Result<(), Fault> {
+    stats.buses[b].tx_errors += 1;
+    match error {
+        BusError::TxQueueFull | BusError::Io(_) => Ok(()),
+        BusError::BusOff => Err(Fault::BusOff { bus: b }),
+        error => Err(Fault::Bus { bus: b, error }),
     }
 }

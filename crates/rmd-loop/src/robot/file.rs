@@ -196,6 +196,34 @@ pub enum RejectedCommandPolicy {
     Zero,
 }
 
+/// How the loop exchanges torque with the motors of a bus every tick.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ExchangeKind {
+    /// One 0x280 frame carrying the torque of motors 1..=4, answered by each with 0xA1
+    /// (v1.61 and LK-TECH only: on a MyActuator V3 bus 0x280 is one command for every motor).
+    MultiTorque,
+    /// One 0xA1 torque request per motor (`0x140 + id`, any id 1..=32), each in its motor's
+    /// own family and scale, answered on the motor's reply id; every family.
+    PerMotor,
+}
+
+impl ExchangeKind {
+    /// The stable name, `multi-torque` or `per-motor`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ExchangeKind::MultiTorque => "multi-torque",
+            ExchangeKind::PerMotor => "per-motor",
+        }
+    }
+}
+
+impl core::fmt::Display for ExchangeKind {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// Which way a joint turns relative to its motor.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -221,7 +249,8 @@ impl Direction {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MotorConfig {
-    /// Motor id (1..=4: one 0x280 frame drives ids 1..4).
+    /// Motor id (1..=4 on a `multi-torque` bus: one 0x280 frame drives ids 1..4; 1..=32 on a
+    /// `per-motor` bus).
     pub id: u8,
     /// The joint's name (e.g. "knee"): how controllers, reports and telemetry address it.
     /// Default: `bus<b>_motor<id>`.
@@ -232,8 +261,8 @@ pub struct MotorConfig {
     /// given here.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model: Option<String>,
-    /// The motor's protocol: `"v1.61"` (the default) or `"lk-v2.3x"` (then `lk_series`);
-    /// overrides the bus's and the model's.
+    /// The motor's protocol: `"v1.61"` (the default), `"lk-v2.3x"` (then `lk_series`) or
+    /// `"myactuator-v3"` (on a `per-motor` bus); overrides the bus's and the model's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub protocol: Option<String>,
     /// The LK-TECH motor series (`"mf"`, `"mg"`), whose current scale differs, for
@@ -285,6 +314,10 @@ pub struct MotorConfig {
     /// deg/s. Default: half the velocity limit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub velocity_margin_dps: Option<f64>,
+    /// A holding brake is fitted (MyActuator V3 only): the safe stop locks it (0x78) after
+    /// motor-off. Default false.
+    #[serde(default, skip_serializing_if = "core::ops::Not::not")]
+    pub brake: bool,
 }
 
 fn default_current_limit() -> f64 {
@@ -312,6 +345,7 @@ impl MotorConfig {
             velocity_limit_dps: None,
             limit_margin_deg: None,
             velocity_margin_dps: None,
+            brake: false,
         }
     }
 
@@ -329,6 +363,11 @@ impl MotorConfig {
     pub fn protocol(mut self, protocol: &str, lk_series: Option<&str>) -> Self {
         self.protocol = Some(protocol.to_string());
         self.lk_series = lk_series.map(str::to_string);
+        self
+    }
+    /// Says a holding brake is fitted (MyActuator V3).
+    pub fn brake(mut self, fitted: bool) -> Self {
+        self.brake = fitted;
         self
     }
     /// Sets the encoder resolution.
@@ -405,7 +444,13 @@ pub struct BusConfig {
     /// exchange budget.
     #[serde(default = "default_turnaround")]
     pub turnaround_us: u64,
-    /// The protocol of the bus's motors unless a motor says otherwise (`"v1.61"`, `"lk-v2.3x"`).
+    /// How torque is exchanged every tick (`"multi-torque"`, `"per-motor"`). Default:
+    /// `per-motor` when a motor of the bus speaks MyActuator V3 (which refuses
+    /// `multi-torque`), else `multi-torque`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exchange: Option<ExchangeKind>,
+    /// The protocol of the bus's motors unless a motor says otherwise (`"v1.61"`, `"lk-v2.3x"`,
+    /// `"myactuator-v3"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub protocol: Option<String>,
     /// The LK-TECH series of the bus's motors unless a motor says otherwise (`"mf"`, `"mg"`).
@@ -437,6 +482,7 @@ impl BusConfig {
             interface: interface.to_string(),
             bitrate: default_bitrate(),
             turnaround_us: default_turnaround(),
+            exchange: None,
             protocol: None,
             lk_series: None,
             zero_torque_ids: Vec::new(),
@@ -451,6 +497,16 @@ impl BusConfig {
     /// Adds a motor.
     pub fn with_motor(mut self, motor: MotorConfig) -> Self {
         self.motors.push(motor);
+        self
+    }
+    /// Sets the exchange kind.
+    pub fn exchange(mut self, kind: ExchangeKind) -> Self {
+        self.exchange = Some(kind);
+        self
+    }
+    /// Sets the protocol of the bus's motors (`"v1.61"`, `"myactuator-v3"`, ...).
+    pub fn protocol(mut self, protocol: &str) -> Self {
+        self.protocol = Some(protocol.to_string());
         self
     }
     /// Sets the bit rate.

@@ -46,8 +46,8 @@ use rmd_protocol::{
 pub use error::RobotError;
 use error::{Shown, invalid};
 pub use file::{
-    BusConfig, CpuLatencySetting, Direction, LoopConfig, MotorConfig, RejectedCommandPolicy,
-    ReplyMode, RobotConfig, SafeStopConfig,
+    BusConfig, CpuLatencySetting, Direction, ExchangeKind, LoopConfig, MotorConfig,
+    RejectedCommandPolicy, ReplyMode, RobotConfig, SafeStopConfig,
 };
 pub use limits::{
     DEFAULT_LIMIT_MARGIN_DEG, JointLimits, MAX_LIMIT_DEG, MAX_LIMIT_MARGIN_DEG,
@@ -59,10 +59,12 @@ use crate::schedule::{OverrunPolicy, Period};
 
 /// Most buses one loop drives.
 pub const MAX_BUSES: usize = 8;
-/// Most motors one bus carries: one 0x280 frame addresses ids 1..=4.
+/// Most motors a `multi-torque` bus carries: one 0x280 frame addresses ids 1..=4.
 pub const MAX_MOTORS_PER_BUS: usize = MULTI_TORQUE_MOTORS;
-/// Most joints one loop drives.
-pub const MAX_JOINTS: usize = MAX_BUSES * MAX_MOTORS_PER_BUS;
+/// Most joints one loop drives (whatever their buses).
+pub const MAX_JOINTS: usize = 32;
+/// The highest motor id of a `per-motor` bus (the protocol's ids are 1..=32).
+pub const MAX_PER_MOTOR_ID: u8 = 32;
 /// Largest torque current a v1.61 0x280 command can carry (iqControl 2000 = 32 A; other
 /// dialects: their own range).
 pub const MAX_COMMAND_AMPS: f64 = 32.0;
@@ -208,6 +210,8 @@ pub struct BusSpec {
     pub bitrate: u32,
     /// Expected motor turnaround, for the exchange budget.
     pub turnaround: Duration,
+    /// How torque is exchanged with its motors every tick.
+    pub exchange: ExchangeKind,
     /// Motors the description does not drive but acknowledges (`zero_torque_ids`): commanded
     /// zero torque every tick, made safe at the end.
     pub zero_torque_ids: Vec<MotorId>,
@@ -230,9 +234,23 @@ impl BusSpec {
         self.joints.len()
     }
 
-    /// Worst-case duration of one exchange (one 0x280 frame, every reply) on this bus.
+    /// The request frames of one exchange: one 0x280 frame (`multi-torque`), or one per motor.
+    pub fn requests_per_exchange(&self) -> u32 {
+        match self.exchange {
+            ExchangeKind::MultiTorque => 1,
+            ExchangeKind::PerMotor => self.joints.len() as u32,
+        }
+    }
+
+    /// Worst-case duration of one exchange on this bus (every request, every reply:
+    /// [`wire::exchange_budget_of`]).
     pub fn exchange_budget(&self) -> Duration {
-        wire::exchange_budget(self.joints.len() as u32, self.bitrate, self.turnaround)
+        wire::exchange_budget_of(
+            self.requests_per_exchange(),
+            self.joints.len() as u32,
+            self.bitrate,
+            self.turnaround,
+        )
     }
 }
 
@@ -262,7 +280,7 @@ pub struct JointSpec {
     pub name: String,
     /// The bus it is on (index in description order).
     pub bus: usize,
-    /// Its motor's id (1..=4).
+    /// Its motor's id (1..=4 on a `multi-torque` bus, 1..=32 on a `per-motor` one).
     pub motor: MotorId,
     /// The protocol dialect its firmware speaks (the current scales of its commands and replies).
     pub dialect: Dialect,
@@ -284,6 +302,8 @@ pub struct JointSpec {
     pub temperature_limit_celsius: Option<f64>,
     /// Its position and velocity limits, enforced by the loop below every controller.
     pub limits: JointLimits,
+    /// A holding brake is fitted (MyActuator V3): locked by the safe stop.
+    pub brake: bool,
 }
 
 impl JointSpec {
@@ -479,7 +499,20 @@ impl Robot {
                 }
                 joints.push(joint);
             }
-            check_budget(&spec, &settings, &key)?;
+            let mut spec = spec;
+            spec.exchange = exchange_of(bus, &joints[spec.joint_range()], &key)?;
+            check_bus_layout(bus, &spec, &key)?;
+            if joints.len() > MAX_JOINTS {
+                return Err(invalid(
+                    format!("{key}.motor"),
+                    format!(
+                        "brings the robot to {} motors, at most {MAX_JOINTS} are supported",
+                        joints.len()
+                    ),
+                ));
+            }
+            let explicit_deadline = config.loop_config.reply_deadline_us.is_some();
+            check_budget(&spec, &settings, explicit_deadline, &key)?;
             buses.push(spec);
         }
         Ok(Self {
@@ -534,9 +567,7 @@ fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
     }
     let reply_deadline = match l.reply_deadline_us {
         Some(us) => Duration::from_micros(us),
-        None => p
-            .saturating_sub((p / 10).max(Duration::from_micros(50)))
-            .max(p / 2),
+        None => default_reply_deadline(p),
     };
     if reply_deadline.is_zero() || reply_deadline > p {
         return Err(invalid(
@@ -680,15 +711,6 @@ fn bus_spec(b: usize, bus: &BusConfig, key: &str, first: usize) -> Result<BusSpe
             "a bus needs at least one motor",
         ));
     }
-    if bus.motors.len() > MAX_MOTORS_PER_BUS {
-        return Err(invalid(
-            format!("{key}.motor"),
-            format!(
-                "has {} motors, one 0x280 frame drives at most 4 (ids 1..=4)",
-                bus.motors.len()
-            ),
-        ));
-    }
     let name = match &bus.name {
         Some(name) if name.trim().is_empty() => {
             return Err(invalid(format!("{key}.name"), "must not be empty"));
@@ -718,6 +740,8 @@ fn bus_spec(b: usize, bus: &BusConfig, key: &str, first: usize) -> Result<BusSpe
         interface,
         bitrate: bus.bitrate,
         turnaround,
+        // Decided once its motors' dialects are known (`exchange_of`).
+        exchange: ExchangeKind::MultiTorque,
         zero_torque_ids,
         joints: first..first + bus.motors.len(),
     })
@@ -755,41 +779,20 @@ fn dialect_of(
     let series = m.lk_series.as_deref().or(bus.lk_series.as_deref()).or(model
         .and_then(|md| md.dialect.lk_series())
         .map(|s| s.name()));
-    let model_dialect = match model {
-        Some(md) if !md.dialect.multi_torque_is_per_motor_torque() => {
-            return Err(invalid(
-                format!("{key}.model"),
-                format!(
-                    "`{}` speaks {}, whose 0x280 frame is a command for every motor, not \
-                     per-motor torque: the loop cannot drive it",
-                    md.name, md.family
-                ),
-            ));
-        }
-        Some(md) => Some(md.dialect),
-        None => None,
-    };
+    // A MyActuator V3 motor is driven per motor: its bus's exchange is checked with the bus.
+    let model_dialect = model.map(|md| md.dialect);
     let dialect = match protocol {
         Some(p) => Dialect::from_names(p, series).map_err(|e| {
             invalid(
                 protocol_key.clone(),
                 format!(
-                    "is `{p}`: {e} (\"v1.61\", or \"lk-v2.3x\" with lk_series = \"mf\" or \"mg\")"
+                    "is `{p}`: {e} (\"v1.61\", \"myactuator-v3\", or \"lk-v2.3x\" with lk_series = \
+                     \"mf\" or \"mg\")"
                 ),
             )
         })?,
         None => model_dialect.unwrap_or_default(),
     };
-    if !dialect.multi_torque_is_per_motor_torque() {
-        return Err(invalid(
-            protocol_key,
-            format!(
-                "is {}, whose 0x280 frame is a command for every motor, not per-motor torque: \
-                 the loop cannot drive it",
-                dialect.name()
-            ),
-        ));
-    }
     if let (Some(md), Some(model_dialect)) = (model, model_dialect)
         && model_dialect.family() != dialect.family()
     {
@@ -814,18 +817,22 @@ fn joint_spec(
 ) -> Result<JointSpec, RobotError> {
     let model = model_of(m, key)?;
     let dialect = dialect_of(bus, m, model, key)?;
-    let motor = MotorId::new(m.id)
-        .ok()
-        .filter(|id| usize::from(id.get()) <= MAX_MOTORS_PER_BUS)
-        .ok_or_else(|| {
-            invalid(
-                format!("{key}.id"),
-                format!(
-                    "is {}, must be 1..=4 (one 0x280 frame drives motor ids 1 to 4; put more motors on another bus)",
-                    m.id
-                ),
-            )
-        })?;
+    // 1..=4 on a multi-torque bus: checked with the bus (`check_bus_layout`).
+    let motor = MotorId::new(m.id).ok().ok_or_else(|| {
+        invalid(
+            format!("{key}.id"),
+            format!("is {}, must be 1..={MAX_PER_MOTOR_ID}", m.id),
+        )
+    })?;
+    if m.brake && dialect.v3_firmware().is_none() {
+        return Err(invalid(
+            format!("{key}.brake"),
+            format!(
+                "is true, but the motor speaks {}: only MyActuator V3 motors have brake commands",
+                dialect.name()
+            ),
+        ));
+    }
     let encoder = match (m.encoder_bits, model.and_then(|md| md.encoder_bits)) {
         (Some(bits), _) => EncoderWidth::new(bits).map_err(|_| {
             invalid(
@@ -932,33 +939,166 @@ fn joint_spec(
         torque_constant_nm_per_amp: torque_constant,
         temperature_limit_celsius: m.temperature_limit_celsius,
         limits: limits::joint_limits(m, key)?,
+        brake: m.brake,
     })
 }
 
-/// The bus must carry one exchange per tick (same tick: before the reply deadline).
-fn check_budget(bus: &BusSpec, s: &LoopSettings, key: &str) -> Result<(), RobotError> {
+/// The bus's exchange: as written, or `per-motor` when a motor speaks MyActuator V3 (whose
+/// 0x280 frame is one command for every motor: `multi-torque` is refused there), else
+/// `multi-torque`.
+fn exchange_of(
+    bus: &BusConfig,
+    joints: &[JointSpec],
+    key: &str,
+) -> Result<ExchangeKind, RobotError> {
+    let v3 = joints
+        .iter()
+        .find(|j| !j.dialect.multi_torque_is_per_motor_torque());
+    match (bus.exchange, v3) {
+        (Some(ExchangeKind::MultiTorque), Some(j)) => Err(invalid(
+            format!("{key}.exchange"),
+            format!(
+                "is \"multi-torque\", but joint `{}` (motor {}) speaks {}, to which a 0x280 frame \
+                 is one command for every motor, not torque: use exchange = \"per-motor\" (the \
+                 default on such a bus)",
+                j.name,
+                j.motor.get(),
+                j.dialect.name()
+            ),
+        )),
+        (Some(kind), _) => Ok(kind),
+        (None, Some(_)) => Ok(ExchangeKind::PerMotor),
+        (None, None) => Ok(ExchangeKind::MultiTorque),
+    }
+}
+
+/// What the bus's exchange allows: a `multi-torque` bus drives (and acknowledges) ids 1..=4
+/// only; a `per-motor` bus commands only its described motors.
+fn check_bus_layout(bus: &BusConfig, spec: &BusSpec, key: &str) -> Result<(), RobotError> {
+    match spec.exchange {
+        ExchangeKind::MultiTorque => {
+            if bus.motors.len() > MAX_MOTORS_PER_BUS {
+                return Err(invalid(
+                    format!("{key}.motor"),
+                    format!(
+                        "has {} motors, one 0x280 frame drives at most 4 (ids 1..=4): use \
+                         exchange = \"per-motor\" or put more motors on another bus",
+                        bus.motors.len()
+                    ),
+                ));
+            }
+            for (m, motor) in bus.motors.iter().enumerate() {
+                if usize::from(motor.id) > MAX_MOTORS_PER_BUS {
+                    return Err(invalid(
+                        format!("{key}.motor[{m}].id"),
+                        format!(
+                            "is {}, must be 1..=4 (one 0x280 frame drives motor ids 1 to 4; use \
+                             exchange = \"per-motor\" or put more motors on another bus)",
+                            motor.id
+                        ),
+                    ));
+                }
+            }
+        }
+        ExchangeKind::PerMotor => {
+            if !spec.zero_torque_ids.is_empty() {
+                return Err(invalid(
+                    format!("{key}.zero_torque_ids"),
+                    "a per-motor bus commands only its described motors: an undescribed motor \
+                     there is never sent torque; remove zero_torque_ids",
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The bus must carry one exchange per tick (same tick: before the reply deadline). A rate it
+/// cannot carry is refused, naming the highest rate it can carry and what to change.
+fn check_budget(
+    bus: &BusSpec,
+    s: &LoopSettings,
+    explicit_deadline: bool,
+    key: &str,
+) -> Result<(), RobotError> {
     let budget = bus.exchange_budget();
     let (window, window_name) = match s.reply_mode {
         ReplyMode::SameTick => (s.reply_deadline, "reply deadline"),
         ReplyMode::Pipelined => (s.period.get(), "period"),
     };
-    if budget > window && !s.allow_over_budget {
-        return Err(invalid(
-            key,
-            format!(
-                "cannot carry one exchange per tick: {} motors at {} bit/s with {} us \
-                 turnaround need up to {} us (worst-case bit stuffing), but the {window_name} is \
-                 {} us. Lower loop.rate_hz, raise the bit rate, spread the motors over more \
-                 buses, or use reply_mode = \"pipelined\"",
-                bus.motor_count(),
-                bus.bitrate,
-                bus.turnaround.as_micros(),
-                budget.as_micros(),
-                window.as_micros()
-            ),
-        ));
+    if budget <= window || s.allow_over_budget {
+        return Ok(());
     }
-    Ok(())
+    let shortest = shortest_period(budget, s.reply_mode, explicit_deadline);
+    let highest = highest_rate_hz(shortest);
+    let deadline_hint = if explicit_deadline && s.reply_mode == ReplyMode::SameTick {
+        format!(
+            ", or raise loop.reply_deadline_us to at least {} us",
+            budget.as_micros().max(1)
+        )
+    } else {
+        String::new()
+    };
+    Err(invalid(
+        key,
+        format!(
+            "cannot carry one exchange per tick at {} Hz: {} motors ({} exchange, {} request \
+             frame(s)) at {} bit/s with {} us turnaround need up to {} us (worst-case bit \
+             stuffing), but the {window_name} is {} us. The highest rate this bus can carry is \
+             {highest} Hz. Lower loop.rate_hz to at most {highest}, put fewer motors on this \
+             bus (spread them over more buses), raise the bit rate{}{deadline_hint}",
+            Shown(1e9 / s.period.get().as_nanos() as f64),
+            bus.motor_count(),
+            bus.exchange,
+            bus.requests_per_exchange(),
+            bus.bitrate,
+            bus.turnaround.as_micros(),
+            budget.as_micros(),
+            window.as_micros(),
+            match s.reply_mode {
+                ReplyMode::SameTick => ", or use reply_mode = \"pipelined\"",
+                ReplyMode::Pipelined => "",
+            },
+        ),
+    ))
+}
+
+/// The reply deadline of a period when the description gives none: the period minus 10% (at
+/// least 50 us), but at least half the period.
+fn default_reply_deadline(p: Duration) -> Duration {
+    p.saturating_sub((p / 10).max(Duration::from_micros(50)))
+        .max(p / 2)
+}
+
+/// The shortest period whose window (same tick: the default reply deadline, or the explicit
+/// one, which must fit in the period; pipelined: the period) holds an exchange of `budget`.
+fn shortest_period(budget: Duration, mode: ReplyMode, explicit_deadline: bool) -> Duration {
+    if mode == ReplyMode::Pipelined || explicit_deadline {
+        return budget;
+    }
+    // The default deadline grows with the period: the least period whose deadline holds the
+    // budget, to the nanosecond (at most twice the budget).
+    let (mut low, mut high) = (budget.as_nanos() as u64, 2 * budget.as_nanos() as u64 + 1);
+    while low < high {
+        let mid = low + (high - low) / 2;
+        if default_reply_deadline(Duration::from_nanos(mid)) >= budget {
+            high = mid;
+        } else {
+            low = mid + 1;
+        }
+    }
+    Duration::from_nanos(low)
+}
+
+/// The highest whole rate (Hz) whose period is at least `period`.
+fn highest_rate_hz(period: Duration) -> u64 {
+    let ns = period.as_nanos().max(1);
+    let mut hz = (1_000_000_000 / ns) as u64;
+    // `Period::from_hz` rounds the period to the nanosecond: step down until it is long enough.
+    while hz > 1 && (1e9 / hz as f64).round() < ns as f64 {
+        hz -= 1;
+    }
+    hz
 }
 
 #[cfg(test)]
@@ -1301,11 +1441,109 @@ mod tests {
     #[test]
     fn more_than_four_motors_on_a_bus_is_refused() {
         let mut bus = BusConfig::new("can0");
-        for id in [1, 2, 3, 4, 4] {
+        for id in [1, 2, 3, 4, 5] {
             bus = bus.with_motor(MotorConfig::new(id));
         }
-        let err = Robot::try_from(RobotConfig::new(100.0).with_bus(bus)).unwrap_err();
+        let err = Robot::try_from(RobotConfig::new(100.0).with_bus(bus.clone())).unwrap_err();
         assert!(matches!(err, RobotError::Invalid { ref key, .. } if key == "bus[0].motor"));
+        // A per-motor bus carries them (ids up to 32), when the rate leaves the wire time.
+        let per_motor = bus
+            .exchange(ExchangeKind::PerMotor)
+            .with_motor(MotorConfig::new(32));
+        let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(per_motor)).unwrap();
+        assert_eq!(robot.buses()[0].exchange, ExchangeKind::PerMotor);
+        assert_eq!(robot.buses()[0].requests_per_exchange(), 6);
+        assert_eq!(robot.joints()[5].motor.get(), 32);
+        // A multi-torque bus drives ids 1..=4 only.
+        let high = BusConfig::new("can0").with_motor(MotorConfig::new(5));
+        let err = Robot::try_from(RobotConfig::new(100.0).with_bus(high)).unwrap_err();
+        assert!(matches!(err, RobotError::Invalid { ref key, .. } if key == "bus[0].motor[0].id"));
+    }
+
+    fn v3_bus(motors: u8) -> BusConfig {
+        let mut bus = BusConfig::new("can0").protocol("myactuator-v3");
+        for id in 1..=motors {
+            bus = bus.with_motor(MotorConfig::new(id));
+        }
+        bus
+    }
+
+    #[test]
+    fn a_v3_bus_exchanges_per_motor_and_refuses_multi_torque() {
+        let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(v3_bus(3))).unwrap();
+        let bus = &robot.buses()[0];
+        assert_eq!(bus.exchange, ExchangeKind::PerMotor);
+        // Three requests outlast the first motor's turnaround: 6 frames of 135 us.
+        assert_eq!(bus.exchange_budget(), Duration::from_micros(810));
+        let multi = v3_bus(3).exchange(ExchangeKind::MultiTorque);
+        match Robot::try_from(RobotConfig::new(1000.0).with_bus(multi)) {
+            Err(RobotError::Invalid { key, problem, .. }) => {
+                assert_eq!(key, "bus[0].exchange");
+                assert!(problem.contains("per-motor"), "{problem}");
+            }
+            other => panic!("{other:?}"),
+        }
+        // A bus mixing a v1.61 motor with a V3 one is per-motor too.
+        let mixed = BusConfig::new("can0")
+            .with_motor(MotorConfig::new(1))
+            .with_motor(MotorConfig::new(2).protocol("myactuator-v3", None));
+        let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(mixed)).unwrap();
+        assert_eq!(robot.buses()[0].exchange, ExchangeKind::PerMotor);
+        // A brake only on V3.
+        let braked = BusConfig::new("can0").with_motor(MotorConfig::new(1).brake(true));
+        expect_invalid(
+            &RobotConfig::new(100.0).with_bus(braked).to_toml(),
+            "bus[0].motor[0].brake",
+        );
+        let braked = v3_bus(1);
+        let mut braked = braked;
+        braked.motors[0].brake = true;
+        let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(braked)).unwrap();
+        assert!(robot.joints()[0].brake);
+    }
+
+    #[test]
+    fn a_rate_beyond_the_wire_budget_is_refused_naming_the_highest_it_can_carry() {
+        // Four V3 motors per-motor at 1 Mbit/s: 4 * 135 + 4 * 135 = 1080 us; the default reply
+        // deadline (90% of the period) holds it from 1200 us: 833 Hz.
+        let err = Robot::try_from(RobotConfig::new(1000.0).with_bus(v3_bus(4))).unwrap_err();
+        let RobotError::Invalid { key, problem, .. } = err else {
+            panic!("{err:?}")
+        };
+        assert_eq!(key, "bus[0]");
+        assert!(
+            problem.contains("highest rate this bus can carry is 833 Hz"),
+            "{problem}"
+        );
+        assert!(problem.contains("fewer motors"), "{problem}");
+        Robot::try_from(RobotConfig::new(833.0).with_bus(v3_bus(4))).unwrap();
+        assert!(Robot::try_from(RobotConfig::new(834.0).with_bus(v3_bus(4))).is_err());
+        // Pipelined: the period must hold it: 1 / 1080 us = 925.9 Hz.
+        let mut pipelined = RobotConfig::new(1000.0).with_bus(v3_bus(4));
+        pipelined.loop_config.reply_mode = ReplyMode::Pipelined;
+        let err = Robot::try_from(pipelined.clone()).unwrap_err();
+        assert!(err.to_string().contains("is 925 Hz"), "{err}");
+        pipelined.loop_config.rate_hz = 925.0;
+        Robot::try_from(pipelined).unwrap();
+        // The highest rate named is always one the check accepts, for every layout.
+        for motors in 1..=8u8 {
+            for bitrate in [125_000, 500_000, 1_000_000] {
+                let bus = v3_bus(motors).bitrate(bitrate);
+                let Err(RobotError::Invalid { problem, .. }) =
+                    Robot::try_from(RobotConfig::new(5000.0).with_bus(bus.clone()))
+                else {
+                    panic!("5 kHz accepted");
+                };
+                let hz: f64 = problem
+                    .split("can carry is ")
+                    .nth(1)
+                    .and_then(|rest| rest.split(' ').next())
+                    .and_then(|n| n.parse().ok())
+                    .unwrap_or_else(|| panic!("{problem}"));
+                Robot::try_from(RobotConfig::new(hz).with_bus(bus.clone())).unwrap();
+                assert!(Robot::try_from(RobotConfig::new(hz + 1.0).with_bus(bus)).is_err());
+            }
+        }
     }
 
     #[test]

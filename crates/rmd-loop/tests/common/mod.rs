@@ -159,3 +159,36 @@ impl Controller for PdTo {
 }
 
 pub const MS: Duration = Duration::from_millis(1);
+
+/// Pushes a constant joint current on every joint.
+pub struct Constant(pub f64);
+
+impl Controller for Constant {
+    fn update(&mut self, _: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
+        for (joint, _) in fb.iter() {
+            cmd.set_current(joint, self.0);
+        }
+        Flow::Continue
+    }
+}
+
+/// Whether any 0x280 frame went out on the simulated wire (recorded with `record_trace`).
+pub fn sent_multi_torque(bus: &SimBus<VirtualClock>) -> bool {
+    bus.trace()
+        .iter()
+        .any(|t| t.from == rmd_sim::Node::Host && t.frame.id() == rmd_protocol::MULTI_TORQUE_CAN_ID)
+}
+
+/// The loop started, or the test fails with its report (printed first: a panic on a thread
+/// that ran the loop is recorded by the loop's hook, not printed).
+pub fn started<B: rmd_bus::CanBus, C: rmd_bus::Clock + Clone + 'static, K: Controller>(
+    rt: rmd_loop::RtLoop<B, C, K>,
+) -> rmd_loop::Running<B, C, K> {
+    match rt.start() {
+        Ok(running) => running,
+        Err(out) => {
+            eprintln!("{}", out.report);
+            panic!("refused: {}", out.report.stop_description)
+        }
+    }
+}

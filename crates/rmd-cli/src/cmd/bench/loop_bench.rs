@@ -1,8 +1,9 @@
 //! `rmd bench loop`: the real-time loop running a PD position controller on simulated motors,
 //! and its report.
 //!
-//! `--motors` counts motors PER BUS (1..=4: one 0x280 frame drives ids 1..=4), so the robot has
-//! `--motors x --buses` motors. The simulated buses run at 1 Mbit/s with the simulator's default
+//! `--motors` counts motors PER BUS (1..=4), so the robot has `--motors x --buses` motors: one
+//! 0x280 frame per bus drives v1.61 motors 1..=4; MyActuator V3 motors (`--sim-firmware
+//! myactuator-v3`) get one 0xA1 request each per tick (the per-motor exchange). The simulated buses run at 1 Mbit/s with the simulator's default
 //! motors; the loop refuses a rate whose exchange does not fit the period (see docs/loop.md).
 //! Without `--virtual-time` everything runs in real time on the monotonic clock, each simulated
 //! bus on its own thread as real motors are (`--sim inline`: in the loop's thread); with it, on
@@ -77,8 +78,9 @@ pub(crate) struct LoopArgs {
         conflicts_with = "virtual_time"
     )]
     sim: super::rate::SimPlace,
-    /// The simulated motors' firmware: v1.61 (default), lk-v2.3x (MG), myactuator-v3. The
-    /// robot is described as v1.61, so any other is refused at start-up, before any torque.
+    /// The simulated motors' firmware: v1.61 (default), lk-v2.3x (MG), myactuator-v3. V3 motors
+    /// are described as V3 and driven per motor (one 0xA1 request each per tick); the robot is
+    /// otherwise described as v1.61, so LK-TECH is refused at start-up, before any torque.
     #[arg(long, value_name = "FIRMWARE", default_value = "v1.61", value_parser = crate::args::parse::sim_firmware)]
     sim_firmware: rmd_protocol::ProtocolFamily,
     #[command(flatten)]
@@ -92,13 +94,7 @@ pub(crate) struct LoopArgs {
 
 /// Runs `rmd bench loop`.
 pub(crate) fn run(args: LoopArgs) -> ExitCode {
-    let family = match args.sim_firmware {
-        rmd_protocol::ProtocolFamily::LkV23x => {
-            rmd_sim::FirmwareFamily::LkV23x(rmd_protocol::LkSeries::Mg)
-        }
-        rmd_protocol::ProtocolFamily::MyActuatorV3 => rmd_sim::FirmwareFamily::MyActuatorV3,
-        _ => rmd_sim::FirmwareFamily::V161,
-    };
+    let family = sim_family(&args);
     let outcome = if args.virtual_time {
         let clock = VirtualClock::new();
         robot::sim_buses_of(&clock, args.buses, args.motors, family)
@@ -167,6 +163,11 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
     ))
 }
 
+/// The simulated motors' firmware of `--sim-firmware`.
+fn sim_family(args: &LoopArgs) -> rmd_sim::FirmwareFamily {
+    super::sim_family(args.sim_firmware)
+}
+
 fn show_deg(v: Option<f64>) -> String {
     v.map_or_else(
         || "n/a (run shorter than 0.5 s)".to_string(),
@@ -206,7 +207,7 @@ fn run_on<C: Clock + Clone + 'static, B: CanBus + Send + 'static>(
     buses: Vec<B>,
     args: &LoopArgs,
 ) -> Result<Ran, Failure> {
-    let mut config = robot::robot(args.rate, args.buses, args.motors);
+    let mut config = robot::robot_for(args.rate, args.buses, args.motors, sim_family(args));
     args.rt.apply(&mut config);
     let robot = Robot::try_from(config).map_err(|e| Failure::Usage(e.to_string()))?;
     let period = robot.settings().period.get();

@@ -70,3 +70,14 @@ fn emit(text: &str) -> Result<(), ExitCode> {
         Err(error) => Err(report::failure(error)),
     }
 }
+
+/// The simulated firmware of a benchmark's `--sim-firmware` (LK-TECH: the MG series).
+fn sim_family(family: rmd_protocol::ProtocolFamily) -> rmd_sim::FirmwareFamily {
+    match family {
+        rmd_protocol::ProtocolFamily::LkV23x => {
+            rmd_sim::FirmwareFamily::LkV23x(rmd_protocol::LkSeries::Mg)
+        }
+        rmd_protocol::ProtocolFamily::MyActuatorV3 => rmd_sim::FirmwareFamily::MyActuatorV3,
+        _ => rmd_sim::FirmwareFamily::V161,
+    }
+}

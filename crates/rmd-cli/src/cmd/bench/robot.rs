@@ -23,9 +23,25 @@ const SEED: u64 = 0x5EED;
 /// The robot description (file form, to adjust before building the `Robot`): `buses` simulated
 /// buses named `sim0`, `sim1`, ... with motors 1..=`motors`.
 pub(crate) fn robot(rate_hz: f64, buses: usize, motors: u8) -> RobotConfig {
+    robot_for(rate_hz, buses, motors, FirmwareFamily::V161)
+}
+
+/// [`robot`] for simulated motors running `family`'s firmware: MyActuator V3 motors are described
+/// as such (their buses then exchange torque per motor, one 0xA1 each); any other family is
+/// described as v1.61, so that the start-up identification refuses a family the description
+/// does not name (`rmd bench loop --sim-firmware lk-v2.3x`).
+pub(crate) fn robot_for(
+    rate_hz: f64,
+    buses: usize,
+    motors: u8,
+    family: FirmwareFamily,
+) -> RobotConfig {
     let mut robot = RobotConfig::new(rate_hz);
     for b in 0..buses {
         let mut bus = BusConfig::new("sim").name(&format!("sim{b}"));
+        if family == FirmwareFamily::MyActuatorV3 {
+            bus = bus.protocol("myactuator-v3");
+        }
         for id in 1..=motors {
             bus = bus.with_motor(
                 MotorConfig::new(id)

@@ -12,6 +12,10 @@
 //!
 //! No loop, however fast, can start the next exchange on the bus before the cycle of this one has
 //! ended, so the highest rate any loop can sustain without a single overrun is `1 / max cycle`.
+//!
+//! A per-motor exchange (one 0xA1 request per motor, `rmd bench rate --sim-firmware
+//! myactuator-v3`) is the same with `motors` requests back to back before the replies: its cycle
+//! runs from the first request's start to the end of the last reply's intermission.
 
 use core::time::Duration;
 
@@ -38,27 +42,50 @@ pub(crate) struct Exchange {
     pub(crate) min_frame_bits: u32,
 }
 
-/// The complete exchanges of a bus's trace: each 0x280 frame the host sent followed by exactly
-/// `motors` motor frames. This includes the loop's start-up probes and the zero-torque frame of
-/// its safe stop: select the ticks' exchanges by their [`start`](Exchange::start).
+/// The complete exchanges of a bus's trace: each 0x280 frame the host sent, or `motors` 0xA1
+/// requests it sent back to back, followed by exactly `motors` motor frames. This includes the
+/// loop's start-up probes and the zero-torque frames of its safe stop: select the ticks'
+/// exchanges by their [`start`](Exchange::start).
 pub(crate) fn exchanges(trace: &[Transmission], motors: usize, bitrate: u32) -> Vec<Exchange> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < trace.len() {
-        let tx = &trace[i];
-        i += 1;
-        if !(tx.from == Node::Host && tx.frame.id() == MULTI_TORQUE_CAN_ID) {
+        let requests: Vec<&Transmission> = trace[i..]
+            .iter()
+            .take_while(|t| t.from == Node::Host)
+            .collect();
+        if requests.is_empty() {
+            i += 1;
             continue;
         }
+        i += requests.len();
         let replies: Vec<&Transmission> = trace[i..]
             .iter()
             .take_while(|t| matches!(t.from, Node::Motor(_)))
             .collect();
         i += replies.len();
-        if replies.len() != motors {
+        // The last host frame before the replies, when it is a 0x280 frame (a probe's read
+        // requests may precede it); else every host frame, when they are `motors` torque requests.
+        let multi_torque = requests
+            .last()
+            .is_some_and(|t| t.frame.id() == MULTI_TORQUE_CAN_ID);
+        let requests: Vec<&Transmission> = if multi_torque {
+            requests[requests.len() - 1..].to_vec()
+        } else {
+            requests
+        };
+        let per_motor = !multi_torque
+            && requests.len() == motors
+            && requests
+                .iter()
+                .all(|t| t.frame.data().first() == Some(&0xA1));
+        if replies.len() != motors || !(multi_torque || per_motor) {
             continue;
         }
-        let all: Vec<&Transmission> = core::iter::once(tx)
+        let (tx, last_request) = (requests[0], requests[requests.len() - 1]);
+        let all: Vec<&Transmission> = requests
+            .iter()
+            .copied()
             .chain(replies.iter().copied())
             .collect();
         let bits: Vec<u32> = all.iter().map(|t| frame_bits(&t.frame)).collect();
@@ -66,7 +93,7 @@ pub(crate) fn exchanges(trace: &[Transmission], motors: usize, bitrate: u32) -> 
             start: tx.start,
             cycle: replies[motors - 1].end - tx.start,
             frames: all.iter().map(|t| frame_duration(&t.frame, bitrate)).sum(),
-            turnaround: replies[0].start - tx.delivered,
+            turnaround: replies[0].start - last_request.delivered,
             max_frame_bits: bits.iter().copied().max().unwrap_or(0),
             min_frame_bits: bits.iter().copied().min().unwrap_or(0),
         });
@@ -180,6 +207,40 @@ mod tests {
         // Five frames of at most 135 bits plus at most 220 us: at least 1117 Hz.
         assert!(limit.rate_hz() > 1117.0, "{limit:?}");
         assert_eq!(WireLimit::of(&[]), None);
+    }
+
+    #[test]
+    fn a_per_motor_exchange_runs_from_its_first_request_to_its_last_reply() {
+        let clock = VirtualClock::new();
+        let v3 = rmd_protocol::Dialect::MyActuatorV3(rmd_protocol::V3Firmware::default());
+        let config = SimConfig::with_motors(3)
+            .seed(3)
+            .firmware_family(rmd_sim::FirmwareFamily::MyActuatorV3);
+        let mut bus = SimBus::new(clock.clone(), config).unwrap();
+        bus.record_trace(1000);
+        for k in 0..20 {
+            for m in 1..=3 {
+                let iq = rmd_protocol::ScaledCurrent::saturating(10 * k, v3.iq_control_scale());
+                let request = rmd_protocol::Request::Torque { iq_control: iq };
+                let id = rmd_protocol::MotorId::new(m).unwrap();
+                bus.send(&v3.encode(id, &request).unwrap()).unwrap();
+            }
+            let end = clock.now() + Duration::from_millis(2);
+            while bus.recv_until(end).unwrap().is_some() {}
+        }
+        let ex = exchanges(bus.trace(), 3, 1_000_000);
+        assert_eq!(ex.len(), 20);
+        for e in &ex {
+            // Six frames back to back but for the wait before the first reply.
+            assert_eq!(e.cycle, e.frames + e.turnaround - intermission(1_000_000));
+            assert!(e.max_frame_bits <= 135);
+        }
+        // Six frames of at most 135 bits, the first reply waiting for the last request at most
+        // the turnaround (220 us) after the first: at least 1 / (810 + 220 - 270) us.
+        let limit = WireLimit::of(&ex).unwrap();
+        assert!(limit.rate_hz() > 1000.0, "{limit:?}");
+        // Counted as multi-torque exchanges of 3 motors, none.
+        assert_eq!(exchanges(bus.trace(), 2, 1_000_000).len(), 0);
     }
 
     #[test]

@@ -91,6 +91,10 @@ pub(crate) struct RateArgs {
     /// Motors per bus, 1..=4.
     #[arg(long, default_value = "4", value_parser = flags::motors)]
     motors: u8,
+    /// The simulated motors' firmware: v1.61 (default; one 0x280 frame per bus and tick) or
+    /// myactuator-v3 (one 0xA1 request per motor and tick: the per-motor exchange).
+    #[arg(long, value_name = "FIRMWARE", default_value = "v1.61", value_parser = rate_firmware)]
+    sim_firmware: rmd_protocol::ProtocolFamily,
     /// Length of each trial (e.g. 10s, 500ms; a bare number is seconds).
     #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "10s", value_parser = run_length, allow_hyphen_values = true)]
     duration: Duration,
@@ -132,6 +136,17 @@ impl RateArgs {
     /// The headline's budget, as a fraction.
     fn budget(&self) -> f64 {
         self.miss_budget_pct / 100.0
+    }
+}
+
+/// `--sim-firmware` of `rmd bench rate`: the families its robot is described in.
+fn rate_firmware(text: &str) -> Result<rmd_protocol::ProtocolFamily, String> {
+    match crate::args::parse::sim_firmware(text)? {
+        family @ (rmd_protocol::ProtocolFamily::V161
+        | rmd_protocol::ProtocolFamily::MyActuatorV3) => Ok(family),
+        other => Err(format!(
+            "{other}: rmd bench rate runs v1.61 or myactuator-v3 motors"
+        )),
     }
 }
 

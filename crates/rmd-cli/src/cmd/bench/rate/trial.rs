@@ -236,7 +236,8 @@ pub(super) fn trial(
 }
 
 fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, String> {
-    let mut config = robot::robot(rate_hz, buses, args.motors);
+    let family = super::super::sim_family(args.sim_firmware);
+    let mut config = robot::robot_for(rate_hz, buses, args.motors, family);
     args.rt.apply(&mut config);
     let period = rmd_loop::schedule::Period::from_hz(rate_hz)
         .map_err(|e| e.to_string())?
@@ -247,7 +248,11 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
     l.missing_reply_fault_after = u32::MAX;
     let robot = rmd_loop::Robot::try_from(config).map_err(|e| e.to_string())?;
     let expected_ticks = (args.duration.as_nanos() / period.as_nanos()) as u64;
-    let frames_per_exchange = usize::from(args.motors) + 1;
+    let requests = match family {
+        rmd_sim::FirmwareFamily::MyActuatorV3 => usize::from(args.motors),
+        _ => 1,
+    };
+    let frames_per_exchange = usize::from(args.motors) + requests;
     // Start-up probes, every tick, and the safe stop (zero torque, motor-off and replies).
     let trace = (expected_ticks as usize + 64) * frames_per_exchange + 64;
     let limit = RunLimit::Duration(args.duration);
@@ -257,7 +262,7 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
     let (outcome, traces) = match args.sim {
         SimPlace::Virtual => {
             let clock = VirtualClock::new();
-            let mut sims = sim_buses(&clock, buses, args.motors, trace)?;
+            let mut sims = sim_buses(&clock, buses, args.motors, family, trace)?;
             let buses: Vec<_> = sims.iter_mut().collect();
             let outcome = run(robot, clock.clone(), buses, controller, limit)?;
             (outcome, traces_of(&sims))
@@ -266,21 +271,15 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
             let clock = ReceiveClock {
                 spin: Duration::from_micros(args.rx_spin_us),
             };
-            let mut sims = sim_buses(&clock, buses, args.motors, trace)?;
+            let mut sims = sim_buses(&clock, buses, args.motors, family, trace)?;
             let buses: Vec<_> = sims.iter_mut().collect();
             let outcome = run(robot, MonotonicClock, buses, controller, limit)?;
             (outcome, traces_of(&sims))
         }
         SimPlace::Thread => {
             let spin = Duration::from_micros(args.rx_spin_us);
-            let mut threaded = robot::threaded_buses(
-                buses,
-                args.motors,
-                rmd_sim::FirmwareFamily::V161,
-                &args.rt,
-                spin,
-                trace,
-            )?;
+            let mut threaded =
+                robot::threaded_buses(buses, args.motors, family, &args.rt, spin, trace)?;
             let ports = core::mem::take(&mut threaded.ports);
             let outcome = run(robot, MonotonicClock, ports, controller, limit)?;
             sim_late = Some(threaded.lateness());
@@ -351,9 +350,11 @@ fn sim_buses<C: Clock + Clone>(
     clock: &C,
     buses: usize,
     motors: u8,
+    family: rmd_sim::FirmwareFamily,
     trace: usize,
 ) -> Result<Vec<SimBus<C>>, String> {
-    let mut sims = robot::sim_buses(clock, buses, motors).map_err(|e| format!("simulator: {e}"))?;
+    let mut sims =
+        robot::sim_buses_of(clock, buses, motors, family).map_err(|e| format!("simulator: {e}"))?;
     for sim in &mut sims {
         sim.record_trace(trace);
     }
