@@ -40,7 +40,7 @@ use crate::shared::Shared;
 use crate::stall::{StallCause, TickStage};
 use crate::startup;
 use crate::stats::LoopStats;
-use crate::stop::Stopper;
+use crate::stopper::Stopper;
 use crate::supervisor::{SafetyPort, Supervisor};
 use crate::telemetry::{
     self, Published, TelemetryDelivery, TelemetryReceiver, TelemetrySample, TelemetrySender,

@@ -11,7 +11,8 @@ use crate::engine::{RtLoop, RunLimit};
 use crate::finish::{LoopOutcome, panic_message};
 use crate::shared::Shared;
 use crate::stats::{LoopStats, StatsSummary};
-use crate::stop::{StopRequest, Stopper};
+use crate::stop::StopRequest;
+use crate::stopper::Stopper;
 
 /// Stack size of the loop thread; the start-up pre-faults part of it.
 pub(crate) const LOOP_STACK_BYTES: usize = 8 * 1024 * 1024;

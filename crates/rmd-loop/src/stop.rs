@@ -1,14 +1,13 @@
-//! Stop requests: what other threads ask of a running loop, and the [`Stopper`] they ask with.
+//! Stop requests: what other threads ask of a running loop (with a
+//! [`Stopper`](crate::Stopper)).
 //!
 //! A request is a [`StopRequest`]; the loop reads it at the start of every tick (and between
 //! start-up probes) and ends with the matching [`StopReason`]. An emergency stop is never
 //! downgraded by a later, gentler request.
 
-use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
 
 use crate::report::StopReason;
-use crate::shared::Shared;
 
 /// A request to end the loop.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -69,45 +68,6 @@ impl StopSignal {
     /// The pending request, if any.
     pub(crate) fn pending(&self) -> Option<StopRequest> {
         StopRequest::from_code(self.0.load(Ordering::Acquire))
-    }
-}
-
-/// Stops a loop from another thread (cheap to clone, `Send + Sync`).
-#[derive(Clone, Debug)]
-pub struct Stopper {
-    shared: Arc<Shared>,
-}
-
-impl Stopper {
-    pub(crate) fn new(shared: Arc<Shared>) -> Self {
-        Self { shared }
-    }
-
-    /// Asks the loop to stop at its next tick (motors are made safe).
-    pub fn stop(&self) {
-        self.shared.stop.request(StopRequest::Stop);
-    }
-
-    /// Emergency stop: takes effect at the loop's next tick.
-    pub fn emergency_stop(&self) {
-        self.shared.stop.request(StopRequest::EmergencyStop);
-    }
-
-    /// Sends `request`.
-    pub fn request(&self, request: StopRequest) {
-        self.shared.stop.request(request);
-    }
-
-    /// Whether the loop is between its start and its end.
-    pub fn is_running(&self) -> bool {
-        self.shared.is_running()
-    }
-
-    /// Whether motor-off has gone out on every bus (by the loop's safe stop or the
-    /// supervisor's): after this, exiting the process leaves no motor commanded to torque by
-    /// this run, confirmed or not.
-    pub fn motors_off_sent(&self) -> bool {
-        self.shared.watch.motors_off_sent()
     }
 }
 
