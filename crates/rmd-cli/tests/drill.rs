@@ -139,6 +139,65 @@ fn all_runs_every_kind_once() {
     );
 }
 
+/// Every kind of the matrix on MyActuator V3 motors (per-motor exchange, three per bus, two
+/// buses) and on LK-TECH MG motors: each drill ends with every motor safe by the simulated
+/// firmware's ground truth.
+#[test]
+fn every_kind_ends_safe_on_v3_and_lk_motors() {
+    for (firmware, buses, motors) in [("myactuator-v3", "2", 6), ("lk-v2.3x", "1", 4)] {
+        let (code, stdout, stderr) = rmd(&[
+            "drill",
+            "--all",
+            "--virtual-time",
+            "--json",
+            "--seconds",
+            "0.6",
+            "--at",
+            "0.2",
+            "--sim-firmware",
+            firmware,
+            "--buses",
+            buses,
+        ]);
+        assert_eq!(code, 0, "{firmware}: {stderr}");
+        let drills: Vec<Value> = stdout
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        assert_eq!(drills.len(), 17, "{firmware}");
+        for d in &drills {
+            assert_eq!(d["motors"], motors, "{firmware}: {d}");
+            assert_eq!(d["motors_energised_after"], 0, "{firmware}: {d}");
+            assert_eq!(
+                d["believed_off_but_energised"],
+                serde_json::json!([]),
+                "{d}"
+            );
+        }
+    }
+}
+
+/// Four V3 motors on one bus need more than a 1 kHz tick on the wire: refused before anything
+/// runs, naming the rate the bus can carry.
+#[test]
+fn a_v3_layout_the_wire_cannot_carry_is_refused() {
+    let (code, stdout, stderr) = rmd(&[
+        "drill",
+        "--fault",
+        "stop",
+        "--virtual-time",
+        "--sim-firmware",
+        "myactuator-v3",
+        "--motors",
+        "4",
+    ]);
+    assert_eq!(code, 2, "{stdout}{stderr}");
+    assert!(
+        stderr.contains("highest rate this bus can carry is 833 Hz"),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn a_short_chaos_run_passes() {
     let (code, stdout, stderr) = rmd(&[

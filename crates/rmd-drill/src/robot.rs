@@ -4,7 +4,7 @@
 use rmd_bus::Timestamp;
 use rmd_loop::Robot;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
-use rmd_protocol::MotorId;
+use rmd_protocol::{MotorId, ProtocolFamily};
 use rmd_sim::{FaultKind, FaultRule, GravityLink, MotorSet, SimConfig};
 
 use crate::fault::DrillFault;
@@ -35,15 +35,19 @@ pub(crate) fn robot(spec: &DrillSpec) -> Result<Robot, rmd_loop::RobotError> {
             if bus == 0 && undescribed(spec).is_some_and(|u| u.get() == id) {
                 continue;
             }
-            bus_config = bus_config.with_motor(motor(id));
+            bus_config = bus_config.with_motor(motor(id, spec.firmware));
         }
         config = config.with_bus(bus_config);
     }
     Robot::try_from(config)
 }
 
-fn motor(id: u8) -> MotorConfig {
-    let mut motor = MotorConfig::new(id);
+fn motor(id: u8, firmware: ProtocolFamily) -> MotorConfig {
+    let mut motor = match firmware {
+        ProtocolFamily::LkV23x => MotorConfig::new(id).protocol("lk-v2.3x", Some("mg")),
+        ProtocolFamily::MyActuatorV3 => MotorConfig::new(id).protocol("myactuator-v3", None),
+        ProtocolFamily::V161 | ProtocolFamily::Unknown => MotorConfig::new(id),
+    };
     motor.gear_ratio = Some(9.0);
     motor.encoder_bits = Some(14);
     motor.torque_constant_nm_per_amp = Some(2.09);

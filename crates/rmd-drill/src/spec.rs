@@ -2,6 +2,7 @@
 
 use core::time::Duration;
 
+use rmd_protocol::ProtocolFamily;
 use rmd_rig::SimTime;
 use rmd_rig::signals::Signals;
 
@@ -34,6 +35,7 @@ pub struct DrillSpec {
     pub(crate) seed: u64,
     pub(crate) time: SimTime,
     pub(crate) signals: Option<Signals>,
+    pub(crate) firmware: ProtocolFamily,
 }
 
 impl DrillSpec {
@@ -48,6 +50,7 @@ impl DrillSpec {
             seed: 1,
             time: SimTime::Real,
             signals: None,
+            firmware: ProtocolFamily::V161,
         }
     }
 
@@ -74,6 +77,14 @@ impl DrillSpec {
     /// Simulates `motors` motors per bus (1..=4).
     pub fn motors(mut self, motors: u8) -> Self {
         self.motors = motors;
+        self
+    }
+
+    /// Simulates motors of this firmware family (v1.61 by default; LK-TECH motors are MG
+    /// series). A MyActuator V3 bus is driven by the per-motor exchange, whose wire budget
+    /// carries at most 3 motors at the drill's 1 kHz on 1 Mbit/s.
+    pub fn firmware(mut self, firmware: ProtocolFamily) -> Self {
+        self.firmware = firmware;
         self
     }
 

@@ -57,9 +57,14 @@ pub(crate) struct DrillArgs {
     /// Buses (each with --motors motors), 1..=8.
     #[arg(long, default_value_t = 1, value_name = "N")]
     buses: u8,
-    /// Motors per bus, 1..=4.
-    #[arg(long, default_value_t = 4, value_name = "M")]
-    motors: u8,
+    /// Motors per bus, 1..=4 [default: 4; 3 with --sim-firmware myactuator-v3, the most its
+    /// per-motor exchange carries at 1 kHz on 1 Mbit/s].
+    #[arg(long, value_name = "M")]
+    motors: Option<u8>,
+    /// The simulated motors' firmware: v1.61, lk-v2.3x (MG series) or myactuator-v3 (driven by
+    /// the per-motor exchange, made safe without a 0x280 frame).
+    #[arg(long, value_name = "FIRMWARE", default_value = "v1.61", value_parser = crate::args::parse::sim_firmware, conflicts_with = "chaos")]
+    sim_firmware: rmd_protocol::ProtocolFamily,
     /// When the fault strikes after the start (seconds, or 300ms, ...).
     #[arg(long, default_value = "0.5", value_parser = at, value_name = "SECONDS")]
     at: Duration,
@@ -78,6 +83,16 @@ pub(crate) struct DrillArgs {
     json: bool,
     #[command(flatten)]
     telemetry: TelemetryArgs,
+}
+
+impl DrillArgs {
+    /// Motors per bus: as given, or the most the firmware's exchange carries at 1 kHz (4).
+    fn motors(&self) -> u8 {
+        self.motors.unwrap_or(match self.sim_firmware {
+            rmd_protocol::ProtocolFamily::MyActuatorV3 => 3,
+            _ => 4,
+        })
+    }
 }
 
 fn at(text: &str) -> Result<Duration, String> {
@@ -111,7 +126,8 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
     let spec = |fault| {
         DrillSpec::new(fault)
             .buses(args.buses)
-            .motors(args.motors)
+            .motors(args.motors())
+            .firmware(args.sim_firmware)
             .at(args.at)
             .seconds(args.seconds)
             .seed(args.seed)
@@ -247,13 +263,13 @@ fn run_all(
         progress.set_message(fault.to_string());
         let mut one = spec(fault);
         if let DrillFault::SilentMotor(id) = fault
-            && id.get() > args.motors
+            && id.get() > args.motors()
         {
             one = spec(DrillFault::SilentMotor(
                 rmd_protocol::MotorId::new(1).map_err(|e| CliError::Failed(e.to_string()))?,
             ));
         }
-        if matches!(fault, DrillFault::UnknownMotor(_)) && args.motors < 2 {
+        if matches!(fault, DrillFault::UnknownMotor(_)) && args.motors() < 2 {
             progress.println(format!("{fault}: skipped (needs --motors 2 or more)"));
             continue;
         }

@@ -331,6 +331,7 @@ const EXAMPLES: &[(&str, &[&str])] = &[
         &[
             "rmd drill --fault bus-off:50 --buses 2",
             "rmd drill --all --virtual-time",
+            "rmd drill --all --virtual-time --sim-firmware myactuator-v3   # V3 motors, per-motor exchange",
             "rmd drill --chaos --seconds 60 --seed 7 --virtual-time --json",
             "rmd drill --fault controller-hang:200 --virtual-time --mcap drill.mcap",
         ],
