@@ -198,6 +198,58 @@ fn a_v3_layout_the_wire_cannot_carry_is_refused() {
     );
 }
 
+/// `host-silent:MS`: the host falls silent for good (nothing it sends reaches the motors, its
+/// safe stop included). V3 motors with the watchdog in ROM turn themselves off within its
+/// protection time by the firmware's ground truth; without it, and on v1.61 motors, which have
+/// none, they stay energised and the drill says so.
+#[test]
+fn a_silent_host_leaves_only_the_motor_watchdog_to_stop_the_motors() {
+    let drill = |firmware: &str, fault: &str| {
+        let (code, stdout, stderr) = rmd(&[
+            "drill",
+            "--fault",
+            fault,
+            "--virtual-time",
+            "--json",
+            "--seconds",
+            "1",
+            "--sim-firmware",
+            firmware,
+        ]);
+        let d: Value = serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{e}: {stderr}"));
+        (code, d)
+    };
+    let (code, d) = drill("myactuator-v3", "host-silent:50");
+    assert_eq!(code, 0, "{d}");
+    assert_eq!(d["motors_energised_after"], 0, "{d}");
+    let ms = d["time_to_safe_ms"].as_f64().unwrap();
+    assert!(ms > 0.0 && ms <= 50.0, "{d}");
+    // The loop could not confirm anything: its frames never arrived.
+    assert_eq!(d["confirmed_off"], 0, "{d}");
+    for (firmware, fault, motors) in [
+        ("myactuator-v3", "host-silent:0", 3),
+        ("v1.61", "host-silent:50", 4),
+    ] {
+        let (code, d) = drill(firmware, fault);
+        assert_eq!(code, 1, "{firmware} {fault}: {d}");
+        assert_eq!(d["motors_energised_after"], motors, "{d}");
+        assert!(d["time_to_safe_ms"].is_null(), "{d}");
+    }
+    let (code, stdout, _) = rmd(&[
+        "drill",
+        "--fault",
+        "host-silent:50",
+        "--virtual-time",
+        "--seconds",
+        "1",
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        stdout.contains("only a watchdog in the motor stops it then"),
+        "{stdout}"
+    );
+}
+
 #[test]
 fn a_short_chaos_run_passes() {
     let (code, stdout, stderr) = rmd(&[

@@ -54,6 +54,12 @@ pub enum DrillFault {
     /// A motor with this id answers on bus 0 but the robot description does not have it (it is
     /// there from power-up: the drill's `--at` does not apply).
     UnknownMotor(MotorId),
+    /// The host falls silent for good, as after SIGKILL, a kernel hang or a power loss: from
+    /// then on nothing it sends reaches any bus's motors, its safe stop included. The duration
+    /// is the communication watchdog in every MyActuator V3 motor's ROM (0xB3, `rmd watchdog`;
+    /// zero: none): the only thing that stops a motor then. v1.61 and LK-TECH motors have none.
+    /// Not in the matrix: without a watchdog its honest verdict is "energised".
+    HostSilent(Duration),
 }
 
 /// A probability, 0..=1.
@@ -110,7 +116,7 @@ pub enum FaultParseError {
 /// Every kind, as the error message lists them.
 const KINDS: &str = "bus-off:MS, tx-stall:MS, controller-hang:MS, controller-panic, nan-command, \
      slow-controller:US, silent-motor:ID, drop:P, late:P,MS, corrupt:P, duplicate:P, wrong-dlc:P, \
-     over-temperature, low-voltage, estop, stop, unknown-motor:ID";
+     over-temperature, low-voltage, estop, stop, unknown-motor:ID, host-silent:MS";
 
 /// The longest duration a fault argument may name: one hour.
 const MAX_ARG: Duration = Duration::from_secs(3600);
@@ -168,6 +174,7 @@ impl DrillFault {
             DrillFault::Estop => "estop",
             DrillFault::Stop => "stop",
             DrillFault::UnknownMotor(_) => "unknown-motor",
+            DrillFault::HostSilent(_) => "host-silent",
         }
     }
 
@@ -189,7 +196,10 @@ impl fmt::Display for DrillFault {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let kind = self.kind();
         match self {
-            DrillFault::BusOff(d) | DrillFault::TxStall(d) | DrillFault::ControllerHang(d) => {
+            DrillFault::BusOff(d)
+            | DrillFault::TxStall(d)
+            | DrillFault::ControllerHang(d)
+            | DrillFault::HostSilent(d) => {
                 write!(f, "{kind}:{}", d.as_millis())
             }
             DrillFault::SlowController(d) => write!(f, "{kind}:{}", d.as_micros()),
@@ -267,6 +277,7 @@ impl FromStr for DrillFault {
             "low-voltage" => DrillFault::LowVoltage,
             "estop" => DrillFault::Estop,
             "stop" => DrillFault::Stop,
+            "host-silent" => DrillFault::HostSilent(ms(arg)?),
             _ => DrillFault::UnknownMotor(id(arg)?),
         })
     }
@@ -297,6 +308,7 @@ const SHAPES: &[(&str, Option<&str>)] = &[
     ("estop", None),
     ("stop", None),
     ("unknown-motor", Some("ID")),
+    ("host-silent", Some("MS")),
 ];
 
 /// A whole number of `unit_us` microseconds, at most [`MAX_ARG`].
@@ -313,11 +325,19 @@ mod tests {
     #[test]
     fn every_kind_of_the_matrix_reads_back_what_it_writes() {
         let matrix = DrillFault::matrix();
-        assert_eq!(matrix.len(), SHAPES.len());
+        // Every kind but host-silent, whose verdict without a motor watchdog is "energised".
+        assert_eq!(matrix.len() + 1, SHAPES.len());
         for (fault, (name, _)) in matrix.iter().zip(SHAPES) {
             assert_eq!(fault.kind(), *name);
             assert_eq!(fault.to_string().parse::<DrillFault>(), Ok(*fault));
         }
+        let silent = DrillFault::HostSilent(Duration::from_millis(50));
+        assert_eq!(silent.to_string(), "host-silent:50");
+        assert_eq!("host-silent:50".parse::<DrillFault>(), Ok(silent));
+        assert_eq!(
+            "host-silent:0".parse::<DrillFault>(),
+            Ok(DrillFault::HostSilent(Duration::ZERO))
+        );
     }
 
     #[test]

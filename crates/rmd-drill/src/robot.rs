@@ -4,7 +4,7 @@
 use rmd_bus::Timestamp;
 use rmd_loop::Robot;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
-use rmd_protocol::{MotorId, ProtocolFamily};
+use rmd_protocol::{MotorId, ProtocolFamily, WatchdogTimeout};
 use rmd_sim::{FaultKind, FaultRule, GravityLink, MotorSet, SimConfig};
 
 use crate::fault::DrillFault;
@@ -82,6 +82,19 @@ pub(crate) fn sims(robot: &Robot, spec: &DrillSpec, start: Timestamp) -> Vec<Sim
         motor.id = id;
         motor.load.gravity = Some(ARM);
         bus0.motors.push(motor);
+    }
+    // The host falls silent on every bus at once, and each V3 motor has the watchdog in ROM.
+    for &(fault, at) in &spec.faults {
+        if let DrillFault::HostSilent(watchdog) = fault {
+            let millis = u32::try_from(watchdog.as_millis()).unwrap_or(u32::MAX);
+            for sim in &mut sims {
+                for motor in &mut sim.motors {
+                    motor.firmware.v3.watchdog = WatchdogTimeout::from_millis(millis);
+                }
+                sim.faults
+                    .push(FaultRule::new(FaultKind::HostSilent).first_after(start + at, 1));
+            }
+        }
     }
     if let Some(bus0) = sims.first_mut() {
         let ids: Vec<MotorId> = bus0.motors.iter().map(|m| m.id).collect();

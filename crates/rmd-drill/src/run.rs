@@ -78,6 +78,7 @@ pub fn run_with_telemetry(
     };
     let rig = Rig::open(&robot, &placement, robot::sims(&robot, spec, start))?;
     let sims: Vec<SharedSim> = rig.buses.iter().filter_map(|b| b.sim().cloned()).collect();
+    let clock = rig.clock.clone();
     let pace = match &rig.clock {
         AnyClock::Virtual(clock) => Pace::Virtual(clock.clone()),
         AnyClock::Monotonic(_) => Pace::Real,
@@ -106,6 +107,27 @@ pub fn run_with_telemetry(
         })
         .min()
         .unwrap_or(start);
+    // A silent host sends nothing more, so the run's end is not the motors' end: the verdict
+    // waits until each motor's watchdog could have acted (its protection time after the
+    // silence, and a 20 ms margin), on the run's own clock.
+    let settled = spec
+        .faults
+        .iter()
+        .filter_map(|&(fault, at)| match fault {
+            DrillFault::HostSilent(watchdog) => {
+                Some(start + at + watchdog + core::time::Duration::from_millis(20))
+            }
+            _ => None,
+        })
+        .max();
+    if let Some(settled) = settled
+        && let Some(wait) = settled.checked_duration_since(clock.now())
+    {
+        match &clock {
+            AnyClock::Virtual(clock) => clock.advance(wait),
+            AnyClock::Monotonic(_) => std::thread::sleep(wait),
+        }
+    }
     let written: Vec<String> = spec.faults.iter().map(|(f, _)| f.to_string()).collect();
     Ok((
         judge(written.join(" + "), fault_at, &sims, outcome.report),

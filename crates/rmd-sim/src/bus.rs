@@ -40,6 +40,8 @@ pub struct BusStats {
     pub tx_bus_off: u64,
     /// Frames lost to bus-off (queued by the host, or arriving while bus-off).
     pub lost_to_bus_off: u64,
+    /// Frames the host sent after it fell silent ([`FaultKind::HostSilent`](crate::FaultKind::HostSilent)): none reached the motors.
+    pub lost_to_host_silent: u64,
     /// Frames lost because the client's receive queue was full.
     pub rx_overflow: u64,
     /// Replies the motors could not queue (all transmit mailboxes full).
@@ -83,6 +85,8 @@ pub struct SimBus<C: Clock> {
     /// While bus-off: when the controller restarts.
     bus_off_until: Option<Timestamp>,
     bus_faults: bool,
+    /// The host fell silent: from then on nothing it sends reaches the wire.
+    host_silent: bool,
     trace: Vec<Transmission>,
     trace_capacity: usize,
     stats: BusStats,
@@ -114,6 +118,7 @@ impl<C: Clock> SimBus<C> {
             rx_queue_len: config.bus.rx_queue_len,
             bus_off_until: None,
             bus_faults,
+            host_silent: false,
             trace: Vec::new(),
             trace_capacity: 0,
             stats: BusStats::default(),
@@ -284,6 +289,10 @@ impl<C: Clock> SimBus<C> {
             self.stats.tx_queue_full += 1;
             return Err(BusError::TxQueueFull);
         }
+        if self.host_silent {
+            self.stats.lost_to_host_silent += 1;
+            return Ok(());
+        }
         if self.bus_faults {
             let (kind, motors) = classify(frame);
             match self.motors.faults_mut().on_host_frame(kind, motors, now) {
@@ -294,6 +303,11 @@ impl<C: Clock> SimBus<C> {
                     return Ok(());
                 }
                 Some(BusFault::TxStall(duration)) => self.wire.block_host_until(now + duration),
+                Some(BusFault::HostSilent) => {
+                    self.host_silent = true;
+                    self.stats.lost_to_host_silent += 1;
+                    return Ok(());
+                }
                 None => {}
             }
         }

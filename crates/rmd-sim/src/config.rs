@@ -4,7 +4,7 @@ use core::time::Duration;
 
 use rmd_protocol::{
     Accel, Dialect, EncoderValue, EncoderWidth, FirmwareDate, MotorId, MotorMaxTorque, PidParams,
-    V3Firmware,
+    V3Firmware, WatchdogTimeout,
 };
 
 use crate::error::ConfigError;
@@ -53,6 +53,9 @@ pub struct V3Params {
     /// power-up. Default 1.12 s, measured by github.com/almond-bot/axol (`myactuator.py`,
     /// "Measured reboot time is ~1.12s").
     pub reboot_time: Duration,
+    /// The communication-interruption protection time in the motor's ROM at power-up (0xB3,
+    /// as `rmd watchdog` writes it). Default off.
+    pub watchdog: WatchdogTimeout,
 }
 
 /// The default V3 model string.
@@ -67,6 +70,7 @@ impl Default for V3Params {
             rated_current_a: 4.3,
             has_brake: false,
             reboot_time: Duration::from_millis(1120),
+            watchdog: WatchdogTimeout::OFF,
         }
     }
 }

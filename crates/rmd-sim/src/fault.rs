@@ -210,6 +210,11 @@ pub enum FaultKind {
         /// How long the host cannot transmit.
         duration: Duration,
     },
+    /// From the matching frame on, nothing the host sends reaches the motors, and `send` still
+    /// succeeds: the host died (SIGKILL, a kernel hang, a power loss) or its cable was cut, as
+    /// the motors see it. Only a motor-side watchdog (MyActuator V3's 0xB3) stops a motor then.
+    /// Simulated bus only.
+    HostSilent,
 }
 
 impl FaultKind {
@@ -221,7 +226,10 @@ impl FaultKind {
     }
 
     pub(crate) fn is_bus(self) -> bool {
-        matches!(self, FaultKind::BusOff { .. } | FaultKind::TxStall { .. })
+        matches!(
+            self,
+            FaultKind::BusOff { .. } | FaultKind::TxStall { .. } | FaultKind::HostSilent
+        )
     }
 }
 
@@ -373,6 +381,7 @@ pub(crate) struct ReplyFaults {
 pub(crate) enum BusFault {
     BusOff(Duration),
     TxStall(Duration),
+    HostSilent,
 }
 
 /// Index of the host's frame counter in [`RuleState::counts`].
@@ -527,6 +536,7 @@ impl FaultEngine {
             started = started.or(match r.rule.kind {
                 FaultKind::BusOff { duration } => Some(BusFault::BusOff(duration)),
                 FaultKind::TxStall { duration } => Some(BusFault::TxStall(duration)),
+                FaultKind::HostSilent => Some(BusFault::HostSilent),
                 _ => None,
             });
         }

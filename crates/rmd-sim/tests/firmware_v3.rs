@@ -590,3 +590,49 @@ fn single_turn_angle_by_firmware_date() {
         );
     }
 }
+
+/// A watchdog in ROM at power-up (`V3Params::watchdog`), and a host that falls silent
+/// (`FaultKind::HostSilent`): the host's frames vanish while `send` still succeeds, and only the
+/// motor's own watchdog turns the output off, within its protection time. Without the watchdog
+/// the motor keeps its last current.
+#[test]
+fn a_silent_host_leaves_only_the_motors_watchdog_to_stop_it() {
+    for (watchdog_ms, expect_off) in [(50, true), (0, false)] {
+        let v3 = V3Params {
+            watchdog: WatchdogTimeout::from_millis(watchdog_ms),
+            ..V3Params::default()
+        };
+        let mut bus = V3Bus::with(1, v3, |c| {
+            c.faults.push(
+                FaultRule::new(FaultKind::HostSilent)
+                    .first_after(rmd_bus::Timestamp::ZERO + ms(20), 1),
+            );
+        });
+        let heard_last = bus.bus.clock().now();
+        bus.torque(1, 1.0);
+        bus.wait(ms(20));
+        // The frame that meets the fault, and every one after it, never reaches the motor.
+        let off = Dialect::MyActuatorV3(v3.firmware())
+            .encode(id(1), &Request::MotorOff)
+            .unwrap();
+        assert!(bus.send(off).is_empty());
+        assert!(bus.send(off).is_empty());
+        assert_eq!(bus.bus.stats().lost_to_host_silent, 2);
+        // The protection time counts from the last frame the motor heard: the torque request.
+        let now = bus.bus.clock().now();
+        bus.wait((heard_last + ms(45)).checked_duration_since(now).unwrap());
+        assert_eq!(bus.truth(1).mode, ControlMode::Torque { current_a: 1.0 });
+        bus.wait(ms(30));
+        let truth = bus.truth(1);
+        if expect_off {
+            assert!(truth.watchdog_tripped, "{truth:?}");
+            assert_eq!(truth.mode, ControlMode::Off);
+            let since = truth.safe_since.expect("safe");
+            let after = since.checked_duration_since(heard_last).unwrap();
+            assert!(after <= ms(52), "{after:?}");
+        } else {
+            assert!(!truth.watchdog_tripped);
+            assert_eq!(truth.mode, ControlMode::Torque { current_a: 1.0 });
+        }
+    }
+}

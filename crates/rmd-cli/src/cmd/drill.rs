@@ -35,7 +35,9 @@ use crate::output::{errln, outln};
     after_help = "Fault kinds: bus-off:MS, tx-stall:MS, controller-hang:MS, \
     controller-panic, nan-command, slow-controller:US, silent-motor:ID, drop:P, late:P,MS, \
     corrupt:P, duplicate:P, wrong-dlc:P, over-temperature, low-voltage, estop, stop, \
-    unknown-motor:ID. Faults of the motors and buses strike bus 0.\n\n\
+    unknown-motor:ID, host-silent:MS (the host falls silent for good on every bus; MS is the \
+    communication watchdog in each MyActuator V3 motor, 0 for none; not in --all). Faults of \
+    the motors and buses strike bus 0.\n\n\
     The verdict comes from the simulated firmware, not from the loop: a motor is safe when its \
     firmware applies and is commanded no torque. Exit status: 0 when every motor ended safe, 1 \
     when some motor is still energised (or a chaos drill failed, or a telemetry file could not \
@@ -236,6 +238,15 @@ fn verdict(d: &Drill) -> String {
         "  confirmed off by the loop: {} of {}",
         d.confirmed_off, d.motors
     ));
+    if d.fault.contains("host-silent") && !d.passed() {
+        lines.push(
+            "  the host fell silent: nothing it sent reached the motors, its safe stop included; \
+             only a watchdog in the motor stops it then. MyActuator V3 motors have one \
+             (`rmd watchdog ID TIME`, docs/safety.md); v1.61 and LK-TECH motors have none, so \
+             they stay energised until their power is cut"
+                .to_owned(),
+        );
+    }
     lines.join("\n")
 }
 

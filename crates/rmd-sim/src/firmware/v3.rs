@@ -70,7 +70,7 @@ impl V3State {
     pub(crate) fn new(params: &V3Params) -> Self {
         Self {
             brake_locked: params.has_brake,
-            watchdog: WatchdogTimeout::OFF,
+            watchdog: params.watchdog,
             can_id_filter: false,
             functions: [0; 9],
             reset_requested: false,
