@@ -92,6 +92,21 @@ class NodeEnded(Exception):
     """The node's loop ended during a probe (its sockets with it)."""
 
 
+def live_sockets(node):
+    """The node's UDP sockets, read while it runs: a node that ended meanwhile (its sockets
+    gone with it) is NodeEnded, not a node without sockets."""
+    sockets = node_sockets(node.proc.pid)
+    if not sockets:
+        # A node closes its sockets as it exits: give an ending node the time to end.
+        try:
+            node.proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            pass
+    if node.proc.poll() is not None:
+        raise NodeEnded(node.wait())
+    return sockets
+
+
 def probe(ns, targets, node):
     out = subprocess.run([*ns, sys.executable, "-c", PROBE, *targets], check=True,
                          capture_output=True, text=True, timeout=120).stdout
@@ -137,7 +152,7 @@ def running_node(network):
 
 def test_bound_to_loopback_nothing_from_another_host_reaches_the_node(there):
     def check(r):
-        sockets = node_sockets(r.proc.pid)
+        sockets = live_sockets(r)
         for local in sockets:
             assert local.split(":")[0] in ("127.0.0.1", "239.255.0.1"), sockets
         ports = sorted({local.rsplit(":", 1)[1] for local in sockets})
@@ -150,7 +165,7 @@ def test_bound_to_loopback_nothing_from_another_host_reaches_the_node(there):
 
 def test_bound_to_one_interface_nothing_arrives_by_the_other(there):
     def check(r):
-        sockets = node_sockets(r.proc.pid)
+        sockets = live_sockets(r)
         for local in sockets:
             assert local.split(":")[0] in (HERE[0], "239.255.0.1"), sockets
         unicast = sorted({s.rsplit(":", 1)[1] for s in sockets if s.startswith(HERE[0] + ":")})
