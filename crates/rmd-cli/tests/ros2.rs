@@ -10,6 +10,12 @@ const LEG4: &str = concat!(
     "/../../examples/robots/leg4.toml"
 );
 
+/// The same leg on MyActuator V3 motors (two buses of two, the per-motor exchange).
+const LEG4_V3: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../examples/robots/leg4-v3.toml"
+);
+
 fn rmd(args: &[&str]) -> (i32, String, String) {
     let out = Command::cargo_bin("rmd")
         .unwrap()
@@ -75,11 +81,21 @@ fn bad_input_is_a_usage_error_naming_what_to_change() {
 
 #[test]
 fn a_short_run_reports_the_loop_and_the_nodes_counters() {
+    a_short_run_of(LEG4, 60);
+}
+
+/// A V3 robot runs the node the same way (its motors driven by the per-motor exchange).
+#[test]
+fn a_short_run_of_a_v3_robot_reports_the_same() {
+    a_short_run_of(LEG4_V3, 20);
+}
+
+fn a_short_run_of(robot: &str, domains_from: u32) {
     // DDS on loopback only, in a domain of this test's own.
-    let domain = (60 + std::process::id() % 40).to_string();
+    let domain = (domains_from + std::process::id() % 40).to_string();
     let (code, stdout, stderr) = rmd(&[
         "--robot",
-        LEG4,
+        robot,
         "--sim",
         "--seconds",
         "1.5",
