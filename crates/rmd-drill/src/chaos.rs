@@ -14,6 +14,7 @@ use serde::Serialize;
 use crate::fault::{DrillFault, Probability};
 use crate::spec::DrillSpec;
 use crate::verdict::SimMotorRef;
+use rmd_protocol::ProtocolFamily;
 
 /// How much the resident memory may grow after the warm-up, KiB: drills hold nothing from one
 /// to the next, so growth beyond allocator noise is a leak. (The warm-up fills the process's
@@ -34,6 +35,9 @@ pub struct ChaosSpec {
     /// The program's signals, if they are to stop the run: the drill in progress is stopped
     /// (and judged), no other starts (`rmd_rig::signals`).
     pub signals: Option<Signals>,
+    /// The simulated motors' firmware family ([`DrillSpec::firmware`]); MyActuator V3 drills
+    /// have at most 3 motors per bus (the per-motor exchange's wire budget at 1 kHz).
+    pub firmware: ProtocolFamily,
 }
 
 /// One drill of a chaos run, and what it found.
@@ -135,6 +139,7 @@ impl ChaosReport {
 ///     seed: 7,
 ///     time: SimTime::Virtual,
 ///     signals: None,
+///     firmware: rmd_protocol::ProtocolFamily::V161,
 /// };
 /// let report = chaos(&spec, |_| {});
 /// assert!(report.passed(), "{:?}", report.failures);
@@ -146,12 +151,12 @@ pub fn chaos(spec: &ChaosSpec, mut each: impl FnMut(&ChaosDrill)) -> ChaosReport
     let mut elapsed = Duration::ZERO;
     let mut baseline_rss = None;
     let mut max_rss = 0;
-    let mut warm_up = warm_up(&mut rng, spec.time).into_iter();
+    let mut warm_up = warm_up(&mut rng, spec.time, spec.firmware).into_iter();
     while elapsed < spec.seconds && !spec.signals.is_some_and(|s| s.interrupted()) {
         let index = report.drills.len();
         let (mut drill, warming) = match warm_up.next() {
             Some(drill) => (drill, true),
-            None => (random_drill(&mut rng, spec.time), false),
+            None => (random_drill(&mut rng, spec.time, spec.firmware), false),
         };
         if let Some(signals) = spec.signals {
             drill = drill.stopped_by(signals);
@@ -266,12 +271,23 @@ fn budget(drill: &DrillSpec) -> Duration {
     own + hangs + Duration::from_secs(60)
 }
 
-/// One drill of every kind of the matrix, 300 ms each, on two buses of four motors.
-fn warm_up(rng: &mut Pcg64Mcg, time: SimTime) -> Vec<DrillSpec> {
+/// The most motors a drill of `firmware` puts on a bus.
+fn most_motors(firmware: ProtocolFamily) -> u8 {
+    match firmware {
+        ProtocolFamily::MyActuatorV3 => 3,
+        ProtocolFamily::V161 | ProtocolFamily::LkV23x | ProtocolFamily::Unknown => 4,
+    }
+}
+
+/// One drill of every kind of the matrix, 300 ms each, on two buses of as many motors as the
+/// firmware's exchange carries (four; three for MyActuator V3).
+fn warm_up(rng: &mut Pcg64Mcg, time: SimTime, firmware: ProtocolFamily) -> Vec<DrillSpec> {
     DrillFault::matrix()
         .into_iter()
         .map(|fault| {
             DrillSpec::new(fault)
+                .firmware(firmware)
+                .motors(most_motors(firmware))
                 .buses(2)
                 .at(Duration::from_millis(100))
                 .seconds(Duration::from_millis(300))
@@ -282,9 +298,9 @@ fn warm_up(rng: &mut Pcg64Mcg, time: SimTime) -> Vec<DrillSpec> {
 }
 
 /// A drill with 1 to 3 random faults from the matrix at random times.
-fn random_drill(rng: &mut Pcg64Mcg, time: SimTime) -> DrillSpec {
+fn random_drill(rng: &mut Pcg64Mcg, time: SimTime, firmware: ProtocolFamily) -> DrillSpec {
     let buses = 1 + below(rng, 3) as u8;
-    let motors = 1 + below(rng, 4) as u8;
+    let motors = 1 + below(rng, u64::from(most_motors(firmware))) as u8;
     let seconds = Duration::from_millis(100 + below(rng, 700));
     let mut spec: Option<DrillSpec> = None;
     for _ in 0..1 + below(rng, 3) {
@@ -307,6 +323,7 @@ fn random_drill(rng: &mut Pcg64Mcg, time: SimTime) -> DrillSpec {
     spec.unwrap_or_else(|| DrillSpec::new(DrillFault::Stop))
         .buses(buses)
         .motors(motors)
+        .firmware(firmware)
         .seconds(seconds)
         .seed(rng.next_u64())
         .time(time)

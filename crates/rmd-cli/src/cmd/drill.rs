@@ -65,7 +65,7 @@ pub(crate) struct DrillArgs {
     motors: Option<u8>,
     /// The simulated motors' firmware: v1.61, lk-v2.3x (MG series) or myactuator-v3 (driven by
     /// the per-motor exchange, made safe without a 0x280 frame).
-    #[arg(long, value_name = "FIRMWARE", default_value = "v1.61", value_parser = crate::args::parse::sim_firmware, conflicts_with = "chaos")]
+    #[arg(long, value_name = "FIRMWARE", default_value = "v1.61", value_parser = crate::args::parse::sim_firmware)]
     sim_firmware: rmd_protocol::ProtocolFamily,
     /// When the fault strikes after the start (seconds, or 300ms, ...).
     #[arg(long, default_value = "0.5", value_parser = at, value_name = "SECONDS")]
@@ -362,6 +362,7 @@ fn run_chaos(args: &DrillArgs, time: SimTime, signals: Signals) -> Result<bool, 
         seed: args.seed,
         time,
         signals: Some(signals),
+        firmware: args.sim_firmware,
     };
     let show = progress::shown(args.json);
     let progress = Progress::timer(args.seconds, show);
