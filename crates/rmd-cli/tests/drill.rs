@@ -302,3 +302,49 @@ fn bad_input_is_a_usage_error_naming_what_to_change() {
         assert!(stderr.contains(says), "{args:?}: {stderr}");
     }
 }
+
+/// The wait for a motor's watchdog after a silent host (here ten minutes, in real time) never
+/// holds a Ctrl-C back: the drill is judged at once from what the firmware did so far (the
+/// watchdog has not acted: energised) and ends with 130.
+#[test]
+fn ctrl_c_ends_the_wait_for_a_long_watchdog() {
+    use nix::sys::signal::{Signal, kill};
+    use nix::unistd::Pid;
+    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("rmd"))
+        .args([
+            "drill",
+            "--fault",
+            "host-silent:600000",
+            "--sim-firmware",
+            "myactuator-v3",
+            "--seconds",
+            "1",
+            "--at",
+            "0.2",
+            "--json",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Well past the silence at 0.2 s and the run's one second, even on a loaded machine: the
+    // drill waits for the watchdog by then.
+    std::thread::sleep(std::time::Duration::from_secs(5));
+    kill(Pid::from_raw(child.id() as i32), Signal::SIGINT).unwrap();
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the drill still waits a minute after Ctrl-C"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    assert_eq!(status.code(), Some(130));
+    let mut stdout = String::new();
+    std::io::Read::read_to_string(&mut child.stdout.take().unwrap(), &mut stdout).unwrap();
+    let d: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(d["motors_energised_after"], 3, "{d}");
+}

@@ -125,7 +125,7 @@ pub fn run_with_telemetry(
     {
         match &clock {
             AnyClock::Virtual(clock) => clock.advance(wait),
-            AnyClock::Monotonic(_) => std::thread::sleep(wait),
+            AnyClock::Monotonic(_) => wait_unless_signalled(wait, spec.signals),
         }
     }
     let written: Vec<String> = spec.faults.iter().map(|(f, _)| f.to_string()).collect();
@@ -133,4 +133,19 @@ pub fn run_with_telemetry(
         judge(written.join(" + "), fault_at, &sims, outcome.report),
         telemetry,
     ))
+}
+
+/// Sleeps `wait` in real time, in slices of at most 10 ms, and stops early once one of the
+/// program's signals arrived: the wait for a motor's watchdog never holds a Ctrl-C back (the
+/// verdict is then taken at once, from what the firmware did so far).
+fn wait_unless_signalled(wait: core::time::Duration, signals: Option<rmd_rig::signals::Signals>) {
+    const SLICE: core::time::Duration = core::time::Duration::from_millis(10);
+    let until = std::time::Instant::now() + wait;
+    while !signals.is_some_and(|s| s.interrupted()) {
+        let left = until.saturating_duration_since(std::time::Instant::now());
+        if left.is_zero() {
+            return;
+        }
+        std::thread::sleep(left.min(SLICE));
+    }
 }
