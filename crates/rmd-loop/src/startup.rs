@@ -299,17 +299,17 @@ pub(crate) fn probe<B: CanBus, C: Clock>(parts: &mut Parts<B, C>) -> Result<(), 
         ..
     } = parts;
     exchange.begin_tick();
-    for _ in 0..settings.startup_probes.get() {
+    // The buses the probe asked more than once: a reply may still be owed to any of its
+    // requests (0x280 replies carry no sequence number, and the firmware answers each request).
+    let mut asked_again = vec![false; exchange.links.len()];
+    for round in 0..settings.startup_probes.get() {
         if let Some(request) = shared.stop.pending() {
             return Err(request.into());
         }
         let sent_at = clock.now();
-        for b in 0..exchange.links.len() {
+        for (b, again) in asked_again.iter_mut().enumerate() {
             if !exchange.bus_complete(b) {
-                // The previous probe's requests were waited for long enough: a reply still to
-                // come (or one that came unreadable) must not be taken as this probe's, which
-                // would measure a round trip of a whole probe timeout.
-                exchange.give_up_pending(b);
+                *again |= round > 0;
                 exchange
                     .send(b, Torque::Zero, 0, sent_at, stats)
                     .map_err(StopReason::Fault)?;
@@ -323,6 +323,16 @@ pub(crate) fn probe<B: CanBus, C: Clock>(parts: &mut Parts<B, C>) -> Result<(), 
                 .map_err(StopReason::Fault)?;
         }
         if (0..exchange.links.len()).all(|b| exchange.bus_complete(b)) {
+            // Asked again, a bus may still owe replies (a stall longer than the timeout delayed
+            // the first, not lost it): wait for them, up to the timeout, so none is taken for
+            // the first tick's; and measure the round trips afresh from them, not across the
+            // stall.
+            for (b, _) in asked_again.iter().enumerate().filter(|(_, again)| **again) {
+                exchange.forget_round_trips(b);
+                exchange
+                    .settle(b, deadline, stats)
+                    .map_err(StopReason::Fault)?;
+            }
             exchange.forget_pending();
             return Ok(());
         }

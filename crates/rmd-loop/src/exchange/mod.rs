@@ -136,10 +136,18 @@ impl<B> Exchange<B> {
         self.owed_total = self.owed_total.saturating_sub(1);
     }
 
-    /// Forgets the outstanding requests of bus `b`'s motors (before the probe asks again).
-    pub(crate) fn give_up_pending(&mut self, b: usize) {
+    /// Whether a motor of bus `b` has a request outstanding.
+    pub(crate) fn bus_awaits_replies(&self, b: usize) -> bool {
+        self.links[b]
+            .joints()
+            .any(|m| !self.motors[m].pending.is_empty())
+    }
+
+    /// Forgets the round trips measured on bus `b` (after the probe asked again, a reply may
+    /// have been matched across the stall that made it ask).
+    pub(crate) fn forget_round_trips(&mut self, b: usize) {
         for m in self.links[b].joints() {
-            self.motors[m].pending.clear();
+            self.motors[m].forget_round_trip();
         }
     }
 

@@ -146,6 +146,12 @@ impl MotorLink {
         self.round_trip_ns
     }
 
+    /// Forgets the round trip measured so far (it may span a stall: the next reply measures it
+    /// afresh).
+    pub(crate) fn forget_round_trip(&mut self) {
+        self.round_trip_ns = None;
+    }
+
     /// Marks the end of a tick's collection: after [`RESYNC_AFTER`] ticks in a row whose newest
     /// reply was late but timed like a newer request's, the requests before that one are
     /// declared lost (replies went missing and every later one was taken too old).

@@ -136,6 +136,11 @@ impl PendingRequests {
         self.len = 0;
     }
 
+    /// Whether no request is outstanding.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
     /// Number of outstanding requests.
     #[cfg(test)]
     pub(crate) fn len(&self) -> usize {
