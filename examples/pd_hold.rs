@@ -3,25 +3,9 @@
 //! Turns every joint of the robot (examples/robots/pd_hold.toml: one RMD-X8-class motor with a
 //! 1:9 gearbox, joint `arm`, swinging a 1 kg arm 0.2 m long in the simulator) a given angle from
 //! where it is and holds it there, with a PD law on the joint angle. The whole controller is
-//! `rmd_demos::pd_hold::PdHold`:
-//!
-//! ```ignore
-//! impl Controller for PdHold {
-//!     fn start(&mut self, _: &TickContext, feedback: &Feedback<'_>) {
-//!         for (joint, state) in feedback.iter() {
-//!             self.targets[joint] = state.joint.angle_deg + self.move_deg;
-//!         }
-//!     }
-//!
-//!     fn update(&mut self, _: &TickContext, feedback: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
-//!         for (joint, state) in feedback.iter() {
-//!             let error = self.targets[joint] - state.joint.angle_deg;
-//!             cmd.set_current(joint, self.kp * error - self.kd * state.joint.velocity_dps);
-//!         }
-//!         Flow::Continue
-//!     }
-//! }
-//! ```
+//! `rmd_demos::pd_hold::PdHold` (crates/rmd-demos/src/pd_hold.rs): its `start` takes each joint's
+//! angle plus the move as the target, and its `update` sets each joint's current to
+//! `kp * (target - angle) - kd * velocity`, all in joint units (degrees, degrees per second).
 //!
 //! ```sh
 //! cargo run --example pd_hold                                # simulated motor, 3 s
