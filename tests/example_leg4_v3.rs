@@ -105,6 +105,9 @@ fn leg4_v3_toml_is_leg4_on_v3_motors() {
         // The current limit in V3's 0.01 A steps: the same amperes.
         assert_eq!(b.current_limit.amps(), a.current_limit.amps());
         same.current_limit = a.current_limit;
+        // Only V3 motors have a communication watchdog: 50 ms on every V3 joint.
+        assert_eq!(b.watchdog.map(|w| w.millis()), Some(50), "{}", b.name);
+        same.watchdog = a.watchdog;
         assert_eq!(&same, a);
     }
 }

@@ -8,6 +8,7 @@ use crate::controller::Controller;
 use crate::engine::Parts;
 use crate::os::RtStatus;
 use crate::panics;
+use crate::protection::MotorProtection;
 use crate::report::{IdentifiedMotor, LoopReport, PanicReport, StopReason};
 use crate::safe_stop;
 use crate::watch::{Phase, Takeover};
@@ -84,6 +85,7 @@ pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
         realtime_warnings: realtime.warnings().map(str::to_string).collect(),
         realtime,
         identified,
+        protection: MotorProtection::of(robot),
         panic,
     };
     LoopOutcome { report, controller }

@@ -11,6 +11,7 @@ use crate::commands::Rejection;
 use crate::guard::LimitBreach;
 use crate::joint::JointId;
 use crate::os::RtStatus;
+use crate::protection::{MotorProtection, ProtectionLine};
 use crate::robot::Robot;
 pub use crate::safe_stop::{
     BusSafeStop, BusStopOutcome, MotorSafeStop, SafeStopBy, SafeStopReport,
@@ -377,6 +378,8 @@ pub struct LoopReport {
     /// The motors found at start-up and their firmware (empty when the start did not get that
     /// far).
     pub identified: Vec<IdentifiedMotor>,
+    /// What turns each motor off if the host dies (its communication watchdog, as described).
+    pub protection: Vec<MotorProtection>,
     /// The controller's panic, if it panicked: reported once the motors were safe.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub panic: Option<PanicReport>,
@@ -442,6 +445,7 @@ impl fmt::Display for LoopReport {
         )?;
         writeln!(f, "stopped: {}", self.stop_description)?;
         writeln!(f, "{}", self.safe_stop)?;
+        writeln!(f, "{}", ProtectionLine(&self.protection))?;
         writeln!(f, "real-time: {}", self.realtime)?;
         for w in &self.realtime_warnings {
             writeln!(f, "  warning: {w}")?;

@@ -8,7 +8,7 @@ mod common;
 use common::*;
 use rmd_bus::VirtualClock;
 use rmd_loop::robot::{BusConfig, ExchangeKind, MotorConfig, RobotConfig};
-use rmd_loop::{Robot, RtLoop, RunLimit};
+use rmd_loop::{Protection, Robot, RtLoop, RunLimit};
 use rmd_protocol::{Dialect, ProtocolFamily, V3Firmware};
 use rmd_sim::{ControlMode, FaultKind, FaultRule, Node, SimBus, SimConfig};
 
@@ -394,4 +394,54 @@ fn braked_v3_motors_are_released_before_torque_and_locked_after_motor_off() {
     let release = host.iter().position(|&c| c == 0x77).unwrap();
     let first_torque = host.iter().position(|&c| c == 0xA1).unwrap();
     assert!(release < first_torque && off < lock, "{host:02X?}");
+}
+
+#[test]
+fn the_report_says_which_motors_turn_off_by_themselves_if_the_host_dies() {
+    // A v1.61 motor (no watchdog), a V3 motor described with a 50 ms watchdog, one without.
+    let clock = VirtualClock::new();
+    let ids = [1, 2, 3];
+    let d = [Dialect::V161, V3, V3];
+    let mut bus = sim_of(&clock, &ids, &d, &[]);
+    let mut config = motors(BusConfig::new("can0"), &ids, &d);
+    config.motors[1].watchdog_ms = Some(50);
+    let robot = Robot::try_from(RobotConfig::new(500.0).with_bus(config)).unwrap();
+    let out = RtLoop::new(robot, clock, vec![&mut bus], Constant(0.0))
+        .unwrap()
+        .run(RunLimit::Ticks(10));
+    let r = &out.report;
+    let kinds: Vec<_> = r.protection.iter().map(|p| p.protection).collect();
+    assert_eq!(
+        kinds,
+        [
+            Protection::NoWatchdog,
+            Protection::Watchdog { millis: 50 },
+            Protection::WatchdogOff
+        ]
+    );
+    assert_eq!(
+        r.protection
+            .iter()
+            .map(|p| p.protected())
+            .collect::<Vec<_>>(),
+        [false, true, false]
+    );
+    let text = r.to_string();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("motor watchdog:"))
+        .unwrap_or_else(|| panic!("{text}"));
+    assert_eq!(
+        line,
+        "motor watchdog: 1/3 motors turn off by themselves if the host dies (bus0_motor2 50 ms; \
+         as described: the firmware cannot report it); not set: bus0_motor3 (describe \
+         `watchdog_ms`, then `rmd watchdog --robot FILE`); v1.61 and LK-TECH motors have none (1 \
+         here: see docs/safety.md)"
+    );
+    let json = serde_json::to_value(r).unwrap();
+    assert_eq!(
+        json["protection"][1]["protection"],
+        serde_json::json!({"kind": "watchdog", "millis": 50})
+    );
+    assert_eq!(json["protection"][2]["motor"], 3);
 }

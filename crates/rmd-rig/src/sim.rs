@@ -33,8 +33,8 @@ pub fn sim_config(robot: &Robot, bus: &BusSpec, seed: u64) -> SimConfig {
 }
 
 /// A simulated motor matching `joint` (RMD-X8-class defaults for everything the description
-/// does not say): same id, firmware family (the joint's dialect), gear ratio, encoder width and,
-/// when given, output torque constant;
+/// does not say): same id, firmware family (the joint's dialect), gear ratio, encoder width,
+/// MyActuator V3 brake and watchdog and, when given, output torque constant;
 /// its encoder mounted so that the loop reads the joint's true angle whenever the joint powers
 /// up inside its power-up window. The simulated output angle is `direction * joint angle` (see
 /// [`sim_output_angle_deg`]).
@@ -65,6 +65,10 @@ pub fn sim_motor(joint: &JointSpec) -> rmd_sim::MotorConfig {
         sim.motor.torque_constant_nm_per_a = kt / joint.gear_ratio;
     }
     sim.firmware.encoder_width = joint.encoder;
+    // A V3 motor as described: its brake fitted, its watchdog in ROM (as `rmd watchdog --robot`
+    // writes it).
+    sim.firmware.v3.has_brake = joint.brake;
+    sim.firmware.v3.watchdog = joint.watchdog.unwrap_or(rmd_protocol::WatchdogTimeout::OFF);
     // The loop reads joint = s * m / G - z from the first reading m in [0, 360) degrees of
     // motor; the simulated encoder reads (G * output + 360 * offset) mod 360. With
     // offset = s * z * G / 360 the two agree (joint = s * output) as long as the first reading
@@ -109,5 +113,38 @@ pub fn power_up_centred(robot: &Robot, sims: &mut [SimConfig]) {
             let (low, high) = rmd_loop::mapping::power_up_window(spec);
             motor.initial_output_angle_deg = sim_output_angle_deg(spec, (low + high) / 2.0);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use rmd_loop::Robot;
+    use rmd_protocol::WatchdogTimeout;
+
+    #[test]
+    fn a_simulated_v3_motor_has_the_described_brake_and_watchdog() {
+        let robot = Robot::from_toml(
+            r#"
+            [[bus]]
+            interface = "sim"
+            protocol = "myactuator-v3"
+            [[bus.motor]]
+            id = 1
+            brake = true
+            watchdog_ms = 50
+            [[bus.motor]]
+            id = 2
+            "#,
+        )
+        .unwrap();
+        let described = super::sim_motor(&robot.joints()[0]);
+        assert!(described.firmware.v3.has_brake);
+        assert_eq!(
+            described.firmware.v3.watchdog,
+            WatchdogTimeout::from_millis(50)
+        );
+        let plain = super::sim_motor(&robot.joints()[1]);
+        assert!(!plain.firmware.v3.has_brake);
+        assert!(plain.firmware.v3.watchdog.is_off());
     }
 }

@@ -318,6 +318,13 @@ pub struct MotorConfig {
     /// motor-off. Default false.
     #[serde(default, skip_serializing_if = "core::ops::Not::not")]
     pub brake: bool,
+    /// The communication watchdog kept in the motor's ROM (MyActuator V3 only, 0xB3),
+    /// milliseconds; 0: off. With no frame for this long the motor turns its output off and
+    /// locks its brake, even when the host has died. The firmware cannot report it: `rmd
+    /// watchdog --robot FILE` writes it (asking first), and the loop's report calls the motor
+    /// protected as described. Default: not described (unprotected).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub watchdog_ms: Option<u32>,
 }
 
 fn default_current_limit() -> f64 {
@@ -346,6 +353,7 @@ impl MotorConfig {
             limit_margin_deg: None,
             velocity_margin_dps: None,
             brake: false,
+            watchdog_ms: None,
         }
     }
 
@@ -368,6 +376,12 @@ impl MotorConfig {
     /// Says a holding brake is fitted (MyActuator V3).
     pub fn brake(mut self, fitted: bool) -> Self {
         self.brake = fitted;
+        self
+    }
+    /// Describes the communication watchdog in the motor's ROM, milliseconds (MyActuator V3;
+    /// 0: off).
+    pub fn watchdog_ms(mut self, millis: u32) -> Self {
+        self.watchdog_ms = Some(millis);
         self
     }
     /// Sets the encoder resolution.

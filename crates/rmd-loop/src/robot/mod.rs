@@ -40,7 +40,7 @@ use std::path::Path;
 use rmd_bus::wire;
 use rmd_protocol::{
     CurrentScale, Dialect, EncoderWidth, MODELS, MULTI_TORQUE_MOTORS, MotorId, MotorModel,
-    find_model,
+    WatchdogTimeout, find_model,
 };
 
 pub use error::RobotError;
@@ -304,6 +304,9 @@ pub struct JointSpec {
     pub limits: JointLimits,
     /// A holding brake is fitted (MyActuator V3): locked by the safe stop.
     pub brake: bool,
+    /// The communication watchdog the description says is in the motor's ROM (MyActuator V3;
+    /// `None`: not described).
+    pub watchdog: Option<WatchdogTimeout>,
 }
 
 impl JointSpec {
@@ -497,6 +500,7 @@ impl Robot {
                         ),
                     ));
                 }
+                check_watchdog_period(&joint, &settings, &mkey)?;
                 joints.push(joint);
             }
             let mut spec = spec;
@@ -833,6 +837,9 @@ fn joint_spec(
             ),
         ));
     }
+    if let Some(millis) = m.watchdog_ms {
+        check_watchdog(millis, dialect, &format!("{key}.watchdog_ms"))?;
+    }
     let encoder = match (m.encoder_bits, model.and_then(|md| md.encoder_bits)) {
         (Some(bits), _) => EncoderWidth::new(bits).map_err(|_| {
             invalid(
@@ -940,7 +947,66 @@ fn joint_spec(
         temperature_limit_celsius: m.temperature_limit_celsius,
         limits: limits::joint_limits(m, key)?,
         brake: m.brake,
+        watchdog: m.watchdog_ms.map(WatchdogTimeout::from_millis),
     })
+}
+
+/// The shortest communication watchdog accepted: 5 ms proved too short on real motors (a
+/// normal pause between two frames tripped it); 20 to 100 ms is usual.
+pub const MIN_WATCHDOG_MS: u32 = 10;
+
+/// A described communication watchdog: only MyActuator V3 motors have one, and a non-zero one
+/// is at least [`MIN_WATCHDOG_MS`].
+fn check_watchdog(millis: u32, dialect: Dialect, key: &str) -> Result<(), RobotError> {
+    if dialect.v3_firmware().is_none() {
+        return Err(invalid(
+            key,
+            format!(
+                "is set, but the motor speaks {}: only MyActuator V3 motors have a communication \
+                 watchdog (0xB3); leave the key out",
+                dialect.name()
+            ),
+        ));
+    }
+    if millis != 0 && millis < MIN_WATCHDOG_MS {
+        return Err(invalid(
+            key,
+            format!(
+                "is {millis}, must be 0 (off) or at least {MIN_WATCHDOG_MS} ms: shorter ones trip \
+                 on a normal pause between two frames (20 to 100 ms is usual)"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Periods of the loop a described watchdog must span at least: the loop sends each motor one
+/// frame a period, and a late tick must not trip it.
+const WATCHDOG_MIN_PERIODS: u32 = 3;
+
+/// A described non-zero watchdog spans at least [`WATCHDOG_MIN_PERIODS`] of the loop's periods.
+fn check_watchdog_period(
+    joint: &JointSpec,
+    settings: &LoopSettings,
+    key: &str,
+) -> Result<(), RobotError> {
+    let Some(watchdog) = joint.watchdog.filter(|w| !w.is_off()) else {
+        return Ok(());
+    };
+    let shortest = settings.period.get() * WATCHDOG_MIN_PERIODS;
+    if Duration::from_millis(u64::from(watchdog.millis())) < shortest {
+        return Err(invalid(
+            format!("{key}.watchdog_ms"),
+            format!(
+                "is {}, shorter than {WATCHDOG_MIN_PERIODS} of the loop's periods ({} ms at {} Hz): \
+                 the motor would turn itself off whenever a tick came late; raise it or the rate",
+                watchdog.millis(),
+                shortest.as_secs_f64() * 1000.0,
+                settings.period.hz()
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The bus's exchange: as written, or `per-motor` when a motor speaks MyActuator V3 (whose
@@ -1500,6 +1566,61 @@ mod tests {
         braked.motors[0].brake = true;
         let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(braked)).unwrap();
         assert!(robot.joints()[0].brake);
+    }
+
+    #[test]
+    fn a_watchdog_is_described_on_v3_motors_only_and_spans_several_periods() {
+        let refused = |robot: RobotConfig, key: &str, words: &str| match Robot::try_from(robot) {
+            Err(RobotError::Invalid {
+                key: k, problem, ..
+            }) => {
+                assert_eq!(k, key, "{problem}");
+                assert!(problem.contains(words), "{problem}");
+            }
+            other => panic!("expected an error on {key}, got {other:?}"),
+        };
+        // v1.61 has no watchdog.
+        let v161 = BusConfig::new("can0").with_motor(MotorConfig::new(1).watchdog_ms(50));
+        refused(
+            RobotConfig::new(100.0).with_bus(v161),
+            "bus[0].motor[0].watchdog_ms",
+            "only MyActuator V3 motors have a communication watchdog",
+        );
+        // 5 ms proved too short on real motors.
+        let mut short = v3_bus(1);
+        short.motors[0].watchdog_ms = Some(5);
+        refused(
+            RobotConfig::new(1000.0).with_bus(short),
+            "bus[0].motor[0].watchdog_ms",
+            "at least 10 ms",
+        );
+        // At 50 Hz a tick is 20 ms: 50 ms is less than three of them.
+        let mut slow = v3_bus(1);
+        slow.motors[0].watchdog_ms = Some(50);
+        refused(
+            RobotConfig::new(50.0).with_bus(slow.clone()),
+            "bus[0].motor[0].watchdog_ms",
+            "shorter than 3 of the loop's periods (60 ms at 50 Hz)",
+        );
+        let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(slow)).unwrap();
+        assert_eq!(robot.joints()[0].watchdog.map(|w| w.millis()), Some(50));
+        // 0 describes a watchdog that is off, at any rate; no key, none described.
+        let mut off = v3_bus(2);
+        off.motors[0].watchdog_ms = Some(0);
+        let robot = Robot::try_from(RobotConfig::new(1.0).with_bus(off)).unwrap();
+        assert!(robot.joints()[0].watchdog.is_some_and(|w| w.is_off()));
+        assert_eq!(robot.joints()[1].watchdog, None);
+        // The key round-trips through TOML.
+        let text = RobotConfig::new(100.0)
+            .with_bus(
+                BusConfig::new("can0")
+                    .protocol("myactuator-v3")
+                    .with_motor(MotorConfig::new(1).watchdog_ms(80)),
+            )
+            .to_toml();
+        assert!(text.contains("watchdog_ms = 80"), "{text}");
+        let robot = Robot::from_toml(&text).unwrap();
+        assert_eq!(robot.joints()[0].watchdog.map(|w| w.millis()), Some(80));
     }
 
     #[test]
