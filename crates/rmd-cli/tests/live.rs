@@ -1163,3 +1163,43 @@ fn move_by_joint_name_in_joint_degrees_and_monitor_by_joint() {
     ]));
     assert_eq!(objects[0]["motors"][0]["name"], "knee");
 }
+
+/// `rmd watchdog --robot FILE` writes each motor's described watchdog (the V3 leg: 50 ms on
+/// all four, over two buses), after one question; a robot without `watchdog_ms` is refused.
+#[test]
+fn the_watchdogs_of_a_robot_are_written_as_described_after_one_question() {
+    let v3 = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/robots/leg4-v3.toml")
+        .display()
+        .to_string();
+    let out = rmd(&["watchdog", "--robot", &v3, "--sim", "--yes"]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
+    for (joint, id, bus) in [
+        ("hip_aa", 1, "hip"),
+        ("hip_fe", 2, "hip"),
+        ("knee", 3, "foot"),
+        ("ankle", 4, "foot"),
+    ] {
+        let said = format!(
+            "{joint} (motor {id} on bus {bus}): communication watchdog 50 ms written to ROM"
+        );
+        assert!(stdout.contains(&said), "{said}\n{stdout}");
+    }
+    // Without --yes and without a terminal: nothing is written.
+    let out = rmd(&["watchdog", "--robot", &v3, "--sim"]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stderr));
+    assert!(text(&out.stderr).contains("needs confirmation"));
+    assert!(!text(&out.stdout).contains("written to ROM"));
+    // The v1.61 leg describes none.
+    let out = rmd(&["watchdog", "--robot", &leg_robot(), "--sim", "--yes"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("no motor sets `watchdog_ms`"),
+        "{}",
+        text(&out.stderr)
+    );
+    // An id and a time with --robot: one or the other.
+    let out = rmd(&["watchdog", "1", "50ms", "--robot", &v3, "--sim", "--yes"]);
+    assert_eq!(out.status.code(), Some(2));
+}

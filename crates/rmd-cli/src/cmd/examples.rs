@@ -221,6 +221,7 @@ const EXAMPLES: &[(&str, &[&str])] = &[
             "rmd watchdog 1 100ms --sim --sim-firmware myactuator-v3 --yes   # written to ROM",
             "rmd watchdog 1 100ms --iface can0                 # asks first",
             "rmd watchdog 1 off --iface can0 --yes",
+            "rmd watchdog --robot examples/robots/leg4-v3.toml --sim --yes   # each motor's watchdog_ms",
         ],
     ),
     (
