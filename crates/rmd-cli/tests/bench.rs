@@ -173,8 +173,13 @@ fn loop_in_real_time_has_the_same_shape() {
 
 #[test]
 fn loop_rejects_bad_values() {
-    usage_error("bench loop --motors 5", "--buses");
-    usage_error("bench loop --motors 0", "1..=4");
+    usage_error("bench loop --motors 9", "--buses");
+    usage_error("bench loop --motors 0", "1..=8");
+    // Five motors per motor need 1350 us a tick: refused at 1 kHz, naming the highest rate.
+    usage_error(
+        "bench loop --motors 5",
+        "The highest rate this bus can carry is 666 Hz",
+    );
     usage_error("bench loop --buses 0", "1..=8");
     usage_error("bench loop --buses 9", "1..=8");
     usage_error("bench loop --rate 0", "--rate");
@@ -458,7 +463,7 @@ fn rate_rejects_bad_values() {
     usage_error("bench rate --resolution-pct 0", "0.01..=50");
     usage_error("bench rate --miss-budget-pct 20", "0..=10");
     usage_error("bench rate --confirm 100", "at most");
-    usage_error("bench rate --motors 7", "1..=4");
+    usage_error("bench rate --motors 9", "1..=8");
     usage_error("bench rate --buses 1,9", "1..=8");
     usage_error("bench rate --sim nowhere", "--sim");
     usage_error("bench rate --sim inline --virtual-time", "--virtual-time");
@@ -633,4 +638,39 @@ fn telemetry_cost_alternates_rounds_and_reports_what_every_sink_got() {
         (v["ratio"].as_f64().unwrap() - on / off).abs() < 1e-12,
         "{v}"
     );
+}
+
+/// Eight v1.61 motors on one bus are driven per motor (ids 5..=8 are beyond a 0x280 frame); their
+/// requests and replies interleave on the wire, and the rate search still finds the wire limit
+/// of those exchanges (about 491 Hz at 1 Mbit/s).
+#[test]
+fn eight_motors_on_one_bus_run_per_motor_at_their_wire_limit_in_virtual_time() {
+    let v = json("bench loop --motors 8 --rate 400 --virtual-time --duration 1s --json");
+    assert_eq!(v["ticks"], 400, "{v}");
+    assert_eq!(v["missing_replies"], 0, "{v}");
+    let off = v["safe_stop"]["motors"].as_array().unwrap();
+    assert_eq!(off.len(), 8);
+    assert!(off.iter().all(|m| m["off_confirmed"] == true), "{v}");
+    let out = rmd("bench rate --motors 8 --virtual-time --duration 1s");
+    assert_eq!(out.code, Some(0), "{}{}", out.stdout, out.stderr);
+    let headline = out
+        .stdout
+        .lines()
+        .find(|l| l.contains("with at most 0.1% of ticks missed ="))
+        .unwrap_or_else(|| panic!("{}", out.stdout));
+    // "... = 99.9% of the wire limit 491.0 Hz": a wire limit was found, and reached.
+    let share: f64 = headline
+        .split(" = ")
+        .nth(1)
+        .and_then(|rest| rest.split('%').next())
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("{headline}"));
+    assert!((95.0..=105.0).contains(&share), "{headline}");
+    let limit: f64 = headline
+        .split("wire limit ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|hz| hz.parse().ok())
+        .unwrap_or_else(|| panic!("{headline}"));
+    assert!((450.0..530.0).contains(&limit), "{headline}");
 }

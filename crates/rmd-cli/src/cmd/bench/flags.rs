@@ -2,6 +2,10 @@
 //! their loop `--rate`. The run flags they share with other commands are in `rmd_rig::args`.
 
 use rmd_loop::robot::{MAX_BUSES, MAX_MOTORS_PER_BUS};
+
+/// The most motors per bus a benchmark runs: beyond [`MAX_MOTORS_PER_BUS`] (what one 0x280
+/// frame drives) the bus exchanges per motor.
+pub(crate) const MAX_BENCH_MOTORS: u8 = 8;
 use rmd_loop::schedule::MAX_PERIOD;
 use rmd_rig::args::values;
 
@@ -22,16 +26,18 @@ pub(crate) fn loop_rate(text: &str) -> Result<f64, String> {
     values::rate(text)
 }
 
-/// `--motors`: motors per bus, 1..=4.
+/// `--motors`: motors per bus, 1..=8 (ids 1..=N; more than [`MAX_MOTORS_PER_BUS`] are driven
+/// per motor, one 0xA1 request each).
 pub(crate) fn motors(text: &str) -> Result<u8, String> {
     let n: u8 = text
         .trim()
         .parse()
         .map_err(|_| format!("`{text}` is not a number of motors"))?;
-    if !(1..=MAX_MOTORS_PER_BUS as u8).contains(&n) {
+    if !(1..=MAX_BENCH_MOTORS).contains(&n) {
         return Err(format!(
-            "{n} motors per bus: must be 1..={MAX_MOTORS_PER_BUS} (one 0x280 frame drives motor \
-             ids 1..=4; use --buses for more motors)"
+            "{n} motors per bus: must be 1..={MAX_BENCH_MOTORS} (one 0x280 frame drives motor \
+             ids 1..={MAX_MOTORS_PER_BUS}, more are driven per motor; use --buses for more \
+             motors)"
         ));
     }
     Ok(n)
@@ -56,7 +62,8 @@ mod tests {
     #[test]
     fn values_are_checked() {
         assert_eq!(motors("4").unwrap(), 4);
-        assert!(motors("5").unwrap_err().contains("--buses"));
+        assert_eq!(motors("8").unwrap(), 8);
+        assert!(motors("9").unwrap_err().contains("--buses"));
         assert!(motors("0").is_err());
         assert_eq!(buses("8").unwrap(), 8);
         assert!(buses("9").is_err());

@@ -1,9 +1,9 @@
 //! `rmd bench loop`: the real-time loop running a PD position controller on simulated motors,
 //! and its report.
 //!
-//! `--motors` counts motors PER BUS (1..=4), so the robot has `--motors x --buses` motors: one
-//! 0x280 frame per bus drives v1.61 motors 1..=4; MyActuator V3 motors (`--sim-firmware
-//! myactuator-v3`) get one 0xA1 request each per tick (the per-motor exchange). The simulated buses run at 1 Mbit/s with the simulator's default
+//! `--motors` counts motors PER BUS (1..=8), so the robot has `--motors x --buses` motors: one
+//! 0x280 frame per bus drives v1.61 motors 1..=4; more than four, and MyActuator V3 motors
+//! (`--sim-firmware myactuator-v3`), get one 0xA1 request each per tick (the per-motor exchange). The simulated buses run at 1 Mbit/s with the simulator's default
 //! motors; the loop refuses a rate whose exchange does not fit the period (see docs/loop.md).
 //! Without `--virtual-time` everything runs in real time on the monotonic clock, each simulated
 //! bus on its own thread as real motors are (`--sim inline`: in the loop's thread); with it, on
@@ -55,7 +55,7 @@ use rmd_rig::telemetry::{TelemetryReport, TelemetrySinks};
     channels live while it runs; --csv FILE one row per tick (docs/telemetry.md)."
 )]
 pub(crate) struct LoopArgs {
-    /// Motors per bus, 1..=4 (ids 1..=N on every bus).
+    /// Motors per bus, 1..=8 (ids 1..=N on every bus; beyond 4 driven per motor).
     #[arg(long, default_value = "4", value_parser = flags::motors)]
     motors: u8,
     /// Simulated CAN buses (1 Mbit/s each), 1..=8, exchanged in parallel.

@@ -6,7 +6,7 @@ use core::time::Duration;
 
 use rmd_bus::{Clock, MonotonicClock};
 use rmd_loop::os::RtRequest;
-use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
+use rmd_loop::robot::{BusConfig, ExchangeKind, MAX_MOTORS_PER_BUS, MotorConfig, RobotConfig};
 use rmd_rig::args::RealtimeArgs;
 use rmd_sim::threaded::{Lateness, SimPort, ThreadOptions, ThreadedSim};
 use rmd_sim::{FirmwareFamily, SimBus, SimConfig};
@@ -41,6 +41,10 @@ pub(crate) fn robot_for(
         let mut bus = BusConfig::new("sim").name(&format!("sim{b}"));
         if family == FirmwareFamily::MyActuatorV3 {
             bus = bus.protocol("myactuator-v3");
+        }
+        // One 0x280 frame drives ids 1..=4; more motors are driven per motor.
+        if usize::from(motors) > MAX_MOTORS_PER_BUS {
+            bus = bus.exchange(ExchangeKind::PerMotor);
         }
         for id in 1..=motors {
             bus = bus.with_motor(

@@ -40,7 +40,7 @@ use crate::output::report;
     machine the rounds' spread says how far the figure can be trusted."
 )]
 pub(crate) struct TelemetryCostArgs {
-    /// Motors per bus, 1..=4.
+    /// Motors per bus, 1..=8 (ids 1..=N; beyond 4 driven per motor).
     #[arg(long, default_value = "4", value_parser = flags::motors)]
     motors: u8,
     /// Simulated CAN buses, 1..=8.

@@ -58,6 +58,15 @@ pub(crate) fn exchanges(trace: &[Transmission], motors: usize, bitrate: u32) -> 
             i += 1;
             continue;
         }
+        // More requests than fit in one turnaround (8 motors per motor at 1 Mbit/s): the first
+        // replies win arbitration over the later requests, and the two interleave.
+        if requests.len() < motors
+            && let Some((exchange, taken)) = interleaved(&trace[i..], motors, bitrate)
+        {
+            out.push(exchange);
+            i += taken;
+            continue;
+        }
         i += requests.len();
         let replies: Vec<&Transmission> = trace[i..]
             .iter()
@@ -99,6 +108,45 @@ pub(crate) fn exchanges(trace: &[Transmission], motors: usize, bitrate: u32) -> 
         });
     }
     out
+}
+
+/// A per-motor exchange whose requests and replies interleave on the wire, from `trace[0]` (a
+/// host frame): `motors` 0xA1 requests and `motors` motor frames, in any order, the first
+/// reply after the first request. Returns it and the transmissions it took; `None` when the
+/// frames do not make one.
+fn interleaved(trace: &[Transmission], motors: usize, bitrate: u32) -> Option<(Exchange, usize)> {
+    let (mut requests, mut replies) = (Vec::new(), Vec::new());
+    for t in trace {
+        match t.from {
+            Node::Host if requests.len() < motors && t.frame.data().first() == Some(&0xA1) => {
+                requests.push(t);
+            }
+            Node::Host => return None,
+            Node::Motor(_) if !requests.is_empty() => replies.push(t),
+            Node::Motor(_) => return None,
+        }
+        if replies.len() == motors {
+            break;
+        }
+    }
+    if requests.len() != motors || replies.len() != motors {
+        return None;
+    }
+    let all: Vec<&Transmission> = requests.iter().chain(&replies).copied().collect();
+    let bits: Vec<u32> = all.iter().map(|t| frame_bits(&t.frame)).collect();
+    let cycle = replies[motors - 1].end - requests[0].start;
+    let frames: Duration = all.iter().map(|t| frame_duration(&t.frame, bitrate)).sum();
+    let exchange = Exchange {
+        start: requests[0].start,
+        cycle,
+        frames,
+        // The wire's idle time inside the exchange (waiting for the motors' turnarounds), so
+        // that cycle = frames + turnaround - intermission holds as for the other exchanges.
+        turnaround: (cycle + bits_to_duration(INTERFRAME_BITS, bitrate)).saturating_sub(frames),
+        max_frame_bits: bits.iter().copied().max().unwrap_or(0),
+        min_frame_bits: bits.iter().copied().min().unwrap_or(0),
+    };
+    Some((exchange, requests.len() + replies.len()))
 }
 
 /// What the exchanges of a run say about the wire limit.
@@ -241,6 +289,42 @@ mod tests {
         assert!(limit.rate_hz() > 1000.0, "{limit:?}");
         // Counted as multi-torque exchanges of 3 motors, none.
         assert_eq!(exchanges(bus.trace(), 2, 1_000_000).len(), 0);
+    }
+
+    #[test]
+    fn eight_per_motor_requests_interleave_with_the_replies_and_still_make_one_exchange() {
+        // Eight v1.61 motors per motor: the first replies (lower ids) win arbitration over the
+        // later requests, so requests and replies interleave on the wire.
+        let clock = VirtualClock::new();
+        let mut bus = SimBus::new(clock.clone(), SimConfig::with_motors(8).seed(5)).unwrap();
+        bus.record_trace(1000);
+        let v161 = rmd_protocol::Dialect::V161;
+        for k in 0..10 {
+            for m in 1..=8 {
+                let iq = rmd_protocol::ScaledCurrent::saturating(10 * k, v161.iq_control_scale());
+                let request = rmd_protocol::Request::Torque { iq_control: iq };
+                let id = rmd_protocol::MotorId::new(m).unwrap();
+                bus.send(&v161.encode(id, &request).unwrap()).unwrap();
+            }
+            let end = clock.now() + Duration::from_millis(4);
+            while bus.recv_until(end).unwrap().is_some() {}
+        }
+        let interleaved = bus
+            .trace()
+            .windows(2)
+            .any(|w| matches!(w[0].from, Node::Motor(_)) && w[1].from == Node::Host);
+        assert!(interleaved, "the test needs interleaving");
+        let ex = exchanges(bus.trace(), 8, 1_000_000);
+        assert_eq!(ex.len(), 10);
+        for e in &ex {
+            assert_eq!(e.cycle, e.frames + e.turnaround - intermission(1_000_000));
+            // 16 frames of at least 111 bits, and no more than their worst case plus one
+            // turnaround (220 us).
+            assert!(e.frames >= Duration::from_micros(16 * 111), "{e:?}");
+            assert!(e.cycle <= Duration::from_micros(16 * 135 + 220), "{e:?}");
+        }
+        // Counted as exchanges of 4 motors, none.
+        assert_eq!(exchanges(bus.trace(), 4, 1_000_000).len(), 0);
     }
 
     #[test]
