@@ -62,6 +62,7 @@ pub mod stop;
 mod stopper;
 pub mod supervisor;
 pub mod telemetry;
+mod versions;
 mod watch;
 
 pub use commands::{Commands, MAX_SIGNALS, Rejection};

@@ -404,6 +404,11 @@ pub struct IdentifiedMotor {
     pub family: ProtocolFamily,
     /// What decided.
     pub finding: String,
+    /// Its firmware's version date, `YYYYMMDDNN` (MyActuator V3's 0xB2; `None` for other
+    /// families, or when it did not answer).
+    pub firmware_date: Option<u32>,
+    /// Its model (MyActuator V3's 0xB5; `None` as for the date).
+    pub model: Option<String>,
 }
 
 /// A panic of the controller (or of the loop itself), as reported after the safe stop.

@@ -1,6 +1,7 @@
 //! Starting a loop: the thread's real-time setup; the identification of every motor on every bus
 //! before any torque (no undescribed motor, no firmware whose 0x280 frame is not per-motor
-//! torque, no firmware other than the described one); and the probe that waits for every motor
+//! torque, no firmware other than the described one; a V3 motor's version date and model read);
+//! and the probe that waits for every motor
 //! to answer a zero-torque 0x280 frame once.
 
 use core::time::Duration;
@@ -16,6 +17,7 @@ use crate::exchange::{Collected, Torque};
 use crate::os::{self, CpuLatencyRequest, RtRequest, RtSetup};
 use crate::report::{Fault, IdentifiedMotor, MotorRef, StopReason};
 use crate::robot::{ExchangeKind, LoopSettings};
+use crate::versions::{self, V3Versions};
 
 /// Stack pre-faulted at start.
 const PREFAULT_STACK_BYTES: usize = 512 * 1024;
@@ -132,12 +134,21 @@ pub(crate) fn identify_motors<B: CanBus, C: Clock>(
                 continue;
             }
             check(robot, b, *id, joint, &identification, multi_torque)?;
+            // A described V3 motor (checked above) says what it runs: read-only requests.
+            let versions = match joint {
+                Some(j) if identification.family == ProtocolFamily::MyActuatorV3 => {
+                    versions::read_v3(&mut link.bus, &*clock, robot.spec(j).dialect, *id, timeout)
+                }
+                _ => V3Versions::default(),
+            };
             found.push(IdentifiedMotor {
                 bus: b,
                 motor: *id,
                 joint: joint.map(|j| robot.spec(j).name.clone()),
                 family: identification.family,
                 finding: identification.evidence.finding.to_string(),
+                firmware_date: versions.firmware_date,
+                model: versions.model,
             });
         }
     }

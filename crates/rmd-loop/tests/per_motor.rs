@@ -445,3 +445,48 @@ fn the_report_says_which_motors_turn_off_by_themselves_if_the_host_dies() {
     );
     assert_eq!(json["protection"][2]["motor"], 3);
 }
+
+#[test]
+fn the_start_reads_each_v3_motors_firmware_date_and_model() {
+    // Motor 1 runs the simulator's default V4.3 firmware (2025070202); motor 2 a V4.4 one
+    // (2026042402), whose model is read five characters at a time; motor 3 speaks v1.61.
+    let clock = VirtualClock::new();
+    let ids = [1, 2, 3];
+    let d = [V3, V3, Dialect::V161];
+    let mut sim = SimConfig::with_motors(0).seed(11);
+    sim.motors = ids
+        .iter()
+        .zip(d)
+        .map(|(&n, dialect)| {
+            let mut m = rmd_sim::MotorConfig::new(id(n));
+            m.firmware.speak(dialect);
+            m
+        })
+        .collect();
+    sim.motors[1].firmware.v3.firmware_date = rmd_protocol::FirmwareDate::from_raw(2_026_042_402);
+    sim.motors[1].firmware.v3.model = *b"RMD-X8-H-48-6\0\0";
+    let mut bus = SimBus::new(clock.clone(), sim).unwrap();
+    let robot =
+        Robot::try_from(RobotConfig::new(500.0).with_bus(motors(BusConfig::new("can0"), &ids, &d)))
+            .unwrap();
+    let out = RtLoop::new(robot, clock, vec![&mut bus], Constant(0.0))
+        .unwrap()
+        .run(RunLimit::Ticks(10));
+    let r = &out.report;
+    assert_eq!(r.stop_reason, rmd_loop::StopReason::TickLimit, "{r}");
+    let read: Vec<_> = r
+        .identified
+        .iter()
+        .map(|m| (m.motor.get(), m.firmware_date, m.model.as_deref()))
+        .collect();
+    assert_eq!(
+        read,
+        [
+            (1, Some(2_025_070_202), Some("RMD-SIM")),
+            (2, Some(2_026_042_402), Some("RMD-X8-H-48-6")),
+            (3, None, None),
+        ]
+    );
+    let json = serde_json::to_value(r).unwrap();
+    assert_eq!(json["identified"][1]["model"], "RMD-X8-H-48-6");
+}
