@@ -84,6 +84,10 @@ pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
         realtime_warnings: realtime.warnings().map(str::to_string).collect(),
         realtime,
         identified,
+        health_rotation: robot.buses().iter().map(|b| b.health_rotation).collect(),
+        health_notes: (0..robot.buses().len())
+            .filter_map(|b| robot.health_note(b))
+            .collect(),
         panic,
     };
     LoopOutcome { report, controller }

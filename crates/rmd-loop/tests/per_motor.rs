@@ -395,3 +395,99 @@ fn braked_v3_motors_are_released_before_torque_and_locked_after_motor_off() {
     let first_torque = host.iter().position(|&c| c == 0xA1).unwrap();
     assert!(release < first_torque && off < lock, "{host:02X?}");
 }
+
+/// Three V3 motors at `rate_hz` on one simulated bus (with `faults`), run for `ticks` ticks with
+/// the health watch.
+fn run_v3_health(
+    rate_hz: f64,
+    faults: &[FaultRule],
+    ticks: u64,
+) -> (rmd_loop::LoopOutcome<HealthWatch>, SimBus<VirtualClock>) {
+    let clock = VirtualClock::new();
+    let ids = [1, 2, 3];
+    let mut bus = sim_of(&clock, &ids, &[V3; 3], faults);
+    let robot = Robot::try_from(RobotConfig::new(rate_hz).with_bus(motors(
+        BusConfig::new("can0"),
+        &ids,
+        &[V3; 3],
+    )))
+    .unwrap();
+    let out = RtLoop::new(robot, clock, vec![&mut bus], HealthWatch::from(6))
+        .unwrap()
+        .run(RunLimit::Ticks(ticks));
+    (out, bus)
+}
+
+#[test]
+fn v3_health_rotation_reads_every_motor_within_n_ticks_on_the_per_motor_exchange() {
+    // Three 0xA1 requests, one 0x9A, four replies: room at 500 Hz (not at 1 kHz: 1080 us of a
+    // 900 us reply window, worst-case stuffing).
+    let (out, bus) = run_v3_health(500.0, &[], 3000);
+    let r = &out.report;
+    assert_eq!(r.stop_reason, rmd_loop::StopReason::TickLimit, "{r}");
+    assert_eq!(r.health_rotation, [true]);
+    assert_eq!(out.controller.without, 0);
+    assert!(out.controller.oldest <= 3, "{}", out.controller.oldest);
+    assert!(
+        out.controller.volts.iter().all(|v| *v > 20.0),
+        "{:?}",
+        out.controller.volts
+    );
+    // One request per tick, in turn (plus the start-up's identification, once each), never
+    // a 0x280 frame; the torque replies' counters untouched.
+    assert_eq!(status_requests(&bus)[1..=3], [1001, 1001, 1001]);
+    assert!(!sent_multi_torque(&bus));
+    assert_eq!(
+        (r.stats.missing_replies, r.stats.late_replies),
+        (0, 0),
+        "{r}"
+    );
+    for m in &r.stats.motors {
+        let c = &m.counters;
+        assert_eq!(
+            (c.unexpected_replies, c.bad_frames, c.missing_status_replies),
+            (0, 0, 0)
+        );
+        assert!(c.status_replies >= 999, "{m:?}");
+    }
+    let (out, _) = run_v3_health(1000.0, &[], 10);
+    assert_eq!(out.report.health_rotation, [false]);
+}
+
+#[test]
+fn a_v3_under_voltage_flag_stops_the_loop_naming_the_motor_and_every_motor_ends_off() {
+    let low = FaultRule::new(FaultKind::LowVoltage { volts: 12.0 })
+        .motor(id(2))
+        .during(
+            rmd_bus::Timestamp::from_nanos(200_000_000),
+            rmd_bus::Timestamp::from_nanos(u64::MAX),
+        );
+    let (out, mut bus) = run_v3_health(500.0, &[low], 1000);
+    let r = &out.report;
+    let rmd_loop::StopReason::Fault(rmd_loop::Fault::MotorError {
+        at,
+        flag,
+        error_flags,
+    }) = r.stop_reason
+    else {
+        panic!("{r}")
+    };
+    assert_eq!(
+        (at.motor, flag),
+        (id(2), rmd_loop::MotorFlag::UnderVoltage),
+        "{r}"
+    );
+    // V3's low-voltage bit.
+    assert_eq!(error_flags & 0x0004, 0x0004);
+    assert!(r.stop_description.contains("under-voltage"), "{r}");
+    drop(out);
+    assert!(
+        !sent_multi_torque(&bus),
+        "a 0x280 frame went out on a V3 bus"
+    );
+    for m in [1, 2, 3] {
+        let snap = bus.snapshot(id(m)).unwrap();
+        assert_eq!(snap.mode, ControlMode::Off, "motor {m}: {snap:?}");
+        assert!(!snap.energising);
+    }
+}

@@ -335,6 +335,7 @@ fn short_stop(d: &Drill) -> String {
             Fault::OverTemperature { at, celsius } => {
                 format!("over-temperature, {} ({celsius:.0} degC)", joint(at))
             }
+            Fault::MotorError { at, flag, .. } => format!("{flag} flag, {}", joint(at)),
             Fault::Supervisor => "supervisor did not start".to_string(),
             Fault::UndescribedMotor { bus, motor, .. } => {
                 format!("undescribed motor {} on bus {bus}", motor.get())
