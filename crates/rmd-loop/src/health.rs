@@ -20,9 +20,8 @@ pub struct MotorHealth {
     pub voltage_volts: f64,
     /// Motor temperature from the status reply, degrees Celsius.
     pub temperature_celsius: f64,
-    /// The error flags as the motor sent them (v1.61 / LK-TECH: the error byte; V3: its 16
-    /// bits), unknown bits included.
-    pub error_flags: u16,
+    /// The error flags as the motor sent them, unknown bits included.
+    pub error_flags: ErrorFlags,
     /// The tick whose status request this answers: the reading is `tick - requested_tick`
     /// ticks old (at most the number of motors on the bus while every reply comes).
     pub requested_tick: u64,
@@ -38,12 +37,50 @@ impl MotorHealth {
             voltage_volts: status.volts(),
             temperature_celsius: status.temperature().celsius(),
             error_flags: match status {
-                Status1::V161(s) => u16::from(s.error_state.raw()),
-                Status1::Lk(s) => u16::from(s.error_state.raw()),
-                Status1::V3(s) => s.error_state.raw(),
+                Status1::V161(s) => ErrorFlags::Byte(s.error_state),
+                Status1::Lk(s) => ErrorFlags::Byte(s.error_state),
+                Status1::V3(s) => ErrorFlags::V3(s.error_state),
             },
             requested_tick,
             received_at,
+        }
+    }
+}
+
+/// A status reply's error flags in its family's layout.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum ErrorFlags {
+    /// v1.61 and LK-TECH: the error byte (bit 0 low voltage, bit 3 over-temperature).
+    Byte(ErrorState),
+    /// MyActuator V3: sixteen bits.
+    V3(V3ErrorState),
+}
+
+impl ErrorFlags {
+    /// The flags as sent (the byte, or V3's 16 bits).
+    pub const fn raw(self) -> u16 {
+        match self {
+            ErrorFlags::Byte(e) => e.raw() as u16,
+            ErrorFlags::V3(e) => e.raw(),
+        }
+    }
+
+    /// The flags in the v1.61 error byte's terms (bit 0 low voltage, bit 3 over-temperature),
+    /// as telemetry shows them for every family: V3's low-voltage and motor over-temperature
+    /// bits mapped there, its others left out (they are in [`raw`](Self::raw)).
+    pub fn as_byte(self) -> ErrorState {
+        match self {
+            ErrorFlags::Byte(e) => e,
+            ErrorFlags::V3(e) => {
+                let mut byte = ErrorState::NONE;
+                if e.contains(V3ErrorState::LOW_VOLTAGE) {
+                    byte = byte | ErrorState::LOW_VOLTAGE;
+                }
+                if e.contains(V3ErrorState::MOTOR_OVER_TEMPERATURE) {
+                    byte = byte | ErrorState::OVER_TEMPERATURE;
+                }
+                byte
+            }
         }
     }
 }
@@ -191,13 +228,16 @@ mod tests {
         assert_eq!(MotorFlag::first_in(&v161), Some(MotorFlag::UnderVoltage));
         let h = MotorHealth::of(&v161, 7, Timestamp::ZERO);
         assert_eq!((h.voltage_volts, h.temperature_celsius), (24.0, 40.0));
-        assert_eq!(h.error_flags, 1);
+        assert_eq!(h.error_flags.raw(), 1);
         let hot = status(Dialect::V161, [0x9A, 90, 0, 0xF0, 0x00, 0, 0, 0x08]);
         assert_eq!(MotorFlag::first_in(&hot), Some(MotorFlag::OverTemperature));
         // An unknown bit alone is no fault; it is kept.
         let odd = status(Dialect::V161, [0x9A, 40, 0, 0xF0, 0x00, 0, 0, 0x20]);
         assert_eq!(MotorFlag::first_in(&odd), None);
-        assert_eq!(MotorHealth::of(&odd, 0, Timestamp::ZERO).error_flags, 0x20);
+        assert_eq!(
+            MotorHealth::of(&odd, 0, Timestamp::ZERO).error_flags.raw(),
+            0x20
+        );
         // LK-TECH: voltage in DATA[2..=3] (0.01 V), the same error bits.
         let lk = status(
             Dialect::LkV23x(LkSeries::Mf),
@@ -217,7 +257,12 @@ mod tests {
             let [lo, hi] = bits.to_le_bytes();
             let s = status(v3, [0x9A, 30, 30, 0, 0xF0, 0x00, lo, hi]);
             assert_eq!(MotorFlag::first_in(&s), Some(flag), "{bits:#06x}");
-            assert_eq!(MotorHealth::of(&s, 0, Timestamp::ZERO).voltage_volts, 24.0);
+            let h = MotorHealth::of(&s, 0, Timestamp::ZERO);
+            assert_eq!((h.voltage_volts, h.error_flags.raw()), (24.0, bits));
+            assert_eq!(
+                h.error_flags.as_byte().low_voltage(),
+                flag == MotorFlag::UnderVoltage
+            );
         }
         let clear = status(v3, [0x9A, 30, 30, 0, 0xF0, 0x00, 0, 0]);
         assert_eq!(MotorFlag::first_in(&clear), None);

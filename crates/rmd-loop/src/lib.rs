@@ -71,7 +71,7 @@ pub use feedback::{Feedback, Freshness, JointFeedback, JointState, MotorState, R
 pub use finish::LoopOutcome;
 pub use guard::{LimitBreach, LimitKind};
 pub use handle::{LoopHandle, LoopThreadDied, SpawnError};
-pub use health::{MotorFlag, MotorHealth};
+pub use health::{ErrorFlags, MotorFlag, MotorHealth};
 pub use joint::JointId;
 pub use joint_array::JointArray;
 pub use report::{Fault, LoopReport, MotorRef, SafeStopReport, StopReason};

@@ -103,7 +103,7 @@ impl<B> Exchange<B> {
             Some(flag) => Err(Fault::MotorError {
                 at: motor.at,
                 flag,
-                error_flags: health.error_flags,
+                error_flags: health.error_flags.raw(),
             }),
         }
     }
