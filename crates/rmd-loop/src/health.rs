@@ -9,11 +9,12 @@
 
 use core::fmt;
 
-use rmd_bus::Timestamp;
 use rmd_protocol::{ErrorState, Status1, V3ErrorState};
 use serde::Serialize;
 
-/// A motor's latest status-1 reply, as the controller and the telemetry see it.
+/// A motor's latest status-1 reply, as the controller and the telemetry see it. Small on
+/// purpose: it rides in every [`JointFeedback`](crate::JointFeedback), copied into every
+/// telemetry sample (at most 128 bytes each, copied inline; a unit test keeps it so).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct MotorHealth {
     /// Supply voltage, volts.
@@ -25,14 +26,11 @@ pub struct MotorHealth {
     /// The tick whose status request this answers: the reading is `tick - requested_tick`
     /// ticks old (at most the number of motors on the bus while every reply comes).
     pub requested_tick: u64,
-    /// When the reply was received (bus clock).
-    pub received_at: Timestamp,
 }
 
 impl MotorHealth {
-    /// The reading of `status`, the answer to the request of `requested_tick`, received at
-    /// `received_at`.
-    pub(crate) fn of(status: &Status1, requested_tick: u64, received_at: Timestamp) -> Self {
+    /// The reading of `status`, the answer to the request of `requested_tick`.
+    pub(crate) fn of(status: &Status1, requested_tick: u64) -> Self {
         Self {
             voltage_volts: status.volts(),
             temperature_celsius: status.temperature().celsius(),
@@ -42,7 +40,6 @@ impl MotorHealth {
                 Status1::V3(s) => ErrorFlags::V3(s.error_state),
             },
             requested_tick,
-            received_at,
         }
     }
 }
@@ -222,11 +219,17 @@ mod tests {
     }
 
     #[test]
+    fn feedback_stays_small_enough_to_copy_inline() {
+        assert!(core::mem::size_of::<Option<MotorHealth>>() <= 32);
+        assert!(core::mem::size_of::<crate::JointFeedback>() <= 128);
+    }
+
+    #[test]
     fn every_family_names_its_flags_and_reads_its_voltage() {
         // v1.61: DATA[3..=4] 0.1 V, DATA[7] error byte.
         let v161 = status(Dialect::V161, [0x9A, 40, 0, 0xF0, 0x00, 0, 0, 0x01]);
         assert_eq!(MotorFlag::first_in(&v161), Some(MotorFlag::UnderVoltage));
-        let h = MotorHealth::of(&v161, 7, Timestamp::ZERO);
+        let h = MotorHealth::of(&v161, 7);
         assert_eq!((h.voltage_volts, h.temperature_celsius), (24.0, 40.0));
         assert_eq!(h.error_flags.raw(), 1);
         let hot = status(Dialect::V161, [0x9A, 90, 0, 0xF0, 0x00, 0, 0, 0x08]);
@@ -234,10 +237,7 @@ mod tests {
         // An unknown bit alone is no fault; it is kept.
         let odd = status(Dialect::V161, [0x9A, 40, 0, 0xF0, 0x00, 0, 0, 0x20]);
         assert_eq!(MotorFlag::first_in(&odd), None);
-        assert_eq!(
-            MotorHealth::of(&odd, 0, Timestamp::ZERO).error_flags.raw(),
-            0x20
-        );
+        assert_eq!(MotorHealth::of(&odd, 0).error_flags.raw(), 0x20);
         // LK-TECH: voltage in DATA[2..=3] (0.01 V), the same error bits.
         let lk = status(
             Dialect::LkV23x(LkSeries::Mf),
@@ -257,7 +257,7 @@ mod tests {
             let [lo, hi] = bits.to_le_bytes();
             let s = status(v3, [0x9A, 30, 30, 0, 0xF0, 0x00, lo, hi]);
             assert_eq!(MotorFlag::first_in(&s), Some(flag), "{bits:#06x}");
-            let h = MotorHealth::of(&s, 0, Timestamp::ZERO);
+            let h = MotorHealth::of(&s, 0);
             assert_eq!((h.voltage_volts, h.error_flags.raw()), (24.0, bits));
             assert_eq!(
                 h.error_flags.as_byte().low_voltage(),

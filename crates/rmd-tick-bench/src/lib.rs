@@ -94,8 +94,10 @@ pub struct CannedBus {
     status_replies: [CanFrame; MOTORS as usize],
     /// When each 0x280 frame not fully answered yet was sent (ns), oldest first (a ring).
     sent_ns: [u64; PENDING_FRAMES],
-    /// Per frame of the ring: the motor (index) whose status reply follows its four, if any.
-    status_of: [Option<usize>; PENDING_FRAMES],
+    /// Per frame of the ring: the replies it is owed (four, five with a status reply), and the
+    /// motor (index) whose status reply is the fifth.
+    owed: [usize; PENDING_FRAMES],
+    status_of: [usize; PENDING_FRAMES],
     head: usize,
     len: usize,
     /// Replies to the oldest frame already received.
@@ -133,7 +135,8 @@ impl CannedBus {
             replies,
             status_replies,
             sent_ns: [0; PENDING_FRAMES],
-            status_of: [None; PENDING_FRAMES],
+            owed: [MOTORS as usize; PENDING_FRAMES],
+            status_of: [0; PENDING_FRAMES],
             head: 0,
             len: 0,
             taken: 0,
@@ -157,12 +160,13 @@ impl CanBus for CannedBus {
             }
             let slot = (self.head + self.len) % PENDING_FRAMES;
             self.sent_ns[slot] = self.clock.now().as_nanos();
-            self.status_of[slot] = None;
+            self.owed[slot] = MOTORS as usize;
             self.len += 1;
         } else if frame.data().first() == Some(&STATUS1) && self.len > 0 {
             // The newest frame's replies are followed by this motor's status reply.
             let newest = (self.head + self.len - 1) % PENDING_FRAMES;
-            self.status_of[newest] = Some(usize::from(frame.id() & 0x1F).saturating_sub(1) % 4);
+            self.owed[newest] = MOTORS as usize + 1;
+            self.status_of[newest] = usize::from(frame.id() & 0x1F).saturating_sub(1) % 4;
         }
         Ok(())
     }
@@ -182,11 +186,10 @@ impl CanBus for CannedBus {
         }
         let reply = match self.replies.get(self.taken) {
             Some(reply) => *reply,
-            None => self.status_replies[self.status_of[self.head].unwrap_or(0)],
+            None => self.status_replies[self.status_of[self.head]],
         };
         self.taken += 1;
-        let owed = self.replies.len() + usize::from(self.status_of[self.head].is_some());
-        if self.taken == owed {
+        if self.taken == self.owed[self.head] {
             self.taken = 0;
             self.head = (self.head + 1) % PENDING_FRAMES;
             self.len -= 1;

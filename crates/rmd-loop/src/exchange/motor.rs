@@ -276,28 +276,26 @@ impl MotorLink {
             (_, fresh @ Freshness::Fresh { .. }) => fresh,
             _ => Freshness::Late { age_ticks },
         };
-        *feedback = JointFeedback {
-            joint: JointState {
-                angle_deg: self.map.joint_angle_deg(motor_deg),
-                velocity_dps: self.map.joint_velocity_dps(speed_dps),
-                torque_nm: self.map.joint_torque_nm(current_amps),
-            },
-            motor: MotorState {
-                angle_deg: motor_deg,
-                speed_dps,
-                current_amps,
-                temperature_celsius: status.temperature.celsius(),
-            },
-            raw: RawStatus {
-                temperature: status.temperature.raw(),
-                iq: status.iq.raw(),
-                speed: status.speed.raw(),
-                encoder: raw_position,
-            },
-            freshness,
-            received_at: at,
-            health: feedback.health,
+        // Field by field: the motor's health (status replies) stays as it is.
+        feedback.joint = JointState {
+            angle_deg: self.map.joint_angle_deg(motor_deg),
+            velocity_dps: self.map.joint_velocity_dps(speed_dps),
+            torque_nm: self.map.joint_torque_nm(current_amps),
         };
+        feedback.motor = MotorState {
+            angle_deg: motor_deg,
+            speed_dps,
+            current_amps,
+            temperature_celsius: status.temperature.celsius(),
+        };
+        feedback.raw = RawStatus {
+            temperature: status.temperature.raw(),
+            iq: status.iq.raw(),
+            speed: status.speed.raw(),
+            encoder: raw_position,
+        };
+        feedback.freshness = freshness;
+        feedback.received_at = at;
         class
     }
 }

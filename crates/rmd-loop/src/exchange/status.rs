@@ -96,7 +96,7 @@ impl<B> Exchange<B> {
         };
         counters.missing_status_replies += lost;
         counters.status_replies += 1;
-        let health = MotorHealth::of(&status, requested_tick, at);
+        let health = MotorHealth::of(&status, requested_tick);
         self.feedback[m].health = Some(health);
         match MotorFlag::first_in(&status) {
             None => Ok(Received::Item),

@@ -196,7 +196,6 @@ mod tests {
             temperature_celsius: 33.0,
             error_flags: rmd_loop::ErrorFlags::V3(rmd_protocol::V3ErrorState::LOW_VOLTAGE),
             requested_tick: k.saturating_sub(2),
-            received_at: earlier,
         });
         s
     }
