@@ -242,3 +242,23 @@ pub fn status_requests(bus: &SimBus<VirtualClock>) -> Vec<u64> {
     }
     count
 }
+
+/// The torque replies' counters of `r` untouched by the health rotation (no missing, late,
+/// unexpected or bad torque reply), every status request answered but perhaps the last few
+/// (`status_replies` at least `least` per motor, none missing).
+pub fn assert_rotation_left_torque_alone(r: &rmd_loop::LoopReport, least: u64) {
+    assert_eq!(
+        (r.stats.missing_replies, r.stats.late_replies),
+        (0, 0),
+        "{r}"
+    );
+    for m in &r.stats.motors {
+        let c = &m.counters;
+        assert_eq!(
+            (c.unexpected_replies, c.bad_frames, c.missing_status_replies),
+            (0, 0, 0),
+            "{m:?}"
+        );
+        assert!(c.status_replies >= least, "{m:?}");
+    }
+}
