@@ -479,3 +479,64 @@ fn a_v3_under_voltage_flag_stops_the_loop_naming_the_motor_and_every_motor_ends_
         assert!(!snap.energising);
     }
 }
+
+#[test]
+fn the_health_rotation_reads_every_family_on_a_mixed_bus_and_an_lk_flag_names_its_motor() {
+    // v1.61, LK-TECH (MG) and V3 on one per-motor bus at 500 Hz: each family's status reply is
+    // read in its own layout; then the LK motor's supply drops below its threshold.
+    let dialects = [
+        Dialect::V161,
+        Dialect::LkV23x(rmd_protocol::LkSeries::Mg),
+        V3,
+    ];
+    let ids = [1, 2, 3];
+    let robot = || {
+        let mut bus = BusConfig::new("can0");
+        for (&n, d) in ids.iter().zip(&dialects) {
+            let series = matches!(d, Dialect::LkV23x(_)).then_some("mg");
+            bus = bus.with_motor(
+                MotorConfig::new(n)
+                    .protocol(d.name(), series)
+                    .gear_ratio(GEAR)
+                    .torque_constant(KT)
+                    .current_limit(10.0),
+            );
+        }
+        Robot::try_from(RobotConfig::new(500.0).with_bus(bus)).unwrap()
+    };
+    let run = |faults: &[FaultRule], ticks| {
+        let clock = VirtualClock::new();
+        let mut bus = sim_of(&clock, &ids, &dialects, faults);
+        let out = RtLoop::new(robot(), clock, vec![&mut bus], HealthWatch::from(6))
+            .unwrap()
+            .run(RunLimit::Ticks(ticks));
+        (out, bus)
+    };
+    let (out, _) = run(&[], 600);
+    assert_eq!(out.report.health_rotation, [true]);
+    assert!(out.controller.oldest <= 3, "{}", out.controller.oldest);
+    assert_rotation_left_torque_alone(&out.report, 199);
+    let low = FaultRule::new(FaultKind::LowVoltage { volts: 12.0 })
+        .motor(id(2))
+        .during(
+            rmd_bus::Timestamp::from_nanos(200_000_000),
+            rmd_bus::Timestamp::from_nanos(u64::MAX),
+        );
+    let (out, mut bus) = run(&[low], 1000);
+    let r = &out.report;
+    let rmd_loop::StopReason::Fault(rmd_loop::Fault::MotorError { at, flag, .. }) = r.stop_reason
+    else {
+        panic!("{r}")
+    };
+    assert_eq!(
+        (at.motor, flag),
+        (id(2), rmd_loop::MotorFlag::UnderVoltage),
+        "{r}"
+    );
+    drop(out);
+    for m in ids {
+        let snap = bus.snapshot(id(m)).unwrap();
+        assert_eq!(snap.mode, ControlMode::Off, "motor {m}: {snap:?}");
+        assert!(!snap.energising);
+    }
+}
