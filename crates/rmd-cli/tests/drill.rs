@@ -45,6 +45,50 @@ fn one_drill_prints_one_json_object_with_the_stable_fields() {
 }
 
 #[test]
+fn low_voltage_stops_the_run_where_the_health_rotation_has_room_and_says_why_not_elsewhere() {
+    let drill = |motors: &str, json: bool| {
+        let mut args = vec![
+            "drill",
+            "--fault",
+            "low-voltage",
+            "--motors",
+            motors,
+            "--at",
+            "0.2",
+            "--seconds",
+            "0.5",
+            "--virtual-time",
+        ];
+        if json {
+            args.push("--json");
+        }
+        rmd(&args)
+    };
+    // Three motors at 1 kHz: the under-voltage flag stops the run, naming motor 1.
+    let (code, stdout, stderr) = drill("3", true);
+    assert_eq!(code, 0, "{stderr}");
+    let json: Value = serde_json::from_str(&stdout).unwrap();
+    let stop = json["stop_reason"].as_str().unwrap();
+    assert!(
+        stop.contains("motor 1 on bus 0") && stop.contains("under-voltage"),
+        "{json}"
+    );
+    assert!(json["time_to_safe_ms"].as_f64().unwrap() < 10.0, "{json}");
+    assert_eq!(json["report"]["health_rotation"], serde_json::json!([true]));
+    let (code, stdout, stderr) = drill("3", false);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("under-voltage"), "{stdout}");
+    // Four motors: no room on the wire; the run rides to its end and the verdict says why.
+    let (code, stdout, stderr) = drill("4", false);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("stop: tick limit reached"), "{stdout}");
+    assert!(
+        stdout.contains("motor health: not read on bus 0"),
+        "{stdout}"
+    );
+}
+
+#[test]
 fn an_emergency_stop_acts_while_the_controller_hangs() {
     // The controller hangs at 0.3 s; the estop comes 20 ms later, before the stall bound (50 ms):
     // the supervisor acts on it at once.

@@ -159,8 +159,38 @@ fn an_overheating_motor_stops_the_run_at_its_temperature_limit() {
 }
 
 #[test]
-fn a_motor_losing_its_supply_trips_and_the_others_are_safe_at_the_end() {
-    safe_within("low-voltage", TO_THE_END_MS, "tick limit");
+fn a_motor_losing_its_supply_stops_the_run_where_the_health_rotation_has_room() {
+    // Three motors per bus at 1 kHz leave room for the health rotation: motor 1's
+    // under-voltage flag (its status reply, within three ticks) stops the run, naming it, and
+    // every motor is off by the firmware's ground truth.
+    for buses in [1, 2] {
+        let d = rmd_drill::run(
+            &DrillSpec::new(fault("low-voltage"))
+                .buses(buses)
+                .motors(3)
+                .at(Duration::from_millis(AT_MS))
+                .seconds(Duration::from_millis(SECONDS_MS))
+                .time(SimTime::Virtual),
+        )
+        .unwrap();
+        let json = d.to_json();
+        assert!(d.passed(), "{json}");
+        assert!(
+            d.stop_reason.contains("motor 1 on bus 0") && d.stop_reason.contains("under-voltage"),
+            "{json}"
+        );
+        assert!(d.time_to_safe_ms.expect("safe") <= 10.0, "{json}");
+        assert!(json.contains("\"health_rotation\":[true"), "{json}");
+    }
+    // Four motors per bus at 1 kHz have no room for it: the firmware's own protection turns
+    // motor 1 off, the run rides to its end, and the report says why the flag went unseen.
+    for d in safe_within("low-voltage", TO_THE_END_MS, "tick limit") {
+        assert!(
+            d.report.health_notes[0].contains("no room on the wire"),
+            "{:?}",
+            d.report.health_notes
+        );
+    }
 }
 
 #[test]

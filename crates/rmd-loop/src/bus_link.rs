@@ -13,6 +13,9 @@ pub(crate) struct BusLink<B> {
     pub(crate) exchange: ExchangeKind,
     /// Whether torque was ever sent on it (before that, nothing needs undoing).
     pub(crate) commanded: bool,
+    /// The health rotation: the motor (index) whose status the next tick asks for; `None`: no
+    /// rotation on this bus.
+    pub(crate) health_next: Option<usize>,
 }
 
 impl<B> BusLink<B> {

@@ -409,6 +409,8 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                             exchange: spec.exchange,
                             // The supervisor acts while the loop ticks: torque was commanded.
                             commanded: true,
+                            // It only makes motors safe: no status requests.
+                            health_next: None,
                         })
                         .collect(),
                     ids: parts.exchange.motors.iter().map(|m| m.id).collect(),

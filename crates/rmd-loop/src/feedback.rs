@@ -7,6 +7,7 @@
 
 use rmd_bus::Timestamp;
 
+use crate::health::MotorHealth;
 use crate::joint::JointId;
 use crate::robot::JointSpec;
 
@@ -106,6 +107,9 @@ pub struct JointFeedback {
     pub freshness: Freshness,
     /// When the reply was received (bus clock).
     pub received_at: Timestamp,
+    /// The motor's latest status-1 reply (supply voltage, temperature, error flags), read in
+    /// rotation when `loop.health_rotation` is on and the bus has room; `None` until the first.
+    pub health: Option<MotorHealth>,
 }
 
 impl JointFeedback {
@@ -132,6 +136,7 @@ impl JointFeedback {
             ticks_since_reply: 0,
         },
         received_at: Timestamp::ZERO,
+        health: None,
     };
 
     /// Whether it came in this tick.

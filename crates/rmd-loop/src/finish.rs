@@ -86,6 +86,10 @@ pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
         realtime,
         identified,
         protection: MotorProtection::of(robot),
+        health_rotation: robot.buses().iter().map(|b| b.health_rotation).collect(),
+        health_notes: (0..robot.buses().len())
+            .filter_map(|b| robot.health_note(b))
+            .collect(),
         panic,
     };
     LoopOutcome { report, controller }

@@ -42,6 +42,7 @@ pub mod feedback;
 mod finish;
 mod guard;
 pub mod handle;
+pub mod health;
 pub mod jitter;
 pub mod joint;
 mod joint_array;
@@ -72,6 +73,7 @@ pub use feedback::{Feedback, Freshness, JointFeedback, JointState, MotorState, R
 pub use finish::LoopOutcome;
 pub use guard::{LimitBreach, LimitKind};
 pub use handle::{LoopHandle, LoopThreadDied, SpawnError};
+pub use health::{ErrorFlags, MotorFlag, MotorHealth};
 pub use joint::JointId;
 pub use joint_array::JointArray;
 pub use protection::{MotorProtection, Protection};

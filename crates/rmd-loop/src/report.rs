@@ -9,6 +9,7 @@ use serde::Serialize;
 
 use crate::commands::Rejection;
 use crate::guard::LimitBreach;
+use crate::health::MotorFlag;
 use crate::joint::JointId;
 use crate::os::RtStatus;
 use crate::protection::{MotorProtection, ProtectionLine};
@@ -87,6 +88,16 @@ pub enum Fault {
         at: MotorRef,
         /// The reported temperature.
         celsius: f64,
+    },
+    /// A motor raised an error flag in its status reply (the health rotation, 0x9A): its
+    /// firmware protects itself (under-voltage, over-temperature, stall, ...).
+    MotorError {
+        /// The motor.
+        at: MotorRef,
+        /// The flag (the first, when it raised several).
+        flag: MotorFlag,
+        /// Its error flags as sent (v1.61 / LK-TECH: the error byte; V3: 16 bits).
+        error_flags: u16,
     },
     /// The supervisor thread could not be started: the run did not begin.
     Supervisor,
@@ -202,6 +213,15 @@ impl Fault {
                 "{} reports {celsius} degC, at or above its limit",
                 at.describe(robot)
             ),
+            Fault::MotorError {
+                at,
+                flag,
+                error_flags,
+            } => format!(
+                "{} reports {flag} (error flags {error_flags:#06x}): {}",
+                at.describe(robot),
+                flag.advice()
+            ),
             Fault::JointLimit { at, breach } => {
                 format!("{} {breach}{JOINT_LIMIT_ADVICE}", at.describe(robot))
             }
@@ -241,6 +261,15 @@ impl fmt::Display for Fault {
             Fault::OverTemperature { at, celsius } => {
                 write!(f, "{at} reports {celsius} degC, at or above its limit")
             }
+            Fault::MotorError {
+                at,
+                flag,
+                error_flags,
+            } => write!(
+                f,
+                "{at} reports {flag} (error flags {error_flags:#06x}): {}",
+                flag.advice()
+            ),
             Fault::UndescribedMotor { bus, motor, family } => write!(
                 f,
                 "motor {} answers on bus {bus} ({family}) but the robot description does not \
@@ -380,6 +409,10 @@ pub struct LoopReport {
     pub identified: Vec<IdentifiedMotor>,
     /// What turns each motor off if the host dies (its communication watchdog, as described).
     pub protection: Vec<MotorProtection>,
+    /// Per bus: whether motor health (status 1, 0x9A) was read in rotation.
+    pub health_rotation: Vec<bool>,
+    /// Why motor health was not read on a bus, in words, one per such bus.
+    pub health_notes: Vec<String>,
     /// The controller's panic, if it panicked: reported once the motors were safe.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub panic: Option<PanicReport>,
@@ -456,6 +489,9 @@ impl fmt::Display for LoopReport {
             writeln!(f, "  warning: {w}")?;
         }
         write!(f, "{}", self.stats)?;
+        for note in &self.health_notes {
+            writeln!(f, "motor health: {note}")?;
+        }
         if let Some(panic) = &self.panic {
             writeln!(
                 f,

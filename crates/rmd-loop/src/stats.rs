@@ -232,6 +232,11 @@ pub struct MotorCounters {
     pub limited_commands: u64,
     /// Longest run of consecutive ticks without fresh feedback.
     pub max_consecutive_missing: u64,
+    /// Status replies (0x9A, the health rotation) received and read.
+    pub status_replies: u64,
+    /// Status requests given up without a reply (a newer one went out twice since): counted,
+    /// never a fault by itself (its torque replies say whether the motor is there).
+    pub missing_status_replies: u64,
 }
 
 fn serialize_motor_id<S: serde::Serializer>(id: &MotorId, s: S) -> Result<S::Ok, S::Error> {
@@ -252,6 +257,8 @@ impl MotorCounters {
             rejected_commands: 0,
             limited_commands: 0,
             max_consecutive_missing: 0,
+            status_replies: 0,
+            missing_status_replies: 0,
         }
     }
 }
@@ -521,7 +528,7 @@ impl core::fmt::Display for StatsSummary {
         for JointCounters { joint, counters: m } in &self.motors {
             writeln!(
                 f,
-                "{joint} (bus {} motor {}): missing {} late {} unexpected {} bad frames {} clamped {} rejected {} limited {} (longest gap {} ticks)",
+                "{joint} (bus {} motor {}): missing {} late {} unexpected {} bad frames {} clamped {} rejected {} limited {} (longest gap {} ticks) status replies {} (missing {})",
                 m.bus,
                 m.motor.get(),
                 m.missing_replies,
@@ -531,7 +538,9 @@ impl core::fmt::Display for StatsSummary {
                 m.clamped_commands,
                 m.rejected_commands,
                 m.limited_commands,
-                m.max_consecutive_missing
+                m.max_consecutive_missing,
+                m.status_replies,
+                m.missing_status_replies
             )?;
         }
         for (i, b) in self.buses.iter().enumerate() {

@@ -67,8 +67,11 @@ static GLOBAL: Counting = Counting;
 #[test]
 fn steady_state_ticks_allocate_nothing() {
     // Two buses of four motors, with faults on the way (drops, late and corrupt replies, a
-    // full transmit queue): the error paths of a tick must not allocate either.
+    // full transmit queue, lost and duplicated status replies): the error paths of a tick must
+    // not allocate either. At 500 Hz, where the health rotation has room: on.
     let clock = VirtualClock::new();
+    let after_start_up = rmd_bus::Timestamp::from_nanos(100_000_000);
+    let for_ever = rmd_bus::Timestamp::from_nanos(u64::MAX);
     let faults = [
         FaultRule::new(FaultKind::DropReply)
             .multi_torque()
@@ -86,15 +89,25 @@ fn steady_state_ticks_allocate_nothing() {
         })
         .multi_torque()
         .frames_window(700, 1),
+        // After the start-up, whose identification reads status 1 too.
+        FaultRule::new(FaultKind::DropReply)
+            .command(rmd_protocol::Command::ReadStatus1)
+            .during(after_start_up, for_ever)
+            .with_probability(0.05),
+        FaultRule::new(FaultKind::DuplicateReply)
+            .command(rmd_protocol::Command::ReadStatus1)
+            .during(after_start_up, for_ever)
+            .with_probability(0.05),
     ];
     // Shared with the supervisor, which watches every tick from its own thread (and must not
     // allocate either: the counting allocator counts every thread).
     let bus0 = SharedSimBus::new(sim(&clock, 4, 21, &faults));
     let bus1 = SharedSimBus::new(sim(&clock, 4, 22, &faults));
-    let mut config = robot_config(1000.0, 2, 4);
+    let mut config = robot_config(500.0, 2, 4);
     config.loop_config.missing_reply_fault_after = 1000;
     with_limits(&mut config);
     let robot = rmd_loop::Robot::try_from(config).unwrap();
+    assert!(robot.buses().iter().all(|b| b.health_rotation));
     let mut rt = RtLoop::new(
         robot,
         clock.clone(),
@@ -125,6 +138,18 @@ fn steady_state_ticks_allocate_nothing() {
     assert!(
         stats.motors.iter().all(|m| m.counters.limited_commands > 0),
         "the joint limits refused torque: {stats}"
+    );
+    assert!(
+        stats.motors.iter().all(|m| m.counters.status_replies > 400)
+            && stats
+                .motors
+                .iter()
+                .any(|m| m.counters.missing_status_replies > 0)
+            && stats
+                .motors
+                .iter()
+                .any(|m| m.counters.unexpected_replies > 0),
+        "the health rotation ran, with lost and duplicated status replies: {stats}"
     );
     assert_eq!(allocations, 0, "allocations in 2000 steady-state ticks");
     drop(rt);
@@ -164,7 +189,8 @@ fn per_motor_v3_bus() {
     let v3 = v3.firmware_family(rmd_sim::FirmwareFamily::MyActuatorV3);
     let bus0 = SharedSimBus::new(rmd_sim::SimBus::new(clock.clone(), v3).unwrap());
     let bus1 = SharedSimBus::new(sim(&clock, 4, 42, &[]));
-    let mut config = robot_config(1000.0, 2, 4);
+    // At 500 Hz, where the health rotation has room on both buses.
+    let mut config = robot_config(500.0, 2, 4);
     config.buses[0].motors.truncate(3);
     config.buses[0].protocol = Some("myactuator-v3".to_string());
     config.loop_config.missing_reply_fault_after = 1000;
@@ -174,6 +200,7 @@ fn per_motor_v3_bus() {
         robot.buses()[0].exchange,
         rmd_loop::robot::ExchangeKind::PerMotor
     );
+    assert!(robot.buses().iter().all(|b| b.health_rotation));
     let mut rt = RtLoop::new(
         robot,
         clock.clone(),
@@ -201,8 +228,9 @@ fn per_motor_v3_bus() {
     assert!(
         v3_motors.iter().any(|m| m.counters.missing_replies > 0)
             && v3_motors.iter().any(|m| m.counters.bad_frames > 0)
-            && stats.buses[0].tx_errors > 0,
-        "faults happened on the per-motor bus: {stats}"
+            && stats.buses[0].tx_errors > 0
+            && stats.motors.iter().all(|m| m.counters.status_replies > 400),
+        "faults happened on the per-motor bus, and the health rotation ran: {stats}"
     );
     assert_eq!(
         allocations, 0,

@@ -490,3 +490,148 @@ fn the_start_reads_each_v3_motors_firmware_date_and_model() {
     let json = serde_json::to_value(r).unwrap();
     assert_eq!(json["identified"][1]["model"], "RMD-X8-H-48-6");
 }
+
+/// Three V3 motors at `rate_hz` on one simulated bus (with `faults`), run for `ticks` ticks with
+/// the health watch.
+fn run_v3_health(
+    rate_hz: f64,
+    faults: &[FaultRule],
+    ticks: u64,
+) -> (rmd_loop::LoopOutcome<HealthWatch>, SimBus<VirtualClock>) {
+    let clock = VirtualClock::new();
+    let ids = [1, 2, 3];
+    let mut bus = sim_of(&clock, &ids, &[V3; 3], faults);
+    let robot = Robot::try_from(RobotConfig::new(rate_hz).with_bus(motors(
+        BusConfig::new("can0"),
+        &ids,
+        &[V3; 3],
+    )))
+    .unwrap();
+    let out = RtLoop::new(robot, clock, vec![&mut bus], HealthWatch::from(6))
+        .unwrap()
+        .run(RunLimit::Ticks(ticks));
+    (out, bus)
+}
+
+#[test]
+fn v3_health_rotation_reads_every_motor_within_n_ticks_on_the_per_motor_exchange() {
+    // Three 0xA1 requests, one 0x9A, four replies: room at 500 Hz (not at 1 kHz: 1080 us of a
+    // 900 us reply window, worst-case stuffing).
+    let (out, bus) = run_v3_health(500.0, &[], 3000);
+    let r = &out.report;
+    assert_eq!(r.stop_reason, rmd_loop::StopReason::TickLimit, "{r}");
+    assert_eq!(r.health_rotation, [true]);
+    assert_eq!(out.controller.without, 0);
+    assert!(out.controller.oldest <= 3, "{}", out.controller.oldest);
+    assert!(
+        out.controller.volts.iter().all(|v| *v > 20.0),
+        "{:?}",
+        out.controller.volts
+    );
+    // One request per tick, in turn (plus the start-up's identification, once each), never
+    // a 0x280 frame; the torque replies' counters untouched.
+    assert_eq!(status_requests(&bus)[1..=3], [1001, 1001, 1001]);
+    assert!(!sent_multi_torque(&bus));
+    assert_rotation_left_torque_alone(r, 999);
+    let (out, _) = run_v3_health(1000.0, &[], 10);
+    assert_eq!(out.report.health_rotation, [false]);
+}
+
+#[test]
+fn a_v3_under_voltage_flag_stops_the_loop_naming_the_motor_and_every_motor_ends_off() {
+    let low = FaultRule::new(FaultKind::LowVoltage { volts: 12.0 })
+        .motor(id(2))
+        .during(
+            rmd_bus::Timestamp::from_nanos(200_000_000),
+            rmd_bus::Timestamp::from_nanos(u64::MAX),
+        );
+    let (out, mut bus) = run_v3_health(500.0, &[low], 1000);
+    let r = &out.report;
+    let rmd_loop::StopReason::Fault(rmd_loop::Fault::MotorError {
+        at,
+        flag,
+        error_flags,
+    }) = r.stop_reason
+    else {
+        panic!("{r}")
+    };
+    assert_eq!(
+        (at.motor, flag),
+        (id(2), rmd_loop::MotorFlag::UnderVoltage),
+        "{r}"
+    );
+    // V3's low-voltage bit.
+    assert_eq!(error_flags & 0x0004, 0x0004);
+    assert!(r.stop_description.contains("under-voltage"), "{r}");
+    drop(out);
+    assert!(
+        !sent_multi_torque(&bus),
+        "a 0x280 frame went out on a V3 bus"
+    );
+    for m in [1, 2, 3] {
+        let snap = bus.snapshot(id(m)).unwrap();
+        assert_eq!(snap.mode, ControlMode::Off, "motor {m}: {snap:?}");
+        assert!(!snap.energising);
+    }
+}
+
+#[test]
+fn the_health_rotation_reads_every_family_on_a_mixed_bus_and_an_lk_flag_names_its_motor() {
+    // v1.61, LK-TECH (MG) and V3 on one per-motor bus at 500 Hz: each family's status reply is
+    // read in its own layout; then the LK motor's supply drops below its threshold.
+    let dialects = [
+        Dialect::V161,
+        Dialect::LkV23x(rmd_protocol::LkSeries::Mg),
+        V3,
+    ];
+    let ids = [1, 2, 3];
+    let robot = || {
+        let mut bus = BusConfig::new("can0");
+        for (&n, d) in ids.iter().zip(&dialects) {
+            let series = matches!(d, Dialect::LkV23x(_)).then_some("mg");
+            bus = bus.with_motor(
+                MotorConfig::new(n)
+                    .protocol(d.name(), series)
+                    .gear_ratio(GEAR)
+                    .torque_constant(KT)
+                    .current_limit(10.0),
+            );
+        }
+        Robot::try_from(RobotConfig::new(500.0).with_bus(bus)).unwrap()
+    };
+    let run = |faults: &[FaultRule], ticks| {
+        let clock = VirtualClock::new();
+        let mut bus = sim_of(&clock, &ids, &dialects, faults);
+        let out = RtLoop::new(robot(), clock, vec![&mut bus], HealthWatch::from(6))
+            .unwrap()
+            .run(RunLimit::Ticks(ticks));
+        (out, bus)
+    };
+    let (out, _) = run(&[], 600);
+    assert_eq!(out.report.health_rotation, [true]);
+    assert!(out.controller.oldest <= 3, "{}", out.controller.oldest);
+    assert_rotation_left_torque_alone(&out.report, 199);
+    let low = FaultRule::new(FaultKind::LowVoltage { volts: 12.0 })
+        .motor(id(2))
+        .during(
+            rmd_bus::Timestamp::from_nanos(200_000_000),
+            rmd_bus::Timestamp::from_nanos(u64::MAX),
+        );
+    let (out, mut bus) = run(&[low], 1000);
+    let r = &out.report;
+    let rmd_loop::StopReason::Fault(rmd_loop::Fault::MotorError { at, flag, .. }) = r.stop_reason
+    else {
+        panic!("{r}")
+    };
+    assert_eq!(
+        (at.motor, flag),
+        (id(2), rmd_loop::MotorFlag::UnderVoltage),
+        "{r}"
+    );
+    drop(out);
+    for m in ids {
+        let snap = bus.snapshot(id(m)).unwrap();
+        assert_eq!(snap.mode, ControlMode::Off, "motor {m}: {snap:?}");
+        assert!(!snap.energising);
+    }
+}

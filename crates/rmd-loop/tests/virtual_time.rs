@@ -647,3 +647,177 @@ fn a_stall_longer_than_the_probe_timeout_leaves_no_reply_unexpected() {
         }
     }
 }
+
+/// A leg of `motors` motors at `rate_hz` on one simulated bus (seed 5, `faults`), its trace
+/// recorded, run for `ticks` ticks with `controller`.
+fn run_health<K: rmd_loop::Controller>(
+    config: rmd_loop::robot::RobotConfig,
+    motors: u8,
+    faults: &[FaultRule],
+    controller: K,
+    ticks: u64,
+) -> (rmd_loop::LoopOutcome<K>, rmd_sim::SimBus<VirtualClock>) {
+    let clock = VirtualClock::new();
+    let mut bus = sim(&clock, motors, 5, faults);
+    bus.record_trace(200_000);
+    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let out = RtLoop::new(robot, clock, vec![&mut bus], controller)
+        .unwrap()
+        .run(RunLimit::Ticks(ticks));
+    (out, bus)
+}
+
+#[test]
+fn the_health_rotation_reads_every_motor_within_n_ticks_and_never_disturbs_torque_replies() {
+    // Four motors at 500 Hz: one 0x280 frame, one status request, five replies fit the window.
+    let config = robot_config(500.0, 1, 4);
+    let (out, mut bus) = run_health(config, 4, &[], HealthWatch::from(8), 5000);
+    let r = &out.report;
+    assert_eq!(r.stop_reason, StopReason::TickLimit, "{r}");
+    assert_eq!(r.health_rotation, [true]);
+    assert!(r.health_notes.is_empty(), "{:?}", r.health_notes);
+    // Every motor's health at most N = 4 ticks old, from the first rotation on.
+    assert_eq!(out.controller.without, 0);
+    assert!(out.controller.oldest <= 4, "{}", out.controller.oldest);
+    // The supply voltage the motors measure (ground truth) reaches the controller.
+    for (m, volts) in out.controller.volts.iter().enumerate() {
+        let truth = bus.snapshot(id(m as u8 + 1)).unwrap().voltage_v;
+        assert!(
+            (volts - truth).abs() <= 0.1,
+            "motor {}: {volts} V, truth {truth} V",
+            m + 1
+        );
+    }
+    // One status request per tick, each motor in turn (and one each by the start-up's
+    // identification); every one answered; the torque replies' counters untouched.
+    let sent = status_requests(&bus);
+    assert_eq!(sent[1..=4], [1251, 1251, 1251, 1251]);
+    // The last request may be unanswered when the loop stops.
+    assert_rotation_left_torque_alone(r, 1249);
+    assert_eq!(r.stats.round_trip_us.count, 5000);
+}
+
+#[test]
+fn a_lost_status_reply_is_counted_and_the_loop_rides_through() {
+    let drop = FaultRule::new(FaultKind::DropReply)
+        .motor(id(2))
+        .command(rmd_protocol::Command::ReadStatus1)
+        .frames_window(10, 3);
+    let (out, _) = run_health(
+        robot_config(500.0, 1, 4),
+        4,
+        &[drop],
+        HealthWatch::from(8),
+        1000,
+    );
+    let r = &out.report;
+    assert_eq!(r.stop_reason, StopReason::TickLimit, "{r}");
+    let m2 = r.stats.motors[1].counters;
+    assert_eq!(m2.missing_status_replies, 3, "{m2:?}");
+    // Never taken for a torque reply, nor shifting the later status replies.
+    assert_eq!(
+        (r.stats.missing_replies, r.stats.late_replies),
+        (0, 0),
+        "{r}"
+    );
+    assert_eq!((m2.unexpected_replies, m2.bad_frames), (0, 0), "{m2:?}");
+    // Three lost replies leave motor 2's reading three rotations older at most once.
+    assert!(out.controller.oldest <= 4 * 4, "{}", out.controller.oldest);
+}
+
+/// The loop stopped on `flag` from motor `motor`, and every motor is off by ground truth.
+fn assert_stopped_on_flag(
+    out: &rmd_loop::LoopOutcome<HealthWatch>,
+    bus: &mut rmd_sim::SimBus<VirtualClock>,
+    motor: u8,
+    flag: rmd_loop::MotorFlag,
+) {
+    let r = &out.report;
+    let StopReason::Fault(Fault::MotorError { at, flag: got, .. }) = r.stop_reason else {
+        panic!("{r}")
+    };
+    assert_eq!((at.motor, at.bus, got), (id(motor), 0, flag), "{r}");
+    assert!(
+        r.stop_description
+            .contains(&format!("motor {motor} on bus 0")),
+        "{r}"
+    );
+    assert!(r.stop_description.contains(flag.name()), "{r}");
+    assert_safe(bus, 4);
+}
+
+#[test]
+fn an_under_voltage_or_over_temperature_flag_stops_the_loop_naming_the_motor() {
+    let from = Timestamp::from_nanos(300_000_000);
+    let until = Timestamp::from_nanos(u64::MAX);
+    let low = FaultRule::new(FaultKind::LowVoltage { volts: 12.0 })
+        .motor(id(3))
+        .during(from, until);
+    let (out, mut bus) = run_health(
+        robot_config(500.0, 1, 4),
+        4,
+        &[low],
+        HealthWatch::default(),
+        1000,
+    );
+    assert_stopped_on_flag(&out, &mut bus, 3, rmd_loop::MotorFlag::UnderVoltage);
+    // Within a rotation and a tick of the cause: 300 ms is tick 150 at 500 Hz.
+    assert!(out.report.stats.ticks <= 150 + 4 + 2, "{}", out.report);
+    let hot = FaultRule::new(FaultKind::OverTemperature { celsius: 95.0 })
+        .motor(id(2))
+        .during(from, until);
+    let (out, mut bus) = run_health(
+        robot_config(500.0, 1, 4),
+        4,
+        &[hot],
+        HealthWatch::default(),
+        1000,
+    );
+    assert_stopped_on_flag(&out, &mut bus, 2, rmd_loop::MotorFlag::OverTemperature);
+}
+
+#[test]
+fn without_room_on_the_wire_or_when_switched_off_no_status_request_goes_out() {
+    // Four motors at 1 kHz: the 0x280 frame and four replies fill the reply window (875 of
+    // 900 us, worst-case stuffing); a status request and reply more would not fit.
+    let (out, bus) = run_health(
+        robot_config(1000.0, 1, 4),
+        4,
+        &[],
+        HealthWatch::from(0),
+        500,
+    );
+    assert_eq!(out.report.health_rotation, [false]);
+    assert!(
+        out.report.health_notes[0].contains("no room on the wire"),
+        "{:?}",
+        out.report.health_notes
+    );
+    assert!(
+        out.report
+            .to_string()
+            .contains("motor health: not read on bus 0")
+    );
+    // Only the start-up's identification asked (once each).
+    assert_eq!(status_requests(&bus)[1..=4], [1, 1, 1, 1]);
+    assert_eq!(out.controller.without, 500 * 4);
+    // Room, but switched off.
+    let mut config = robot_config(500.0, 1, 4);
+    config.loop_config.health_rotation = false;
+    let (out, bus) = run_health(config, 4, &[], HealthWatch::from(0), 500);
+    assert_eq!(out.report.health_rotation, [false]);
+    assert!(out.report.health_notes[0].contains("loop.health_rotation = false"));
+    assert_eq!(status_requests(&bus)[1..=4], [1, 1, 1, 1]);
+    // Three motors at 1 kHz have room (875 us with the status request and reply).
+    let (out, bus) = run_health(
+        robot_config(1000.0, 1, 3),
+        3,
+        &[],
+        HealthWatch::from(6),
+        3000,
+    );
+    assert_eq!(out.report.health_rotation, [true]);
+    assert_eq!(status_requests(&bus)[1..=3], [1001, 1001, 1001]);
+    assert!(out.controller.oldest <= 3, "{}", out.controller.oldest);
+    assert_eq!(out.report.stats.missing_replies, 0);
+}

@@ -629,6 +629,7 @@ impl ServoController {
         status.fresh = f.is_fresh();
         status.received_at = f.received_at;
         status.temperature_celsius = f.motor.temperature_celsius;
+        status.voltage_volts = f.health.map(|h| h.voltage_volts);
         status.current_amps = f.motor.current_amps;
         status.mode = j.mode.public();
         status.reference = step.reference.map(Reference::from_kin);

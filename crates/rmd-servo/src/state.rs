@@ -112,6 +112,9 @@ pub struct JointStatus {
     pub received_at: Timestamp,
     /// Motor temperature, °C.
     pub temperature_celsius: f64,
+    /// The motor's supply voltage from its latest status reply (the loop's health rotation),
+    /// volts; `None` until one came, or when its bus has no room for the rotation.
+    pub voltage_volts: Option<f64>,
     /// Torque current, A (motor sign).
     pub current_amps: f64,
     /// What the servo does with the joint.
@@ -138,6 +141,7 @@ impl JointStatus {
         fresh: false,
         received_at: Timestamp::ZERO,
         temperature_celsius: 0.0,
+        voltage_volts: None,
         current_amps: 0.0,
         mode: ServoMode::Disabled,
         reference: None,

@@ -29,12 +29,15 @@ use rmd_loop::{
     Commands, Controller, Feedback, Flow, Robot, RtLoop, Running, TelemetryReceiver, TickContext,
 };
 use rmd_protocol::{
-    CanFrame, Dialect, EncoderValue, Iq, MULTI_TORQUE_CAN_ID, MotorId, Reply, Speed, Status2,
-    StatusPosition, Temperature,
+    CanFrame, Dialect, EncoderValue, ErrorState, Iq, MULTI_TORQUE_CAN_ID, MotorId, Reply, Speed,
+    Status1, Status2, StatusPosition, Temperature, V161Status1, Voltage,
 };
 
 /// Loop rate of the scenario.
 pub const RATE_HZ: f64 = 1000.0;
+/// A rate at which four motors per bus leave room for the health rotation (a status request
+/// and reply each tick): the same tick's work, one frame more each way.
+pub const HEALTH_RATE_HZ: f64 = 800.0;
 /// Motors on each bus (ids 1..=4: one 0x280 frame drives them all).
 pub const MOTORS: u8 = 4;
 /// When the first reply comes after the request (virtual time): longer than the shortest
@@ -42,6 +45,9 @@ pub const MOTORS: u8 = 4;
 pub const TURNAROUND: Duration = Duration::from_micros(250);
 /// Between a bus's replies (about one 8-byte frame at 1 Mbit/s).
 pub const REPLY_GAP: Duration = Duration::from_micros(120);
+
+/// DATA\[0\] of a status request (0x9A).
+const STATUS1: u8 = 0x9A;
 
 /// 0x280 frames a [`CannedBus`] holds replies for (more are refused, as a full transmit queue).
 const PENDING_FRAMES: usize = 2;
@@ -56,9 +62,15 @@ impl Controller for NoOp {
     }
 }
 
-/// A robot of `buses` buses of [`MOTORS`] motors each (ids 1..=4, v1.61), at [`RATE_HZ`].
+/// A robot of `buses` buses of [`MOTORS`] motors each (ids 1..=4, v1.61), at [`RATE_HZ`]: the
+/// health rotation has no room there (four replies and a 0x280 frame fill the reply window).
 pub fn robot(buses: usize) -> Robot {
-    let mut robot = RobotConfig::new(RATE_HZ);
+    robot_at(buses, RATE_HZ)
+}
+
+/// [`robot`] at `rate_hz`; at [`HEALTH_RATE_HZ`] every bus also carries the health rotation.
+pub fn robot_at(buses: usize, rate_hz: f64) -> Robot {
+    let mut robot = RobotConfig::new(rate_hz);
     for b in 0..buses {
         let mut bus = BusConfig::new(&format!("bench{b}"));
         for id in 1..=MOTORS {
@@ -71,14 +83,21 @@ pub fn robot(buses: usize) -> Robot {
 
 /// A bus that answers each 0x280 frame with the pre-encoded 0xA1 replies of motors 1..=4, the
 /// first [`TURNAROUND`] after it and then one every [`REPLY_GAP`] (virtual time: the receive
-/// moves the clock to each arrival). It keeps only when each frame was sent: its own work per
+/// moves the clock to each arrival); a status request (0x9A, the health rotation) sent after a
+/// 0x280 frame adds its motor's pre-encoded status reply after that frame's four. It keeps only when each frame was sent: its own work per
 /// frame is small beside the loop's, which is what the benchmark measures. No allocation.
 #[derive(Debug)]
 pub struct CannedBus {
     clock: VirtualClock,
     replies: [CanFrame; MOTORS as usize],
+    /// Each motor's status reply (supply 24 V, no error flag).
+    status_replies: [CanFrame; MOTORS as usize],
     /// When each 0x280 frame not fully answered yet was sent (ns), oldest first (a ring).
     sent_ns: [u64; PENDING_FRAMES],
+    /// Per frame of the ring: the replies it is owed (four, five with a status reply), and the
+    /// motor (index) whose status reply is the fifth.
+    owed: [usize; PENDING_FRAMES],
+    status_of: [usize; PENDING_FRAMES],
     head: usize,
     len: usize,
     /// Replies to the oldest frame already received.
@@ -100,10 +119,24 @@ impl CannedBus {
                 .encode_reply(motor, &Reply::Torque(status))
                 .expect("a v1.61 torque reply encodes")
         });
+        let status_replies = core::array::from_fn(|i| {
+            let motor = MotorId::new(i as u8 + 1).expect("ids 1..=4 are valid");
+            let status = Status1::V161(V161Status1 {
+                temperature: Temperature::saturating(31),
+                voltage: Voltage::from_volts_saturating(24.0),
+                error_state: ErrorState::NONE,
+            });
+            Dialect::V161
+                .encode_reply(motor, &Reply::ReadStatus1(status))
+                .expect("a v1.61 status reply encodes")
+        });
         Self {
             clock,
             replies,
+            status_replies,
             sent_ns: [0; PENDING_FRAMES],
+            owed: [MOTORS as usize; PENDING_FRAMES],
+            status_of: [0; PENDING_FRAMES],
             head: 0,
             len: 0,
             taken: 0,
@@ -125,8 +158,15 @@ impl CanBus for CannedBus {
             if self.len == PENDING_FRAMES {
                 return Err(BusError::TxQueueFull);
             }
-            self.sent_ns[(self.head + self.len) % PENDING_FRAMES] = self.clock.now().as_nanos();
+            let slot = (self.head + self.len) % PENDING_FRAMES;
+            self.sent_ns[slot] = self.clock.now().as_nanos();
+            self.owed[slot] = MOTORS as usize;
             self.len += 1;
+        } else if frame.data().first() == Some(&STATUS1) && self.len > 0 {
+            // The newest frame's replies are followed by this motor's status reply.
+            let newest = (self.head + self.len - 1) % PENDING_FRAMES;
+            self.owed[newest] = MOTORS as usize + 1;
+            self.status_of[newest] = usize::from(frame.id() & 0x1F).saturating_sub(1) % 4;
         }
         Ok(())
     }
@@ -144,9 +184,12 @@ impl CanBus for CannedBus {
             }
             self.clock.sleep_until(at);
         }
-        let reply = self.replies[self.taken];
+        let reply = match self.replies.get(self.taken) {
+            Some(reply) => *reply,
+            None => self.status_replies[self.status_of[self.head]],
+        };
         self.taken += 1;
-        if self.taken == self.replies.len() {
+        if self.taken == self.owed[self.head] {
             self.taken = 0;
             self.head = (self.head + 1) % PENDING_FRAMES;
             self.len -= 1;
@@ -174,9 +217,14 @@ pub type LoopAlone = Running<CannedBus, VirtualClock, NoOp>;
 /// A started loop over `buses` canned buses publishing telemetry to the returned receiver (keep
 /// it alive: without a receiver nothing is published).
 pub fn loop_alone(buses: usize) -> (LoopAlone, TelemetryReceiver) {
+    loop_alone_at(buses, RATE_HZ)
+}
+
+/// [`loop_alone`] at `rate_hz` ([`HEALTH_RATE_HZ`]: with the health rotation).
+pub fn loop_alone_at(buses: usize, rate_hz: f64) -> (LoopAlone, TelemetryReceiver) {
     let clock = VirtualClock::new();
     let canned = (0..buses).map(|_| CannedBus::new(clock.clone())).collect();
-    started(robot(buses), clock, canned)
+    started(robot_at(buses, rate_hz), clock, canned)
 }
 
 /// A started loop of `robot` over `buses` with the no-op controller, publishing telemetry to
@@ -235,5 +283,30 @@ mod tests {
         }
         // Nothing more; the receive waited until its deadline.
         assert_eq!(clock.now(), Timestamp::from_nanos(10_000_000));
+    }
+
+    #[test]
+    fn with_the_health_rotation_every_status_request_is_answered() {
+        assert!(
+            robot_at(2, HEALTH_RATE_HZ)
+                .buses()
+                .iter()
+                .all(|b| b.health_rotation)
+        );
+        let (mut rt, _telemetry) = loop_alone_at(2, HEALTH_RATE_HZ);
+        for _ in 0..1000 {
+            assert!(rt.step().is_continue());
+        }
+        let stats = rt.stats().summary();
+        assert_eq!(stats.missing_replies + stats.late_replies, 0, "{stats}");
+        for m in &stats.motors {
+            let c = &m.counters;
+            assert!(c.status_replies >= 249, "{m:?}");
+            assert_eq!(
+                (c.missing_status_replies, c.unexpected_replies, c.bad_frames),
+                (0, 0, 0)
+            );
+        }
+        assert!(!robot(1).buses()[0].health_rotation);
     }
 }

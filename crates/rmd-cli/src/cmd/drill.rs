@@ -238,6 +238,12 @@ fn verdict(d: &Drill) -> String {
         "  confirmed off by the loop: {} of {}",
         d.confirmed_off, d.motors
     ));
+    // Under-voltage and over-temperature flags are read by the health rotation: where the
+    // bus had no room for it, say so (the drill then rides to its end, or stops on the
+    // temperature limit of the torque replies).
+    for note in &d.report.health_notes {
+        lines.push(format!("  motor health: {note}"));
+    }
     if d.fault.contains("host-silent") && !d.passed() {
         lines.push(
             "  the host fell silent: nothing it sent reached the motors, its safe stop included; \
@@ -335,6 +341,7 @@ fn short_stop(d: &Drill) -> String {
             Fault::OverTemperature { at, celsius } => {
                 format!("over-temperature, {} ({celsius:.0} degC)", joint(at))
             }
+            Fault::MotorError { at, flag, .. } => format!("{flag} flag, {}", joint(at)),
             Fault::Supervisor => "supervisor did not start".to_string(),
             Fault::UndescribedMotor { bus, motor, .. } => {
                 format!("undescribed motor {} on bus {bus}", motor.get())

@@ -39,7 +39,7 @@ impl Collected {
 
 /// What one receive on a bus gave.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
-enum Received {
+pub(super) enum Received {
     /// A frame or an event, handled.
     Item,
     /// Nothing by the deadline.
@@ -226,8 +226,8 @@ impl<B: CanBus> Exchange<B> {
             &mut stats.motors[m],
         );
         let Some(status) = motor.expect.decode(&frame) else {
-            counters.bad_frames += 1;
-            return Ok(Received::Item);
+            // Not its torque reply: a status reply (the health rotation), or a bad frame.
+            return self.on_other_reply(m, &frame, received.at, stats);
         };
         let was_fresh = feedback.freshness.is_fresh();
         match motor.on_reply(&status, received.at, tick, max_age, feedback, counters) {

@@ -5,7 +5,10 @@
 //! - [`frames`]: the torque frame, and what each motor's reply looks like (decided once);
 //! - [`pending`]: which of a motor's requests a reply answers;
 //! - [`motor`]: what the loop keeps per motor, and what a reply does to it;
-//! - `send`, `collect`, `account`: the three steps, as methods of [`Exchange`].
+//! - `send`, `collect`, `account`: the three steps, as methods of [`Exchange`];
+//! - `status`: the health rotation (one status request per bus per tick, to each motor in
+//!   turn, after the torque requests) and its replies, told from torque replies on the same id
+//!   by their command byte and matched to their own requests.
 //!
 //! Each bus keeps the number of its motors still owing fresh feedback in this tick (`owed`): a
 //! bus is complete when it reaches zero, and the collection receives only from buses that owe
@@ -17,6 +20,7 @@ pub(crate) mod frames;
 pub(crate) mod motor;
 pub(crate) mod pending;
 mod send;
+mod status;
 
 use crate::bus_link::BusLink;
 use crate::feedback::JointFeedback;
@@ -64,6 +68,8 @@ impl<B> Exchange<B> {
                 joints: spec.joint_range(),
                 exchange: spec.exchange,
                 commanded: false,
+                health_next: (spec.health_rotation && spec.motor_count() > 0)
+                    .then_some(spec.joint_range().start),
             })
             .collect::<Vec<_>>();
         let motors: Vec<MotorLink> = robot
@@ -157,6 +163,7 @@ impl<B> Exchange<B> {
     pub(crate) fn forget_pending(&mut self) {
         for m in &mut self.motors {
             m.pending.clear();
+            m.status_pending.clear();
         }
         self.carry_probe = self.max_age > 0;
     }

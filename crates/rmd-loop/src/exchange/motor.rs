@@ -6,7 +6,9 @@
 use core::time::Duration;
 
 use rmd_bus::Timestamp;
-use rmd_protocol::{CurrentScale, Dialect, MotorId, ScaledCurrent, Status2, StatusPosition};
+use rmd_protocol::{
+    CanFrame, CurrentScale, Dialect, MotorId, Request, ScaledCurrent, Status2, StatusPosition,
+};
 
 use super::frames::{ReplyExpectation, zero_iq};
 use super::pending::{PendingRequests, RESYNC_AFTER, min_round_trip};
@@ -103,6 +105,11 @@ pub(crate) struct MotorLink {
     round_trip_ns: Option<u64>,
     /// The shortest physical round trip on its bus (see [`min_round_trip`]), ns.
     min_round_trip_ns: u64,
+    /// Its status request (0x9A in its dialect), encoded once (`None`: its dialect could not
+    /// encode it, and the rotation passes it by; every family has 0x9A).
+    pub(crate) status_request: Option<CanFrame>,
+    /// Its status requests not answered yet.
+    pub(crate) status_pending: StatusPending,
 }
 
 impl MotorLink {
@@ -132,7 +139,15 @@ impl MotorLink {
             late_streak: 0,
             round_trip_ns: None,
             min_round_trip_ns: duration_ns(min_round_trip(bitrate)),
+            status_request: status_request(joint.dialect, joint.motor),
+            status_pending: StatusPending::default(),
         }
+    }
+
+    /// The shortest physical round trip on its bus, ns.
+    #[inline]
+    pub(crate) fn min_round_trip_ns(&self) -> u64 {
+        self.min_round_trip_ns
     }
 
     /// The estimated round trip, once a reply measured one.
@@ -261,29 +276,94 @@ impl MotorLink {
             (_, fresh @ Freshness::Fresh { .. }) => fresh,
             _ => Freshness::Late { age_ticks },
         };
-        *feedback = JointFeedback {
-            joint: JointState {
-                angle_deg: self.map.joint_angle_deg(motor_deg),
-                velocity_dps: self.map.joint_velocity_dps(speed_dps),
-                torque_nm: self.map.joint_torque_nm(current_amps),
-            },
-            motor: MotorState {
-                angle_deg: motor_deg,
-                speed_dps,
-                current_amps,
-                temperature_celsius: status.temperature.celsius(),
-            },
-            raw: RawStatus {
-                temperature: status.temperature.raw(),
-                iq: status.iq.raw(),
-                speed: status.speed.raw(),
-                encoder: raw_position,
-            },
-            freshness,
-            received_at: at,
+        // Field by field: the motor's health (status replies) stays as it is.
+        feedback.joint = JointState {
+            angle_deg: self.map.joint_angle_deg(motor_deg),
+            velocity_dps: self.map.joint_velocity_dps(speed_dps),
+            torque_nm: self.map.joint_torque_nm(current_amps),
         };
+        feedback.motor = MotorState {
+            angle_deg: motor_deg,
+            speed_dps,
+            current_amps,
+            temperature_celsius: status.temperature.celsius(),
+        };
+        feedback.raw = RawStatus {
+            temperature: status.temperature.raw(),
+            iq: status.iq.raw(),
+            speed: status.speed.raw(),
+            encoder: raw_position,
+        };
+        feedback.freshness = freshness;
+        feedback.received_at = at;
         class
     }
+}
+
+/// A motor's status requests (0x9A) not answered yet: the tick and send time (ns) of the newest
+/// [`STATUS_PENDING`], oldest first. The firmware answers in order, and a motor's status
+/// requests are a rotation (at least a tick) apart, far more than a round trip: a status reply
+/// answers the newest request sent at least the shortest physical round trip before it arrived,
+/// and the older ones outstanding then are lost (counted). A request pushed when the ring is
+/// full gives up the oldest (counted). So a reply may come after its tick's collection ended
+/// (read in the next tick: on a one-motor bus, after the next request went out) and still
+/// answer its own request, and a lost reply never shifts the later ones.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub(crate) struct StatusPending {
+    entries: [(u64, u64); STATUS_PENDING],
+    len: usize,
+}
+
+/// Status requests kept per motor.
+const STATUS_PENDING: usize = 2;
+
+impl StatusPending {
+    /// Records a request of `tick` sent at `sent_ns`; returns whether the oldest was given up
+    /// (its reply lost).
+    #[inline]
+    pub(crate) fn push(&mut self, tick: u64, sent_ns: u64) -> bool {
+        let full = self.len == STATUS_PENDING;
+        if full {
+            self.entries[0] = self.entries[1];
+            self.entries[1] = (tick, sent_ns);
+        } else {
+            self.entries[self.len] = (tick, sent_ns);
+            self.len += 1;
+        }
+        full
+    }
+
+    /// The tick of the request a reply received at `received_ns` answers (the newest sent at
+    /// least `min_round_trip_ns` before), and how many older requests it shows lost; `None`
+    /// when it could answer none (an unexpected reply).
+    #[inline]
+    pub(crate) fn answer(
+        &mut self,
+        received_ns: u64,
+        min_round_trip_ns: u64,
+    ) -> Option<(u64, u64)> {
+        let i = (0..self.len)
+            .rev()
+            .find(|&i| self.entries[i].1.saturating_add(min_round_trip_ns) <= received_ns)?;
+        let tick = self.entries[i].0;
+        // Entries after `i` (newer requests) stay outstanding, moved to the front.
+        let kept = self.len - i - 1;
+        for k in 0..kept {
+            self.entries[k] = self.entries[i + 1 + k];
+        }
+        self.len = kept;
+        Some((tick, i as u64))
+    }
+
+    /// Forgets everything outstanding.
+    pub(crate) fn clear(&mut self) {
+        self.len = 0;
+    }
+}
+
+/// The status-1 request (0x9A) to `motor` in `dialect` (the same frame in every family).
+fn status_request(dialect: Dialect, motor: MotorId) -> Option<CanFrame> {
+    dialect.encode(motor, &Request::ReadStatus1).ok()
 }
 
 /// The position a status-2 reply carries.

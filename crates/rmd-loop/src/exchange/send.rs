@@ -44,9 +44,8 @@ impl<B: CanBus> Exchange<B> {
                         for m in link.joints() {
                             self.motors[m].pending.push(tick, at);
                         }
-                        Ok(())
                     }
-                    Err(error) => sent_error(b, error, stats),
+                    Err(error) => sent_error(b, error, stats)?,
                 }
             }
             ExchangeKind::PerMotor => {
@@ -61,15 +60,19 @@ impl<B: CanBus> Exchange<B> {
                         Err(error) => sent_error(b, error, stats)?,
                     }
                 }
-                Ok(())
             }
         }
+        // The start-up probe asks for torque replies only.
+        if torque == Torque::Staged {
+            self.send_status(b, tick, at, stats)?;
+        }
+        Ok(())
     }
 }
 
 /// A refused send: counted; a full queue or a transient error rides through, bus-off and a lost
 /// interface are faults.
-fn sent_error(b: usize, error: BusError, stats: &mut LoopStats) -> Result<(), Fault> {
+pub(super) fn sent_error(b: usize, error: BusError, stats: &mut LoopStats) -> Result<(), Fault> {
     stats.buses[b].tx_errors += 1;
     match error {
         BusError::TxQueueFull | BusError::Io(_) => Ok(()),

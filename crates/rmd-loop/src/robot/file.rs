@@ -99,6 +99,12 @@ pub struct LoopConfig {
     /// What the loop does with a command it cannot send as given (not a finite number, a torque
     /// without a torque constant, an unknown joint): `"fault"` (the default) or `"zero"`.
     pub rejected_command: RejectedCommandPolicy,
+    /// Read every motor's health (supply voltage, temperature, error flags: status 1, 0x9A) in
+    /// rotation, one status request per bus per tick after the torque requests, so each
+    /// motor's is at most as many ticks old as its bus has motors. An error flag stops the loop
+    /// ([`Fault::MotorError`](crate::Fault::MotorError)). On by default; a bus whose wire budget
+    /// has no room for the extra request and reply at the loop's rate runs without it.
+    pub health_rotation: bool,
 }
 
 impl Default for LoopConfig {
@@ -119,6 +125,7 @@ impl Default for LoopConfig {
             allow_over_budget: false,
             stall_bound_ms: None,
             rejected_command: RejectedCommandPolicy::Fault,
+            health_rotation: true,
         }
     }
 }

@@ -145,6 +145,9 @@ pub struct LoopSettings {
     /// A tick not complete after this long is ended by the supervisor (more than a period;
     /// default ten periods, at least 50 ms).
     pub stall_bound: Duration,
+    /// Motor health in rotation was asked for (`loop.health_rotation`); each bus's
+    /// [`BusSpec::health_rotation`] says whether it has room for it.
+    pub health_rotation: bool,
 }
 
 /// The safe stop's patience, checked.
@@ -215,6 +218,10 @@ pub struct BusSpec {
     /// Motors the description does not drive but acknowledges (`zero_torque_ids`): commanded
     /// zero torque every tick, made safe at the end.
     pub zero_torque_ids: Vec<MotorId>,
+    /// Whether each tick also sends one status request (0x9A) to one of its motors in turn
+    /// (`loop.health_rotation`, when the wire budget has room for it at the loop's rate:
+    /// [`health_budget`](Self::health_budget) within the reply window).
+    pub health_rotation: bool,
     joints: Range<usize>,
 }
 
@@ -248,6 +255,17 @@ impl BusSpec {
         wire::exchange_budget_of(
             self.requests_per_exchange(),
             self.joints.len() as u32,
+            self.bitrate,
+            self.turnaround,
+        )
+    }
+
+    /// Worst-case duration of one exchange with the status request of the health rotation:
+    /// one request and one reply more than [`exchange_budget`](Self::exchange_budget).
+    pub fn health_budget(&self) -> Duration {
+        wire::exchange_budget_of(
+            self.requests_per_exchange() + 1,
+            self.joints.len() as u32 + 1,
             self.bitrate,
             self.turnaround,
         )
@@ -346,6 +364,34 @@ impl Robot {
     /// Reads, parses and checks a TOML robot description file.
     pub fn from_file(path: impl AsRef<Path>) -> Result<Self, RobotError> {
         Self::try_from(read_config(path)?)
+    }
+
+    /// Why bus `b` runs without the health rotation (`loop.health_rotation` off, or no room on
+    /// its wire at the loop's rate), in words; `None` when it runs with it (or has no such bus).
+    pub fn health_note(&self, b: usize) -> Option<String> {
+        let bus = self.buses.get(b)?;
+        if bus.health_rotation {
+            return None;
+        }
+        if !self.settings.health_rotation {
+            return Some(format!(
+                "not read on bus {b} ({}): loop.health_rotation = false",
+                bus.name
+            ));
+        }
+        let window = match self.settings.reply_mode {
+            ReplyMode::SameTick => self.settings.reply_deadline,
+            ReplyMode::Pipelined => self.settings.period.get(),
+        };
+        Some(format!(
+            "not read on bus {b} ({}): no room on the wire at this rate (its exchange with one \
+             status request and reply needs up to {} us, the reply window is {} us); error \
+             flags, voltage and status temperature go unseen. Lower loop.rate_hz, put fewer \
+             motors on the bus or raise its bit rate to read them",
+            bus.name,
+            bus.health_budget().as_micros(),
+            window.as_micros()
+        ))
     }
 
     /// The loop settings.
@@ -517,6 +563,7 @@ impl Robot {
             }
             let explicit_deadline = config.loop_config.reply_deadline_us.is_some();
             check_budget(&spec, &settings, explicit_deadline, &key)?;
+            spec.health_rotation = settings.health_rotation && health_fits(&spec, &settings);
             buses.push(spec);
         }
         Ok(Self {
@@ -647,6 +694,7 @@ fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
         allow_over_budget: l.allow_over_budget,
         rejected_command: l.rejected_command,
         stall_bound,
+        health_rotation: l.health_rotation,
     })
 }
 
@@ -747,6 +795,8 @@ fn bus_spec(b: usize, bus: &BusConfig, key: &str, first: usize) -> Result<BusSpe
         // Decided once its motors' dialects are known (`exchange_of`).
         exchange: ExchangeKind::MultiTorque,
         zero_torque_ids,
+        // Decided once the exchange's budget is known (`health_fits`).
+        health_rotation: false,
         joints: first..first + bus.motors.len(),
     })
 }
@@ -1127,6 +1177,17 @@ fn check_budget(
             },
         ),
     ))
+}
+
+/// Whether the bus carries the health rotation's status request and reply every tick within
+/// its reply window (same tick: the reply deadline; pipelined: the period). Never with
+/// `allow_over_budget`'s leave: a bus beyond its budget runs without it.
+fn health_fits(bus: &BusSpec, s: &LoopSettings) -> bool {
+    let window = match s.reply_mode {
+        ReplyMode::SameTick => s.reply_deadline,
+        ReplyMode::Pipelined => s.period.get(),
+    };
+    bus.health_budget() <= window
 }
 
 /// The reply deadline of a period when the description gives none: the period minus 10% (at

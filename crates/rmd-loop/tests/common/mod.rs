@@ -192,3 +192,73 @@ pub fn started<B: rmd_bus::CanBus, C: rmd_bus::Clock + Clone + 'static, K: Contr
         }
     }
 }
+
+/// Holds every joint at zero current and watches each motor's health (the status rotation):
+/// from tick `from` on, the oldest reading seen (`tick - requested_tick`), whether a joint had
+/// none, and the last supply voltage of each.
+#[derive(Debug, Default)]
+pub struct HealthWatch {
+    pub from: u64,
+    pub oldest: u64,
+    pub without: u64,
+    pub volts: Vec<f64>,
+}
+
+impl HealthWatch {
+    pub fn from(tick: u64) -> Self {
+        Self {
+            from: tick,
+            ..Self::default()
+        }
+    }
+}
+
+impl Controller for HealthWatch {
+    fn update(&mut self, ctx: &TickContext, fb: &Feedback<'_>, _: &mut Commands<'_>) -> Flow {
+        self.volts.clear();
+        for (_, state) in fb.iter() {
+            match state.health {
+                Some(h) => {
+                    self.volts.push(h.voltage_volts);
+                    if ctx.index >= self.from {
+                        self.oldest = self.oldest.max(ctx.index - h.requested_tick);
+                    }
+                }
+                None if ctx.index >= self.from => self.without += 1,
+                None => {}
+            }
+        }
+        Flow::Continue
+    }
+}
+
+/// The status requests (0x9A) the host sent on `bus`, by motor id (1..=32, index 0 unused).
+pub fn status_requests(bus: &SimBus<VirtualClock>) -> Vec<u64> {
+    let mut count = vec![0; 33];
+    for t in bus.trace() {
+        if t.from == rmd_sim::Node::Host && t.frame.data().first() == Some(&0x9A) {
+            count[usize::from(t.frame.id() & 0x1F)] += 1;
+        }
+    }
+    count
+}
+
+/// The torque replies' counters of `r` untouched by the health rotation (no missing, late,
+/// unexpected or bad torque reply), every status request answered but perhaps the last few
+/// (`status_replies` at least `least` per motor, none missing).
+pub fn assert_rotation_left_torque_alone(r: &rmd_loop::LoopReport, least: u64) {
+    assert_eq!(
+        (r.stats.missing_replies, r.stats.late_replies),
+        (0, 0),
+        "{r}"
+    );
+    for m in &r.stats.motors {
+        let c = &m.counters;
+        assert_eq!(
+            (c.unexpected_replies, c.bad_frames, c.missing_status_replies),
+            (0, 0, 0),
+            "{m:?}"
+        );
+        assert!(c.status_replies >= least, "{m:?}");
+    }
+}

@@ -41,9 +41,9 @@ pub fn joint_record(joint: &JointSample, taken_at: rmd_bus::Timestamp) -> JointR
         current_a: f.motor.current_amps,
         commanded_a: joint.command_amps,
         temperature_c: f.motor.temperature_celsius,
-        // The loop's exchange (0x280 and its 0xA1 replies) carries neither.
-        voltage_v: None,
-        error_flags: None,
+        // From the motor's latest status reply (the health rotation), when its bus carries it.
+        voltage_v: f.health.map(|h| h.voltage_volts),
+        error_flags: f.health.map(|h| h.error_flags.as_byte()),
         reply,
     }
 }
@@ -189,6 +189,14 @@ mod tests {
             ticks_since_reply: 3,
         };
         k2.feedback.received_at = earlier;
+        // The second motor's status reply (health rotation): 23.6 V, MyActuator V3's
+        // low-voltage flag.
+        k2.feedback.health = Some(rmd_loop::MotorHealth {
+            voltage_volts: 23.6,
+            temperature_celsius: 33.0,
+            error_flags: rmd_loop::ErrorFlags::V3(rmd_protocol::V3ErrorState::LOW_VOLTAGE),
+            requested_tick: k.saturating_sub(2),
+        });
         s
     }
 
@@ -204,9 +212,16 @@ mod tests {
         assert_eq!(knee.effort_nm, Some(1.5));
         assert_eq!((knee.current_a, knee.commanded_a), (0.75, 0.5));
         assert_eq!(knee.temperature_c, 31.0);
+        // No status reply yet: neither is known.
         assert_eq!((knee.voltage_v, knee.error_flags), (None, None));
         assert_eq!(knee.reply, Some(ReplyAge::fresh(100)));
         let stale = &record.joints[1];
+        // From its status reply, in the error byte's terms (bit 0: low voltage).
+        assert_eq!(stale.voltage_v, Some(23.6));
+        assert_eq!(
+            stale.error_flags,
+            Some(rmd_protocol::ErrorState::LOW_VOLTAGE)
+        );
         assert_eq!(
             stale.reply,
             Some(ReplyAge {

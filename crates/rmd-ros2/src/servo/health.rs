@@ -32,9 +32,11 @@ pub(super) struct Sources<'a> {
 /// How close to its limit a motor's temperature is worth a warning, °C.
 pub(crate) const TEMPERATURE_MARGIN_C: f64 = 10.0;
 
-/// What the diagnostics say about the supply voltage.
+/// What the diagnostics say about the supply voltage when no status reply brought it.
 pub(crate) const VOLTAGE_NOT_MEASURED: &str = "not measured: the loop's torque reply (0xA1) \
-    carries no supply voltage; `rmd status` reads it while no loop runs";
+    carries no supply voltage, and its bus has no room for the health rotation's status \
+    requests at this rate (or loop.health_rotation = false); `rmd status` reads it while no \
+    loop runs";
 
 fn us(d: f64) -> Option<Duration> {
     (d.is_finite() && d >= 0.0).then(|| Duration::from_secs_f64(d * 1e-6))
@@ -133,10 +135,13 @@ fn motor(
             m.can_id
         ),
         temperature_c: status.map(|s| s.temperature_celsius),
-        voltage_v: None,
+        voltage_v: status.and_then(|s| s.voltage_volts),
         ..MotorDiagnostics::default()
     };
-    d.values.push(kv("voltage", VOLTAGE_NOT_MEASURED));
+    match d.voltage_v {
+        Some(v) => d.values.push(kv("voltage", format!("{v:.1} V"))),
+        None => d.values.push(kv("voltage", VOLTAGE_NOT_MEASURED)),
+    }
     if let Some(s) = status {
         let c = &s.counters;
         d.values.extend([

@@ -6,9 +6,13 @@
 //! fastest and the median round in nanoseconds per tick (what the machine did with the
 //! instructions callgrind counted).
 //!
+//! With `--rate HZ` the loop runs at that rate instead of 1 kHz: at 800 Hz every bus also
+//! carries the health rotation (one status request and reply per tick), whose cost this counts.
+//!
 //! ```text
 //! tick-instructions --buses 4 --warm-up 10000 --ticks 25000
 //! tick-instructions --buses 4 --warm-up 10000 --ticks 25000 --time 7
+//! tick-instructions --buses 4 --warm-up 10000 --ticks 25000 --rate 800
 //! ```
 
 use std::process::ExitCode;
@@ -21,13 +25,16 @@ struct Args {
     ticks: u64,
     /// Rounds to time; `None`: just run (under callgrind).
     time_rounds: Option<usize>,
+    /// The loop's rate, Hz.
+    rate_hz: f64,
 }
 
 const USAGE: &str =
-    "usage: tick-instructions --buses N --warm-up TICKS --ticks TICKS [--time ROUNDS]";
+    "usage: tick-instructions --buses N --warm-up TICKS --ticks TICKS [--time ROUNDS] [--rate HZ]";
 
 fn parse(mut args: impl Iterator<Item = String>) -> Result<Args, String> {
     let (mut buses, mut warm_up, mut ticks, mut time_rounds) = (None, None, None, None);
+    let mut rate_hz = rmd_tick_bench::RATE_HZ;
     while let Some(flag) = args.next() {
         let value = args.next().ok_or_else(|| format!("{flag} needs a value"))?;
         let number = |what: &str| {
@@ -40,6 +47,13 @@ fn parse(mut args: impl Iterator<Item = String>) -> Result<Args, String> {
             "--warm-up" => warm_up = Some(number("--warm-up")?),
             "--ticks" => ticks = Some(number("--ticks")?),
             "--time" => time_rounds = Some(number("--time")?),
+            "--rate" => {
+                let hz = number("--rate")?;
+                if !(1..=1000).contains(&hz) {
+                    return Err(format!("--rate must be 1..=1000 Hz, not {hz}"));
+                }
+                rate_hz = hz as f64;
+            }
             other => return Err(format!("unknown argument {other:?}")),
         }
     }
@@ -55,6 +69,7 @@ fn parse(mut args: impl Iterator<Item = String>) -> Result<Args, String> {
         warm_up: warm_up.ok_or("--warm-up is required")?,
         ticks: ticks.ok_or("--ticks is required")?,
         time_rounds: time_rounds.map(|r| r.max(1) as usize),
+        rate_hz,
     })
 }
 
@@ -66,7 +81,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let (mut rt, _telemetry) = rmd_tick_bench::loop_alone(args.buses);
+    let (mut rt, _telemetry) = rmd_tick_bench::loop_alone_at(args.buses, args.rate_hz);
     for _ in 0..args.warm_up {
         assert!(
             rt.step().is_continue(),

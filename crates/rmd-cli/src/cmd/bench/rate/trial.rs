@@ -3,8 +3,10 @@
 //! The loop runs the PD controller of `rmd bench loop` (targets that move, so every frame's
 //! content changes), with the reply deadline at the end of the period (it waits for replies as
 //! long as the period allows), the wire-budget check off (`allow_over_budget`: the search looks
-//! beyond the worst-case budget) and no fault for missing replies (the trial always runs its
-//! full length, so that its share of missed ticks is known).
+//! beyond the worst-case budget), no fault for missing replies (the trial always runs its
+//! full length, so that its share of missed ticks is known) and no health rotation (the search
+//! measures the torque exchange alone: a status request and reply would sit on the wire at the
+//! low rates where they fit, not at the high ones, and the wire limit is the torque exchange's).
 //!
 //! The simulated buses run where `--sim` says: each on its own thread (real time, the default:
 //! the loop thread is measured alone), in the loop's thread (`inline`), or in virtual time.
@@ -246,6 +248,7 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
     l.allow_over_budget = true;
     l.reply_deadline_us = Some((period.as_nanos() / 1000) as u64);
     l.missing_reply_fault_after = u32::MAX;
+    l.health_rotation = false;
     let robot = rmd_loop::Robot::try_from(config).map_err(|e| e.to_string())?;
     let expected_ticks = (args.duration.as_nanos() / period.as_nanos()) as u64;
     let requests = match family {
