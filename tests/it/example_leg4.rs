@@ -3,7 +3,7 @@
 //! the motors end off. The example's binary runs end to end: its report, its results, its CSV
 //! file with the joints' and the controller's columns, its exit statuses.
 
-mod support;
+use crate::support;
 
 use core::time::Duration;
 
@@ -22,7 +22,7 @@ use rmd_rt::{LoopOutcome, Robot, RtLoop, RunLimit, StopReason};
 use support::{Csv, run, temp_file};
 
 /// The example's robot description.
-const ROBOT: &str = include_str!("../examples/robots/leg4.toml");
+const ROBOT: &str = include_str!("../../examples/robots/leg4.toml");
 
 fn description() -> RobotConfig {
     let mut config = RobotConfig::from_toml(ROBOT).unwrap();

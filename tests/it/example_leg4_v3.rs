@@ -17,7 +17,7 @@ use rmd_rt::sim::{ControlMode, Node};
 use rmd_rt::{Robot, RtLoop, RunLimit, StopReason};
 
 /// The example's V3 robot description.
-const ROBOT: &str = include_str!("../examples/robots/leg4-v3.toml");
+const ROBOT: &str = include_str!("../../examples/robots/leg4-v3.toml");
 
 #[test]
 fn the_v3_leg_tracks_the_step_cycle_like_leg4() {
@@ -89,7 +89,7 @@ fn the_v3_leg_tracks_the_step_cycle_like_leg4() {
 
 #[test]
 fn leg4_v3_toml_is_leg4_on_v3_motors() {
-    let leg4 = Robot::from_toml(include_str!("../examples/robots/leg4.toml")).unwrap();
+    let leg4 = Robot::from_toml(include_str!("../../examples/robots/leg4.toml")).unwrap();
     let v3 = Robot::from_toml(ROBOT).unwrap();
     assert_eq!(leg4.joint_count(), v3.joint_count());
     for (a, b) in leg4.joints().iter().zip(v3.joints()) {

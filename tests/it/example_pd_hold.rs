@@ -2,7 +2,7 @@
 //! angle and settles, short of it by what gravity over the PD stiffness predicts, and the motor
 //! ends off. The example's binary runs end to end.
 
-mod support;
+use crate::support;
 
 use core::time::Duration;
 use std::io::{BufRead, BufReader};
@@ -16,7 +16,7 @@ use rmd_rt::{Robot, RtLoop, RunLimit, StopReason};
 use support::{Csv, Ran, example, run, temp_file};
 
 /// The example's robot description.
-const ROBOT: &str = include_str!("../examples/robots/pd_hold.toml");
+const ROBOT: &str = include_str!("../../examples/robots/pd_hold.toml");
 
 fn settle(move_deg: f64) {
     let robot = Robot::from_toml(ROBOT).unwrap();

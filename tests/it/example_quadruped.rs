@@ -2,7 +2,7 @@
 //! four 0x280 frames per tick, the robot stands up from its crouch to the target height and holds
 //! it, and every motor ends off. The example's binary runs end to end.
 
-mod support;
+use crate::support;
 
 use core::time::Duration;
 
@@ -16,7 +16,7 @@ use rmd_rt::{Robot, RtLoop, RunLimit, StopReason};
 use support::{Csv, run, temp_file};
 
 /// The example's robot description.
-const ROBOT: &str = include_str!("../examples/robots/quadruped.toml");
+const ROBOT: &str = include_str!("../../examples/robots/quadruped.toml");
 
 #[test]
 fn the_quadruped_stands_up_and_holds_the_pose() {

@@ -11,9 +11,9 @@ use rmd_rt::rt::mapping::power_up_window;
 use rmd_rt::rt::robot::{Direction, JointSpec};
 use rmd_rt::{JointId, Robot};
 
-const PD_HOLD: &str = include_str!("../examples/robots/pd_hold.toml");
-const LEG4: &str = include_str!("../examples/robots/leg4.toml");
-const QUADRUPED: &str = include_str!("../examples/robots/quadruped.toml");
+const PD_HOLD: &str = include_str!("../../examples/robots/pd_hold.toml");
+const LEG4: &str = include_str!("../../examples/robots/leg4.toml");
+const QUADRUPED: &str = include_str!("../../examples/robots/quadruped.toml");
 
 /// The offsets are written with three decimals.
 const ROUNDING_DEG: f64 = 0.001;

@@ -2,7 +2,7 @@
 //! reached, the joints move together, and the motors end off. The example's binary runs end to
 //! end.
 
-mod support;
+use crate::support;
 
 use core::time::Duration;
 
@@ -16,7 +16,7 @@ use rmd_rt::{Robot, RtLoop, RunLimit, StopReason};
 use support::{Csv, run, temp_file};
 
 /// The example's robot description (the leg of `leg4`).
-const ROBOT: &str = include_str!("../examples/robots/leg4.toml");
+const ROBOT: &str = include_str!("../../examples/robots/leg4.toml");
 
 #[test]
 fn every_waypoint_is_reached() {

@@ -2,9 +2,6 @@
 //! still returns, the frames that do not fit the queue are counted as dropped, and the caller's
 //! path allocates nothing. No assertion here depends on timing.
 
-#[allow(unreachable_pub)]
-mod alloc_counter;
-
 use core::time::Duration;
 use std::io::{self, Write};
 use std::sync::mpsc;
@@ -13,9 +10,6 @@ use std::sync::{Arc, Condvar, Mutex};
 use rmd_bus::candump::{Direction, parse_line};
 use rmd_bus::record::{RecordOptions, RecordStats, record};
 use rmd_bus::{BusError, BusMessage, CanBus, CanFrame, Clock, Received, Timestamp, VirtualClock};
-
-#[global_allocator]
-static ALLOCATOR: alloc_counter::CountingAllocator = alloc_counter::CountingAllocator;
 
 /// Generous bound for a thread to finish work that takes microseconds; only hit if it hangs.
 const HANG: Duration = Duration::from_secs(60);
@@ -176,12 +170,12 @@ fn recording_allocates_nothing_on_the_callers_path() {
     let frame = numbered(0x141, 7);
     // Warm up (first use of thread-locals etc.).
     bus.send(&frame).unwrap();
-    let before = alloc_counter::allocations();
+    let before = rmd_test_support::alloc::this_thread().allocations;
     for _ in 0..1_000 {
         bus.send(&frame).unwrap();
         let _ = bus.recv_until(clock.now()).unwrap();
     }
-    let allocated = alloc_counter::allocations() - before;
+    let allocated = rmd_test_support::alloc::this_thread().allocations - before;
     assert_eq!(
         allocated, 0,
         "send/recv_until through the recorder allocated"

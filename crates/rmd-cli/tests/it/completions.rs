@@ -4,7 +4,7 @@
 use std::io::Write;
 use std::process::{Command, Stdio};
 
-mod support;
+use crate::support;
 use support::{fails, ok};
 
 /// Loads the bash script into bash, completes `words` (the last one being typed) and returns

@@ -3,7 +3,7 @@
 //! or far too small) with a usage error (exit 2) that names the flag, before anything runs, and
 //! never panics.
 
-mod support;
+use crate::support;
 use support::{fails, ok};
 
 /// One flag of one command: the command line before the flag, the flag, the name the error

@@ -12,7 +12,7 @@ use rmd_protocol::{
     CanFrame, Command as Cmd, DecodedRequest, Dialect, FirmwareDate, LkSeries, Request, V3Firmware,
 };
 
-mod support;
+use crate::support;
 use support::{rmd, text};
 
 /// A family the simulator runs: the options that choose it, and its dialect.

@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::process::{Command, Stdio};
 
-mod support;
+use crate::support;
 
 use support::{fails, ok, text};
 

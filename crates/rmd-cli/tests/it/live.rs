@@ -11,7 +11,7 @@ use rmd_bus::candump::{Direction, parse_line};
 use rmd_protocol::{Command as Cmd, DecodedRequest, Dialect, Reply};
 use serde_json::Value;
 
-mod support;
+use crate::support;
 use support::{fails, ok, rmd, text};
 
 fn json_lines(stdout: &str) -> Vec<Value> {

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use rmd_bus::candump::{Direction, parse_line};
 use serde_json::Value;
 
-mod support;
+use crate::support;
 use support::{fails, ok};
 
 fn json_lines(stdout: &str) -> Vec<Value> {

@@ -6,7 +6,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-mod support;
+use crate::support;
 use support::{fails, ok, rmd, text};
 
 /// A fresh file path in a per-test directory.

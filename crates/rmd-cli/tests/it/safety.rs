@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use rmd_bus::candump::{Direction, parse_line};
 use rmd_protocol::{Command as Cmd, DecodedRequest, Dialect};
 
-mod support;
+use crate::support;
 use support::{fails, ok, rmd, text};
 
 /// A fresh file path in a per-test directory.

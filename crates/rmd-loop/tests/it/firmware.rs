@@ -3,7 +3,7 @@
 //! as described, and drives LK-TECH motors with their own current scales. Judged by the simulated
 //! firmware's ground truth.
 
-mod common;
+use crate::common;
 
 use common::*;
 use rmd_bus::VirtualClock;

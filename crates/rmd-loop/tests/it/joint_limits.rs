@@ -3,7 +3,7 @@
 //! past a limit is held at it, within the margin; a joint carried past the margin is a fault
 //! that leaves every motor off.
 
-mod common;
+use crate::common;
 
 use common::*;
 use rmd_bus::VirtualClock;

@@ -3,7 +3,7 @@
 //! after the buses before it have answered. In virtual time, with buses that know when their
 //! replies arrive (as the threaded simulator does).
 
-mod common;
+use crate::common;
 
 use core::time::Duration;
 use std::sync::{Arc, Mutex};

@@ -1,16 +1,12 @@
 //! The real-time path allocates nothing: a counting global allocator around steady-state ticks.
 //!
-//! One test per binary, so that no other test thread allocates while we count. It runs the loop
+//! Alone in a process of its own, so that no other test's thread allocates while we count. It runs the loop
 //! twice: without sinks, counting every thread (the loop's and the supervisor's); then with every
 //! telemetry sink on (an MCAP file, the live Foxglove server on loopback, a CSV file, fed from
 //! their own threads as the programs run them), counting the loop's thread alone (the telemetry
 //! threads allocate as they like).
 
-mod common;
-
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use crate::common;
 
 use common::*;
 use rmd_bus::VirtualClock;
@@ -19,53 +15,16 @@ use rmd_rig::telemetry::{TelemetryOutputs, TelemetrySinks, spawn_feed};
 use rmd_sim::{FaultKind, FaultRule, SharedSimBus};
 use rmd_telemetry::LiveOptions;
 
-struct Counting;
-
-static COUNTING: AtomicBool = AtomicBool::new(false);
-static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
-
-thread_local! {
-    // Every allocation of this thread, counted or not: const-initialised, no destructor, so
-    // safe to touch from inside the allocator.
-    static HERE: Cell<u64> = const { Cell::new(0) };
-}
-
-fn count() {
-    HERE.with(|c| c.set(c.get() + 1));
-    if COUNTING.load(Ordering::Relaxed) {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-    }
-}
-
 /// Allocations of the calling thread so far.
 fn here() -> u64 {
-    HERE.with(Cell::get)
+    rmd_test_support::alloc::this_thread().allocations
 }
-
-// SAFETY: forwards every call to the system allocator unchanged; only counts.
-#[allow(unsafe_code)]
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        // SAFETY: same contract as the caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
 
 #[test]
 fn steady_state_ticks_allocate_nothing() {
+    if rmd_test_support::ran_in_own_process() {
+        return;
+    }
     // Two buses of four motors, with faults on the way (drops, late and corrupt replies, a
     // full transmit queue): the error paths of a tick must not allocate either.
     let clock = VirtualClock::new();
@@ -110,13 +69,13 @@ fn steady_state_ticks_allocate_nothing() {
         let step = rt.step();
         assert!(step.is_continue(), "{step:?}");
     }
-    COUNTING.store(true, Ordering::SeqCst);
+    rmd_test_support::alloc::count_every_thread(true);
     for _ in 0..2_000 {
         assert!(rt.step().is_continue());
         let _ = telemetry.try_recv();
     }
-    COUNTING.store(false, Ordering::SeqCst);
-    let allocations = ALLOCATIONS.load(Ordering::SeqCst);
+    rmd_test_support::alloc::count_every_thread(false);
+    let allocations = rmd_test_support::alloc::counted().allocations;
     let stats = rt.stats().summary();
     assert!(
         stats.missing_replies > 0 && stats.buses[0].tx_errors > 0,
@@ -136,7 +95,7 @@ fn steady_state_ticks_allocate_nothing() {
 /// A per-motor bus of MyActuator V3 motors (one 0xA1 request each per tick) beside a
 /// multi-torque v1.61 bus, with faults on the per-motor requests: nothing allocates either.
 fn per_motor_v3_bus() {
-    ALLOCATIONS.store(0, Ordering::SeqCst);
+    rmd_test_support::alloc::reset_counted();
     let clock = VirtualClock::new();
     let torque = rmd_protocol::Command::Torque;
     let faults = [
@@ -189,13 +148,13 @@ fn per_motor_v3_bus() {
         let step = rt.step();
         assert!(step.is_continue(), "{step:?}");
     }
-    COUNTING.store(true, Ordering::SeqCst);
+    rmd_test_support::alloc::count_every_thread(true);
     for _ in 0..2_000 {
         assert!(rt.step().is_continue());
         let _ = telemetry.try_recv();
     }
-    COUNTING.store(false, Ordering::SeqCst);
-    let allocations = ALLOCATIONS.load(Ordering::SeqCst);
+    rmd_test_support::alloc::count_every_thread(false);
+    let allocations = rmd_test_support::alloc::counted().allocations;
     let stats = rt.stats().summary();
     let v3_motors = &stats.motors[..3];
     assert!(

@@ -4,14 +4,11 @@
 //! ticks, in real time. It counts every thread: the loop's, the supervisor's and the
 //! simulators'.
 //!
-//! One test per binary, so that no other test thread allocates while we count. No assertion on
+//! Alone in a process of its own, so that no other test's thread allocates while we count. No assertion on
 //! timing (shared machine): only on allocations, and that the ticks ran with replies.
 #![cfg(target_os = "linux")]
 
-mod common;
-
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use crate::common;
 
 use common::*;
 use core::time::Duration;
@@ -22,39 +19,11 @@ use rmd_loop::supervisor::SafetyPort;
 use rmd_sim::threaded::{ThreadOptions, ThreadedSim};
 use rmd_sim::{SimBus, SimConfig};
 
-struct Counting;
-
-static COUNTING: AtomicBool = AtomicBool::new(false);
-static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
-
-// SAFETY: forwards every call to the system allocator unchanged; only counts.
-#[allow(unsafe_code)]
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if COUNTING.load(Ordering::Relaxed) {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if COUNTING.load(Ordering::Relaxed) {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
-        // SAFETY: same contract as the caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
-
 #[test]
 fn steady_state_ticks_on_threaded_simulators_allocate_nothing() {
+    if rmd_test_support::ran_in_own_process() {
+        return;
+    }
     const BUSES: usize = 3;
     let mut sims = Vec::new();
     let mut loop_ports = Vec::new();
@@ -92,13 +61,13 @@ fn steady_state_ticks_on_threaded_simulators_allocate_nothing() {
     for _ in 0..100 {
         assert!(rt.step().is_continue());
     }
-    COUNTING.store(true, Ordering::SeqCst);
+    rmd_test_support::alloc::count_every_thread(true);
     for _ in 0..500 {
         assert!(rt.step().is_continue());
         let _ = telemetry.try_recv();
     }
-    COUNTING.store(false, Ordering::SeqCst);
-    let allocations = ALLOCATIONS.load(Ordering::SeqCst);
+    rmd_test_support::alloc::count_every_thread(false);
+    let allocations = rmd_test_support::alloc::counted().allocations;
     let stats = rt.stats().summary();
     let out = rt.finish(rmd_loop::StopReason::TickLimit);
     for sim in sims {

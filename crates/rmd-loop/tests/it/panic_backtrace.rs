@@ -1,14 +1,17 @@
 //! With `RUST_BACKTRACE=1`, a controller's panic is reported with its backtrace, resolved after
-//! the motors were made safe (the loop's panic hook records the frames and prints nothing). Its
-//! own test binary: the environment and the panic hook are process-wide.
+//! the motors were made safe (the loop's panic hook records the frames and prints nothing). Alone
+//! in a process of its own: the environment and the panic hook are process-wide.
 
-mod common;
+use crate::common;
 
 use common::*;
 
 #[test]
 fn the_backtrace_of_a_controller_panic_comes_with_the_report() {
-    // SAFETY: the only thread of this test binary that reads the environment is this one,
+    if rmd_test_support::ran_in_own_process() {
+        return;
+    }
+    // SAFETY: the only thread of this process that reads the environment is this one,
     // before the loop starts (the backtrace setting is read once per process).
     #[allow(unsafe_code)]
     unsafe {

@@ -3,7 +3,7 @@
 //! frame on their bus, the safe stop included), and v1.61 motors beyond id 4. Judged by the
 //! simulated firmware's ground truth, in virtual time.
 
-mod common;
+use crate::common;
 
 use common::*;
 use rmd_bus::VirtualClock;

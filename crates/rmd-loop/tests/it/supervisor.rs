@@ -2,7 +2,7 @@
 //! simulated firmware's ground truth. No assertion depends on how fast anything is (shared VM):
 //! only on what happened before what.
 
-mod common;
+use crate::common;
 
 use core::time::Duration;
 use std::sync::Arc;

@@ -1,6 +1,6 @@
 //! The loop's telemetry mailbox: what a consumer gets, overwritten or waited for.
 
-mod common;
+use crate::common;
 
 use core::time::Duration;
 

@@ -2,7 +2,7 @@
 //! safe stop when the handle is dropped. No assertion here depends on timing (shared VM): timing
 //! goals live in the benchmarks.
 
-mod common;
+use crate::common;
 
 use core::time::Duration;
 use std::sync::{Arc, Mutex};

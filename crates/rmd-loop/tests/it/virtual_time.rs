@@ -1,6 +1,6 @@
 //! The loop on simulated motors in virtual time: fast, deterministic, exact.
 
-mod common;
+use crate::common;
 
 use core::ops::ControlFlow;
 use core::time::Duration;

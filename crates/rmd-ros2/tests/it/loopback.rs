@@ -3,7 +3,7 @@
 //! counted and move nothing. (The independent check, against Cyclone DDS, is
 //! `tests/ros2/run.sh`.)
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

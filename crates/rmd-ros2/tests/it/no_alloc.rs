@@ -11,12 +11,11 @@
 //! process's own; its discovery reaches same-host peers by unicast to the well-known local
 //! ports, so no network namespace is needed.
 //!
-//! One test in this binary, so that no other test runs while we count.
+//! Other tests may run beside it in the process: only the loop thread's allocations and frees
+//! are counted.
 
-mod common;
+use crate::common;
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
@@ -31,44 +30,6 @@ use rmd_ros2::{NodeConfig, Ros2Node};
 use rmd_servo::{ServoConfig, ServoController};
 use ros2_client::QosProfile;
 use ros2_client::dds::{Publisher, Subscription};
-
-struct Counting;
-
-thread_local! {
-    /// Whether this thread's allocations are counted (the loop thread's, while measuring).
-    static COUNTED: Cell<bool> = const { Cell::new(false) };
-}
-static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
-
-fn count() {
-    if COUNTED.with(Cell::get) {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-    }
-}
-
-// SAFETY: forwards every call to the system allocator unchanged; only counts.
-#[allow(unsafe_code)]
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // Freeing on the loop thread would be as bad as allocating.
-        count();
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        // SAFETY: same contract as the caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
 
 /// Set by the test thread: the loop thread counts its allocations from its next tick on, until
 /// it is cleared (the whole thread between two updates: bus I/O, the exchange, statistics,
@@ -91,7 +52,7 @@ impl Controller for Counted {
 
     fn update(&mut self, ctx: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
         let on = MEASURE.load(Ordering::Acquire);
-        COUNTED.with(|c| c.set(on));
+        rmd_test_support::alloc::count_this_thread(on);
         if on {
             COUNTED_TICKS.fetch_add(1, Ordering::Relaxed);
         }
@@ -103,7 +64,7 @@ impl Controller for Counted {
     }
 
     fn stop(&mut self, reason: &StopReason) {
-        COUNTED.with(|c| c.set(false));
+        rmd_test_support::alloc::count_this_thread(false);
         self.0.stop(reason);
     }
 }
@@ -286,7 +247,7 @@ fn the_loop_thread_allocates_nothing_while_the_node_publishes_and_takes_commands
         std::thread::sleep(Duration::from_millis(5));
         COUNTED_TICKS.load(Ordering::Acquire) == ticks
     });
-    let allocations = ALLOCATIONS.load(Ordering::SeqCst);
+    let allocations = rmd_test_support::alloc::counted().total();
     let ticks = COUNTED_TICKS.load(Ordering::Acquire);
 
     let after = node.stats();

@@ -3,55 +3,16 @@
 //! a counting global allocator that counts the loop thread only (the sender plans on its own
 //! thread, where allocating is allowed).
 //!
-//! One test per binary, so that no other test runs while we count.
+//! Other tests may run beside it in the process: only the loop thread's allocations and frees
+//! are counted.
 
-mod common;
+use crate::common;
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use common::{Bench, SERVO};
 use rmd_servo::{JointTrajectory, JointTrajectoryPoint, Setpoint, TrajectoryStart};
-
-struct Counting;
-
-thread_local! {
-    /// Whether this thread's allocations are counted (the loop thread's, while measuring).
-    static COUNTED: Cell<bool> = const { Cell::new(false) };
-}
-static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
-
-fn count() {
-    if COUNTED.with(Cell::get) {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-    }
-}
-
-// SAFETY: forwards every call to the system allocator unchanged; only counts.
-#[allow(unsafe_code)]
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // Freeing on the loop thread would be as bad as allocating.
-        count();
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        // SAFETY: same contract as the caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
 
 /// The last tick the loop thread ran, and the last one the sender acted on: they go in step,
 /// so that the sender's schedule (in ticks) is the same on every run.
@@ -137,7 +98,7 @@ fn servo_ticks_allocate_nothing_while_another_thread_drives_it() {
     });
 
     bench.step(100);
-    COUNTED.with(|c| c.set(true));
+    rmd_test_support::alloc::count_this_thread(true);
     for tick in 1..=TICKS {
         bench.step(1);
         TICK.store(tick, Ordering::Release);
@@ -148,8 +109,8 @@ fn servo_ticks_allocate_nothing_while_another_thread_drives_it() {
             std::thread::yield_now();
         }
     }
-    COUNTED.with(|c| c.set(false));
-    let allocations = ALLOCATIONS.load(Ordering::SeqCst);
+    rmd_test_support::alloc::count_this_thread(false);
+    let allocations = rmd_test_support::alloc::counted().total();
     DONE.store(true, Ordering::Release);
     let sent = sender.join().unwrap();
     let state = bench.state().unwrap();

@@ -2,7 +2,7 @@
 //! limits (refused setpoints, clamped output), bad input refused on the caller's side and
 //! counted, enable / disable, estop, a joint outside its limits at start.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -1,7 +1,7 @@
 //! Setpoints on simulated motors (virtual time): position, velocity and effort modes, batches
 //! applied in one tick, the feed-forward terms, against the simulator's ground truth.
 
-mod common;
+use crate::common;
 
 use common::{Bench, JOINTS, SERVO};
 use rmd_servo::{ServoMode, Setpoint};

@@ -2,7 +2,7 @@
 //! velocity and acceleration kept, trajectories that start later or while moving, points too
 //! close, trajectories that replace others, the buffer pool.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -1,7 +1,7 @@
 //! Wire timing as a bus client sees it: exact to the nanosecond in virtual time, computed with
 //! `rmd_bus::wire` on the actual frames.
 
-mod common;
+use crate::common;
 
 use core::time::Duration;
 

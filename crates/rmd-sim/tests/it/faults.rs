@@ -1,7 +1,7 @@
 //! Every kind of fault, observed the only way a client can: through the `CanBus` trait. And
 //! the same seed gives the same run.
 
-mod common;
+use crate::common;
 
 use core::time::Duration;
 

@@ -6,7 +6,7 @@
 //! brake, the 0x9A error flags, 0x76 reset (no reply, deaf while rebooting), the CAN ID filter
 //! and the "previous reply to an unsupported command" trap.
 
-mod common;
+use crate::common;
 
 use core::time::Duration;
 

@@ -1,7 +1,7 @@
 //! What the simulated firmware says about itself, for judging a controller or a safe stop: since
 //! when each motor has applied (and been commanded) no torque.
 
-mod common;
+use crate::common;
 
 use common::*;
 use rmd_bus::{CanBus, Clock};

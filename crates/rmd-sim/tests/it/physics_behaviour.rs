@@ -1,6 +1,6 @@
 //! Physics as a bus client sees it, with the numbers worked out by hand.
 
-mod common;
+use crate::common;
 
 use common::*;
 use rmd_bus::{CanBus, Clock, Timestamp};

@@ -1,10 +1,7 @@
 //! The producer's push allocates nothing, with every sink on (MCAP file, live server, CSV).
 //! A counting global allocator counts the allocations of the pushing thread only; the sink
 //! threads allocate as they like.
-#![allow(unsafe_code)]
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::net::SocketAddr;
 use std::time::Duration;
 
@@ -14,45 +11,9 @@ use rmd_telemetry::{
     ReplyAge, RunLayout, Telemetry, TickRecord,
 };
 
-thread_local! {
-    // Const-initialised, no destructor: safe to touch from inside the allocator.
-    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
-}
-
-struct CountingAllocator;
-
-// SAFETY: every method forwards its arguments unchanged to `System`, so the `GlobalAlloc`
-// contract holds as it does for `System`; the only addition is a thread-local counter.
-unsafe impl GlobalAlloc for CountingAllocator {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: the caller's contract is `System.alloc`'s.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: as for `alloc`.
-        unsafe { System.alloc_zeroed(layout) }
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: `ptr` came from `System` through us, with `layout`.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: `ptr` came from `System` through us, with `layout`.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: CountingAllocator = CountingAllocator;
-
+/// Allocations of the calling thread so far.
 fn allocations() -> u64 {
-    ALLOCATIONS.with(Cell::get)
+    rmd_test_support::alloc::this_thread().allocations
 }
 
 #[test]
