@@ -2,7 +2,7 @@
 //! time (the loop stepped tick by tick here): validated messages move the simulated joints,
 //! the servo's own refusals come back typed and counted by kind, diagnostics carry the servo's
 //! state, the loop's statistics and how it ended, and the estop actions do what they say.
-//! (The node over DDS on top of it: `tests/no_alloc.rs` here, and `tests/ros2/run.sh` against
+//! (The node over DDS on top of it: `tests/it/no_alloc.rs` here, and `tests/ros2/run.sh` against
 //! Cyclone DDS.)
 
 use std::ops::ControlFlow;

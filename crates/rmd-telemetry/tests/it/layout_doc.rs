@@ -1,6 +1,6 @@
 //! docs/foxglove-layout.json is the layout `foxglove_layout` makes for the examples' leg
 //! (joints hip_aa, hip_fe, knee, ankle on one bus, torque constants known). Regenerate it with
-//! `RMD_WRITE_LAYOUT=1 cargo test -p rmd-telemetry --test layout_doc`.
+//! `RMD_WRITE_LAYOUT=1 cargo test -p rmd-telemetry --test it layout_doc::`.
 
 use std::path::PathBuf;
 
