@@ -194,3 +194,13 @@ pub fn reset_counted() {
     COUNTED_ALLOCATIONS.store(0, Ordering::SeqCst);
     COUNTED_FREES.store(0, Ordering::SeqCst);
 }
+
+#[cfg(test)]
+mod tests {
+    // This crate's own unit tests do not install the allocator: every count must refuse.
+    #[test]
+    #[should_panic(expected = "is not this binary's global allocator")]
+    fn a_count_without_the_allocator_installed_panics() {
+        let _ = super::this_thread();
+    }
+}
