@@ -10,8 +10,6 @@
 //! bound times only from below ("not before the deadline") or generously from above.
 #![cfg(target_os = "linux")]
 
-#[allow(unreachable_pub)]
-mod alloc_counter;
 mod support;
 
 use core::time::Duration;
@@ -27,7 +25,8 @@ use support::slcan::Slcan;
 use support::{Peer, Vcan, eventually};
 
 #[global_allocator]
-static ALLOCATOR: alloc_counter::CountingAllocator = alloc_counter::CountingAllocator;
+static ALLOCATOR: rmd_test_support::alloc::CountingAllocator =
+    rmd_test_support::alloc::CountingAllocator;
 
 /// Long enough for anything that should happen to happen, even under emulation.
 const LONG: Duration = Duration::from_secs(5);
@@ -622,8 +621,6 @@ fn opening_a_missing_down_or_non_can_interface_says_what_to_do() {
 
 #[test]
 fn the_real_time_path_does_not_allocate() {
-    use alloc_counter::allocations;
-
     let vcan = Vcan::up();
     let mut bus = open(&vcan.name);
     let peer = Peer::open(&vcan.name);
@@ -638,7 +635,7 @@ fn the_real_time_path_does_not_allocate() {
     slcan.adapter_says("sp000130");
     std::thread::sleep(Duration::from_millis(100));
 
-    let before = allocations();
+    let before = rmd_test_support::alloc::this_thread().allocations;
     let mut frames = 0;
     for _ in 0..10 {
         bus.send(&request).unwrap();
@@ -661,7 +658,7 @@ fn the_real_time_path_does_not_allocate() {
     {
         events += 1;
     }
-    let allocated = allocations() - before;
+    let allocated = rmd_test_support::alloc::this_thread().allocations - before;
 
     assert_eq!(allocated, 0, "send/recv_until allocated");
     assert_eq!((frames, timed_out, polled, events), (10, None, None, 3));

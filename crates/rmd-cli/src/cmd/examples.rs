@@ -3,7 +3,7 @@
 //!
 //! A line is a command line as a user types it, optionally followed by `# what it does`. Every
 //! line parses with `rmd`'s own parser (tested below); the ones that need no hardware run as
-//! printed (tests/helpful.rs runs them), with the files they name shipped in the repository,
+//! printed (tests/it/helpful.rs runs them), with the files they name shipped in the repository,
 //! relative to its root. `rmd ros2` keeps the examples of its own help text.
 
 use clap::Command;

@@ -1,0 +1,12 @@
+//! The integration tests of rmd-ros2, one binary: each file a module, so the crate and its
+//! dependencies are linked once for all of them.
+
+mod common;
+
+#[global_allocator]
+static ALLOCATOR: rmd_test_support::alloc::CountingAllocator =
+    rmd_test_support::alloc::CountingAllocator;
+
+mod loopback;
+mod no_alloc;
+mod servo_port;
