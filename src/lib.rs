@@ -49,7 +49,7 @@
 //! }
 //! ```
 //!
-//! [`RtLoop::new`] builds a loop without that supervisor (tests, and loops whose buses have no
+//! [`RtLoop::unsupervised`] builds a loop without that supervisor (tests, and loops whose buses have no
 //! second way in); [`rig::Rig::into_loop`] is the supervised way.
 
 pub use rmd_bus as bus;

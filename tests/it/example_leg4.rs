@@ -50,7 +50,8 @@ fn run_leg(
     buses[0].record_trace(256);
     let cycle = StepCycle::plan(StepParams::new(leg4::step_center(&LegModel::new()))).unwrap();
     let controller = StepController::new(&robot, controller_model, gains, cycle).unwrap();
-    let mut rt = RtLoop::new(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
+    let mut rt =
+        RtLoop::unsupervised(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
     let telemetry = rt.telemetry();
     let outcome = rt.run(RunLimit::Duration(Duration::from_secs_f64(seconds)));
     let samples = telemetry.drain().collect();

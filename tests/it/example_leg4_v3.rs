@@ -33,7 +33,8 @@ fn the_v3_leg_tracks_the_step_cycle_like_leg4() {
     }
     let cycle = StepCycle::plan(StepParams::new(leg4::step_center(&LegModel::new()))).unwrap();
     let controller = StepController::new(&robot, LegModel::new(), Gains::new(), cycle).unwrap();
-    let rt = RtLoop::new(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
+    let rt =
+        RtLoop::unsupervised(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
     let out = rt.run(RunLimit::Duration(Duration::from_secs(5)));
     let r = &out.report;
     assert_eq!(r.stop_reason, StopReason::TickLimit, "{r}");

@@ -28,7 +28,8 @@ fn settle(move_deg: f64) {
     let mut buses = sim_buses(&clock, sims).unwrap();
     let controller = PdHold::new(&robot, move_deg);
     let (kp, kd) = (controller.kp, controller.kd);
-    let mut rt = RtLoop::new(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
+    let mut rt =
+        RtLoop::unsupervised(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
     let telemetry = rt.telemetry();
     let out = rt.run(RunLimit::Duration(Duration::from_secs(3)));
     assert_eq!(out.report.stop_reason, StopReason::TickLimit);

@@ -28,7 +28,8 @@ fn the_quadruped_stands_up_and_holds_the_pose() {
         bus.record_trace(20_000);
     }
     let controller = StandController::new(&robot, STAND_HEIGHT_M).unwrap();
-    let rt = RtLoop::new(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
+    let rt =
+        RtLoop::unsupervised(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
     let out = rt.run(RunLimit::Duration(Duration::from_secs(3)));
     let r = &out.report;
     assert_eq!(r.stop_reason, StopReason::TickLimit, "{r}");

@@ -27,7 +27,8 @@ fn every_waypoint_is_reached() {
     let mut buses = sim_buses(&clock, trajectory_follow::sims(&robot, 1).unwrap()).unwrap();
     let waypoints = WAYPOINTS_DEG.to_vec();
     let follower = Follower::new(&robot, LegModel::new(), waypoints.clone(), 0.4).unwrap();
-    let mut rt = RtLoop::new(robot, clock.clone(), buses.iter_mut().collect(), follower).unwrap();
+    let mut rt =
+        RtLoop::unsupervised(robot, clock.clone(), buses.iter_mut().collect(), follower).unwrap();
     let telemetry = rt.telemetry();
     let out = rt.run(RunLimit::Duration(Duration::from_secs(20)));
     let r = &out.report;

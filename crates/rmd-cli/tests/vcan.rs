@@ -415,7 +415,7 @@ fn the_loop_drives_four_motors_against_rmd_sim_with_every_reply_matched() {
     robot.loop_config.reply_mode = ReplyMode::Pipelined;
     let robot = rmd_loop::Robot::try_from(robot).unwrap();
     let bus = SocketCanBus::open(&vcan.name, &SocketCanOptions::new()).unwrap();
-    let rt = RtLoop::new(robot, MonotonicClock, vec![bus], Hold { updates: 0 }).unwrap();
+    let rt = RtLoop::unsupervised(robot, MonotonicClock, vec![bus], Hold { updates: 0 }).unwrap();
     let outcome = rt.run(RunLimit::Ticks(TICKS));
     let report = &outcome.report;
     println!("{report}");

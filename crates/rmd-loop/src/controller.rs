@@ -12,7 +12,7 @@ use crate::report::{Fault, StopReason};
 ///
 /// The methods run in this order:
 ///
-/// 1. [`signals`](Controller::signals): once, when the loop is built ([`RtLoop::new`](crate::RtLoop::new)),
+/// 1. [`signals`](Controller::signals): once, when the loop is built ([`RtLoop::unsupervised`](crate::RtLoop::unsupervised)),
 ///    on the building thread: the names of the user signals the controller writes every tick.
 /// 2. [`start`](Controller::start): once, on the loop thread, after every motor has answered the
 ///    start-up probe (zero torque until then), before the first tick.

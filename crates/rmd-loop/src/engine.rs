@@ -65,7 +65,7 @@ pub enum RunLimit {
     Duration(Duration),
 }
 
-/// Why [`RtLoop::new`] refused its arguments.
+/// Why [`RtLoop::unsupervised`] refused its arguments.
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
     /// The number of buses does not match the robot description.
@@ -140,7 +140,7 @@ pub(crate) struct Parts<B, C> {
 ///     }
 /// }
 /// let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(BusConfig::new("sim").with_motor(MotorConfig::new(1))))?;
-/// let rt = RtLoop::new(robot, VirtualClock::new(), vec![NoMotors], Idle)?;
+/// let rt = RtLoop::unsupervised(robot, VirtualClock::new(), vec![NoMotors], Idle)?;
 /// let outcome = rt.run(rmd_loop::RunLimit::Ticks(10));
 /// // Nobody answered: the loop refuses to start and says why.
 /// assert!(outcome.report.stop_description.contains("never answered"));
@@ -186,9 +186,17 @@ pub struct Running<B, C, K> {
 }
 
 impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
-    /// Prepares a loop of `robot` over `buses` (in description order) with `controller`.
+    /// Prepares a loop of `robot` over `buses` (in description order) with `controller`,
+    /// **without a supervisor**: nothing outside the loop's thread stops the motors if the
+    /// controller or the bus I/O hangs. For tests, virtual time and buses without a thread of
+    /// their own; a robot's program gets the supervised loop from `rmd_rig::Rig::into_loop`.
     /// Allocates everything the loop needs; running it allocates nothing more.
-    pub fn new(robot: Robot, clock: C, buses: Vec<B>, controller: K) -> Result<Self, BuildError> {
+    pub fn unsupervised(
+        robot: Robot,
+        clock: C,
+        buses: Vec<B>,
+        controller: K,
+    ) -> Result<Self, BuildError> {
         if buses.len() != robot.buses().len() {
             return Err(BuildError::BusCount {
                 expected: robot.buses().len(),

@@ -25,7 +25,7 @@
 //! let robot = Robot::from_toml("[[bus]]\ninterface = \"can0\"\n[[bus.motor]]\nid = 1\ngear_ratio = 9.0")?;
 //! let placement = Placement::simulated(&robot, SimTime::Virtual);
 //! let rig = Rig::open(&robot, &placement, sim::sim_configs(&robot, 7))?;
-//! let rt = rig.into_loop(robot, Idle)?; // RtLoop::new + a supervisor on its own bus handles
+//! let rt = rig.into_loop(robot, Idle)?; // RtLoop::unsupervised + a supervisor on its own bus handles
 //! let outcome = rt.run(RunLimit::Ticks(100));
 //! assert_eq!(outcome.report.stats.ticks, 100);
 //! assert!(outcome.report.safe_stop.all_off_confirmed());

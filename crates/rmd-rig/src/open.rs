@@ -11,7 +11,7 @@ use crate::error::RigError;
 use crate::placement::{BusTarget, Placement};
 
 /// A robot's buses, open, and the clock they run on: ready for
-/// [`RtLoop::new`](rmd_loop::RtLoop::new).
+/// [`RtLoop::unsupervised`](rmd_loop::RtLoop::unsupervised).
 #[derive(Debug)]
 pub struct Rig {
     /// The clock.
@@ -85,7 +85,7 @@ impl Rig {
             .iter()
             .map(AnyBus::safety_port)
             .collect::<Result<Vec<_>, _>>()?;
-        Ok(RtLoop::new(robot, self.clock, self.buses, controller)?.supervise(ports)?)
+        Ok(RtLoop::unsupervised(robot, self.clock, self.buses, controller)?.supervise(ports)?)
     }
 }
 

@@ -253,7 +253,7 @@ fn open(robot: &Robot) -> Opened {
         .collect();
     let config = ServoConfig::defaults(robot).expect("a servo configuration");
     let (servo, handle) = ServoController::new(config);
-    let rt = RtLoop::new(robot.clone(), rig.clock.clone(), buses, servo)
+    let rt = RtLoop::unsupervised(robot.clone(), rig.clock.clone(), buses, servo)
         .and_then(|rt| rt.supervise(ports))
         .expect("the loop");
     Opened {

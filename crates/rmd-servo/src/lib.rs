@@ -48,7 +48,7 @@
 //! // loop and use `handle` from its own threads).
 //! let clock = VirtualClock::new();
 //! let mut buses = rmd_rig::open::sim_buses(&clock, rmd_rig::sim::sim_configs(&robot, 1))?;
-//! let rt = RtLoop::new(robot, clock, buses.iter_mut().collect(), servo)?;
+//! let rt = RtLoop::unsupervised(robot, clock, buses.iter_mut().collect(), servo)?;
 //! let mut running = rt.start().map_err(|outcome| outcome.report.to_string())?;
 //! let _ = running.step();
 //!

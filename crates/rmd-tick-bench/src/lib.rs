@@ -234,7 +234,8 @@ pub fn started<B: CanBus>(
     clock: VirtualClock,
     buses: Vec<B>,
 ) -> (Running<B, VirtualClock, NoOp>, TelemetryReceiver) {
-    let mut rt = RtLoop::new(robot, clock, buses, NoOp).expect("one bus per bus of the robot");
+    let mut rt =
+        RtLoop::unsupervised(robot, clock, buses, NoOp).expect("one bus per bus of the robot");
     let telemetry = rt.telemetry();
     let Ok(rt) = rt.start() else {
         panic!("every motor answers the start-up probe")

@@ -42,7 +42,7 @@ fn a_motor_whose_answers_identify_no_family_is_refused_before_any_torque() {
             .with_motor(MotorConfig::new(1))
             .with_motor(MotorConfig::new(2)),
     );
-    let out = RtLoop::new(robot, clock, vec![&mut bus], Constant(1.0))
+    let out = RtLoop::unsupervised(robot, clock, vec![&mut bus], Constant(1.0))
         .unwrap()
         .run(RunLimit::Ticks(100));
     let r = &out.report;
@@ -76,7 +76,7 @@ fn a_myactuator_v3_motor_is_refused_before_any_torque() {
             .with_motor(MotorConfig::new(1))
             .with_motor(MotorConfig::new(2)),
     );
-    let out = RtLoop::new(robot, clock, vec![&mut bus], Constant(1.0))
+    let out = RtLoop::unsupervised(robot, clock, vec![&mut bus], Constant(1.0))
         .unwrap()
         .run(RunLimit::Ticks(100));
     let r = &out.report;
@@ -133,7 +133,7 @@ fn an_undescribed_motor_stops_the_start_and_keeps_its_own_state() {
             .with_motor(MotorConfig::new(1))
             .with_motor(MotorConfig::new(2)),
     );
-    let out = RtLoop::new(robot, clock.clone(), vec![&mut bus], Constant(1.0))
+    let out = RtLoop::unsupervised(robot, clock.clone(), vec![&mut bus], Constant(1.0))
         .unwrap()
         .run(RunLimit::Ticks(100));
     let r = &out.report;
@@ -167,7 +167,7 @@ fn a_motor_declared_undriven_is_commanded_zero_torque() {
         .with_motor(MotorConfig::new(1))
         .with_motor(MotorConfig::new(2));
     bus_config.zero_torque_ids = vec![3];
-    let out = RtLoop::new(robot_of(bus_config), clock, vec![&mut bus], Constant(0.5))
+    let out = RtLoop::unsupervised(robot_of(bus_config), clock, vec![&mut bus], Constant(0.5))
         .unwrap()
         .run(RunLimit::Ticks(200));
     let r = &out.report;
@@ -196,7 +196,7 @@ fn lk_motors_are_driven_with_their_own_current_scales() {
         let robot = robot_of(
             BusConfig::new("can0").with_motor(MotorConfig::new(1).protocol("lk-v2.3x", Some(name))),
         );
-        let mut rt = RtLoop::new(robot, clock, vec![bus.clone()], Constant(1.0)).unwrap();
+        let mut rt = RtLoop::unsupervised(robot, clock, vec![bus.clone()], Constant(1.0)).unwrap();
         let telemetry = rt.telemetry();
         let Ok(mut running) = rt.start() else {
             panic!("{name}: the LK motor was refused")
@@ -233,7 +233,7 @@ fn an_lk_motor_described_as_v161_is_refused() {
     let mut bus = sim_of(&clock, &[1], FirmwareFamily::LkV23x(LkSeries::Mf));
     bus.record_trace(1000);
     let robot = robot_of(BusConfig::new("can0").with_motor(MotorConfig::new(1)));
-    let out = RtLoop::new(robot, clock, vec![&mut bus], Constant(1.0))
+    let out = RtLoop::unsupervised(robot, clock, vec![&mut bus], Constant(1.0))
         .unwrap()
         .run(RunLimit::Ticks(10));
     let r = &out.report;

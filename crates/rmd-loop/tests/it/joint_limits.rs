@@ -70,7 +70,7 @@ fn run<K: Controller>(
     controller: K,
     ticks: u64,
 ) -> (rmd_loop::LoopOutcome<K>, (f64, f64, f64)) {
-    let rt = RtLoop::new(robot, clock, vec![bus.clone()], controller).unwrap();
+    let rt = RtLoop::unsupervised(robot, clock, vec![bus.clone()], controller).unwrap();
     let mut running = rt.start().map_err(|o| o.report.to_string()).unwrap();
     let (mut low, mut high, mut fastest) = (f64::INFINITY, f64::NEG_INFINITY, 0.0_f64);
     let mut reason = StopReason::TickLimit;

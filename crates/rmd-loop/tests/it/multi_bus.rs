@@ -118,7 +118,7 @@ fn every_reply_is_taken_when_it_arrives_on_whichever_bus() {
         TimedBus::new(1, &clock, 250, &log),
         TimedBus::new(2, &clock, 320, &log),
     ];
-    let rt = RtLoop::new(robot(1000.0, 3, 4), clock, buses, PdTo::hold(12)).unwrap();
+    let rt = RtLoop::unsupervised(robot(1000.0, 3, 4), clock, buses, PdTo::hold(12)).unwrap();
     let out = rt.run(RunLimit::Ticks(50));
     let s = &out.report.stats;
     assert_eq!(s.ticks, 50, "{}", out.report);
@@ -151,7 +151,7 @@ fn a_bus_that_cannot_wait_with_others_is_collected_bus_after_bus() {
     let mut a = sim(&clock, 4, 1, &[]);
     let mut b = sim(&clock, 4, 2, &[]);
     assert!(matches!(a.readiness(), Readiness::Alone));
-    let rt = RtLoop::new(
+    let rt = RtLoop::unsupervised(
         robot(1000.0, 2, 4),
         clock,
         vec![&mut a, &mut b],

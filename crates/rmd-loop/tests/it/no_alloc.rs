@@ -67,7 +67,7 @@ fn steady_state_ticks_allocate_nothing() {
     with_limits(&mut config);
     let robot = rmd_loop::Robot::try_from(config).unwrap();
     assert!(robot.buses().iter().all(|b| b.health_rotation));
-    let mut rt = RtLoop::new(
+    let mut rt = RtLoop::unsupervised(
         robot,
         clock.clone(),
         vec![bus0.clone(), bus1.clone()],
@@ -160,7 +160,7 @@ fn per_motor_v3_bus() {
         rmd_loop::robot::ExchangeKind::PerMotor
     );
     assert!(robot.buses().iter().all(|b| b.health_rotation));
-    let mut rt = RtLoop::new(
+    let mut rt = RtLoop::unsupervised(
         robot,
         clock.clone(),
         vec![bus0.clone(), bus1.clone()],
@@ -216,7 +216,7 @@ fn every_sink_on() {
     config.loop_config.telemetry_capacity = 64;
     with_limits(&mut config);
     let robot = rmd_loop::Robot::try_from(config).unwrap();
-    let mut rt = RtLoop::new(
+    let mut rt = RtLoop::unsupervised(
         robot,
         clock.clone(),
         vec![bus0.clone(), bus1.clone()],

@@ -67,7 +67,7 @@ fn v3_motors_are_driven_per_motor_and_never_see_a_0x280_frame() {
     )))
     .unwrap();
     assert_eq!(robot.buses()[0].exchange, ExchangeKind::PerMotor);
-    let mut rt = RtLoop::new(robot, clock, vec![&mut bus], Constant(1.0)).unwrap();
+    let mut rt = RtLoop::unsupervised(robot, clock, vec![&mut bus], Constant(1.0)).unwrap();
     let telemetry = rt.telemetry();
     let mut running = started(rt);
     for _ in 0..300 {
@@ -144,7 +144,7 @@ fn v3_feedback_follows_the_output_shaft_in_whole_degrees() {
     )))
     .unwrap();
     let targets = [20.0, -35.0, 60.0];
-    let out = RtLoop::new(robot, clock, vec![&mut bus], PdTo::new(&targets))
+    let out = RtLoop::unsupervised(robot, clock, vec![&mut bus], PdTo::new(&targets))
         .unwrap()
         .run(RunLimit::Ticks(2000));
     let r = &out.report;
@@ -170,7 +170,7 @@ fn v161_motors_beyond_id_4_are_driven_per_motor() {
     let bus = rmd_sim::SharedSimBus::new(sim_of(&clock, &ids, &d, &[]));
     let bus_config = motors(BusConfig::new("can0"), &ids, &d).exchange(ExchangeKind::PerMotor);
     let robot = Robot::try_from(RobotConfig::new(500.0).with_bus(bus_config)).unwrap();
-    let mut rt = RtLoop::new(robot, clock, vec![bus.clone()], Constant(1.5)).unwrap();
+    let mut rt = RtLoop::unsupervised(robot, clock, vec![bus.clone()], Constant(1.5)).unwrap();
     let telemetry = rt.telemetry();
     let mut running = started(rt);
     for _ in 0..100 {
@@ -222,7 +222,7 @@ fn a_bus_mixing_families_drives_each_motor_in_its_own_scale() {
         &d,
     )))
     .unwrap();
-    let rt = RtLoop::new(robot, clock, vec![bus.clone()], Constant(2.0)).unwrap();
+    let rt = RtLoop::unsupervised(robot, clock, vec![bus.clone()], Constant(2.0)).unwrap();
     let mut running = started(rt);
     for _ in 0..100 {
         assert!(running.step().is_continue());
@@ -269,7 +269,7 @@ fn lost_and_late_v3_replies_are_counted_against_their_own_motor_only() {
         &[V3; 3],
     )))
     .unwrap();
-    let out = RtLoop::new(robot, clock, vec![&mut bus], PdTo::hold(3))
+    let out = RtLoop::unsupervised(robot, clock, vec![&mut bus], PdTo::hold(3))
         .unwrap()
         .run(RunLimit::Ticks(500));
     let r = &out.report;
@@ -318,7 +318,7 @@ fn an_unreadable_probe_reply_does_not_skew_the_round_trip_and_a_lost_reply_resyn
         &[V3; 3],
     )))
     .unwrap();
-    let out = RtLoop::new(robot, clock, vec![&mut bus], PdTo::hold(3))
+    let out = RtLoop::unsupervised(robot, clock, vec![&mut bus], PdTo::hold(3))
         .unwrap()
         .run(RunLimit::Ticks(300));
     let r = &out.report;
@@ -355,7 +355,7 @@ fn braked_v3_motors_are_released_before_torque_and_locked_after_motor_off() {
         m.brake = true;
     }
     let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(bus_config)).unwrap();
-    let rt = RtLoop::new(robot, clock, vec![bus.clone()], Constant(1.0)).unwrap();
+    let rt = RtLoop::unsupervised(robot, clock, vec![bus.clone()], Constant(1.0)).unwrap();
     let mut running = started(rt);
     for _ in 0..50 {
         assert!(running.step().is_continue());
@@ -406,7 +406,7 @@ fn the_report_says_which_motors_turn_off_by_themselves_if_the_host_dies() {
     let mut config = motors(BusConfig::new("can0"), &ids, &d);
     config.motors[1].watchdog_ms = Some(50);
     let robot = Robot::try_from(RobotConfig::new(500.0).with_bus(config)).unwrap();
-    let out = RtLoop::new(robot, clock, vec![&mut bus], Constant(0.0))
+    let out = RtLoop::unsupervised(robot, clock, vec![&mut bus], Constant(0.0))
         .unwrap()
         .run(RunLimit::Ticks(10));
     let r = &out.report;
@@ -469,7 +469,7 @@ fn the_start_reads_each_v3_motors_firmware_date_and_model() {
     let robot =
         Robot::try_from(RobotConfig::new(500.0).with_bus(motors(BusConfig::new("can0"), &ids, &d)))
             .unwrap();
-    let out = RtLoop::new(robot, clock, vec![&mut bus], Constant(0.0))
+    let out = RtLoop::unsupervised(robot, clock, vec![&mut bus], Constant(0.0))
         .unwrap()
         .run(RunLimit::Ticks(10));
     let r = &out.report;
@@ -507,7 +507,7 @@ fn run_v3_health(
         &[V3; 3],
     )))
     .unwrap();
-    let out = RtLoop::new(robot, clock, vec![&mut bus], HealthWatch::from(6))
+    let out = RtLoop::unsupervised(robot, clock, vec![&mut bus], HealthWatch::from(6))
         .unwrap()
         .run(RunLimit::Ticks(ticks));
     (out, bus)
@@ -602,7 +602,7 @@ fn the_health_rotation_reads_every_family_on_a_mixed_bus_and_an_lk_flag_names_it
     let run = |faults: &[FaultRule], ticks| {
         let clock = VirtualClock::new();
         let mut bus = sim_of(&clock, &ids, &dialects, faults);
-        let out = RtLoop::new(robot(), clock, vec![&mut bus], HealthWatch::from(6))
+        let out = RtLoop::unsupervised(robot(), clock, vec![&mut bus], HealthWatch::from(6))
             .unwrap()
             .run(RunLimit::Ticks(ticks));
         (out, bus)

@@ -102,7 +102,7 @@ fn supervised_with(
         returned: Arc::clone(returned),
     };
     let robot = rmd_loop::Robot::try_from(config).unwrap();
-    RtLoop::new(robot, MonotonicClock, vec![bus.clone()], controller)
+    RtLoop::unsupervised(robot, MonotonicClock, vec![bus.clone()], controller)
         .unwrap()
         .supervise(vec![port(bus)])
         .unwrap()
@@ -354,7 +354,7 @@ fn an_emergency_stop_acts_at_once_while_the_controller_hangs() {
 #[test]
 fn a_healthy_supervised_run_ends_with_the_loops_own_safe_stop() {
     let bus = shared_bus(43);
-    let rt = RtLoop::new(
+    let rt = RtLoop::unsupervised(
         realtime_robot(1000.0, 1, 4),
         MonotonicClock,
         vec![bus.clone()],

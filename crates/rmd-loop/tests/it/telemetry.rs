@@ -20,7 +20,7 @@ fn run(
     let mut config = robot_config(1000.0, 1, 4);
     config.loop_config.telemetry_capacity = 8;
     let robot = rmd_loop::Robot::try_from(config).unwrap();
-    let mut rt = RtLoop::new(robot, clock, vec![&mut bus], PdTo::hold(4)).unwrap();
+    let mut rt = RtLoop::unsupervised(robot, clock, vec![&mut bus], PdTo::hold(4)).unwrap();
     let rx = rt.telemetry_with(delivery);
     let consumer = match every {
         // Nobody will ever read: the receiver is gone before the run.

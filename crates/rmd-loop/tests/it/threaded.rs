@@ -44,7 +44,7 @@ impl Controller for Recorder {
 fn a_few_seconds_at_one_kilohertz_in_real_time() {
     let clock = MonotonicClock;
     let bus = SimBus::new(clock, SimConfig::with_motors(4).seed(1)).unwrap();
-    let rt = RtLoop::new(
+    let rt = RtLoop::unsupervised(
         realtime_robot(1000.0, 1, 4),
         clock,
         vec![bus],
@@ -100,7 +100,8 @@ fn a_few_seconds_at_one_kilohertz_in_real_time() {
 fn snapshots_are_readable_while_the_loop_runs() {
     let clock = VirtualClock::new();
     let bus = shared_bus(clock.clone(), 4);
-    let rt = RtLoop::new(robot(1000.0, 1, 4), clock, vec![bus.clone()], PdTo::hold(4)).unwrap();
+    let rt =
+        RtLoop::unsupervised(robot(1000.0, 1, 4), clock, vec![bus.clone()], PdTo::hold(4)).unwrap();
     let handle = rt.spawn(RunLimit::Forever).unwrap();
     let first = loop {
         if let Some(s) = handle.snapshot(Duration::from_secs(5))
@@ -125,7 +126,7 @@ fn snapshots_are_readable_while_the_loop_runs() {
 fn an_emergency_stop_from_another_thread_makes_every_motor_safe() {
     let clock = MonotonicClock;
     let bus = shared_bus(clock, 4);
-    let rt = RtLoop::new(
+    let rt = RtLoop::unsupervised(
         realtime_robot(1000.0, 1, 4),
         clock,
         vec![bus.clone()],
@@ -152,7 +153,7 @@ fn dropping_the_handle_stops_the_loop_safely() {
     let clock = MonotonicClock;
     let bus = shared_bus(clock, 4);
     let stop = Arc::new(Mutex::new(None));
-    let rt = RtLoop::new(
+    let rt = RtLoop::unsupervised(
         realtime_robot(500.0, 1, 4),
         clock,
         vec![bus.clone()],
@@ -182,7 +183,7 @@ fn missing_privileges_are_reported_not_fatal() {
     config.loop_config.fifo_priority = Some(10);
     config.loop_config.cpu = Some(0);
     let robot = rmd_loop::Robot::try_from(config).unwrap();
-    let rt = RtLoop::new(robot, clock, vec![bus], PdTo::hold(2)).unwrap();
+    let rt = RtLoop::unsupervised(robot, clock, vec![bus], PdTo::hold(2)).unwrap();
     let out = rt.spawn(RunLimit::Ticks(100)).unwrap().join().unwrap();
     assert_eq!(out.report.stats.ticks, 100);
     assert_eq!(

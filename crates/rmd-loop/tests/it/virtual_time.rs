@@ -45,7 +45,7 @@ fn the_pd_controller_brings_every_joint_to_its_target() {
     let clock = VirtualClock::new();
     let mut bus = sim(&clock, 4, 2, &[]);
     let targets = [20.0, -35.0, 50.0, -90.0];
-    let mut rt = RtLoop::new(
+    let mut rt = RtLoop::unsupervised(
         robot(1000.0, 1, 4),
         clock.clone(),
         vec![&mut bus],
@@ -148,7 +148,7 @@ fn corrupted_bytes_never_reach_the_controller_as_fresh_feedback() {
     let mut config = robot_config(1000.0, 1, 4);
     config.loop_config.missing_reply_fault_after = 1000;
     let robot = rmd_loop::Robot::try_from(config).unwrap();
-    let rt = RtLoop::new(robot, clock, vec![&mut bus], PdTo::hold(4)).unwrap();
+    let rt = RtLoop::unsupervised(robot, clock, vec![&mut bus], PdTo::hold(4)).unwrap();
     let out = rt.run(RunLimit::Ticks(2000));
     let m1 = out.report.stats.motors[0].counters;
     // Whatever garbage decoded (or not), it was counted, and nothing else was disturbed.
@@ -214,7 +214,7 @@ fn bus_off_on_one_bus_stops_every_bus_and_the_safe_stop_waits_for_its_restart() 
     .frames_window(300, 1);
     let mut bus0 = sim(&clock, 4, 8, &[]);
     let mut bus1 = sim(&clock, 4, 9, &[bus_off]);
-    let rt = RtLoop::new(
+    let rt = RtLoop::unsupervised(
         robot(1000.0, 2, 4),
         clock.clone(),
         vec![&mut bus0, &mut bus1],
@@ -287,7 +287,8 @@ fn the_controller_can_end_the_run() {
     let mut bus = sim(&clock, 4, 11, &[]);
     let mut ctrl = PdTo::hold(4);
     ctrl.finish_at = Some(49);
-    let rt = RtLoop::new(robot(1000.0, 1, 4), clock.clone(), vec![&mut bus], ctrl).unwrap();
+    let rt =
+        RtLoop::unsupervised(robot(1000.0, 1, 4), clock.clone(), vec![&mut bus], ctrl).unwrap();
     let out = rt.run(RunLimit::Forever);
     assert_eq!(out.report.stop_reason, StopReason::ControllerFinished);
     assert_eq!(out.report.stats.ticks, 50);
@@ -333,7 +334,7 @@ fn a_controller_halt_is_an_abnormal_end_with_its_reason() {
 fn an_emergency_stop_takes_effect_within_one_tick() {
     let clock = VirtualClock::new();
     let mut bus = sim(&clock, 4, 12, &[]);
-    let rt = RtLoop::new(
+    let rt = RtLoop::unsupervised(
         robot(1000.0, 1, 4),
         clock.clone(),
         vec![&mut bus],
@@ -373,7 +374,7 @@ fn a_transmit_queue_that_fills_is_counted_not_fatal() {
     let mut config = robot_config(1000.0, 1, 4);
     config.loop_config.missing_reply_fault_after = 100;
     let robot = rmd_loop::Robot::try_from(config).unwrap();
-    let rt = RtLoop::new(robot, clock, vec![&mut bus], PdTo::hold(4)).unwrap();
+    let rt = RtLoop::unsupervised(robot, clock, vec![&mut bus], PdTo::hold(4)).unwrap();
     let out = rt.run(RunLimit::Ticks(500));
     let r = &out.report;
     assert_eq!(r.stop_reason, StopReason::TickLimit, "{r}");
@@ -409,7 +410,7 @@ fn a_long_transmit_stall_ends_in_an_honest_fault() {
 fn a_motor_that_never_answers_stops_the_start_and_names_it() {
     let clock = VirtualClock::new();
     let mut bus = sim(&clock, 3, 14, &[]); // motor 4 is configured but absent
-    let rt = RtLoop::new(
+    let rt = RtLoop::unsupervised(
         robot(1000.0, 1, 4),
         clock.clone(),
         vec![&mut bus],
@@ -439,7 +440,7 @@ fn the_same_seed_gives_the_same_run() {
             .multi_torque()
             .with_probability(0.01);
         let mut bus = sim(&clock, 4, seed, &[flaky]);
-        let mut rt = RtLoop::new(
+        let mut rt = RtLoop::unsupervised(
             robot(1000.0, 1, 4),
             clock.clone(),
             vec![&mut bus],
@@ -468,7 +469,8 @@ fn pipelined_mode_accepts_one_tick_old_feedback_from_slow_motors() {
     config.loop_config.reply_mode = rmd_loop::robot::ReplyMode::Pipelined;
     config.loop_config.allow_over_budget = true;
     let robot = rmd_loop::Robot::try_from(config).unwrap();
-    let mut rt = RtLoop::new(robot, clock.clone(), vec![&mut slow], PdTo::new(&[5.0; 4])).unwrap();
+    let mut rt =
+        RtLoop::unsupervised(robot, clock.clone(), vec![&mut slow], PdTo::new(&[5.0; 4])).unwrap();
     let telemetry = rt.telemetry();
     let out = rt.run(RunLimit::Ticks(2000));
     let r = &out.report;
@@ -522,7 +524,7 @@ fn run_slow(policy: rmd_loop::schedule::OverrunPolicy, count: u64) -> rmd_loop::
         count,
         cost: Duration::from_micros(1500),
     };
-    let rt = RtLoop::new(robot, clock.clone(), vec![&mut bus], slow).unwrap();
+    let rt = RtLoop::unsupervised(robot, clock.clone(), vec![&mut bus], slow).unwrap();
     let out = rt.run(RunLimit::Ticks(300));
     assert_safe(&mut bus, 4);
     out.report
@@ -576,7 +578,7 @@ fn pipelined_replies_about_a_period_late_are_all_fresh_from_the_first_tick() {
         let mut robot = robot_config(10.0, 1, 4);
         robot.loop_config.reply_mode = rmd_loop::robot::ReplyMode::Pipelined;
         let robot = rmd_loop::Robot::try_from(robot).unwrap();
-        let rt = RtLoop::new(robot, clock.clone(), vec![&mut bus], PdTo::hold(4)).unwrap();
+        let rt = RtLoop::unsupervised(robot, clock.clone(), vec![&mut bus], PdTo::hold(4)).unwrap();
         let out = rt.run(RunLimit::Ticks(200));
         let r = &out.report;
         assert_eq!(r.stop_reason, StopReason::TickLimit, "{r}");
@@ -610,7 +612,7 @@ fn start_through(fault: FaultKind, pipelined: bool) -> rmd_loop::LoopReport {
         config.loop_config.reply_mode = rmd_loop::robot::ReplyMode::Pipelined;
     }
     let robot = rmd_loop::Robot::try_from(config).unwrap();
-    let rt = RtLoop::new(robot, clock.clone(), vec![&mut bus], PdTo::hold(4)).unwrap();
+    let rt = RtLoop::unsupervised(robot, clock.clone(), vec![&mut bus], PdTo::hold(4)).unwrap();
     let report = rt.run(RunLimit::Ticks(50)).report;
     assert_safe(&mut bus, 4);
     report
@@ -661,7 +663,7 @@ fn run_health<K: rmd_loop::Controller>(
     let mut bus = sim(&clock, motors, 5, faults);
     bus.record_trace(200_000);
     let robot = rmd_loop::Robot::try_from(config).unwrap();
-    let out = RtLoop::new(robot, clock, vec![&mut bus], controller)
+    let out = RtLoop::unsupervised(robot, clock, vec![&mut bus], controller)
         .unwrap()
         .run(RunLimit::Ticks(ticks));
     (out, bus)

@@ -69,7 +69,7 @@ fn simulated_joints_read_their_true_angle_inside_the_power_up_window() {
             first: None,
             robot: robot.clone(),
         };
-        let rt = RtLoop::new(
+        let rt = RtLoop::unsupervised(
             robot.clone(),
             clock.clone(),
             buses.iter_mut().collect(),
@@ -182,7 +182,7 @@ fn the_runner_writes_every_tick_to_csv_and_mcap_with_joint_and_signal_columns() 
         first: None,
         robot: robot.clone(),
     };
-    let rt = RtLoop::new(robot, rig.clock, rig.buses, hold).unwrap();
+    let rt = RtLoop::unsupervised(robot, rig.clock, rig.buses, hold).unwrap();
     let dir = tempfile::tempdir().unwrap();
     // A folder that does not exist yet: the runner creates it.
     let path = dir.path().join("out").join("run.csv");

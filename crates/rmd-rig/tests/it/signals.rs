@@ -26,7 +26,7 @@ fn build() -> RtLoop<AnyBus, AnyClock, Idle> {
             .unwrap();
     let placement = Placement::simulated(&robot, SimTime::Virtual);
     let rig = Rig::open(&robot, &placement, sim::sim_configs(&robot, 1)).unwrap();
-    RtLoop::new(robot, rig.clock, rig.buses, Idle).unwrap()
+    RtLoop::unsupervised(robot, rig.clock, rig.buses, Idle).unwrap()
 }
 
 fn raise_and_wait(signals: &signals::Signals, count: u32) {

@@ -88,7 +88,7 @@ fn rig(estop: EstopAction) -> (Rig, ServoPort) {
 
 impl Rig {
     fn start(&mut self) -> Loop<'_> {
-        let rt = RtLoop::new(
+        let rt = RtLoop::unsupervised(
             self.robot.clone(),
             self.clock.clone(),
             self.buses.iter_mut().collect(),

@@ -212,7 +212,7 @@ fn run_on<C: Clock + Clone + 'static, B: CanBus + Send + 'static>(
     let robot = Robot::try_from(config).map_err(|e| Failure::Usage(e.to_string()))?;
     let period = robot.settings().period.get();
     let ticks = u64::try_from(args.duration.as_nanos() / period.as_nanos()).unwrap_or(u64::MAX);
-    let mut rt = RtLoop::new(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
+    let mut rt = RtLoop::unsupervised(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
         .map_err(|e| Failure::Usage(e.to_string()))?;
     // Before anything is served or recorded: a signal from now on follows the policy (one
     // before the loop runs stops it at once).

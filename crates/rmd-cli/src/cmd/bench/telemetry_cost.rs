@@ -227,8 +227,8 @@ fn one_round(args: &TelemetryCostArgs, outputs: &TelemetryOutputs) -> Result<Rou
     let robot = Robot::try_from(config).map_err(|e| e.to_string())?;
     let buses =
         robot::sim_buses(&clock, args.buses, args.motors).map_err(|e| format!("simulator: {e}"))?;
-    let mut rt =
-        RtLoop::new(robot, clock, buses, MovingTargetPd::new(true)).map_err(|e| e.to_string())?;
+    let mut rt = RtLoop::unsupervised(robot, clock, buses, MovingTargetPd::new(true))
+        .map_err(|e| e.to_string())?;
     let mut sinks = TelemetrySinks::attach(&mut rt, outputs).map_err(|e| e.to_string())?;
     let on = sinks.is_some();
     let signals = rmd_rig::signals::install().map_err(|e| e.to_string())?;

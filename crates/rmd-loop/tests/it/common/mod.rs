@@ -75,7 +75,8 @@ pub fn run_leg<K: Controller>(
 ) -> (rmd_loop::LoopOutcome<K>, SimBus<VirtualClock>) {
     let clock = VirtualClock::new();
     let mut bus = sim(&clock, 4, seed, faults);
-    let rt = rmd_loop::RtLoop::new(robot(1000.0, 1, 4), clock, vec![&mut bus], controller).unwrap();
+    let rt = rmd_loop::RtLoop::unsupervised(robot(1000.0, 1, 4), clock, vec![&mut bus], controller)
+        .unwrap();
     let out = rt.run(rmd_loop::RunLimit::Ticks(ticks));
     (out, bus)
 }

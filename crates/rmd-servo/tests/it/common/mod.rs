@@ -87,7 +87,8 @@ impl Bench {
         }
         let bus = rmd_rig::open::sim_buses(&clock, sims).unwrap().remove(0);
         let bus = SharedSimBus::new(bus);
-        let mut rt = RtLoop::new(robot.clone(), clock, vec![bus.clone()], controller).unwrap();
+        let mut rt =
+            RtLoop::unsupervised(robot.clone(), clock, vec![bus.clone()], controller).unwrap();
         let telemetry = rt.telemetry();
         let running = match rt.start() {
             Ok(running) => running,

@@ -340,7 +340,7 @@ fn run<B: CanBus, C: Clock + Clone + 'static>(
     controller: MovingTargetPd,
     limit: RunLimit,
 ) -> Result<LoopOutcome<MovingTargetPd>, String> {
-    let rt = RtLoop::new(robot, clock, buses, controller).map_err(|e| e.to_string())?;
+    let rt = RtLoop::unsupervised(robot, clock, buses, controller).map_err(|e| e.to_string())?;
     // A signal stops the trial's loop (`rmd_rig::signals`); the search then ends.
     let signals = rmd_rig::signals::install().map_err(|e| e.to_string())?;
     let watch = signals.watch(rt.stopper());
