@@ -69,12 +69,18 @@ fn a_transmit_stall_is_ridden_out_until_the_frames_go() {
 
 #[test]
 fn a_hanging_controller_is_stopped_by_the_supervisor_at_the_stall_bound() {
-    // The default stall bound is 50 ms at 1 kHz.
+    // The default stall bound is 50 ms at 1 kHz. The supervisor is a thread of its own that
+    // reads the virtual clock while the hanging controller advances it (1 ms per 250 us of
+    // sleep), so how far past the bound it acts follows how soon the OS runs it: about 2 ms on
+    // a quiet machine, 14 ms seen with every core busy. The claim is "by the supervisor, at the
+    // stall bound, safe": the bound leaves 100 ms for the OS, the latency is the benchmarks'.
     for d in safe_within(
         "controller-hang:3000",
-        50.0 + 10.0,
+        50.0 + 100.0,
         "did not complete within 50 ms",
     ) {
+        // Not before the bound (counted from the last sign of life, up to a period before).
+        assert!(d.time_to_safe_ms.unwrap() >= 50.0 - 1.0);
         assert_eq!(
             d.report.safe_stop.by,
             rmd_loop::report::SafeStopBy::Supervisor
