@@ -314,8 +314,10 @@ pub(crate) struct StatusPending {
     len: usize,
 }
 
-/// Status requests kept per motor.
-const STATUS_PENDING: usize = 2;
+/// Status requests kept per motor. Pipelined, a status reply is read two ticks after its
+/// request: it comes just after the torque reply its tick's collection (one tick later) stops
+/// at, so the next tick's reads it, when two newer requests are outstanding.
+const STATUS_PENDING: usize = 4;
 
 impl StatusPending {
     /// Records a request of `tick` sent at `sent_ns`; returns whether the oldest was given up
@@ -324,8 +326,8 @@ impl StatusPending {
     pub(crate) fn push(&mut self, tick: u64, sent_ns: u64) -> bool {
         let full = self.len == STATUS_PENDING;
         if full {
-            self.entries[0] = self.entries[1];
-            self.entries[1] = (tick, sent_ns);
+            self.entries.copy_within(1.., 0);
+            self.entries[STATUS_PENDING - 1] = (tick, sent_ns);
         } else {
             self.entries[self.len] = (tick, sent_ns);
             self.len += 1;

@@ -823,3 +823,33 @@ fn without_room_on_the_wire_or_when_switched_off_no_status_request_goes_out() {
     assert!(out.controller.oldest <= 3, "{}", out.controller.oldest);
     assert_eq!(out.report.stats.missing_replies, 0);
 }
+
+#[test]
+fn pipelined_status_replies_read_two_ticks_later_still_answer_their_own_requests() {
+    // Pipelined, tick N's replies are collected in tick N + 1, which stops at the torque reply:
+    // the status reply just behind it is read in tick N + 2. It still answers its request.
+    for rate in [10.0, 1000.0] {
+        let clock = VirtualClock::new();
+        let mut bus = sim(&clock, 1, 3, &[]);
+        let mut config = robot_config(rate, 1, 1);
+        config.loop_config.reply_mode = rmd_loop::robot::ReplyMode::Pipelined;
+        let robot = rmd_loop::Robot::try_from(config).unwrap();
+        let out = RtLoop::unsupervised(robot, clock.clone(), vec![&mut bus], PdTo::hold(1))
+            .unwrap()
+            .run(RunLimit::Ticks(50));
+        let r = &out.report;
+        let c = r.stats.motors[0].counters;
+        assert_eq!(r.health_rotation, [true], "{r}");
+        assert_eq!(
+            (
+                c.unexpected_replies,
+                c.missing_status_replies,
+                c.missing_replies
+            ),
+            (0, 0, 0),
+            "{rate} Hz: {r}"
+        );
+        // 50 requests; the last two were still to be read when the run ended.
+        assert_eq!(c.status_replies, 48, "{rate} Hz: {r}");
+    }
+}
