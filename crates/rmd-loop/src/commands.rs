@@ -1,14 +1,16 @@
-//! What a controller writes every tick: one torque command per joint, and its user signals.
+//! What a controller writes every tick: one torque command per joint (or, on a `motion` bus, a
+//! motion-mode setpoint), and its user signals.
 //!
 //! Setters cannot fail silently: a command the loop cannot send as given (not a finite number,
-//! a torque without a torque constant, a joint the robot does not have) is zero torque for that
-//! joint, counted per joint in the report, and by default a fault that stops the run
+//! a torque without a torque constant, a joint the robot does not have, a motion setpoint
+//! beyond the joint's limits or the firmware's ranges) is zero torque for that joint, counted per joint in the report, and by default a fault that stops the run
 //! (`loop.rejected_command`, see [`RejectedCommandPolicy`](crate::robot::RejectedCommandPolicy)).
 
-use rmd_protocol::IqControl;
+use rmd_protocol::{IqControl, MitCommand};
 
 use crate::joint::JointId;
 use crate::mapping::JointMap;
+use crate::motion::{MotionCommand, MotionMap};
 use crate::robot::MAX_JOINTS;
 
 /// Most user signals a controller can declare.
@@ -28,6 +30,20 @@ pub enum Rejection {
     /// A [`JointId`] that does not belong to this robot.
     #[error("no such joint in this robot")]
     UnknownJoint,
+    /// A motion setpoint for a joint whose bus is not `exchange = "motion"`.
+    #[error(
+        "a motion setpoint was given to a joint whose bus has no motion mode: describe its bus with exchange = \"motion\" (MyActuator V3) or command currents"
+    )]
+    NoMotionMode,
+    /// A motion setpoint beyond the joint's position limits or velocity limit.
+    #[error("the motion setpoint is beyond the joint's position or velocity limits")]
+    BeyondJointLimits,
+    /// A motion field beyond what the motor's firmware can carry (kp, kd below zero or above
+    /// their range, a position or velocity beyond the motion-mode range).
+    #[error(
+        "a motion field is beyond the firmware's motion-mode ranges (see `rmd_protocol::MitRanges`): lower the gains or the setpoint"
+    )]
+    OutOfMotionRange,
 }
 
 /// The commands rejected during one tick.
@@ -63,14 +79,32 @@ impl Rejections {
     }
 }
 
-/// This tick's torque commands (they start at zero every tick) and user signals.
+/// A motion-mode command packed for its motor, and whether its feed-forward torque was
+/// limited to the joint's current limit.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct PackedMotion {
+    pub(crate) command: MitCommand,
+    pub(crate) limited: bool,
+}
+
+/// Where a controller's motion setpoints go: per joint, its conversion (`None` off a `motion`
+/// bus) and this tick's packed setpoint (`None`: none given, the current is sent).
+#[derive(Debug)]
+pub(crate) struct MotionSlots<'a> {
+    pub(crate) maps: &'a [Option<MotionMap>],
+    pub(crate) given: &'a mut [Option<PackedMotion>],
+}
+
+/// This tick's torque commands (they start at zero every tick), motion setpoints and user
+/// signals.
 ///
-/// The loop clamps each command to the joint's `current_limit_amps` when it builds the 0x280
-/// frame (the motor itself does not limit 0x280 commands) and counts the clamps.
+/// The loop clamps each current to the joint's `current_limit_amps` when it builds the frame
+/// (the motor itself does not limit 0x280 commands) and counts the clamps.
 #[derive(Debug)]
 pub struct Commands<'a> {
     amps: &'a mut [f64],
     maps: &'a [JointMap],
+    motion: MotionSlots<'a>,
     signals: &'a mut [f64],
     rejections: &'a mut Rejections,
 }
@@ -79,12 +113,14 @@ impl<'a> Commands<'a> {
     pub(crate) fn new(
         amps: &'a mut [f64],
         maps: &'a [JointMap],
+        motion: MotionSlots<'a>,
         signals: &'a mut [f64],
         rejections: &'a mut Rejections,
     ) -> Self {
         Self {
             amps,
             maps,
+            motion,
             signals,
             rejections,
         }
@@ -109,8 +145,38 @@ impl<'a> Commands<'a> {
         let known = joint.index() < self.amps.len();
         if known {
             self.amps[joint.index()] = 0.0;
+            if let Some(given) = self.motion.given.get_mut(joint.index()) {
+                *given = None;
+            }
         }
         self.rejections.reject(known.then_some(joint), why);
+    }
+
+    /// Gives the joint a motion-mode setpoint (its bus must be `exchange = "motion"`): the
+    /// motor runs the law itself until the next tick's command. It replaces a current given
+    /// to the joint this tick, and a current given after it replaces it.
+    pub fn set_motion(&mut self, joint: JointId, command: MotionCommand) {
+        let i = joint.index();
+        let Some(map) = self.motion.maps.get(i) else {
+            return self.reject(joint, Rejection::UnknownJoint);
+        };
+        let Some(map) = map else {
+            return self.reject(joint, Rejection::NoMotionMode);
+        };
+        match map.command(&command) {
+            Ok((command, limited)) => {
+                self.amps[i] = 0.0;
+                self.motion.given[i] = Some(PackedMotion { command, limited });
+            }
+            Err(why) => self.reject(joint, why),
+        }
+    }
+
+    /// Forgets a motion setpoint given to joint `i` this tick (a current replaces it).
+    fn current_given(&mut self, i: usize) {
+        if let Some(given) = self.motion.given.get_mut(i) {
+            *given = None;
+        }
     }
 
     /// Sets the joint's torque current in amperes, joint sign (the configured direction is
@@ -120,7 +186,10 @@ impl<'a> Commands<'a> {
             return self.reject(joint, Rejection::NotFinite);
         }
         match self.slot(joint) {
-            Some((slot, map)) => *slot = map.motor_amps(joint_amps),
+            Some((slot, map)) => {
+                *slot = map.motor_amps(joint_amps);
+                self.current_given(joint.index());
+            }
             None => self.reject(joint, Rejection::UnknownJoint),
         }
     }
@@ -132,7 +201,10 @@ impl<'a> Commands<'a> {
         }
         match self.slot(joint) {
             Some((slot, map)) => match map.motor_amps_for_torque(joint_nm) {
-                Some(amps) => *slot = amps,
+                Some(amps) => {
+                    *slot = amps;
+                    self.current_given(joint.index());
+                }
                 None => self.reject(joint, Rejection::NoTorqueConstant),
             },
             None => self.reject(joint, Rejection::UnknownJoint),
@@ -142,7 +214,10 @@ impl<'a> Commands<'a> {
     /// Sets the joint's raw torque command (motor sign, no direction applied).
     pub fn set_raw(&mut self, joint: JointId, iq_control: IqControl) {
         match self.slot(joint) {
-            Some((slot, _)) => *slot = iq_control.amps(),
+            Some((slot, _)) => {
+                *slot = iq_control.amps();
+                self.current_given(joint.index());
+            }
             None => self.reject(joint, Rejection::UnknownJoint),
         }
     }
@@ -152,9 +227,10 @@ impl<'a> Commands<'a> {
         self.amps.get(joint.index()).copied()
     }
 
-    /// Zero torque for every joint.
+    /// Zero torque for every joint (and no motion setpoint).
     pub fn zero_all(&mut self) {
         self.amps.fill(0.0);
+        self.motion.given.fill(None);
     }
 
     /// Writes user signal `index` (in the order of [`Controller::signals`](crate::Controller::signals)):
@@ -188,7 +264,12 @@ mod tests {
         let mut amps = vec![0.0; 2];
         let mut signals = [0.0; 2];
         let mut rejections = Rejections::NONE;
-        let mut cmd = Commands::new(&mut amps, &maps, &mut signals, &mut rejections);
+        let mut given = [None; 2];
+        let motion = MotionSlots {
+            maps: &[None, None],
+            given: &mut given,
+        };
+        let mut cmd = Commands::new(&mut amps, &maps, motion, &mut signals, &mut rejections);
         let [a, b] = [JointId::from_index(0), JointId::from_index(1)];
         cmd.set_torque(a, 4.0);
         cmd.set_current(b, 1.5);
@@ -199,10 +280,12 @@ mod tests {
         cmd.set_current(JointId::from_index(7), 1.0);
         cmd.set_signal(1, 3.5);
         cmd.set_signal(2, 1.0);
+        cmd.set_motion(a, MotionCommand::hold(0.0, 1.0, 0.0));
         assert_eq!(cmd.motor_amps(b), Some(0.0));
-        assert_eq!(amps, [2.0, 0.0]);
+        // A motion setpoint off a `motion` bus is refused: joint a's torque is zero too.
+        assert_eq!(amps, [0.0, 0.0]);
         assert_eq!(signals, [0.0, 3.5]);
-        assert_eq!(rejections.per_joint[..2], [0, 2]);
+        assert_eq!(rejections.per_joint[..2], [1, 2]);
         assert_eq!(rejections.unknown_joint, 1);
         assert_eq!(rejections.unknown_signal, 1);
         assert_eq!(rejections.first, Some((Some(b), Rejection::NotFinite)));

@@ -6,7 +6,9 @@ use rmd_bus::Timestamp;
 
 use crate::commands::Commands;
 use crate::feedback::Feedback;
+use crate::motion::CommandKind;
 use crate::report::{Fault, StopReason};
+use crate::robot::JointSpec;
 
 /// A torque controller run by the real-time loop.
 ///
@@ -49,6 +51,15 @@ pub trait Controller: Send {
     /// go out with the telemetry of every tick. None by default.
     fn signals(&self) -> Vec<String> {
         Vec::new()
+    }
+
+    /// How this controller commands `joint`: with currents (the default) or in motion mode
+    /// ([`Commands::set_motion`]). Asked once per joint when the loop is built, which refuses
+    /// motion mode for a joint whose bus is not `exchange = "motion"`
+    /// ([`BuildError::NoMotionMode`](crate::BuildError::NoMotionMode)).
+    fn command_kind(&self, joint: &JointSpec) -> CommandKind {
+        let _ = joint;
+        CommandKind::Current
     }
 
     /// Runs once before the first `update`, with the first complete feedback.

@@ -25,16 +25,17 @@ use rmd_bus::{CanBus, Clock, MonotonicClock, Timestamp};
 use rmd_protocol::ScaledCurrent;
 
 use crate::bus_link::BusLink;
-use crate::commands::{Commands, MAX_SIGNALS, Rejections};
+use crate::commands::{Commands, MAX_SIGNALS, MotionSlots, PackedMotion, Rejections};
 use crate::controller::{Controller, Flow, TickContext};
 use crate::exchange::{Exchange, Torque};
 use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
 use crate::guard::LimitGuard;
 use crate::mapping::JointMap;
+use crate::motion::{CommandKind, MotionMap};
 use crate::os::{CpuLatencyHold, RtSetup, RtStatus};
 use crate::report::{Fault, MotorRef, StopReason};
-use crate::robot::{RejectedCommandPolicy, Robot};
+use crate::robot::{ExchangeKind, RejectedCommandPolicy, Robot};
 use crate::schedule::{Scheduler, TickTiming};
 use crate::shared::Shared;
 use crate::stall::{StallCause, TickStage};
@@ -93,6 +94,16 @@ pub enum BuildError {
         /// Signals declared.
         declared: usize,
     },
+    /// The controller commands a joint in motion mode, but the joint's bus has none.
+    #[error(
+        "the controller commands joint `{joint}` in motion mode, but its bus exchanges {exchange}: describe the bus with exchange = \"motion\" (MyActuator V3 motors only) or command the joint with currents"
+    )]
+    NoMotionMode {
+        /// The joint's name.
+        joint: String,
+        /// Its bus's exchange.
+        exchange: ExchangeKind,
+    },
 }
 
 /// Everything a loop owns besides its controller, before and after it starts.
@@ -110,6 +121,11 @@ pub(crate) struct Parts<B, C> {
     limits_on: bool,
     /// Motor-side amperes per joint: the controller's commands, then what was staged.
     command_amps: Vec<f64>,
+    /// Per joint, its motion-mode conversions (`None` off a `motion` bus); empty when no bus
+    /// is a `motion` bus.
+    pub(crate) motion_maps: Vec<Option<MotionMap>>,
+    /// Per joint, this tick's motion setpoint (as long as `motion_maps`).
+    command_motion: Vec<Option<PackedMotion>>,
     signals: [f64; MAX_SIGNALS],
     signal_count: usize,
     rejections: Rejections,
@@ -209,10 +225,38 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 declared: signal_count,
             });
         }
+        for joint in robot.joints() {
+            let exchange = robot.buses()[joint.bus].exchange;
+            match (controller.command_kind(joint), exchange) {
+                (CommandKind::Current, _) | (CommandKind::Motion, ExchangeKind::Motion) => {}
+                (
+                    CommandKind::Motion,
+                    exchange @ (ExchangeKind::MultiTorque | ExchangeKind::PerMotor),
+                ) => {
+                    return Err(BuildError::NoMotionMode {
+                        joint: joint.name.clone(),
+                        exchange,
+                    });
+                }
+            }
+        }
         let joints = robot.joint_count();
+        let exchange = Exchange::new(&robot, buses);
+        let motion_maps: Vec<Option<MotionMap>> =
+            if exchange.motors.iter().any(|m| m.motion.is_some()) {
+                exchange
+                    .motors
+                    .iter()
+                    .map(|m| m.motion.map(|motion| motion.map))
+                    .collect()
+            } else {
+                Vec::new()
+            };
         Ok(Self {
             parts: Parts {
-                exchange: Exchange::new(&robot, buses),
+                command_motion: vec![None; motion_maps.len()],
+                motion_maps,
+                exchange,
                 stats: LoopStats::new(&robot),
                 maps: robot.joints().iter().map(JointMap::from_spec).collect(),
                 guards: robot.joints().iter().map(LimitGuard::from_spec).collect(),
@@ -376,6 +420,10 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 )));
             }
         };
+        // The identification read each `motion` bus motor's firmware, and with it its ranges.
+        for (map, motor) in parts.motion_maps.iter_mut().zip(&parts.exchange.motors) {
+            *map = motor.motion.map(|motion| motion.map);
+        }
         if let Err(reason) =
             startup::release_brakes(&mut parts).and_then(|()| startup::probe(&mut parts))
         {
@@ -618,11 +666,17 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         };
         let parts = &mut self.parts;
         parts.command_amps.fill(0.0);
+        parts.command_motion.fill(None);
         parts.rejections = Rejections::NONE;
         let feedback = Feedback::new(&parts.exchange.feedback, parts.robot.joints());
+        let motion = MotionSlots {
+            maps: &parts.motion_maps,
+            given: &mut parts.command_motion,
+        };
         let mut commands = Commands::new(
             &mut parts.command_amps,
             &parts.maps,
+            motion,
             &mut parts.signals[..parts.signal_count],
             &mut parts.rejections,
         );
@@ -803,6 +857,32 @@ impl<B, C> Parts<B, C> {
             {
                 *slot = iq;
             }
+        }
+        if !self.command_motion.is_empty() {
+            self.stage_motion();
+        }
+    }
+
+    /// Stages each `motion` bus motor's next command: the controller's setpoint (its
+    /// feed-forward torque limitation counted as a clamp), else its staged current as
+    /// feed-forward torque with zero gains.
+    #[inline(never)]
+    fn stage_motion(&mut self) {
+        let motors = self.exchange.motors.iter_mut().zip(&mut self.stats.motors);
+        let commands = self.command_motion.iter().zip(&mut self.command_amps);
+        for ((motor, counters), (given, amps)) in motors.zip(commands) {
+            let Some(motion) = &mut motor.motion else {
+                continue;
+            };
+            motion.staged = match given {
+                Some(packed) => {
+                    counters.clamped_commands += u64::from(packed.limited);
+                    packed.command
+                }
+                None => motion.map.torque_command(*amps),
+            };
+            // What the telemetry shows as the command: the feed-forward torque's current.
+            *amps = motion.map.feed_forward_amps(&motion.staged);
         }
     }
 }

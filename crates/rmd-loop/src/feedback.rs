@@ -65,6 +65,28 @@ pub struct RawStatus {
     pub encoder: u16,
 }
 
+/// A motion-mode reply's packed fields as the motor sent them (MyActuator V3, `0x500 + id`),
+/// read with the ranges of the motor's firmware (see `rmd_protocol::MitFeedback`).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct RawMotion {
+    /// Position, 16 bits over the position range.
+    pub position: u16,
+    /// Velocity, 12 bits over the velocity range.
+    pub velocity: u16,
+    /// Torque, 12 bits over the torque range.
+    pub torque: u16,
+}
+
+/// The wire values of a joint's newest reply.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum RawReply {
+    /// A torque reply (0xA1's status): every exchange but `motion`.
+    Torque(RawStatus),
+    /// A motion-mode reply (`exchange = "motion"`): it carries no temperature; the motor's
+    /// temperature comes from its status replies ([`JointFeedback::health`]).
+    Motion(RawMotion),
+}
+
 /// How current a joint's feedback is in this tick.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum Freshness {
@@ -99,10 +121,11 @@ impl Freshness {
 pub struct JointFeedback {
     /// Joint side: angle, velocity, torque.
     pub joint: JointState,
-    /// Motor side: rotor angle and speed, current, temperature.
+    /// Motor side: rotor angle and speed, current, temperature (in motion mode the newest
+    /// status reply's temperature, 0 before the first).
     pub motor: MotorState,
     /// The reply's wire values.
-    pub raw: RawStatus,
+    pub raw: RawReply,
     /// Whether it came in this tick.
     pub freshness: Freshness,
     /// When the reply was received (bus clock).
@@ -126,12 +149,12 @@ impl JointFeedback {
             current_amps: 0.0,
             temperature_celsius: 0.0,
         },
-        raw: RawStatus {
+        raw: RawReply::Torque(RawStatus {
             temperature: 0,
             iq: 0,
             speed: 0,
             encoder: 0,
-        },
+        }),
         freshness: Freshness::Missing {
             ticks_since_reply: 0,
         },

@@ -48,6 +48,7 @@ pub mod joint;
 mod joint_array;
 pub mod mailbox;
 pub mod mapping;
+mod motion;
 pub mod os;
 mod panics;
 mod protection;
@@ -69,13 +70,16 @@ mod watch;
 pub use commands::{Commands, MAX_SIGNALS, Rejection};
 pub use controller::{Controller, Flow, TickContext};
 pub use engine::{BuildError, RtLoop, RunLimit, Running};
-pub use feedback::{Feedback, Freshness, JointFeedback, JointState, MotorState, RawStatus};
+pub use feedback::{
+    Feedback, Freshness, JointFeedback, JointState, MotorState, RawMotion, RawReply, RawStatus,
+};
 pub use finish::LoopOutcome;
 pub use guard::{LimitBreach, LimitKind};
 pub use handle::{LoopHandle, LoopThreadDied, SpawnError};
 pub use health::{ErrorFlags, MotorFlag, MotorHealth};
 pub use joint::JointId;
 pub use joint_array::JointArray;
+pub use motion::{CommandKind, MotionCommand};
 pub use protection::{MotorProtection, Protection};
 pub use report::{Fault, LoopReport, MotorRef, SafeStopReport, StopReason};
 pub use robot::{Robot, RobotError};

@@ -124,6 +124,15 @@ pub enum Fault {
         /// What its answers showed.
         finding: Finding,
     },
+    /// A motor on a `motion` bus runs firmware whose motion-mode ranges the loop cannot know
+    /// (V4.4 firmware scales the torque field to the motor's maximum torque): nothing but
+    /// read-only requests was sent.
+    MotionRanges {
+        /// The motor.
+        at: MotorRef,
+        /// Its firmware's version date (`YYYYMMDDNN`), as it reported it.
+        firmware_date: Option<u32>,
+    },
     /// A tick did not complete within the stall bound: the supervisor made every motor safe
     /// while the stall lasted (or the loop thread, when it came back and the supervisor had not
     /// been run either). The cause says whether the operating system did not run the loop
@@ -288,6 +297,14 @@ impl fmt::Display for Fault {
                 f,
                 "{at}: {}",
                 firmware_problem(*family, *described, *finding)
+            ),
+            Fault::MotionRanges { at, firmware_date } => write!(
+                f,
+                "{at}: its firmware (version date {}) packs motion-mode torque over the motor's \
+                 maximum torque, which the description does not give: set the motor's model \
+                 (model = \"...\", one whose maximum torque is known: `rmd models`) or use \
+                 exchange = \"per-motor\"; nothing was sent",
+                firmware_date.map_or_else(|| "unknown".to_string(), |d| d.to_string())
             ),
             Fault::Supervisor => f.write_str(
                 "the supervisor thread could not be started (out of threads or memory?)",

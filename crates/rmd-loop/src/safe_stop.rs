@@ -374,8 +374,9 @@ fn step_bus<B: CanBus>(
                 let (frame, reached) = match link.exchange {
                     // One 0x280 frame for the bus's motors 1..=4.
                     ExchangeKind::MultiTorque => (torque_frame(&ZERO_TORQUE), link.joints()),
-                    // Each motor's own zero request, in its family's scale.
-                    ExchangeKind::PerMotor => {
+                    // Each motor's own zero request, in its family's scale (on a `motion`
+                    // bus too: a V3 motor leaves motion mode for zero torque).
+                    ExchangeKind::PerMotor | ExchangeKind::Motion => {
                         let d = joints[next].dialect;
                         (torque_request(d, ids[next], zero_iq(d)), next..next + 1)
                     }

@@ -8,11 +8,13 @@ use core::time::Duration;
 
 use rmd_bus::{BusMessage, CanBus, Clock};
 use rmd_protocol::{
-    Command, Finding, Identification, MULTI_TORQUE_MOTORS, MotorId, ProbeAnswers, ProtocolFamily,
-    Request, identify, probe_requests,
+    Command, Dialect, Finding, FirmwareDate, Identification, MULTI_TORQUE_MOTORS, MotorId,
+    MotorMaxTorque, ProbeAnswers, ProtocolFamily, Request, V3Firmware, find_model, identify,
+    probe_requests,
 };
 
 use crate::engine::Parts;
+use crate::exchange::motor::MotorMotion;
 use crate::exchange::{Collected, Torque};
 use crate::os::{self, CpuLatencyRequest, RtRequest, RtSetup};
 use crate::report::{Fault, IdentifiedMotor, MotorRef, StopReason};
@@ -70,7 +72,9 @@ pub(crate) fn identify_motors<B: CanBus, C: Clock>(
         // described motors only.
         let ids: Vec<MotorId> = match link.exchange {
             ExchangeKind::MultiTorque => multi_torque_ids().to_vec(),
-            ExchangeKind::PerMotor => link.joints().map(|j| robot.joints()[j].motor).collect(),
+            ExchangeKind::PerMotor | ExchangeKind::Motion => {
+                link.joints().map(|j| robot.joints()[j].motor).collect()
+            }
         };
         let multi_torque = link.exchange == ExchangeKind::MultiTorque;
         let mut answers = vec![ProbeAnswers::new(); ids.len()];
@@ -141,6 +145,17 @@ pub(crate) fn identify_motors<B: CanBus, C: Clock>(
                 }
                 _ => V3Versions::default(),
             };
+            if let Some(j) = joint
+                && let Some(motion) = &mut exchange.motors[j.index()].motion
+            {
+                let at = exchange_motor_ref(robot, j.index());
+                *motion = motion_firmware(robot.spec(j), *motion, &versions).ok_or(
+                    StopReason::Fault(Fault::MotionRanges {
+                        at,
+                        firmware_date: versions.firmware_date,
+                    }),
+                )?;
+            }
             found.push(IdentifiedMotor {
                 bus: b,
                 motor: *id,
@@ -153,6 +168,27 @@ pub(crate) fn identify_motors<B: CanBus, C: Clock>(
         }
     }
     Ok(found)
+}
+
+/// A `motion` bus motor's motion state for the firmware it reported (its version date decides
+/// the ranges; V4.4's torque range is the maximum torque of the described model), or `None`
+/// when those ranges cannot be known.
+fn motion_firmware(
+    joint: &crate::robot::JointSpec,
+    motion: MotorMotion,
+    versions: &V3Versions,
+) -> Option<MotorMotion> {
+    let max_torque = joint
+        .model
+        .and_then(|name| find_model(name).ok())
+        .and_then(|model| model.max_torque_nm)
+        .and_then(|t| MotorMaxTorque::from_nm(t.value).ok());
+    let firmware = V3Firmware {
+        date: versions.firmware_date.map(FirmwareDate::from_raw),
+        max_torque,
+    };
+    let ranges = firmware.mit_ranges().ok()?;
+    Some(motion.with_firmware(Dialect::MyActuatorV3(firmware), ranges))
 }
 
 /// Motor ids 1..=4, the ones a 0x280 frame addresses.

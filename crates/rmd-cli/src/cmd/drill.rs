@@ -347,6 +347,7 @@ fn short_stop(d: &Drill) -> String {
                 format!("undescribed motor {} on bus {bus}", motor.get())
             }
             Fault::Firmware { at, .. } => format!("firmware refused, {}", joint(at)),
+            Fault::MotionRanges { at, .. } => format!("motion ranges unknown, {}", joint(at)),
             Fault::TickStalled { bound, .. } => {
                 format!("tick stalled > {} ms", bound.as_millis())
             }

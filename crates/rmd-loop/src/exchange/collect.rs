@@ -31,7 +31,7 @@ pub(crate) struct Collected {
 
 impl Collected {
     #[inline]
-    fn add(&mut self, at: Timestamp, round_trip_ns: u64) {
+    pub(super) fn add(&mut self, at: Timestamp, round_trip_ns: u64) {
         self.last_reply = self.last_reply.max(Some(at));
         self.rtt_max_ns = self.rtt_max_ns.max(round_trip_ns);
     }
@@ -225,8 +225,20 @@ impl<B: CanBus> Exchange<B> {
             &mut self.feedback[m],
             &mut stats.motors[m],
         );
-        let Some(status) = motor.expect.decode(&frame) else {
-            // Not its torque reply: a status reply (the health rotation), or a bad frame.
+        // On the torque replies' id (a `motion` bus motor's status replies come on another).
+        let on_reply_id = frame.id() == motor.expect.can_id;
+        let decoded = if on_reply_id {
+            motor.expect.decode(&frame)
+        } else {
+            None
+        };
+        let Some(status) = decoded else {
+            // Not a torque reply: a motion-mode reply on a `motion` bus, a status reply (the
+            // health rotation), or a bad frame.
+            if motor.motion.is_some() && on_reply_id {
+                let window = (tick, max_age);
+                return Ok(self.on_motion_frame(m, &frame, received.at, window, stats, collected));
+            }
             return self.on_other_reply(m, &frame, received.at, stats);
         };
         let was_fresh = feedback.freshness.is_fresh();

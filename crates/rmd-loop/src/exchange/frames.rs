@@ -3,7 +3,7 @@
 
 use rmd_protocol::{
     CanFrame, Command, CurrentScale, Dialect, MULTI_TORQUE_MOTORS, MotorId, MultiTorque, Request,
-    ScaledCurrent, Status2,
+    ScaledCurrent, Status2, V3_MOTION_REPLY_BASE_ID,
 };
 
 use crate::robot::JointSpec;
@@ -61,6 +61,17 @@ impl ReplyExpectation {
     pub(crate) fn torque(joint: &JointSpec) -> Self {
         Self {
             can_id: joint.dialect.reply_id(joint.motor),
+            command: Command::Torque.code(),
+            dialect: joint.dialect,
+        }
+    }
+
+    /// What joint `joint`'s motor answers to a motion-mode command: `0x500 + id`, whose DATA\[0\]
+    /// is the motor id (never a torque reply's command byte, so [`decode`](Self::decode) passes
+    /// it by to the motion-mode decoder).
+    pub(crate) fn motion(joint: &JointSpec) -> Self {
+        Self {
+            can_id: V3_MOTION_REPLY_BASE_ID + u16::from(joint.motor.get()),
             command: Command::Torque.code(),
             dialect: joint.dialect,
         }

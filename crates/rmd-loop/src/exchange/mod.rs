@@ -1,11 +1,13 @@
 //! The exchange of one tick: every bus's requests out (one 0x280 frame on a `multi-torque` bus,
-//! one 0xA1 request per motor on a `per-motor` bus), the motors' replies in, matched to their
+//! one 0xA1 request per motor on a `per-motor` bus, one motion-mode command per motor on a
+//! `motion` bus), the motors' replies in, matched to their
 //! requests by reply id and command byte, and the accounting of what did not come.
 //!
 //! - [`frames`]: the torque frame, and what each motor's reply looks like (decided once);
 //! - [`pending`]: which of a motor's requests a reply answers;
 //! - [`motor`]: what the loop keeps per motor, and what a reply does to it;
 //! - `send`, `collect`, `account`: the three steps, as methods of [`Exchange`];
+//! - `motion_reply`: a motion-mode reply, matched and turned into feedback like a torque reply;
 //! - `status`: the health rotation (one status request per bus per tick, to each motor in
 //!   turn, after the torque requests) and its replies, told from torque replies on the same id
 //!   by their command byte and matched to their own requests.
@@ -17,6 +19,7 @@
 mod account;
 mod collect;
 pub(crate) mod frames;
+mod motion_reply;
 pub(crate) mod motor;
 pub(crate) mod pending;
 mod send;
@@ -39,7 +42,8 @@ pub(crate) struct Exchange<B> {
     pub(crate) motors: Vec<MotorLink>,
     pub(crate) feedback: Vec<JointFeedback>,
     /// The torque commands each `multi-torque` bus sends in the next tick (a `per-motor` bus
-    /// sends each motor's [`MotorLink::staged`]).
+    /// sends each motor's [`MotorLink::staged`], a `motion` bus each motor's staged motion
+    /// command).
     pub(crate) staged: Vec<TorqueSlots>,
     /// Per bus: its motors without fresh feedback yet in this tick.
     owed: Vec<usize>,
@@ -76,7 +80,10 @@ impl<B> Exchange<B> {
             .joints()
             .iter()
             .enumerate()
-            .map(|(i, j)| MotorLink::new(i, j, robot.buses()[j.bus].bitrate))
+            .map(|(i, j)| {
+                let bus = &robot.buses()[j.bus];
+                MotorLink::new(i, j, bus.bitrate, bus.exchange)
+            })
             .collect();
         let reply_motors = links
             .iter()
@@ -120,12 +127,13 @@ impl<B> Exchange<B> {
         self.owed_total = self.motors.len();
     }
 
-    /// The motor of bus `b` whose replies come on CAN id `id`, if any.
+    /// The motor of bus `b` whose replies (torque or status) come on CAN id `id`, if any.
     #[inline]
     fn reply_motor(&self, b: usize, id: u16) -> Option<usize> {
         let entry = self.reply_motors[b][usize::from(id) % 32];
         let m = usize::from(entry).checked_sub(1)?;
-        (self.motors[m].expect.can_id == id).then_some(m)
+        let motor = &self.motors[m];
+        (motor.expect.can_id == id || motor.status_reply_id == id).then_some(m)
     }
 
     /// Whether every joint of bus `b` has fresh feedback.

@@ -7,16 +7,20 @@ use core::time::Duration;
 
 use rmd_bus::Timestamp;
 use rmd_protocol::{
-    CanFrame, CurrentScale, Dialect, MotorId, Request, ScaledCurrent, Status2, StatusPosition,
+    CanFrame, CurrentScale, Dialect, MitCommand, MitFeedback, MitRanges, MotorId, Request,
+    ScaledCurrent, Status2, StatusPosition,
 };
 
 use super::frames::{ReplyExpectation, zero_iq};
 use super::pending::{PendingRequests, RESYNC_AFTER, min_round_trip};
-use crate::feedback::{Freshness, JointFeedback, JointState, MotorState, RawStatus};
+use crate::feedback::{
+    Freshness, JointFeedback, JointState, MotorState, RawMotion, RawReply, RawStatus,
+};
 use crate::joint::JointId;
 use crate::mapping::{EncoderUnwrapper, JointMap, nearest_integer};
+use crate::motion::{MotionMap, zero_torque};
 use crate::report::MotorRef;
-use crate::robot::JointSpec;
+use crate::robot::{ExchangeKind, JointSpec};
 use crate::stats::MotorCounters;
 
 /// How a received reply was classified.
@@ -69,6 +73,50 @@ impl CommandScale {
     }
 }
 
+/// What the loop keeps about a motor on a `motion` bus.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct MotorMotion {
+    /// Its conversions, with its firmware's ranges.
+    pub(crate) map: MotionMap,
+    /// Its dialect with the firmware the start-up read (what its motion frames are encoded
+    /// and decoded with).
+    pub(crate) dialect: Dialect,
+    /// The command of its next request.
+    pub(crate) staged: MitCommand,
+}
+
+impl MotorMotion {
+    /// The motion state of `joint` speaking `dialect` (a V3 dialect: checked with the
+    /// description), with the ranges of that dialect's firmware (`None` when they are not
+    /// known yet: V4.4 firmware without a maximum torque; the start-up decides).
+    fn new(joint: &JointSpec, dialect: Dialect) -> Self {
+        let ranges = dialect.mit_ranges().unwrap_or(MitRanges::V4_3);
+        Self {
+            map: MotionMap::new(joint, ranges),
+            dialect,
+            staged: zero_torque(ranges),
+        }
+    }
+
+    /// The same with the firmware `dialect` and its `ranges`, the commands zero.
+    pub(crate) fn with_firmware(self, dialect: Dialect, ranges: MitRanges) -> Self {
+        Self {
+            map: self.map.with_ranges(ranges),
+            dialect,
+            staged: zero_torque(ranges),
+        }
+    }
+
+    /// Its request of `command`, `motor`'s `0x400 + id` frame (or, were its ranges not the
+    /// firmware's, motor-off: never a value packed for other ranges).
+    #[inline]
+    pub(crate) fn request(&self, motor: MotorId, command: &MitCommand) -> CanFrame {
+        self.dialect
+            .encode_mit(motor, command)
+            .unwrap_or_else(|_| self.dialect.motor_off(motor))
+    }
+}
+
 /// Everything the loop keeps about one motor.
 #[derive(Clone, Debug)]
 pub(crate) struct MotorLink {
@@ -110,11 +158,25 @@ pub(crate) struct MotorLink {
     pub(crate) status_request: Option<CanFrame>,
     /// Its status requests not answered yet.
     pub(crate) status_pending: StatusPending,
+    /// The CAN id of its status replies (its dialect's reply id: on a `motion` bus not the id
+    /// of its torque replies).
+    pub(crate) status_reply_id: u16,
+    /// On a `motion` bus, its motion state.
+    pub(crate) motion: Option<MotorMotion>,
 }
 
 impl MotorLink {
-    /// The link of joint `index`, `joint`, on a bus at `bitrate` bit/s.
-    pub(crate) fn new(index: usize, joint: &JointSpec, bitrate: u32) -> Self {
+    /// The link of joint `index`, `joint`, on a bus at `bitrate` bit/s exchanging `exchange`.
+    pub(crate) fn new(
+        index: usize,
+        joint: &JointSpec,
+        bitrate: u32,
+        exchange: ExchangeKind,
+    ) -> Self {
+        let motion = match exchange {
+            ExchangeKind::Motion => Some(MotorMotion::new(joint, joint.dialect)),
+            ExchangeKind::MultiTorque | ExchangeKind::PerMotor => None,
+        };
         Self {
             at: MotorRef {
                 joint: JointId::from_index(index),
@@ -122,7 +184,12 @@ impl MotorLink {
                 motor: joint.motor,
             },
             id: joint.motor,
-            expect: ReplyExpectation::torque(joint),
+            expect: match exchange {
+                ExchangeKind::Motion => ReplyExpectation::motion(joint),
+                ExchangeKind::MultiTorque | ExchangeKind::PerMotor => {
+                    ReplyExpectation::torque(joint)
+                }
+            },
             command: CommandScale::new(joint),
             slot: joint.slot(),
             dialect: joint.dialect,
@@ -141,6 +208,8 @@ impl MotorLink {
             min_round_trip_ns: duration_ns(min_round_trip(bitrate)),
             status_request: status_request(joint.dialect, joint.motor),
             status_pending: StatusPending::default(),
+            status_reply_id: joint.dialect.reply_id(joint.motor),
+            motion,
         }
     }
 
@@ -206,6 +275,53 @@ impl MotorLink {
         });
     }
 
+    /// Matches a reply received at `at` during `tick` to its request (replies up to `max_age`
+    /// ticks old are fresh): its class and age, or `None` (counted unexpected) when it answers
+    /// no outstanding request.
+    #[inline(always)]
+    fn answer(
+        &mut self,
+        at: Timestamp,
+        tick: u64,
+        max_age: u64,
+        counters: &mut MotorCounters,
+    ) -> Option<(ReplyClass, u32)> {
+        let at_ns = at.as_nanos();
+        let Some((sent_tick, sent_at)) = self.pending.answer(at_ns, self.min_round_trip_ns) else {
+            counters.unexpected_replies += 1;
+            return None;
+        };
+        let age = tick.saturating_sub(sent_tick);
+        let age_ticks = u32::try_from(age).unwrap_or(u32::MAX);
+        let class = if age <= max_age {
+            // Only fresh replies measure the round trip: a late one's includes its delay.
+            self.track_round_trip(at_ns.saturating_sub(sent_at.as_nanos()));
+            self.late_fits_next = None;
+            ReplyClass::Fresh
+        } else {
+            counters.late_replies += 1;
+            // Timed like a newer request's reply? (Replies held up behind a late one come
+            // later than that; a reply whose predecessors were lost comes just then.)
+            self.late_fits_next = self
+                .round_trip()
+                .and_then(|rtt| self.pending.on_time(at, rtt))
+                .map(|_| at);
+            ReplyClass::Late
+        };
+        Some((class, age_ticks))
+    }
+
+    /// The freshness after a reply of `class`, `age_ticks` old, when the feedback was
+    /// `before`: a fresh reply is fresh; a late one leaves fresh feedback fresh.
+    #[inline(always)]
+    fn freshness(class: ReplyClass, age_ticks: u32, before: Freshness) -> Freshness {
+        match (class, before) {
+            (ReplyClass::Fresh, _) => Freshness::Fresh { age_ticks },
+            (_, fresh @ Freshness::Fresh { .. }) => fresh,
+            _ => Freshness::Late { age_ticks },
+        }
+    }
+
     /// Handles a decoded torque reply received at `at` during `tick`, where replies up to
     /// `max_age` ticks old are accepted; updates `feedback` and `counters`.
     pub(crate) fn on_reply(
@@ -225,28 +341,10 @@ impl MotorLink {
                 return ReplyClass::Unexpected;
             }
         };
-        let at_ns = at.as_nanos();
-        let Some((sent_tick, sent_at)) = self.pending.answer(at_ns, self.min_round_trip_ns) else {
-            counters.unexpected_replies += 1;
+        let Some((class, age_ticks)) = self.answer(at, tick, max_age, counters) else {
             return ReplyClass::Unexpected;
         };
-        let age = tick.saturating_sub(sent_tick);
-        let age_ticks = u32::try_from(age).unwrap_or(u32::MAX);
-        let class = if age <= max_age {
-            // Only fresh replies measure the round trip: a late one's includes its delay.
-            self.track_round_trip(at_ns.saturating_sub(sent_at.as_nanos()));
-            self.late_fits_next = None;
-            ReplyClass::Fresh
-        } else {
-            counters.late_replies += 1;
-            // Timed like a newer request's reply? (Replies held up behind a late one come
-            // later than that; a reply whose predecessors were lost comes just then.)
-            self.late_fits_next = self
-                .round_trip()
-                .and_then(|rtt| self.pending.on_time(at, rtt))
-                .map(|_| at);
-            ReplyClass::Late
-        };
+        let at_ns = at.as_nanos();
         // Values of late replies still update the state (they are newer than what we have, and
         // the encoder unwrapping needs every reading), but the feedback is not marked fresh.
         let elapsed_ns = self
@@ -271,11 +369,6 @@ impl MotorLink {
         let current_amps = status.iq.amps();
         self.last_reply_ns = Some(at_ns);
         self.ticks_since_reply = 0;
-        let freshness = match (class, feedback.freshness) {
-            (ReplyClass::Fresh, _) => Freshness::Fresh { age_ticks },
-            (_, fresh @ Freshness::Fresh { .. }) => fresh,
-            _ => Freshness::Late { age_ticks },
-        };
         // Field by field: the motor's health (status replies) stays as it is.
         feedback.joint = JointState {
             angle_deg: self.map.joint_angle_deg(motor_deg),
@@ -288,13 +381,61 @@ impl MotorLink {
             current_amps,
             temperature_celsius: status.temperature.celsius(),
         };
-        feedback.raw = RawStatus {
+        feedback.raw = RawReply::Torque(RawStatus {
             temperature: status.temperature.raw(),
             iq: status.iq.raw(),
             speed: status.speed.raw(),
             encoder: raw_position,
+        });
+        feedback.freshness = Self::freshness(class, age_ticks, feedback.freshness);
+        feedback.received_at = at;
+        class
+    }
+
+    /// Handles a motion-mode reply (decoded with its firmware's ranges) as
+    /// [`on_reply`](Self::on_reply) does a torque reply. The reply carries no temperature: the
+    /// newest status reply's stays.
+    pub(crate) fn on_motion_reply(
+        &mut self,
+        reply: &MitFeedback,
+        at: Timestamp,
+        tick: u64,
+        max_age: u64,
+        feedback: &mut JointFeedback,
+        counters: &mut MotorCounters,
+    ) -> ReplyClass {
+        let Some(motion) = self.motion else {
+            counters.bad_frames += 1;
+            return ReplyClass::Unexpected;
         };
-        feedback.freshness = freshness;
+        let Some((class, age_ticks)) = self.answer(at, tick, max_age, counters) else {
+            return ReplyClass::Unexpected;
+        };
+        let (motor_deg, speed_dps, current_amps) = motion.map.motor_side(reply);
+        self.last_reply_ns = Some(at.as_nanos());
+        self.ticks_since_reply = 0;
+        feedback.joint = JointState {
+            angle_deg: self.map.joint_angle_deg(motor_deg),
+            velocity_dps: self.map.joint_velocity_dps(speed_dps),
+            torque_nm: self.map.joint_torque_nm(current_amps),
+        };
+        feedback.motor = MotorState {
+            angle_deg: motor_deg,
+            speed_dps,
+            current_amps,
+            temperature_celsius: feedback
+                .health
+                .map_or(feedback.motor.temperature_celsius, |h| {
+                    h.temperature_celsius
+                }),
+        };
+        let [position, velocity, torque] = reply.raw();
+        feedback.raw = RawReply::Motion(RawMotion {
+            position,
+            velocity,
+            torque,
+        });
+        feedback.freshness = Self::freshness(class, age_ticks, feedback.freshness);
         feedback.received_at = at;
         class
     }
@@ -411,7 +552,7 @@ mod tests {
                 .with_bus(BusConfig::new("can0").with_motor(MotorConfig::new(2).gear_ratio(2.0))),
         )
         .unwrap();
-        let m = MotorLink::new(0, &robot.joints()[0], 1_000_000);
+        let m = MotorLink::new(0, &robot.joints()[0], 1_000_000, ExchangeKind::MultiTorque);
         let c = MotorCounters::new(0, m.id);
         (m, JointFeedback::UNSET, c)
     }
@@ -521,7 +662,10 @@ mod tests {
         assert_eq!(fb.motor.angle_deg, 90.0);
         assert_eq!(fb.joint.angle_deg, 45.0);
         assert_eq!(fb.motor.temperature_celsius, 30.0);
-        assert_eq!(fb.raw.iq, 100);
+        assert!(matches!(
+            fb.raw,
+            RawReply::Torque(RawStatus { iq: 100, .. })
+        ));
         assert_eq!(fb.joint.torque_nm, None);
         assert_eq!(m.round_trip(), Some(Duration::from_micros(300)));
     }

@@ -1,5 +1,6 @@
-//! Sending a bus's torque requests: its 0x280 frame (`multi-torque`), or one 0xA1 request per
-//! motor (`per-motor`), all of them before any reply is collected.
+//! Sending a bus's torque requests: its 0x280 frame (`multi-torque`), one 0xA1 request per
+//! motor (`per-motor`), or one motion-mode command per motor (`motion`), all of them before any
+//! reply is collected.
 
 use rmd_bus::{BusError, CanBus, Timestamp};
 
@@ -46,6 +47,22 @@ impl<B: CanBus> Exchange<B> {
                         }
                     }
                     Err(error) => sent_error(b, error, stats)?,
+                }
+            }
+            ExchangeKind::Motion => {
+                for m in link.joints() {
+                    let motor = &mut self.motors[m];
+                    let Some(motion) = &motor.motion else {
+                        continue;
+                    };
+                    let command = match torque {
+                        Torque::Staged => motion.staged,
+                        Torque::Zero => motion.map.zero_torque(),
+                    };
+                    match link.bus.send(&motion.request(motor.id, &command)) {
+                        Ok(()) => motor.pending.push(tick, at),
+                        Err(error) => sent_error(b, error, stats)?,
+                    }
                 }
             }
             ExchangeKind::PerMotor => {

@@ -213,14 +213,28 @@ pub enum ExchangeKind {
     /// One 0xA1 torque request per motor (`0x140 + id`, any id 1..=32), each in its motor's
     /// own family and scale, answered on the motor's reply id; every family.
     PerMotor,
+    /// One motion-mode command per motor (`0x400 + id`: position, velocity, kp, kd and
+    /// feed-forward torque, the law executed in the motor), answered on `0x500 + id`; MyActuator
+    /// V3 only. A joint without a motion command this tick gets its current as feed-forward
+    /// torque with zero gains.
+    Motion,
 }
 
 impl ExchangeKind {
-    /// The stable name, `multi-torque` or `per-motor`.
+    /// The stable name, `multi-torque`, `per-motor` or `motion`.
     pub fn name(self) -> &'static str {
         match self {
             ExchangeKind::MultiTorque => "multi-torque",
             ExchangeKind::PerMotor => "per-motor",
+            ExchangeKind::Motion => "motion",
+        }
+    }
+
+    /// Whether each motor gets a request of its own (every kind but `multi-torque`).
+    pub fn is_per_motor(self) -> bool {
+        match self {
+            ExchangeKind::MultiTorque => false,
+            ExchangeKind::PerMotor | ExchangeKind::Motion => true,
         }
     }
 }

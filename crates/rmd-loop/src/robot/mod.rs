@@ -245,7 +245,8 @@ impl BusSpec {
     pub fn requests_per_exchange(&self) -> u32 {
         match self.exchange {
             ExchangeKind::MultiTorque => 1,
-            ExchangeKind::PerMotor => self.joints.len() as u32,
+            // A motion-mode command is an 8-byte standard frame, as an 0xA1 request is.
+            ExchangeKind::PerMotor | ExchangeKind::Motion => self.joints.len() as u32,
         }
     }
 
@@ -1082,10 +1083,48 @@ fn exchange_of(
                 j.dialect.name()
             ),
         )),
+        (Some(ExchangeKind::Motion), _) => {
+            check_motion_joints(joints, key)?;
+            Ok(ExchangeKind::Motion)
+        }
         (Some(kind), _) => Ok(kind),
         (None, Some(_)) => Ok(ExchangeKind::PerMotor),
         (None, None) => Ok(ExchangeKind::MultiTorque),
     }
+}
+
+/// Every joint of a `motion` bus speaks MyActuator V3 (the only family with a motion mode)
+/// and has a torque constant (its replies report torque in N*m, from which the loop reports
+/// the current, and its current commands become feed-forward torque).
+fn check_motion_joints(joints: &[JointSpec], key: &str) -> Result<(), RobotError> {
+    for j in joints {
+        if j.dialect.v3_firmware().is_none() {
+            return Err(invalid(
+                format!("{key}.exchange"),
+                format!(
+                    "is \"motion\", but joint `{}` (motor {}) speaks {}, which has no motion \
+                     mode (MyActuator V3 only): use exchange = \"per-motor\" or \
+                     \"multi-torque\", or put the V3 motors on a bus of their own",
+                    j.name,
+                    j.motor.get(),
+                    j.dialect.name()
+                ),
+            ));
+        }
+        if j.torque_constant_nm_per_amp.is_none() {
+            return Err(invalid(
+                format!("{key}.exchange"),
+                format!(
+                    "is \"motion\", but joint `{}` (motor {}) has no torque constant: motion \
+                     mode reports torque in N*m and takes currents as feed-forward torque; set \
+                     torque_constant_nm_per_amp (or a model that gives it)",
+                    j.name,
+                    j.motor.get()
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// What the bus's exchange allows: a `multi-torque` bus drives (and acknowledges) ids 1..=4
@@ -1116,7 +1155,7 @@ fn check_bus_layout(bus: &BusConfig, spec: &BusSpec, key: &str) -> Result<(), Ro
                 }
             }
         }
-        ExchangeKind::PerMotor => {
+        ExchangeKind::PerMotor | ExchangeKind::Motion => {
             if !spec.zero_torque_ids.is_empty() {
                 return Err(invalid(
                     format!("{key}.zero_torque_ids"),

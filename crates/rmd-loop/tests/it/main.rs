@@ -9,6 +9,7 @@ static ALLOCATOR: rmd_test_support::alloc::CountingAllocator =
 
 mod firmware;
 mod joint_limits;
+mod motion;
 mod multi_bus;
 mod no_alloc;
 mod no_alloc_threaded;

@@ -114,6 +114,7 @@ fn steady_state_ticks_allocate_nothing() {
     drop(rt);
 
     per_motor_v3_bus();
+    motion_v3_bus();
     every_sink_on();
 }
 
@@ -194,6 +195,97 @@ fn per_motor_v3_bus() {
     assert_eq!(
         allocations, 0,
         "allocations in 2000 steady-state ticks with a per-motor V3 bus"
+    );
+}
+
+/// Holds every joint where it started, in motion mode.
+#[derive(Debug)]
+struct HoldInMotionMode(Option<[f64; 3]>);
+
+impl rmd_loop::Controller for HoldInMotionMode {
+    fn command_kind(&self, _: &rmd_loop::robot::JointSpec) -> rmd_loop::CommandKind {
+        rmd_loop::CommandKind::Motion
+    }
+
+    fn update(
+        &mut self,
+        _: &rmd_loop::TickContext,
+        feedback: &rmd_loop::Feedback<'_>,
+        cmd: &mut rmd_loop::Commands<'_>,
+    ) -> rmd_loop::Flow {
+        let hold = *self.0.get_or_insert_with(|| {
+            let mut at = [0.0; 3];
+            for (j, f) in feedback.iter() {
+                at[j.index()] = f.joint.angle_deg;
+            }
+            at
+        });
+        for (j, _) in feedback.iter() {
+            cmd.set_motion(
+                j,
+                rmd_loop::MotionCommand::hold(hold[j.index()] + 5.0, 0.5, 0.01),
+            );
+        }
+        rmd_loop::Flow::Continue
+    }
+}
+
+/// A `motion` bus of MyActuator V3 motors (one motion-mode command each per tick, the health
+/// rotation's status requests between), with dropped and truncated replies: nothing allocates.
+fn motion_v3_bus() {
+    rmd_test_support::alloc::reset_counted();
+    let clock = VirtualClock::new();
+    let mut v3 = rmd_sim::SimConfig::with_motors(3)
+        .seed(43)
+        .firmware_family(rmd_sim::FirmwareFamily::MyActuatorV3);
+    for f in [
+        FaultRule::new(FaultKind::DropReply).with_probability(0.02),
+        // Truncated, not corrupted: random bytes in a status reply's error flags would be a
+        // motor error, a fault.
+        FaultRule::new(FaultKind::WrongDlc { dlc: 5 }).with_probability(0.02),
+    ] {
+        v3 = v3.fault(f);
+    }
+    let bus = SharedSimBus::new(rmd_sim::SimBus::new(clock.clone(), v3).unwrap());
+    let mut config = robot_config(500.0, 1, 3);
+    config.buses[0].protocol = Some("myactuator-v3".to_string());
+    config.buses[0].exchange = Some(rmd_loop::robot::ExchangeKind::Motion);
+    config.loop_config.missing_reply_fault_after = 1000;
+    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    assert!(robot.buses()[0].health_rotation);
+    let mut rt = RtLoop::unsupervised(
+        robot,
+        clock.clone(),
+        vec![bus.clone()],
+        HoldInMotionMode(None),
+    )
+    .unwrap()
+    .supervise(vec![Box::new(bus)])
+    .unwrap();
+    let telemetry = rt.telemetry();
+    let mut rt = rt.start().unwrap();
+    for _ in 0..100 {
+        let step = rt.step();
+        assert!(step.is_continue(), "{step:?}");
+    }
+    rmd_test_support::alloc::count_every_thread(true);
+    for _ in 0..2_000 {
+        let step = rt.step();
+        assert!(step.is_continue(), "{step:?}");
+        let _ = telemetry.try_recv();
+    }
+    rmd_test_support::alloc::count_every_thread(false);
+    let allocations = rmd_test_support::alloc::counted().allocations;
+    let stats = rt.stats().summary();
+    assert!(
+        stats.motors.iter().any(|m| m.counters.missing_replies > 0)
+            && stats.motors.iter().any(|m| m.counters.bad_frames > 0)
+            && stats.motors.iter().all(|m| m.counters.status_replies > 400),
+        "faults happened on the motion bus, and the health rotation ran: {stats}"
+    );
+    assert_eq!(
+        allocations, 0,
+        "allocations in 2000 steady-state ticks with a motion bus"
     );
 }
 

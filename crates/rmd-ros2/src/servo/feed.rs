@@ -105,7 +105,8 @@ fn fault_joints(fault: &Fault, robot: &Robot) -> Vec<usize> {
         | Fault::StartupTimeout { at, .. }
         | Fault::OverTemperature { at, .. }
         | Fault::MotorError { at, .. }
-        | Fault::Firmware { at, .. } => vec![at.joint.index()],
+        | Fault::Firmware { at, .. }
+        | Fault::MotionRanges { at, .. } => vec![at.joint.index()],
         Fault::BusOff { bus } | Fault::Bus { bus, .. } | Fault::UndescribedMotor { bus, .. } => {
             on_bus(*bus)
         }
