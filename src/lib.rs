@@ -62,8 +62,9 @@ pub use rmd_sim as sim;
 pub use rmd_traj as traj;
 
 pub use rmd_loop::{
-    Commands, Controller, Fault, Feedback, Flow, JointArray, JointFeedback, JointId, LoopHandle,
-    LoopOutcome, LoopReport, Robot, RtLoop, RunLimit, StopReason, TickContext,
+    CommandKind, Commands, Controller, Fault, Feedback, Flow, JointArray, JointFeedback, JointId,
+    LoopHandle, LoopOutcome, LoopReport, MotionCommand, Robot, RtLoop, RunLimit, StopReason,
+    TickContext,
 };
 
 /// The names a controller program uses: the controller trait and what it sees and writes each
@@ -71,8 +72,8 @@ pub use rmd_loop::{
 pub mod prelude {
     pub use crate::rig::{Placement, Rig, SimTime};
     pub use rmd_loop::{
-        Commands, Controller, Fault, Feedback, Flow, JointId, LoopOutcome, LoopReport, Robot,
-        RunLimit, StopReason, TickContext,
+        CommandKind, Commands, Controller, Fault, Feedback, Flow, JointId, LoopOutcome, LoopReport,
+        MotionCommand, Robot, RunLimit, StopReason, TickContext,
     };
     pub use std::time::Duration;
 }

@@ -153,15 +153,17 @@ impl<'a> Commands<'a> {
     }
 
     /// Gives the joint a motion-mode setpoint (its bus must be `exchange = "motion"`): the
-    /// motor runs the law itself until the next tick's command. It replaces a current given
-    /// to the joint this tick, and a current given after it replaces it.
+    /// motor runs the law itself until the next tick's command. A joint given one this tick is
+    /// sent it, whatever current it was also given.
     pub fn set_motion(&mut self, joint: JointId, command: MotionCommand) {
         let i = joint.index();
-        let Some(map) = self.motion.maps.get(i) else {
-            return self.reject(joint, Rejection::UnknownJoint);
-        };
-        let Some(map) = map else {
-            return self.reject(joint, Rejection::NoMotionMode);
+        let map = match self.motion.maps.get(i) {
+            Some(Some(map)) => map,
+            // (No map at all: no joint of the robot is on a `motion` bus.)
+            Some(None) | None if i < self.amps.len() => {
+                return self.reject(joint, Rejection::NoMotionMode);
+            }
+            Some(None) | None => return self.reject(joint, Rejection::UnknownJoint),
         };
         match map.command(&command) {
             Ok((command, limited)) => {
@@ -172,13 +174,6 @@ impl<'a> Commands<'a> {
         }
     }
 
-    /// Forgets a motion setpoint given to joint `i` this tick (a current replaces it).
-    fn current_given(&mut self, i: usize) {
-        if let Some(given) = self.motion.given.get_mut(i) {
-            *given = None;
-        }
-    }
-
     /// Sets the joint's torque current in amperes, joint sign (the configured direction is
     /// applied).
     pub fn set_current(&mut self, joint: JointId, joint_amps: f64) {
@@ -186,10 +181,7 @@ impl<'a> Commands<'a> {
             return self.reject(joint, Rejection::NotFinite);
         }
         match self.slot(joint) {
-            Some((slot, map)) => {
-                *slot = map.motor_amps(joint_amps);
-                self.current_given(joint.index());
-            }
+            Some((slot, map)) => *slot = map.motor_amps(joint_amps),
             None => self.reject(joint, Rejection::UnknownJoint),
         }
     }
@@ -201,10 +193,7 @@ impl<'a> Commands<'a> {
         }
         match self.slot(joint) {
             Some((slot, map)) => match map.motor_amps_for_torque(joint_nm) {
-                Some(amps) => {
-                    *slot = amps;
-                    self.current_given(joint.index());
-                }
+                Some(amps) => *slot = amps,
                 None => self.reject(joint, Rejection::NoTorqueConstant),
             },
             None => self.reject(joint, Rejection::UnknownJoint),
@@ -214,10 +203,7 @@ impl<'a> Commands<'a> {
     /// Sets the joint's raw torque command (motor sign, no direction applied).
     pub fn set_raw(&mut self, joint: JointId, iq_control: IqControl) {
         match self.slot(joint) {
-            Some((slot, _)) => {
-                *slot = iq_control.amps();
-                self.current_given(joint.index());
-            }
+            Some((slot, _)) => *slot = iq_control.amps(),
             None => self.reject(joint, Rejection::UnknownJoint),
         }
     }

@@ -587,6 +587,44 @@ fn bench_loop_runs_v3_motors_per_motor_and_refuses_a_rate_beyond_the_wire() {
     );
 }
 
+/// Stable: `rmd bench loop|rate --sim-firmware myactuator-v3 --exchange motion` runs the V3
+/// motors in motion mode (one 0x400 + id command each per tick); motion mode on v1.61 motors is
+/// refused before anything runs.
+#[test]
+fn bench_loop_and_rate_run_v3_motors_in_motion_mode() {
+    let v = json(
+        "bench loop --sim-firmware myactuator-v3 --motors 3 --exchange motion --virtual-time \
+         --duration 1s --json",
+    );
+    assert_eq!(v["ticks"], 1000, "{v}");
+    assert_eq!(v["missing_replies"], 0, "{v}");
+    assert_eq!(v["late_replies"], 0, "{v}");
+    assert_eq!(v["bench"]["exchange"], "motion", "{v}");
+    for motor in v["safe_stop"]["motors"].as_array().unwrap() {
+        assert_eq!(motor["off_confirmed"], true, "{motor}");
+    }
+    // The same PD law, run in the motors with 16-bit position feedback.
+    let tracking = v["bench"]["tracking_max_error_deg"].as_f64().unwrap();
+    assert!(tracking < 3.0, "{v}");
+    // The wire limit of a motion exchange of three motors: six 8-byte frames.
+    let line = json(
+        "bench rate --sim-firmware myactuator-v3 --motors 3 --exchange motion --virtual-time \
+         --duration 500ms --json",
+    );
+    let limit = line["wire_limit_hz"].as_f64().unwrap();
+    assert!((1000.0..1500.0).contains(&limit), "{line}");
+    let out = assert_cmd::Command::cargo_bin("rmd")
+        .unwrap()
+        .args(["bench", "loop", "--motors", "2", "--exchange", "motion"])
+        .args(["--virtual-time", "--duration", "1s", "--json"])
+        .output()
+        .unwrap();
+    assert_ne!(out.status.code(), Some(0));
+    assert!(out.stdout.is_empty(), "no report: nothing ran");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no motion mode"), "{err}");
+}
+
 #[test]
 fn telemetry_cost_alternates_rounds_and_reports_what_every_sink_got() {
     let v = json("bench telemetry --motors 1 --rate 200 --duration 300ms --rounds 2 --json");

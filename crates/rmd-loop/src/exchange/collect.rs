@@ -217,25 +217,24 @@ impl<B: CanBus> Exchange<B> {
         };
         // Which of the bus's motors sent it (by the CAN id its reply comes on).
         let Some(m) = self.reply_motor(b, frame.id()) else {
-            stats.buses[b].unexpected_frames += 1;
-            return Ok(Received::Item);
+            // A `motion` bus motor's status reply, or nobody's frame.
+            return match self.status_only_motor(b, frame.id()) {
+                Some(m) => self.on_other_reply(m, &frame, received.at, stats),
+                None => {
+                    stats.buses[b].unexpected_frames += 1;
+                    Ok(Received::Item)
+                }
+            };
         };
         let (motor, feedback, counters) = (
             &mut self.motors[m],
             &mut self.feedback[m],
             &mut stats.motors[m],
         );
-        // On the torque replies' id (a `motion` bus motor's status replies come on another).
-        let on_reply_id = frame.id() == motor.expect.can_id;
-        let decoded = if on_reply_id {
-            motor.expect.decode(&frame)
-        } else {
-            None
-        };
-        let Some(status) = decoded else {
+        let Some(status) = motor.expect.decode(&frame) else {
             // Not a torque reply: a motion-mode reply on a `motion` bus, a status reply (the
             // health rotation), or a bad frame.
-            if motor.motion.is_some() && on_reply_id {
+            if motor.motion.is_some() {
                 let window = (tick, max_age);
                 return Ok(self.on_motion_frame(m, &frame, received.at, window, stats, collected));
             }

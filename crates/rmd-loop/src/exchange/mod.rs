@@ -127,13 +127,26 @@ impl<B> Exchange<B> {
         self.owed_total = self.motors.len();
     }
 
-    /// The motor of bus `b` whose replies (torque or status) come on CAN id `id`, if any.
+    /// The motor of bus `b` whose torque replies come on CAN id `id`, if any.
     #[inline]
     fn reply_motor(&self, b: usize, id: u16) -> Option<usize> {
+        let m = self.motor_by_id(b, id)?;
+        (self.motors[m].expect.can_id == id).then_some(m)
+    }
+
+    /// The motor of bus `b` whose id (the low five bits of a CAN id) `id` carries, if any.
+    #[inline]
+    fn motor_by_id(&self, b: usize, id: u16) -> Option<usize> {
         let entry = self.reply_motors[b][usize::from(id) % 32];
-        let m = usize::from(entry).checked_sub(1)?;
+        usize::from(entry).checked_sub(1)
+    }
+
+    /// The motor of bus `b` whose status replies come on `id` where its torque replies do not
+    /// (a `motion` bus motor's), if any.
+    fn status_only_motor(&self, b: usize, id: u16) -> Option<usize> {
+        let m = self.motor_by_id(b, id)?;
         let motor = &self.motors[m];
-        (motor.expect.can_id == id || motor.status_reply_id == id).then_some(m)
+        (motor.status_reply_id == id && motor.expect.can_id != id).then_some(m)
     }
 
     /// Whether every joint of bus `b` has fresh feedback.

@@ -83,6 +83,12 @@ pub(crate) struct LoopArgs {
     /// otherwise described as v1.61, so LK-TECH is refused at start-up, before any torque.
     #[arg(long, value_name = "FIRMWARE", default_value = "v1.61", value_parser = crate::args::parse::sim_firmware)]
     sim_firmware: rmd_protocol::ProtocolFamily,
+    /// How every bus exchanges with its motors each tick: multi-torque (one 0x280 frame, v1.61),
+    /// per-motor (one 0xA1 request per motor) or motion (MyActuator V3's motion mode: one
+    /// 0x400 + id command per motor, the benchmark's PD law run in the motors). Default: per-motor
+    /// for V3 motors and beyond 4 motors per bus, else multi-torque.
+    #[arg(long, value_name = "KIND", value_parser = flags::exchange)]
+    exchange: Option<rmd_loop::robot::ExchangeKind>,
     #[command(flatten)]
     rt: RealtimeArgs,
     #[command(flatten)]
@@ -185,6 +191,7 @@ fn bench_json(args: &LoopArgs, controller: &MovingTargetPd) -> Value {
         "cpu": args.rt.cpu,
         "fifo_priority": args.rt.fifo,
         "controller": "pd-moving-target",
+        "exchange": args.exchange.map(|e| e.name()),
         "target_amplitude_deg": pd::AMPLITUDE_DEG,
         "target_frequency_hz": pd::FREQUENCY_HZ,
         "tracking_rms_error_deg": controller.rms_error_deg(),
@@ -207,12 +214,20 @@ fn run_on<C: Clock + Clone + 'static, B: CanBus + Send + 'static>(
     buses: Vec<B>,
     args: &LoopArgs,
 ) -> Result<Ran, Failure> {
-    let mut config = robot::robot_for(args.rate, args.buses, args.motors, sim_family(args));
+    let mut config = robot::robot_for(
+        args.rate,
+        args.buses,
+        args.motors,
+        sim_family(args),
+        args.exchange,
+    );
     args.rt.apply(&mut config);
     let robot = Robot::try_from(config).map_err(|e| Failure::Usage(e.to_string()))?;
     let period = robot.settings().period.get();
     let ticks = u64::try_from(args.duration.as_nanos() / period.as_nanos()).unwrap_or(u64::MAX);
-    let mut rt = RtLoop::unsupervised(robot, clock, buses, MovingTargetPd::new(!args.virtual_time))
+    let controller = MovingTargetPd::new(!args.virtual_time)
+        .in_motion_mode(args.exchange == Some(rmd_loop::robot::ExchangeKind::Motion));
+    let mut rt = RtLoop::unsupervised(robot, clock, buses, controller)
         .map_err(|e| Failure::Usage(e.to_string()))?;
     // Before anything is served or recorded: a signal from now on follows the policy (one
     // before the loop runs stops it at once).

@@ -11,8 +11,11 @@ use core::f64::consts::PI;
 use core::time::Duration;
 
 use rmd_bus::{Clock, MonotonicClock, Timestamp};
+use rmd_loop::robot::JointSpec;
 use rmd_loop::stats::LatencyHistogram;
-use rmd_loop::{Commands, Controller, Feedback, Flow, TickContext};
+use rmd_loop::{CommandKind, Commands, Controller, Feedback, Flow, MotionCommand, TickContext};
+
+use super::robot::TORQUE_CONSTANT;
 
 /// Target amplitude, joint degrees.
 pub(crate) const AMPLITUDE_DEG: f64 = 20.0;
@@ -61,6 +64,9 @@ pub(crate) struct MovingTargetPd {
     pub(crate) missed: Vec<MissedTick>,
     /// The tick the controller ran last (nothing skipped after it yet): to see slots skipped.
     last: Option<MissedTick>,
+    /// Whether it gives motion-mode setpoints (the same law, run in the motors) instead of
+    /// currents.
+    motion: bool,
 }
 
 impl MovingTargetPd {
@@ -76,7 +82,16 @@ impl MovingTargetPd {
             ticks_due: None,
             missed: Vec::with_capacity(MISSED_LOG_LEN),
             last: None,
+            motion: false,
         }
+    }
+
+    /// The same controller giving motion-mode setpoints when `motion` (every joint then needs
+    /// a `motion` bus): target, target velocity, and the gains in N*m with the simulated
+    /// motor's torque constant.
+    pub(crate) fn in_motion_mode(mut self, motion: bool) -> Self {
+        self.motion = motion;
+        self
     }
 
     /// Logs a missed tick, if the log has room (never grows it).
@@ -132,6 +147,14 @@ impl MovingTargetPd {
 }
 
 impl Controller for MovingTargetPd {
+    fn command_kind(&self, _: &JointSpec) -> CommandKind {
+        if self.motion {
+            CommandKind::Motion
+        } else {
+            CommandKind::Current
+        }
+    }
+
     fn update(&mut self, ctx: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) -> Flow {
         let entered = self.measure_handoff.then(|| MonotonicClock.now());
         let t = ctx.time_s();
@@ -146,9 +169,22 @@ impl Controller for MovingTargetPd {
             }
             let (angle, velocity) = Self::target(joint.index(), t);
             let error = angle - f.joint.angle_deg;
-            let amps = KP * error + KD * (velocity - f.joint.velocity_dps);
-            // The loop clamps to the current limit.
-            cmd.set_current(joint, amps);
+            if self.motion {
+                cmd.set_motion(
+                    joint,
+                    MotionCommand {
+                        position_deg: angle,
+                        velocity_dps: velocity,
+                        kp_nm_per_deg: KP * TORQUE_CONSTANT,
+                        kd_nm_per_dps: KD * TORQUE_CONSTANT,
+                        torque_nm: 0.0,
+                    },
+                );
+            } else {
+                let amps = KP * error + KD * (velocity - f.joint.velocity_dps);
+                // The loop clamps to the current limit.
+                cmd.set_current(joint, amps);
+            }
             if t >= SETTLE_S {
                 self.squared_error_sum += error * error;
                 self.error_samples += 1;

@@ -14,7 +14,7 @@ use rmd_sim::{FirmwareFamily, SimBus, SimConfig};
 /// Gear ratio of the simulator's default motor.
 const GEAR_RATIO: f64 = 9.0;
 /// Output-side torque constant of the simulator's default motor, N*m/A.
-const TORQUE_CONSTANT: f64 = 2.09;
+pub(crate) const TORQUE_CONSTANT: f64 = 2.09;
 /// Current limit of every motor in the benchmarks, A.
 const CURRENT_LIMIT_A: f64 = 10.0;
 /// Seed of bus 0; bus `b` uses `SEED + b` (runs are reproducible in virtual time).
@@ -23,18 +23,20 @@ const SEED: u64 = 0x5EED;
 /// The robot description (file form, to adjust before building the `Robot`): `buses` simulated
 /// buses named `sim0`, `sim1`, ... with motors 1..=`motors`.
 pub(crate) fn robot(rate_hz: f64, buses: usize, motors: u8) -> RobotConfig {
-    robot_for(rate_hz, buses, motors, FirmwareFamily::V161)
+    robot_for(rate_hz, buses, motors, FirmwareFamily::V161, None)
 }
 
 /// [`robot`] for simulated motors running `family`'s firmware: MyActuator V3 motors are described
 /// as such (their buses then exchange torque per motor, one 0xA1 each); any other family is
 /// described as v1.61, so that the start-up identification refuses a family the description
-/// does not name (`rmd bench loop --sim-firmware lk-v2.3x`).
+/// does not name (`rmd bench loop --sim-firmware lk-v2.3x`). `exchange` (`--exchange`) sets every
+/// bus's exchange; the description refuses one the motors cannot take.
 pub(crate) fn robot_for(
     rate_hz: f64,
     buses: usize,
     motors: u8,
     family: FirmwareFamily,
+    exchange: Option<ExchangeKind>,
 ) -> RobotConfig {
     let mut robot = RobotConfig::new(rate_hz);
     for b in 0..buses {
@@ -45,6 +47,9 @@ pub(crate) fn robot_for(
         // One 0x280 frame drives ids 1..=4; more motors are driven per motor.
         if usize::from(motors) > MAX_MOTORS_PER_BUS {
             bus = bus.exchange(ExchangeKind::PerMotor);
+        }
+        if let Some(kind) = exchange {
+            bus = bus.exchange(kind);
         }
         for id in 1..=motors {
             bus = bus.with_motor(

@@ -85,9 +85,7 @@ pub(crate) fn exchanges(trace: &[Transmission], motors: usize, bitrate: u32) -> 
         };
         let per_motor = !multi_torque
             && requests.len() == motors
-            && requests
-                .iter()
-                .all(|t| t.frame.data().first() == Some(&0xA1));
+            && requests.iter().all(|t| is_per_motor_request(&t.frame));
         if replies.len() != motors || !(multi_torque || per_motor) {
             continue;
         }
@@ -110,6 +108,13 @@ pub(crate) fn exchanges(trace: &[Transmission], motors: usize, bitrate: u32) -> 
     out
 }
 
+/// Whether `frame` is one motor's request of a per-motor exchange: an 0xA1 torque request, or a
+/// MyActuator V3 motion-mode command (`0x400 + id`).
+fn is_per_motor_request(frame: &rmd_protocol::CanFrame) -> bool {
+    let motion = rmd_protocol::V3_MOTION_BASE_ID + 1..=rmd_protocol::V3_MOTION_BASE_ID + 32;
+    frame.data().first() == Some(&0xA1) || motion.contains(&frame.id())
+}
+
 /// A per-motor exchange whose requests and replies interleave on the wire, from `trace[0]` (a
 /// host frame): `motors` 0xA1 requests and `motors` motor frames, in any order, the first
 /// reply after the first request. Returns it and the transmissions it took; `None` when the
@@ -118,7 +123,7 @@ fn interleaved(trace: &[Transmission], motors: usize, bitrate: u32) -> Option<(E
     let (mut requests, mut replies) = (Vec::new(), Vec::new());
     for t in trace {
         match t.from {
-            Node::Host if requests.len() < motors && t.frame.data().first() == Some(&0xA1) => {
+            Node::Host if requests.len() < motors && is_per_motor_request(&t.frame) => {
                 requests.push(t);
             }
             Node::Host => return None,

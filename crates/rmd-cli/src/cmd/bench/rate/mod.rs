@@ -95,6 +95,12 @@ pub(crate) struct RateArgs {
     /// myactuator-v3 (one 0xA1 request per motor and tick: the per-motor exchange).
     #[arg(long, value_name = "FIRMWARE", default_value = "v1.61", value_parser = rate_firmware)]
     sim_firmware: rmd_protocol::ProtocolFamily,
+    /// How every bus exchanges with its motors each tick: multi-torque (one 0x280 frame, v1.61),
+    /// per-motor (one 0xA1 request per motor) or motion (MyActuator V3's motion mode: one
+    /// 0x400 + id command per motor, the benchmark's PD law run in the motors). Default: per-motor
+    /// for V3 motors and beyond 4 motors per bus, else multi-torque.
+    #[arg(long, value_name = "KIND", value_parser = flags::exchange)]
+    exchange: Option<rmd_loop::robot::ExchangeKind>,
     /// Length of each trial (e.g. 10s, 500ms; a bare number is seconds).
     #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "10s", value_parser = run_length, allow_hyphen_values = true)]
     duration: Duration,

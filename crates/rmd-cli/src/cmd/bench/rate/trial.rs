@@ -239,7 +239,7 @@ pub(super) fn trial(
 
 fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, String> {
     let family = super::super::sim_family(args.sim_firmware);
-    let mut config = robot::robot_for(rate_hz, buses, args.motors, family);
+    let mut config = robot::robot_for(rate_hz, buses, args.motors, family, args.exchange);
     args.rt.apply(&mut config);
     let period = rmd_loop::schedule::Period::from_hz(rate_hz)
         .map_err(|e| e.to_string())?
@@ -251,15 +251,18 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
     l.health_rotation = false;
     let robot = rmd_loop::Robot::try_from(config).map_err(|e| e.to_string())?;
     let expected_ticks = (args.duration.as_nanos() / period.as_nanos()) as u64;
-    let requests = match family {
-        rmd_sim::FirmwareFamily::MyActuatorV3 => usize::from(args.motors),
-        _ => 1,
+    let requests = match robot.buses()[0].exchange {
+        rmd_loop::robot::ExchangeKind::MultiTorque => 1,
+        rmd_loop::robot::ExchangeKind::PerMotor | rmd_loop::robot::ExchangeKind::Motion => {
+            usize::from(args.motors)
+        }
     };
     let frames_per_exchange = usize::from(args.motors) + requests;
     // Start-up probes, every tick, and the safe stop (zero torque, motor-off and replies).
     let trace = (expected_ticks as usize + 64) * frames_per_exchange + 64;
     let limit = RunLimit::Duration(args.duration);
-    let controller = MovingTargetPd::new(args.sim != SimPlace::Virtual);
+    let controller = MovingTargetPd::new(args.sim != SimPlace::Virtual)
+        .in_motion_mode(args.exchange == Some(rmd_loop::robot::ExchangeKind::Motion));
     let mut sim_late = None;
     let mut late_arrivals = Vec::new();
     let (outcome, traces) = match args.sim {
