@@ -687,6 +687,116 @@ mod tests {
         );
     }
 
+    /// Every kind of every level, with valid arguments.
+    fn every_kind() -> Vec<FaultKind> {
+        let ms = Duration::from_millis;
+        let replies = [
+            ReplyFault::DropReply,
+            ReplyFault::LateReply { delay: ms(3) },
+            ReplyFault::CorruptBytes { count: 3 },
+            ReplyFault::WrongDlc { dlc: 5 },
+            ReplyFault::DuplicateReply,
+            ReplyFault::Silent,
+        ];
+        let physical = [
+            PhysicalFault::LowVoltage { volts: 20.0 },
+            PhysicalFault::OverTemperature { celsius: 95.0 },
+        ];
+        let bus = [
+            BusFault::BusOff { duration: ms(10) },
+            BusFault::TxStall { duration: ms(5) },
+            BusFault::HostSilent,
+        ];
+        let replies = replies.into_iter().map(FaultKind::from);
+        let physical = physical.into_iter().map(FaultKind::from);
+        replies
+            .chain(physical)
+            .chain(bus.into_iter().map(FaultKind::from))
+            .collect()
+    }
+
+    /// What one reply carries under `fault` alone, its corrupted bytes counted, not drawn.
+    fn one_reply_under(fault: ReplyFault) -> (ReplyFaults, usize) {
+        let mut expected = ReplyFaults::default();
+        let mut corrupted = 0;
+        match fault {
+            ReplyFault::DropReply => expected.drop = true,
+            ReplyFault::LateReply { delay } => expected.late = delay,
+            ReplyFault::CorruptBytes { count } => corrupted = usize::from(count),
+            ReplyFault::WrongDlc { dlc } => expected.wrong_dlc = Some(dlc),
+            ReplyFault::DuplicateReply => expected.duplicate = true,
+            ReplyFault::Silent => expected.silent = true,
+        }
+        (expected, corrupted)
+    }
+
+    /// The environment of a motor under `fault` alone.
+    fn environment_under(fault: PhysicalFault) -> Environment {
+        match fault {
+            PhysicalFault::LowVoltage { volts } => Environment {
+                supply_voltage_override_v: Some(volts),
+                ..Environment::default()
+            },
+            PhysicalFault::OverTemperature { celsius } => Environment {
+                temperature_floor_c: Some(celsius),
+                ..Environment::default()
+            },
+        }
+    }
+
+    #[test]
+    fn each_kind_acts_at_its_own_stage_only() {
+        let t = Timestamp::ZERO;
+        for kind in every_kind() {
+            let mut e = FaultEngine::new(&[FaultRule::new(kind)], 3).unwrap();
+            // Several frames of each sort, so a kind counted at the wrong stage would act.
+            let mut at_motor = Vec::new();
+            let mut at_host = Vec::new();
+            for _ in 0..3 {
+                at_motor.push(e.on_motor_frame(m(1), FrameKind::Multi, t));
+                at_host.push(e.on_host_frame(FrameKind::Multi, None, t));
+            }
+            let env = e.environment(m(1), t);
+            let (replies, physics, host) = match kind {
+                FaultKind::Reply(fault) => {
+                    let (expected, corrupted) = one_reply_under(fault);
+                    for reply in &at_motor {
+                        let bytes = reply.corrupt.iter().filter(|&&b| b != 0).count();
+                        assert_eq!(bytes, corrupted, "{kind:?}");
+                        let others = ReplyFaults {
+                            corrupt: [0; 8],
+                            ..*reply
+                        };
+                        assert_eq!(others, expected, "{kind:?}");
+                    }
+                    (true, false, false)
+                }
+                FaultKind::Physical(fault) => {
+                    assert_eq!(env, environment_under(fault), "{kind:?}");
+                    (false, true, false)
+                }
+                FaultKind::Bus(fault) => {
+                    assert_eq!(at_host, [Some(fault); 3], "{kind:?}");
+                    (false, false, true)
+                }
+            };
+            if !replies {
+                assert!(
+                    at_motor.iter().all(|r| *r == ReplyFaults::default()),
+                    "{kind:?} acted on a reply: {at_motor:?}"
+                );
+            }
+            if !physics {
+                assert_eq!(env, Environment::default(), "{kind:?} acted on the physics");
+                assert_eq!(e.next_environment_change(m(1), t), None, "{kind:?}");
+            }
+            if !host {
+                assert_eq!(at_host, [None; 3], "{kind:?} acted on a host frame");
+            }
+            assert_eq!(e.has_bus_faults(), host, "{kind:?}");
+        }
+    }
+
     #[test]
     fn bus_faults_trigger_on_host_frames() {
         let rule = FaultRule::new(BusFault::BusOff {
