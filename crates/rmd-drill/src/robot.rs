@@ -158,6 +158,15 @@ fn rules(
             .motor(MOTOR_1)
             .during(from, for_ever),
         ],
-        _ => Vec::new(),
+        // Not bus 0's simulator: the controller's, the operator's, the description's
+        // (`undescribed`) and every bus's (`sims`).
+        DrillFault::ControllerHang(_)
+        | DrillFault::ControllerPanic
+        | DrillFault::NanCommand
+        | DrillFault::SlowController(_)
+        | DrillFault::Estop
+        | DrillFault::Stop
+        | DrillFault::UnknownMotor(_)
+        | DrillFault::HostSilent(_) => Vec::new(),
     }
 }
