@@ -40,7 +40,7 @@ pub struct BusStats {
     pub tx_bus_off: u64,
     /// Frames lost to bus-off (queued by the host, or arriving while bus-off).
     pub lost_to_bus_off: u64,
-    /// Frames the host sent after it fell silent ([`BusFault::HostSilent`](crate::BusFault::HostSilent)): none reached the motors.
+    /// Frames the host sent after it fell silent ([`BusFault::HostSilent`]): none reached the motors.
     pub lost_to_host_silent: u64,
     /// Frames lost because the client's receive queue was full.
     pub rx_overflow: u64,
