@@ -5,7 +5,7 @@ use rmd_bus::Timestamp;
 use rmd_loop::Robot;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
 use rmd_protocol::{MotorId, ProtocolFamily, WatchdogTimeout};
-use rmd_sim::{FaultKind, FaultRule, GravityLink, MotorSet, SimConfig};
+use rmd_sim::{BusFault, FaultRule, GravityLink, MotorSet, PhysicalFault, ReplyFault, SimConfig};
 
 use crate::fault::DrillFault;
 use crate::spec::DrillSpec;
@@ -92,7 +92,7 @@ pub(crate) fn sims(robot: &Robot, spec: &DrillSpec, start: Timestamp) -> Vec<Sim
                     motor.firmware.v3.watchdog = WatchdogTimeout::from_millis(millis);
                 }
                 sim.faults
-                    .push(FaultRule::new(FaultKind::HostSilent).first_after(start + at, 1));
+                    .push(FaultRule::new(BusFault::HostSilent).first_after(start + at, 1));
             }
         }
     }
@@ -129,35 +129,44 @@ fn rules(
     };
     match fault {
         DrillFault::BusOff(duration) => {
-            vec![FaultRule::new(FaultKind::BusOff { duration }).first_after(from, 1)]
+            vec![FaultRule::new(BusFault::BusOff { duration }).first_after(from, 1)]
         }
         DrillFault::TxStall(duration) => {
-            vec![FaultRule::new(FaultKind::TxStall { duration }).first_after(from, 1)]
+            vec![FaultRule::new(BusFault::TxStall { duration }).first_after(from, 1)]
         }
         DrillFault::SilentMotor(id) => vec![
-            FaultRule::new(FaultKind::DropReply)
+            FaultRule::new(ReplyFault::DropReply)
                 .motor(id)
                 .during(from, for_ever),
         ],
-        DrillFault::Drop(p) => vec![replies(FaultKind::DropReply, p.get())],
-        DrillFault::Late(p, delay) => vec![replies(FaultKind::LateReply { delay }, p.get())],
-        DrillFault::Corrupt(p) => vec![replies(FaultKind::CorruptBytes { count: 2 }, p.get())],
-        DrillFault::Duplicate(p) => vec![replies(FaultKind::DuplicateReply, p.get())],
-        DrillFault::WrongDlc(p) => vec![replies(FaultKind::WrongDlc { dlc: 5 }, p.get())],
+        DrillFault::Drop(p) => vec![replies(ReplyFault::DropReply, p.get())],
+        DrillFault::Late(p, delay) => vec![replies(ReplyFault::LateReply { delay }, p.get())],
+        DrillFault::Corrupt(p) => vec![replies(ReplyFault::CorruptBytes { count: 2 }, p.get())],
+        DrillFault::Duplicate(p) => vec![replies(ReplyFault::DuplicateReply, p.get())],
+        DrillFault::WrongDlc(p) => vec![replies(ReplyFault::WrongDlc { dlc: 5 }, p.get())],
         DrillFault::OverTemperature => vec![
-            FaultRule::new(FaultKind::OverTemperature {
+            FaultRule::new(PhysicalFault::OverTemperature {
                 celsius: hot_c + 10.0,
             })
             .motor(MOTOR_1)
             .during(from, for_ever),
         ],
         DrillFault::LowVoltage => vec![
-            FaultRule::new(FaultKind::LowVoltage {
+            FaultRule::new(PhysicalFault::LowVoltage {
                 volts: (low_v - 6.0).max(0.0),
             })
             .motor(MOTOR_1)
             .during(from, for_ever),
         ],
-        _ => Vec::new(),
+        // Not bus 0's simulator: the controller's, the operator's, the description's
+        // (`undescribed`) and every bus's (`sims`).
+        DrillFault::ControllerHang(_)
+        | DrillFault::ControllerPanic
+        | DrillFault::NanCommand
+        | DrillFault::SlowController(_)
+        | DrillFault::Estop
+        | DrillFault::Stop
+        | DrillFault::UnknownMotor(_)
+        | DrillFault::HostSilent(_) => Vec::new(),
     }
 }

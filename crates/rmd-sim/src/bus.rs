@@ -40,7 +40,7 @@ pub struct BusStats {
     pub tx_bus_off: u64,
     /// Frames lost to bus-off (queued by the host, or arriving while bus-off).
     pub lost_to_bus_off: u64,
-    /// Frames the host sent after it fell silent ([`FaultKind::HostSilent`](crate::FaultKind::HostSilent)): none reached the motors.
+    /// Frames the host sent after it fell silent ([`BusFault::HostSilent`]): none reached the motors.
     pub lost_to_host_silent: u64,
     /// Frames lost because the client's receive queue was full.
     pub rx_overflow: u64,
@@ -296,13 +296,13 @@ impl<C: Clock> SimBus<C> {
         if self.bus_faults {
             let (kind, motors) = classify(frame);
             match self.motors.faults_mut().on_host_frame(kind, motors, now) {
-                Some(BusFault::BusOff(duration)) => {
+                Some(BusFault::BusOff { duration }) => {
                     // The controller took the frame, then went bus-off: the frame is lost.
                     self.stats.lost_to_bus_off += 1;
                     self.start_bus_off(now, duration);
                     return Ok(());
                 }
-                Some(BusFault::TxStall(duration)) => self.wire.block_host_until(now + duration),
+                Some(BusFault::TxStall { duration }) => self.wire.block_host_until(now + duration),
                 Some(BusFault::HostSilent) => {
                     self.host_silent = true;
                     self.stats.lost_to_host_silent += 1;

@@ -6,18 +6,21 @@
 //! simulation's seed and the rule's position, so the same seed and the same traffic give the
 //! same faults, and adding a rule does not change what the others do.
 //!
-//! How each kind of fault is triggered:
+//! A kind is one fault of one of three levels, and each level has its own stage:
+//! [`ReplyFault`] on the requests a motor receives, [`PhysicalFault`] on a motor's physics,
+//! [`BusFault`] on the frames the host sends. Every stage matches its level exhaustively.
 //!
 //! | kind | evaluated | effect |
 //! |---|---|---|
-//! | [`DropReply`](FaultKind::DropReply), [`LateReply`](FaultKind::LateReply), [`CorruptBytes`](FaultKind::CorruptBytes), [`WrongDlc`](FaultKind::WrongDlc), [`DuplicateReply`](FaultKind::DuplicateReply) | per matching request a motor receives | on that request's reply |
-//! | [`Silent`](FaultKind::Silent) | per matching request a motor receives | the motor ignores the request and sends nothing (as if unplugged; it keeps executing its last command) |
-//! | [`LowVoltage`](FaultKind::LowVoltage), [`OverTemperature`](FaultKind::OverTemperature) | continuously, while the window is open (probability must be 1) | the physical cause: supply voltage forced down / winding held hot; the firmware raises its flag through its thresholds, and a clear cannot reset it while the cause lasts |
-//! | [`BusOff`](FaultKind::BusOff), [`TxStall`](FaultKind::TxStall) | per matching frame the host sends (simulated bus only) | bus-off for `duration` / the host cannot transmit for `duration`, so its transmit queue fills |
+//! | [`DropReply`](ReplyFault::DropReply), [`LateReply`](ReplyFault::LateReply), [`CorruptBytes`](ReplyFault::CorruptBytes), [`WrongDlc`](ReplyFault::WrongDlc), [`DuplicateReply`](ReplyFault::DuplicateReply) | per matching request a motor receives | on that request's reply |
+//! | [`Silent`](ReplyFault::Silent) | per matching request a motor receives | the motor ignores the request and sends nothing (as if unplugged; it keeps executing its last command) |
+//! | [`LowVoltage`](PhysicalFault::LowVoltage), [`OverTemperature`](PhysicalFault::OverTemperature) | continuously, while the window is open (probability must be 1) | the physical cause: supply voltage forced down / winding held hot; the firmware raises its flag through its thresholds, and a clear cannot reset it while the cause lasts |
+//! | [`BusOff`](BusFault::BusOff), [`TxStall`](BusFault::TxStall) | per matching frame the host sends (simulated bus only) | bus-off for `duration` / the host cannot transmit for `duration`, so its transmit queue fills |
+//! | [`HostSilent`](BusFault::HostSilent) | per matching frame the host sends (simulated bus only) | from that frame on, nothing the host sends reaches the motors, and `send` still succeeds |
 //!
 //! Windows count frames per motor (the n-th matching request that motor received, from 0) for
-//! motor faults, and the host's matching frames for bus faults; a physical fault with a frame
-//! window is on from the `from`-th matching frame until the `from + count`-th.
+//! reply and physical faults, and the host's matching frames for bus faults; a physical fault
+//! with a frame window is on from the `from`-th matching frame until the `from + count`-th.
 
 use core::time::Duration;
 
@@ -28,6 +31,10 @@ use rmd_protocol::{Command, MotorId};
 
 use crate::error::ConfigError;
 use crate::physics::Environment;
+
+mod kind;
+
+pub use kind::{BusFault, FaultKind, PhysicalFault, ReplyFault};
 
 /// A set of motor ids (1..=32).
 ///
@@ -105,7 +112,8 @@ impl FrameFilter {
             (FrameFilter::Any, _) => true,
             (FrameFilter::Command(c), FrameKind::Single(k)) => c == k,
             (FrameFilter::MultiTorque, FrameKind::Multi) => true,
-            _ => false,
+            (FrameFilter::Command(_), FrameKind::Multi | FrameKind::Other)
+            | (FrameFilter::MultiTorque, FrameKind::Single(_) | FrameKind::Other) => false,
         }
     }
 }
@@ -155,81 +163,8 @@ impl Window {
     fn starts_by(self, at: Timestamp) -> bool {
         match self {
             Window::FirstAfter { from, .. } => at >= from,
-            _ => false,
+            Window::Always | Window::Frames { .. } | Window::Time { .. } => false,
         }
-    }
-}
-
-/// What goes wrong.
-#[derive(Copy, Clone, Debug, PartialEq)]
-#[non_exhaustive]
-pub enum FaultKind {
-    /// The reply is not sent.
-    DropReply,
-    /// The reply is sent `delay` later than it would be.
-    LateReply {
-        /// Extra delay.
-        delay: Duration,
-    },
-    /// `count` distinct data bytes of the reply (1..=8) are XORed with random non-zero values.
-    CorruptBytes {
-        /// Number of corrupted bytes.
-        count: u8,
-    },
-    /// The reply is sent with this DLC (0..=7) instead of 8, its data truncated.
-    WrongDlc {
-        /// The DLC sent.
-        dlc: u8,
-    },
-    /// The reply is sent twice, back to back.
-    DuplicateReply,
-    /// The motor ignores the request and sends nothing.
-    Silent,
-    /// The supply voltage at the motor drops to `volts` (physical cause of the low-voltage flag).
-    LowVoltage {
-        /// Forced open-circuit supply voltage, V.
-        volts: f64,
-    },
-    /// The winding is held at or above `celsius` (physical cause of the over-temperature flag).
-    OverTemperature {
-        /// Forced minimum winding temperature, °C.
-        celsius: f64,
-    },
-    /// The host's controller goes bus-off for `duration`: the client receives
-    /// [`BusEvent::BusOff`](rmd_bus::BusEvent::BusOff), `send` fails with
-    /// [`BusError::BusOff`](rmd_bus::BusError::BusOff), frames queued or arriving are lost,
-    /// then [`BusEvent::Restarted`](rmd_bus::BusEvent::Restarted). Simulated bus only.
-    BusOff {
-        /// How long the controller stays bus-off.
-        duration: Duration,
-    },
-    /// The host's controller cannot transmit for `duration` (as with a flood of higher-priority
-    /// traffic): its transmit queue fills and `send` returns
-    /// [`BusError::TxQueueFull`](rmd_bus::BusError::TxQueueFull). Simulated bus only.
-    TxStall {
-        /// How long the host cannot transmit.
-        duration: Duration,
-    },
-    /// From the matching frame on, nothing the host sends reaches the motors, and `send` still
-    /// succeeds: the host died (SIGKILL, a kernel hang, a power loss) or its cable was cut, as
-    /// the motors see it. Only a motor-side watchdog (MyActuator V3's 0xB3) stops a motor then.
-    /// Simulated bus only.
-    HostSilent,
-}
-
-impl FaultKind {
-    fn is_physical(self) -> bool {
-        matches!(
-            self,
-            FaultKind::LowVoltage { .. } | FaultKind::OverTemperature { .. }
-        )
-    }
-
-    pub(crate) fn is_bus(self) -> bool {
-        matches!(
-            self,
-            FaultKind::BusOff { .. } | FaultKind::TxStall { .. } | FaultKind::HostSilent
-        )
     }
 }
 
@@ -238,14 +173,14 @@ impl FaultKind {
 /// ```
 /// use core::time::Duration;
 /// use rmd_protocol::{Command, MotorId};
-/// use rmd_sim::{FaultKind, FaultRule};
+/// use rmd_sim::{FaultRule, ReplyFault};
 /// // Motor 2 drops 10 % of its replies to 0x9C.
-/// let flaky = FaultRule::new(FaultKind::DropReply)
+/// let flaky = FaultRule::new(ReplyFault::DropReply)
 ///     .motor(MotorId::new(2).unwrap())
 ///     .command(Command::ReadStatus2)
 ///     .with_probability(0.1);
 /// // Every 0x280 reply of every motor is 3 ms late from the 100th 0x280 frame on, for 5 frames.
-/// let late = FaultRule::new(FaultKind::LateReply { delay: Duration::from_millis(3) })
+/// let late = FaultRule::new(ReplyFault::LateReply { delay: Duration::from_millis(3) })
 ///     .multi_torque()
 ///     .frames_window(100, 5);
 /// # let _ = (flaky, late);
@@ -266,12 +201,13 @@ pub struct FaultRule {
 }
 
 impl FaultRule {
-    /// A rule for every motor and every frame, always, with probability 1.
-    pub fn new(kind: FaultKind) -> Self {
+    /// A rule for every motor and every frame, always, with probability 1; `kind` is a
+    /// [`FaultKind`] or the fault of one level ([`ReplyFault`], [`PhysicalFault`], [`BusFault`]).
+    pub fn new(kind: impl Into<FaultKind>) -> Self {
         Self {
             motors: MotorSet::all(),
             frames: FrameFilter::Any,
-            kind,
+            kind: kind.into(),
             window: Window::Always,
             probability: 1.0,
         }
@@ -335,7 +271,7 @@ impl FaultRule {
         if !(self.probability.is_finite() && (0.0..=1.0).contains(&self.probability)) {
             return bad("probability must be within 0..=1");
         }
-        if self.kind.is_physical() && self.probability != 1.0 {
+        if !self.kind.is_drawn_per_frame() && self.probability != 1.0 {
             return bad(
                 "a low-voltage or over-temperature cause is a window, not a per-frame draw: probability must be 1",
             );
@@ -348,18 +284,9 @@ impl FaultRule {
         {
             return bad("time window ends before it starts");
         }
-        match self.kind {
-            FaultKind::CorruptBytes { count } if !(1..=8).contains(&count) => {
-                bad("CorruptBytes count must be 1..=8")
-            }
-            FaultKind::WrongDlc { dlc } if dlc >= 8 => bad("WrongDlc dlc must be 0..=7"),
-            FaultKind::LowVoltage { volts } if !(volts.is_finite() && volts >= 0.0) => {
-                bad("LowVoltage volts must be a finite number >= 0")
-            }
-            FaultKind::OverTemperature { celsius } if !celsius.is_finite() => {
-                bad("OverTemperature celsius must be finite")
-            }
-            _ => Ok(()),
+        match self.kind.argument_error() {
+            Some(reason) => bad(reason),
+            None => Ok(()),
         }
     }
 }
@@ -376,49 +303,97 @@ pub(crate) struct ReplyFaults {
     pub(crate) duplicate: bool,
 }
 
-/// A bus fault that starts now.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub(crate) enum BusFault {
-    BusOff(Duration),
-    TxStall(Duration),
-    HostSilent,
+impl ReplyFaults {
+    /// Adds `fault`, drawn by a rule whose stream is `rng`.
+    fn add(&mut self, fault: ReplyFault, rng: &mut Pcg64Mcg) {
+        match fault {
+            ReplyFault::DropReply => self.drop = true,
+            ReplyFault::LateReply { delay } => self.late = self.late.saturating_add(delay),
+            ReplyFault::CorruptBytes { count } => corrupt(rng, count, &mut self.corrupt),
+            ReplyFault::WrongDlc { dlc } => self.wrong_dlc = Some(dlc),
+            ReplyFault::DuplicateReply => self.duplicate = true,
+            ReplyFault::Silent => self.silent = true,
+        }
+    }
 }
 
 /// Index of the host's frame counter in [`RuleState::counts`].
 const HOST: usize = 0;
 
+/// One rule in the engine, its kind narrowed to the level `K` of the stage that evaluates it.
 #[derive(Clone, Debug)]
-struct RuleState {
-    rule: FaultRule,
+struct RuleState<K> {
+    kind: K,
+    motors: MotorSet,
+    frames: FrameFilter,
+    window: Window,
+    probability: f64,
     rng: Pcg64Mcg,
     /// Matching frames seen so far: index 0 the host's (bus faults), 1..=32 per motor.
     counts: [u64; 33],
-    /// Physical faults with a frame window: which motors have the cause on (bit id - 1).
-    physical_on: u32,
     /// Matching frames counted at or after a [`Window::FirstAfter`]'s start, indexed as `counts`.
     after: [u64; 33],
 }
 
-impl RuleState {
+impl<K> RuleState<K> {
+    /// `rule`, of kind `kind` at its level, drawing from `rng`.
+    fn new(kind: K, rule: &FaultRule, rng: Pcg64Mcg) -> Self {
+        Self {
+            kind,
+            motors: rule.motors,
+            frames: rule.frames,
+            window: rule.window,
+            probability: rule.probability,
+            rng,
+            counts: [0; 33],
+            after: [0; 33],
+        }
+    }
+
+    /// Whether a request of kind `kind` that `motor` received matches the rule.
+    fn selects(&self, motor: MotorId, kind: FrameKind) -> bool {
+        self.motors.contains(motor) && self.frames.matches(kind)
+    }
+
     /// Counts a matching frame of counter `slot` at `at`; whether the window holds it.
     fn count(&mut self, slot: usize, at: Timestamp) -> bool {
         let n = self.counts[slot];
         self.counts[slot] = n.saturating_add(1);
         let seen_after = self.after[slot];
-        if self.rule.window.starts_by(at) {
+        if self.window.starts_by(at) {
             self.after[slot] = seen_after.saturating_add(1);
         }
-        self.rule.window.contains(n, at, seen_after)
+        self.window.contains(n, at, seen_after)
     }
 
     fn draw(&mut self) -> bool {
-        let p = self.rule.probability;
+        let p = self.probability;
         if p >= 1.0 {
             true
         } else if p <= 0.0 {
             false
         } else {
             unit(&mut self.rng) < p
+        }
+    }
+}
+
+/// A physical rule and, for a frame window, which motors have the cause on (bit id - 1).
+#[derive(Clone, Debug)]
+struct PhysicalRule {
+    state: RuleState<PhysicalFault>,
+    on: u32,
+}
+
+impl PhysicalRule {
+    /// Whether the cause is on for `motor` at `at`.
+    fn is_on(&self, motor: MotorId, at: Timestamp) -> bool {
+        match self.state.window {
+            Window::Always => true,
+            Window::Time { from, until } => at >= from && at < until,
+            Window::Frames { .. } | Window::FirstAfter { .. } => {
+                self.on & (1 << (motor.get() - 1)) != 0
+            }
         }
     }
 }
@@ -437,32 +412,42 @@ pub(crate) fn stream(seed: u64, stream: u64) -> Pcg64Mcg {
     Pcg64Mcg::seed_from_u64(z ^ (z >> 31))
 }
 
-/// The rules of one simulation and their state.
+/// The rules of one simulation and their state, each in the stage of its level.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct FaultEngine {
-    rules: Vec<RuleState>,
+    /// Evaluated on the requests a motor receives, in configuration order (a later rule's
+    /// corrupted bytes avoid an earlier one's; the last wrong DLC wins).
+    replies: Vec<RuleState<ReplyFault>>,
+    /// Counted on the requests a motor receives, imposed on its physics.
+    physical: Vec<PhysicalRule>,
+    /// Evaluated on the frames the host sends, in configuration order (the first one that
+    /// triggers on a frame starts).
+    bus: Vec<RuleState<BusFault>>,
 }
 
 impl FaultEngine {
-    /// Validates `rules` and seeds one stream per rule.
+    /// Validates `rules`, seeds one stream per rule (from its position among all rules) and
+    /// hands each to the stage of its level.
     pub(crate) fn new(rules: &[FaultRule], seed: u64) -> Result<Self, ConfigError> {
-        let mut states = Vec::with_capacity(rules.len());
+        let mut engine = Self::default();
         for (index, rule) in rules.iter().enumerate() {
             rule.validate(index)?;
-            states.push(RuleState {
-                rule: *rule,
-                rng: stream(seed, index as u64),
-                counts: [0; 33],
-                physical_on: 0,
-                after: [0; 33],
-            });
+            let rng = stream(seed, index as u64);
+            match rule.kind {
+                FaultKind::Reply(kind) => engine.replies.push(RuleState::new(kind, rule, rng)),
+                FaultKind::Physical(kind) => engine.physical.push(PhysicalRule {
+                    state: RuleState::new(kind, rule, rng),
+                    on: 0,
+                }),
+                FaultKind::Bus(kind) => engine.bus.push(RuleState::new(kind, rule, rng)),
+            }
         }
-        Ok(Self { rules: states })
+        Ok(engine)
     }
 
     /// Whether any rule is a bus fault (evaluated on host frames).
     pub(crate) fn has_bus_faults(&self) -> bool {
-        self.rules.iter().any(|r| r.rule.kind.is_bus())
+        !self.bus.is_empty()
     }
 
     /// Evaluates the motor-side rules for a request of kind `kind` that `motor` received at
@@ -473,38 +458,28 @@ impl FaultEngine {
         kind: FrameKind,
         at: Timestamp,
     ) -> ReplyFaults {
-        let mut out = ReplyFaults::default();
         let m = usize::from(motor.get());
-        for r in &mut self.rules {
-            if r.rule.kind.is_bus()
-                || !r.rule.motors.contains(motor)
-                || !r.rule.frames.matches(kind)
-            {
+        for rule in &mut self.physical {
+            if !rule.state.selects(motor, kind) {
                 continue;
             }
-            let active = r.count(m, at);
-            if r.rule.kind.is_physical() {
-                if let Window::Frames { .. } | Window::FirstAfter { .. } = r.rule.window {
+            let active = rule.state.count(m, at);
+            match rule.state.window {
+                Window::Frames { .. } | Window::FirstAfter { .. } => {
                     let bit = 1u32 << (m - 1);
                     if active {
-                        r.physical_on |= bit;
+                        rule.on |= bit;
                     } else {
-                        r.physical_on &= !bit;
+                        rule.on &= !bit;
                     }
                 }
-                continue;
+                Window::Always | Window::Time { .. } => {}
             }
-            if !active || !r.draw() {
-                continue;
-            }
-            match r.rule.kind {
-                FaultKind::DropReply => out.drop = true,
-                FaultKind::LateReply { delay } => out.late = out.late.saturating_add(delay),
-                FaultKind::CorruptBytes { count } => corrupt(&mut r.rng, count, &mut out.corrupt),
-                FaultKind::WrongDlc { dlc } => out.wrong_dlc = Some(dlc),
-                FaultKind::DuplicateReply => out.duplicate = true,
-                FaultKind::Silent => out.silent = true,
-                _ => {}
+        }
+        let mut out = ReplyFaults::default();
+        for r in &mut self.replies {
+            if r.selects(motor, kind) && r.count(m, at) && r.draw() {
+                out.add(r.kind, &mut r.rng);
             }
         }
         out
@@ -519,26 +494,17 @@ impl FaultEngine {
         at: Timestamp,
     ) -> Option<BusFault> {
         let mut started = None;
-        for r in &mut self.rules {
-            if !r.rule.kind.is_bus() || !r.rule.frames.matches(kind) {
+        for r in &mut self.bus {
+            if !r.frames.matches(kind) {
                 continue;
             }
             let addressed = match motors {
-                Some(set) => r.rule.motors.0 & set.0 != 0,
-                None => r.rule.motors.is_all(),
+                Some(set) => r.motors.0 & set.0 != 0,
+                None => r.motors.is_all(),
             };
-            if !addressed {
-                continue;
+            if addressed && r.count(HOST, at) && r.draw() {
+                started = started.or(Some(r.kind));
             }
-            if !r.count(HOST, at) || !r.draw() {
-                continue;
-            }
-            started = started.or(match r.rule.kind {
-                FaultKind::BusOff { duration } => Some(BusFault::BusOff(duration)),
-                FaultKind::TxStall { duration } => Some(BusFault::TxStall(duration)),
-                FaultKind::HostSilent => Some(BusFault::HostSilent),
-                _ => None,
-            });
         }
         started
     }
@@ -546,34 +512,23 @@ impl FaultEngine {
     /// The physical conditions imposed on `motor` at `at`.
     pub(crate) fn environment(&self, motor: MotorId, at: Timestamp) -> Environment {
         let mut env = Environment::default();
-        for r in &self.rules {
-            if !r.rule.kind.is_physical() || !r.rule.motors.contains(motor) {
+        for rule in &self.physical {
+            if !rule.state.motors.contains(motor) || !rule.is_on(motor, at) {
                 continue;
             }
-            let on = match r.rule.window {
-                Window::Always => true,
-                Window::Time { from, until } => at >= from && at < until,
-                Window::Frames { .. } | Window::FirstAfter { .. } => {
-                    r.physical_on & (1 << (motor.get() - 1)) != 0
-                }
-            };
-            if !on {
-                continue;
-            }
-            match r.rule.kind {
-                FaultKind::LowVoltage { volts } => {
+            match rule.state.kind {
+                PhysicalFault::LowVoltage { volts } => {
                     env.supply_voltage_override_v = Some(
                         env.supply_voltage_override_v
                             .map_or(volts, |v: f64| v.min(volts)),
                     )
                 }
-                FaultKind::OverTemperature { celsius } => {
+                PhysicalFault::OverTemperature { celsius } => {
                     env.temperature_floor_c = Some(
                         env.temperature_floor_c
                             .map_or(celsius, |t: f64| t.max(celsius)),
                     )
                 }
-                _ => {}
             }
         }
         env
@@ -586,12 +541,12 @@ impl FaultEngine {
         motor: MotorId,
         at: Timestamp,
     ) -> Option<Timestamp> {
-        self.rules
+        self.physical
             .iter()
-            .filter(|r| r.rule.kind.is_physical() && r.rule.motors.contains(motor))
-            .filter_map(|r| match r.rule.window {
+            .filter(|rule| rule.state.motors.contains(motor))
+            .filter_map(|rule| match rule.state.window {
                 Window::Time { from, until } => [from, until].into_iter().find(|&t| t > at),
-                _ => None,
+                Window::Always | Window::Frames { .. } | Window::FirstAfter { .. } => None,
             })
             .min()
     }
@@ -622,8 +577,8 @@ mod tests {
     #[test]
     fn invalid_rules_are_rejected_with_their_index() {
         let rules = [
-            FaultRule::new(FaultKind::DropReply),
-            FaultRule::new(FaultKind::DropReply).with_probability(1.5),
+            FaultRule::new(ReplyFault::DropReply),
+            FaultRule::new(ReplyFault::DropReply).with_probability(1.5),
         ];
         assert_eq!(
             FaultEngine::new(&rules, 1).unwrap_err(),
@@ -633,12 +588,12 @@ mod tests {
             }
         );
         for bad in [
-            FaultRule::new(FaultKind::LowVoltage { volts: 10.0 }).with_probability(0.5),
-            FaultRule::new(FaultKind::WrongDlc { dlc: 8 }),
-            FaultRule::new(FaultKind::CorruptBytes { count: 0 }),
-            FaultRule::new(FaultKind::DropReply)
+            FaultRule::new(PhysicalFault::LowVoltage { volts: 10.0 }).with_probability(0.5),
+            FaultRule::new(ReplyFault::WrongDlc { dlc: 8 }),
+            FaultRule::new(ReplyFault::CorruptBytes { count: 0 }),
+            FaultRule::new(ReplyFault::DropReply)
                 .during(Timestamp::from_nanos(5), Timestamp::from_nanos(5)),
-            FaultRule::new(FaultKind::DropReply).motors(MotorSet::of(&[])),
+            FaultRule::new(ReplyFault::DropReply).motors(MotorSet::of(&[])),
         ] {
             assert!(bad.validate(0).is_err(), "{bad:?}");
         }
@@ -646,7 +601,7 @@ mod tests {
 
     #[test]
     fn frame_windows_count_matching_frames_per_motor() {
-        let rule = FaultRule::new(FaultKind::DropReply)
+        let rule = FaultRule::new(ReplyFault::DropReply)
             .command(Command::ReadStatus2)
             .frames_window(2, 2);
         let mut engine = FaultEngine::new(&[rule], 7).unwrap();
@@ -670,7 +625,7 @@ mod tests {
 
     #[test]
     fn probabilities_are_reproducible_per_seed() {
-        let rule = FaultRule::new(FaultKind::CorruptBytes { count: 3 }).with_probability(0.3);
+        let rule = FaultRule::new(ReplyFault::CorruptBytes { count: 3 }).with_probability(0.3);
         let run = |seed| {
             let mut e = FaultEngine::new(&[rule], seed).unwrap();
             (0..200)
@@ -695,10 +650,10 @@ mod tests {
         let from = Timestamp::from_nanos(1_000);
         let until = Timestamp::from_nanos(2_000);
         let rules = [
-            FaultRule::new(FaultKind::LowVoltage { volts: 20.0 })
+            FaultRule::new(PhysicalFault::LowVoltage { volts: 20.0 })
                 .motor(m(1))
                 .during(from, until),
-            FaultRule::new(FaultKind::OverTemperature { celsius: 95.0 })
+            FaultRule::new(PhysicalFault::OverTemperature { celsius: 95.0 })
                 .motor(m(2))
                 .command(Command::ReadStatus1)
                 .frames_window(1, 1),
@@ -732,9 +687,119 @@ mod tests {
         );
     }
 
+    /// Every kind of every level, with valid arguments.
+    fn every_kind() -> Vec<FaultKind> {
+        let ms = Duration::from_millis;
+        let replies = [
+            ReplyFault::DropReply,
+            ReplyFault::LateReply { delay: ms(3) },
+            ReplyFault::CorruptBytes { count: 3 },
+            ReplyFault::WrongDlc { dlc: 5 },
+            ReplyFault::DuplicateReply,
+            ReplyFault::Silent,
+        ];
+        let physical = [
+            PhysicalFault::LowVoltage { volts: 20.0 },
+            PhysicalFault::OverTemperature { celsius: 95.0 },
+        ];
+        let bus = [
+            BusFault::BusOff { duration: ms(10) },
+            BusFault::TxStall { duration: ms(5) },
+            BusFault::HostSilent,
+        ];
+        let replies = replies.into_iter().map(FaultKind::from);
+        let physical = physical.into_iter().map(FaultKind::from);
+        replies
+            .chain(physical)
+            .chain(bus.into_iter().map(FaultKind::from))
+            .collect()
+    }
+
+    /// What one reply carries under `fault` alone, its corrupted bytes counted, not drawn.
+    fn one_reply_under(fault: ReplyFault) -> (ReplyFaults, usize) {
+        let mut expected = ReplyFaults::default();
+        let mut corrupted = 0;
+        match fault {
+            ReplyFault::DropReply => expected.drop = true,
+            ReplyFault::LateReply { delay } => expected.late = delay,
+            ReplyFault::CorruptBytes { count } => corrupted = usize::from(count),
+            ReplyFault::WrongDlc { dlc } => expected.wrong_dlc = Some(dlc),
+            ReplyFault::DuplicateReply => expected.duplicate = true,
+            ReplyFault::Silent => expected.silent = true,
+        }
+        (expected, corrupted)
+    }
+
+    /// The environment of a motor under `fault` alone.
+    fn environment_under(fault: PhysicalFault) -> Environment {
+        match fault {
+            PhysicalFault::LowVoltage { volts } => Environment {
+                supply_voltage_override_v: Some(volts),
+                ..Environment::default()
+            },
+            PhysicalFault::OverTemperature { celsius } => Environment {
+                temperature_floor_c: Some(celsius),
+                ..Environment::default()
+            },
+        }
+    }
+
+    #[test]
+    fn each_kind_acts_at_its_own_stage_only() {
+        let t = Timestamp::ZERO;
+        for kind in every_kind() {
+            let mut e = FaultEngine::new(&[FaultRule::new(kind)], 3).unwrap();
+            // Several frames of each sort, so a kind counted at the wrong stage would act.
+            let mut at_motor = Vec::new();
+            let mut at_host = Vec::new();
+            for _ in 0..3 {
+                at_motor.push(e.on_motor_frame(m(1), FrameKind::Multi, t));
+                at_host.push(e.on_host_frame(FrameKind::Multi, None, t));
+            }
+            let env = e.environment(m(1), t);
+            let (replies, physics, host) = match kind {
+                FaultKind::Reply(fault) => {
+                    let (expected, corrupted) = one_reply_under(fault);
+                    for reply in &at_motor {
+                        let bytes = reply.corrupt.iter().filter(|&&b| b != 0).count();
+                        assert_eq!(bytes, corrupted, "{kind:?}");
+                        let others = ReplyFaults {
+                            corrupt: [0; 8],
+                            ..*reply
+                        };
+                        assert_eq!(others, expected, "{kind:?}");
+                    }
+                    (true, false, false)
+                }
+                FaultKind::Physical(fault) => {
+                    assert_eq!(env, environment_under(fault), "{kind:?}");
+                    (false, true, false)
+                }
+                FaultKind::Bus(fault) => {
+                    assert_eq!(at_host, [Some(fault); 3], "{kind:?}");
+                    (false, false, true)
+                }
+            };
+            if !replies {
+                assert!(
+                    at_motor.iter().all(|r| *r == ReplyFaults::default()),
+                    "{kind:?} acted on a reply: {at_motor:?}"
+                );
+            }
+            if !physics {
+                assert_eq!(env, Environment::default(), "{kind:?} acted on the physics");
+                assert_eq!(e.next_environment_change(m(1), t), None, "{kind:?}");
+            }
+            if !host {
+                assert_eq!(at_host, [None; 3], "{kind:?} acted on a host frame");
+            }
+            assert_eq!(e.has_bus_faults(), host, "{kind:?}");
+        }
+    }
+
     #[test]
     fn bus_faults_trigger_on_host_frames() {
-        let rule = FaultRule::new(FaultKind::BusOff {
+        let rule = FaultRule::new(BusFault::BusOff {
             duration: Duration::from_millis(10),
         })
         .multi_torque()
@@ -751,7 +816,9 @@ mod tests {
                 None,
                 None,
                 None,
-                Some(BusFault::BusOff(Duration::from_millis(10))),
+                Some(BusFault::BusOff {
+                    duration: Duration::from_millis(10)
+                }),
                 None
             ]
         );
@@ -765,7 +832,7 @@ mod tests {
     #[test]
     fn a_first_after_window_takes_the_first_frames_at_or_after_its_start() {
         let at = |ms: u64| Timestamp::from_nanos(ms * 1_000_000);
-        let rule = FaultRule::new(FaultKind::TxStall {
+        let rule = FaultRule::new(BusFault::TxStall {
             duration: Duration::from_millis(5),
         })
         .first_after(at(10), 2);
@@ -776,7 +843,7 @@ mod tests {
             .collect();
         assert_eq!(got, [false, false, true, true, false, false]);
         // Per motor, each motor's own first frames.
-        let rule = FaultRule::new(FaultKind::DropReply).first_after(at(10), 1);
+        let rule = FaultRule::new(ReplyFault::DropReply).first_after(at(10), 1);
         let mut e = FaultEngine::new(&[rule], 0).unwrap();
         let drops: Vec<bool> = [(1, 5), (1, 12), (2, 13), (1, 14), (2, 15)]
             .into_iter()

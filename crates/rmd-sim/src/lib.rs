@@ -27,12 +27,12 @@
 //! use core::time::Duration;
 //! use rmd_bus::{CanBus, Clock, VirtualClock};
 //! use rmd_protocol::{Command, Dialect, MotorId, Request};
-//! use rmd_sim::{FaultKind, FaultRule, SimBus, SimConfig};
+//! use rmd_sim::{FaultRule, ReplyFault, SimBus, SimConfig};
 //!
 //! let clock = VirtualClock::new();
 //! let config = SimConfig::with_motors(2)
 //!     .seed(42)
-//!     .fault(FaultRule::new(FaultKind::DropReply).command(Command::ReadStatus1).with_probability(0.5));
+//!     .fault(FaultRule::new(ReplyFault::DropReply).command(Command::ReadStatus1).with_probability(0.5));
 //! let mut bus = SimBus::new(clock.clone(), config)?;
 //! let m1 = MotorId::new(1).unwrap();
 //! bus.send(&Dialect::V161.encode(m1, &Request::ReadStatus2).unwrap()).unwrap();
@@ -66,7 +66,9 @@ pub use bus::{BusStats, SimBus};
 pub use config::{BusConfig, ClearErrorReply, FirmwareParams, MotorConfig, SimConfig, V3Params};
 pub use error::ConfigError;
 pub use family::{CommandSet, FirmwareFamily, FirmwareTraps};
-pub use fault::{FaultKind, FaultRule, FrameFilter, MotorSet, Window};
+pub use fault::{
+    BusFault, FaultKind, FaultRule, FrameFilter, MotorSet, PhysicalFault, ReplyFault, Window,
+};
 pub use firmware::ControlMode;
 pub use motor::{MotorSnapshot, MotorStats, SimMotor, TrapStats};
 pub use motors::{Replies, ScheduledFrame, SimMotors};

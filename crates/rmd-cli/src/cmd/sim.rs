@@ -18,7 +18,7 @@ use rmd_bus::record::RecordOptions;
 use rmd_bus::{BusError, BusMessage, CanBus, Clock, MonotonicClock};
 use rmd_protocol::{EncoderWidth, LkSeries, ProtocolFamily};
 use rmd_sim::{
-    FaultKind, FaultRule, FirmwareFamily, GravityLink, MotorConfig, MotorSet, ScheduledFrame,
+    FaultRule, FirmwareFamily, GravityLink, MotorConfig, MotorSet, ReplyFault, ScheduledFrame,
     SimConfig, SimMotors,
 };
 
@@ -137,17 +137,17 @@ impl FaultOptions {
                 rules.push(FaultRule::new(kind).with_probability(p));
             }
         };
-        per_reply(self.drop, FaultKind::DropReply);
+        per_reply(self.drop, ReplyFault::DropReply);
         per_reply(
             self.late.map(|(p, _)| p),
-            FaultKind::LateReply {
+            ReplyFault::LateReply {
                 delay: self.late.map_or(Duration::ZERO, |(_, d)| d),
             },
         );
-        per_reply(self.corrupt, FaultKind::CorruptBytes { count: 1 });
-        per_reply(self.duplicate, FaultKind::DuplicateReply);
+        per_reply(self.corrupt, ReplyFault::CorruptBytes { count: 1 });
+        per_reply(self.duplicate, ReplyFault::DuplicateReply);
         if let Some(silent) = &self.silent {
-            rules.push(FaultRule::new(FaultKind::Silent).motors(MotorSet::of(silent.ids())));
+            rules.push(FaultRule::new(ReplyFault::Silent).motors(MotorSet::of(silent.ids())));
         }
         rules
     }
@@ -408,12 +408,13 @@ mod tests {
         assert_eq!(m.motor.gear_ratio, 6.0);
         assert_eq!(m.load.gravity.as_ref().unwrap().mass_kg, 1.5);
         assert_eq!(config.faults.len(), 3);
-        assert_eq!(config.faults[0].kind, FaultKind::DropReply);
+        assert_eq!(config.faults[0].kind, ReplyFault::DropReply.into());
         assert_eq!(
             config.faults[1].kind,
-            FaultKind::LateReply {
+            ReplyFault::LateReply {
                 delay: Duration::from_millis(3)
             }
+            .into()
         );
         assert!(config.faults[2].motors.contains(MotorId::new(5).unwrap()));
         assert!(!config.faults[2].motors.contains(MotorId::new(2).unwrap()));

@@ -559,7 +559,7 @@ mod tests {
     use super::*;
     use rmd_bus::{Received, VirtualClock};
     use rmd_protocol::ProtocolFamily;
-    use rmd_sim::{FaultKind, FaultRule, SimBus, SimConfig};
+    use rmd_sim::{FaultRule, ReplyFault, SimBus, SimConfig};
 
     fn id(n: u8) -> MotorId {
         MotorId::new(n).unwrap()
@@ -731,7 +731,7 @@ mod tests {
 
     #[test]
     fn lost_replies_are_retried() {
-        let drop_two = FaultRule::new(FaultKind::DropReply)
+        let drop_two = FaultRule::new(ReplyFault::DropReply)
             .motor(id(1))
             .frames_window(0, 2);
         let (clock, mut bus) = sim(&[drop_two]);
@@ -790,7 +790,7 @@ mod tests {
 
     #[test]
     fn a_malformed_reply_is_reported_when_no_good_one_comes() {
-        let short = FaultRule::new(FaultKind::WrongDlc { dlc: 4 }).motor(id(3));
+        let short = FaultRule::new(ReplyFault::WrongDlc { dlc: 4 }).motor(id(3));
         let (clock, mut bus) = sim(&[short]);
         let error = request(
             &mut bus,

@@ -124,7 +124,7 @@ mod tests {
     use super::*;
     use rmd_bus::VirtualClock;
     use rmd_protocol::{Finding, LkSeries, ProtocolFamily, identify};
-    use rmd_sim::{FaultKind, FaultRule, FirmwareFamily, MotorConfig, SimBus, SimConfig};
+    use rmd_sim::{FaultRule, FirmwareFamily, MotorConfig, ReplyFault, SimBus, SimConfig};
 
     fn id(n: u8) -> MotorId {
         MotorId::new(n).unwrap()
@@ -187,7 +187,7 @@ mod tests {
     #[test]
     fn nothing_answered_is_sent_again() {
         // The replies to motor 1's first two frames (the first pair of probes) are lost.
-        let drop_two = FaultRule::new(FaultKind::DropReply)
+        let drop_two = FaultRule::new(ReplyFault::DropReply)
             .motor(id(1))
             .frames_window(0, 2);
         let (clock, mut bus) = sim_bus(&[FirmwareFamily::V161], &[drop_two]);

@@ -31,9 +31,9 @@ fn a_motor_whose_answers_identify_no_family_is_refused_before_any_torque() {
     // (4 V in v1.61's, 102.4 V in LK-TECH's; at 3 V the LK reading would be a plausible 76.8 V,
     // and the motor would be refused as LK-TECH).
     let clock = VirtualClock::new();
-    let mut config = SimConfig::with_motors(2)
-        .seed(7)
-        .fault(rmd_sim::FaultRule::new(rmd_sim::FaultKind::LowVoltage { volts: 4.0 }).motor(id(2)));
+    let mut config = SimConfig::with_motors(2).seed(7).fault(
+        rmd_sim::FaultRule::new(rmd_sim::PhysicalFault::LowVoltage { volts: 4.0 }).motor(id(2)),
+    );
     config.motors[0].id = id(1);
     let mut bus = SimBus::new(clock.clone(), config).unwrap();
     bus.record_trace(1000);

@@ -12,7 +12,7 @@ use common::*;
 use rmd_bus::VirtualClock;
 use rmd_loop::{RtLoop, StopReason};
 use rmd_rig::telemetry::{TelemetryOutputs, TelemetrySinks, spawn_feed};
-use rmd_sim::{FaultKind, FaultRule, SharedSimBus};
+use rmd_sim::{BusFault, FaultRule, ReplyFault, SharedSimBus};
 use rmd_telemetry::LiveOptions;
 
 /// Allocations of the calling thread so far.
@@ -32,28 +32,28 @@ fn steady_state_ticks_allocate_nothing() {
     let after_start_up = rmd_bus::Timestamp::from_nanos(100_000_000);
     let for_ever = rmd_bus::Timestamp::from_nanos(u64::MAX);
     let faults = [
-        FaultRule::new(FaultKind::DropReply)
+        FaultRule::new(ReplyFault::DropReply)
             .multi_torque()
             .with_probability(0.02),
-        FaultRule::new(FaultKind::CorruptBytes { count: 3 })
+        FaultRule::new(ReplyFault::CorruptBytes { count: 3 })
             .multi_torque()
             .with_probability(0.02),
-        FaultRule::new(FaultKind::LateReply {
+        FaultRule::new(ReplyFault::LateReply {
             delay: core::time::Duration::from_micros(400),
         })
         .multi_torque()
         .with_probability(0.02),
-        FaultRule::new(FaultKind::TxStall {
+        FaultRule::new(BusFault::TxStall {
             duration: core::time::Duration::from_millis(15),
         })
         .multi_torque()
         .frames_window(700, 1),
         // After the start-up, whose identification reads status 1 too.
-        FaultRule::new(FaultKind::DropReply)
+        FaultRule::new(ReplyFault::DropReply)
             .command(rmd_protocol::Command::ReadStatus1)
             .during(after_start_up, for_ever)
             .with_probability(0.05),
-        FaultRule::new(FaultKind::DuplicateReply)
+        FaultRule::new(ReplyFault::DuplicateReply)
             .command(rmd_protocol::Command::ReadStatus1)
             .during(after_start_up, for_ever)
             .with_probability(0.05),
@@ -125,18 +125,18 @@ fn per_motor_v3_bus() {
     let clock = VirtualClock::new();
     let torque = rmd_protocol::Command::Torque;
     let faults = [
-        FaultRule::new(FaultKind::DropReply)
+        FaultRule::new(ReplyFault::DropReply)
             .command(torque)
             .with_probability(0.02),
-        FaultRule::new(FaultKind::WrongDlc { dlc: 5 })
+        FaultRule::new(ReplyFault::WrongDlc { dlc: 5 })
             .command(torque)
             .with_probability(0.02),
-        FaultRule::new(FaultKind::LateReply {
+        FaultRule::new(ReplyFault::LateReply {
             delay: core::time::Duration::from_micros(400),
         })
         .command(torque)
         .with_probability(0.02),
-        FaultRule::new(FaultKind::TxStall {
+        FaultRule::new(BusFault::TxStall {
             duration: core::time::Duration::from_millis(15),
         })
         .command(torque)
@@ -297,7 +297,7 @@ fn every_sink_on() {
     assert_eq!(here(), probe + 1, "the per-thread counter counts");
 
     let clock = VirtualClock::new();
-    let faults = [FaultRule::new(FaultKind::DropReply)
+    let faults = [FaultRule::new(ReplyFault::DropReply)
         .multi_torque()
         .with_probability(0.02)];
     let bus0 = SharedSimBus::new(sim(&clock, 4, 31, &faults));

@@ -10,7 +10,7 @@ use rmd_bus::VirtualClock;
 use rmd_loop::robot::{BusConfig, ExchangeKind, MotorConfig, RobotConfig};
 use rmd_loop::{Protection, Robot, RtLoop, RunLimit};
 use rmd_protocol::{Dialect, ProtocolFamily, V3Firmware};
-use rmd_sim::{ControlMode, FaultKind, FaultRule, Node, SimBus, SimConfig};
+use rmd_sim::{ControlMode, FaultRule, Node, PhysicalFault, ReplyFault, SimBus, SimConfig};
 
 const V3: Dialect = Dialect::MyActuatorV3(V3Firmware {
     date: None,
@@ -253,10 +253,10 @@ fn lost_and_late_v3_replies_are_counted_against_their_own_motor_only() {
     let ids = [1, 2, 3];
     // Motor 2 drops 5 replies, motor 3 answers 5 replies 1.5 ms late.
     let faults = [
-        FaultRule::new(FaultKind::DropReply)
+        FaultRule::new(ReplyFault::DropReply)
             .motor(id(2))
             .frames_window(100, 5),
-        FaultRule::new(FaultKind::LateReply {
+        FaultRule::new(ReplyFault::LateReply {
             delay: core::time::Duration::from_micros(1500),
         })
         .motor(id(3))
@@ -301,11 +301,11 @@ fn an_unreadable_probe_reply_does_not_skew_the_round_trip_and_a_lost_reply_resyn
     let clock = VirtualClock::new();
     let torque = rmd_protocol::Command::Torque;
     let faults = [
-        FaultRule::new(FaultKind::WrongDlc { dlc: 5 })
+        FaultRule::new(ReplyFault::WrongDlc { dlc: 5 })
             .command(torque)
             .motor(id(2))
             .frames_window(0, 1),
-        FaultRule::new(FaultKind::DropReply)
+        FaultRule::new(ReplyFault::DropReply)
             .command(torque)
             .motor(id(2))
             .frames_window(31, 1),
@@ -539,7 +539,7 @@ fn v3_health_rotation_reads_every_motor_within_n_ticks_on_the_per_motor_exchange
 
 #[test]
 fn a_v3_under_voltage_flag_stops_the_loop_naming_the_motor_and_every_motor_ends_off() {
-    let low = FaultRule::new(FaultKind::LowVoltage { volts: 12.0 })
+    let low = FaultRule::new(PhysicalFault::LowVoltage { volts: 12.0 })
         .motor(id(2))
         .during(
             rmd_bus::Timestamp::from_nanos(200_000_000),
@@ -611,7 +611,7 @@ fn the_health_rotation_reads_every_family_on_a_mixed_bus_and_an_lk_flag_names_it
     assert_eq!(out.report.health_rotation, [true]);
     assert!(out.controller.oldest <= 3, "{}", out.controller.oldest);
     assert_rotation_left_torque_alone(&out.report, 199);
-    let low = FaultRule::new(FaultKind::LowVoltage { volts: 12.0 })
+    let low = FaultRule::new(PhysicalFault::LowVoltage { volts: 12.0 })
         .motor(id(2))
         .during(
             rmd_bus::Timestamp::from_nanos(200_000_000),

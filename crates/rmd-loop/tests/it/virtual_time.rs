@@ -8,7 +8,7 @@ use core::time::Duration;
 use common::*;
 use rmd_bus::{Clock, Timestamp, VirtualClock};
 use rmd_loop::{Fault, RtLoop, RunLimit, StopReason};
-use rmd_sim::{FaultKind, FaultRule};
+use rmd_sim::{BusFault, FaultRule, PhysicalFault, ReplyFault};
 
 #[test]
 fn ten_thousand_ticks_of_four_motors_without_faults() {
@@ -75,7 +75,7 @@ fn the_pd_controller_brings_every_joint_to_its_target() {
 
 #[test]
 fn a_dropped_reply_is_counted_missing_and_the_loop_rides_through() {
-    let drop = FaultRule::new(FaultKind::DropReply)
+    let drop = FaultRule::new(ReplyFault::DropReply)
         .motor(id(2))
         .multi_torque()
         .frames_window(100, 3);
@@ -103,7 +103,7 @@ fn a_dropped_reply_is_counted_missing_and_the_loop_rides_through() {
 fn a_late_reply_is_recognised_and_never_taken_as_this_ticks() {
     // Motor 3's reply to one 0x280 frame is 500 us late: past the 900 us reply deadline, so it
     // arrives in the next tick, before that tick's own reply.
-    let late = FaultRule::new(FaultKind::LateReply {
+    let late = FaultRule::new(ReplyFault::LateReply {
         delay: Duration::from_micros(500),
     })
     .motor(id(3))
@@ -120,7 +120,7 @@ fn a_late_reply_is_recognised_and_never_taken_as_this_ticks() {
 
 #[test]
 fn a_corrupted_or_short_reply_is_a_bad_frame_of_its_motor() {
-    let corrupt = FaultRule::new(FaultKind::WrongDlc { dlc: 5 })
+    let corrupt = FaultRule::new(ReplyFault::WrongDlc { dlc: 5 })
         .motor(id(4))
         .multi_torque()
         .frames_window(50, 2);
@@ -137,7 +137,7 @@ fn a_corrupted_or_short_reply_is_a_bad_frame_of_its_motor() {
 
 #[test]
 fn corrupted_bytes_never_reach_the_controller_as_fresh_feedback() {
-    let corrupt = FaultRule::new(FaultKind::CorruptBytes { count: 8 })
+    let corrupt = FaultRule::new(ReplyFault::CorruptBytes { count: 8 })
         .motor(id(1))
         .multi_torque()
         .with_probability(0.2);
@@ -164,7 +164,7 @@ fn corrupted_bytes_never_reach_the_controller_as_fresh_feedback() {
 
 #[test]
 fn a_silent_motor_is_a_fault_and_every_motor_is_made_safe() {
-    let silent = FaultRule::new(FaultKind::Silent).motor(id(2)).during(
+    let silent = FaultRule::new(ReplyFault::Silent).motor(id(2)).during(
         Timestamp::ZERO + Duration::from_millis(500),
         Timestamp::from_nanos(u64::MAX),
     );
@@ -207,7 +207,7 @@ fn a_silent_motor_is_a_fault_and_every_motor_is_made_safe() {
 #[test]
 fn bus_off_on_one_bus_stops_every_bus_and_the_safe_stop_waits_for_its_restart() {
     let clock = VirtualClock::new();
-    let bus_off = FaultRule::new(FaultKind::BusOff {
+    let bus_off = FaultRule::new(BusFault::BusOff {
         duration: Duration::from_millis(50),
     })
     .multi_torque()
@@ -364,7 +364,7 @@ fn an_emergency_stop_takes_effect_within_one_tick() {
 fn a_transmit_queue_that_fills_is_counted_not_fatal() {
     // 15 ms: the transmit queue fills (refused frames counted) and the frames queued meanwhile
     // go out late; with patience for stale feedback the loop rides through and catches up.
-    let stall = FaultRule::new(FaultKind::TxStall {
+    let stall = FaultRule::new(BusFault::TxStall {
         duration: Duration::from_millis(15),
     })
     .multi_torque()
@@ -387,7 +387,7 @@ fn a_long_transmit_stall_ends_in_an_honest_fault() {
     // 15 ms: the backlog of frames queued meanwhile drains over many ticks, every reply in it
     // is counted late with its true age, and after 20 ticks without fresh feedback the loop
     // stops (motors made safe) rather than run on stale feedback.
-    let stall = FaultRule::new(FaultKind::TxStall {
+    let stall = FaultRule::new(BusFault::TxStall {
         duration: Duration::from_millis(15),
     })
     .multi_torque()
@@ -436,7 +436,7 @@ fn a_motor_that_never_answers_stops_the_start_and_names_it() {
 fn the_same_seed_gives_the_same_run() {
     let run = |seed| {
         let clock = VirtualClock::new();
-        let flaky = FaultRule::new(FaultKind::DropReply)
+        let flaky = FaultRule::new(ReplyFault::DropReply)
             .multi_torque()
             .with_probability(0.01);
         let mut bus = sim(&clock, 4, seed, &[flaky]);
@@ -600,7 +600,7 @@ fn pipelined_replies_about_a_period_late_are_all_fresh_from_the_first_tick() {
 
 /// Runs 50 ticks at 10 Hz of four motors whose start-up probe meets `fault` (on the first
 /// 0x280 frame's reply of motor 1), same-tick or pipelined.
-fn start_through(fault: FaultKind, pipelined: bool) -> rmd_loop::LoopReport {
+fn start_through(fault: ReplyFault, pipelined: bool) -> rmd_loop::LoopReport {
     let rule = FaultRule::new(fault)
         .motor(id(1))
         .multi_torque()
@@ -625,10 +625,10 @@ fn a_stall_longer_than_the_probe_timeout_leaves_no_reply_unexpected() {
     // is taken as the answer to one of the two requests: none is left over to be taken for the
     // first tick's, or counted unexpected. A reply lost at start-up costs nothing either.
     for fault in [
-        FaultKind::LateReply {
+        ReplyFault::LateReply {
             delay: Duration::from_millis(410),
         },
-        FaultKind::DropReply,
+        ReplyFault::DropReply,
     ] {
         for pipelined in [false, true] {
             let r = start_through(fault, pipelined);
@@ -701,7 +701,7 @@ fn the_health_rotation_reads_every_motor_within_n_ticks_and_never_disturbs_torqu
 
 #[test]
 fn a_lost_status_reply_is_counted_and_the_loop_rides_through() {
-    let drop = FaultRule::new(FaultKind::DropReply)
+    let drop = FaultRule::new(ReplyFault::DropReply)
         .motor(id(2))
         .command(rmd_protocol::Command::ReadStatus1)
         .frames_window(10, 3);
@@ -752,7 +752,7 @@ fn assert_stopped_on_flag(
 fn an_under_voltage_or_over_temperature_flag_stops_the_loop_naming_the_motor() {
     let from = Timestamp::from_nanos(300_000_000);
     let until = Timestamp::from_nanos(u64::MAX);
-    let low = FaultRule::new(FaultKind::LowVoltage { volts: 12.0 })
+    let low = FaultRule::new(PhysicalFault::LowVoltage { volts: 12.0 })
         .motor(id(3))
         .during(from, until);
     let (out, mut bus) = run_health(
@@ -765,7 +765,7 @@ fn an_under_voltage_or_over_temperature_flag_stops_the_loop_naming_the_motor() {
     assert_stopped_on_flag(&out, &mut bus, 3, rmd_loop::MotorFlag::UnderVoltage);
     // Within a rotation and a tick of the cause: 300 ms is tick 150 at 500 Hz.
     assert!(out.report.stats.ticks <= 150 + 4 + 2, "{}", out.report);
-    let hot = FaultRule::new(FaultKind::OverTemperature { celsius: 95.0 })
+    let hot = FaultRule::new(PhysicalFault::OverTemperature { celsius: 95.0 })
         .motor(id(2))
         .during(from, until);
     let (out, mut bus) = run_health(

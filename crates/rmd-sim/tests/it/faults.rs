@@ -11,7 +11,9 @@ use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, Clock, Received, Timestamp
 use rmd_protocol::{
     CanFrame, Command, Dialect, IqControl, MotorId, MultiTorque, ProtocolError, Request,
 };
-use rmd_sim::{FaultKind, FaultRule, MotorSet, Node, SimBus, SimConfig, Transmission};
+use rmd_sim::{
+    BusFault, FaultRule, MotorSet, Node, PhysicalFault, ReplyFault, SimBus, SimConfig, Transmission,
+};
 
 fn exchange_frame() -> CanFrame {
     MultiTorque::new([IqControl::new(50).unwrap().into(); 4]).encode()
@@ -44,7 +46,7 @@ fn ids(items: &[Received]) -> Vec<u16> {
 fn dropped_reply() {
     // Motor 2 drops its 0x280 reply in ticks 1 and 2 (frames 1..=2).
     let config = SimConfig::with_motors(4).fault(
-        FaultRule::new(FaultKind::DropReply)
+        FaultRule::new(ReplyFault::DropReply)
             .motor(id(2))
             .multi_torque()
             .frames_window(1, 2),
@@ -66,7 +68,7 @@ fn late_reply_holds_back_the_motors_later_replies() {
     // Motor 3's first 0x280 reply is 2.5 ms late. The firmware answers in order, so its replies
     // to ticks 1 and 2 wait behind it and leave right after it, oldest first.
     let config = no_jitter(SimConfig::with_motors(4)).fault(
-        FaultRule::new(FaultKind::LateReply { delay: us(2_500) })
+        FaultRule::new(ReplyFault::LateReply { delay: us(2_500) })
             .motor(id(3))
             .multi_torque()
             .frames_window(0, 1),
@@ -90,7 +92,7 @@ fn late_reply_out_of_order() {
         m.firmware.in_order_replies = false;
     }
     let config = config.fault(
-        FaultRule::new(FaultKind::LateReply { delay: us(2_500) })
+        FaultRule::new(ReplyFault::LateReply { delay: us(2_500) })
             .motor(id(3))
             .multi_torque()
             .frames_window(0, 1),
@@ -119,7 +121,7 @@ fn late_reply_out_of_order() {
 #[test]
 fn corrupted_bytes() {
     // Two bytes of every reply of motor 1 to 0x9C are corrupted; compare with a clean twin.
-    let rule = FaultRule::new(FaultKind::CorruptBytes { count: 2 })
+    let rule = FaultRule::new(ReplyFault::CorruptBytes { count: 2 })
         .motor(id(1))
         .command(Command::ReadStatus2);
     let (_c, mut faulty) = sim_bus(SimConfig::with_motors(1).seed(5).fault(rule));
@@ -161,7 +163,7 @@ fn corrupted_bytes() {
 #[test]
 fn wrong_dlc() {
     let config = SimConfig::with_motors(1)
-        .fault(FaultRule::new(FaultKind::WrongDlc { dlc: 5 }).command(Command::ReadStatus1));
+        .fault(FaultRule::new(ReplyFault::WrongDlc { dlc: 5 }).command(Command::ReadStatus1));
     let (clock, mut bus) = sim_bus(config);
     bus.send(&Dialect::V161.encode(id(1), &Request::ReadStatus1).unwrap())
         .unwrap();
@@ -181,7 +183,7 @@ fn a_motor_goes_silent() {
     // Motor 4 is silent (neither hears nor answers) from 2 ms to 5 ms.
     let t0 = Timestamp::from_nanos(1_000_000);
     let config = SimConfig::with_motors(4).fault(
-        FaultRule::new(FaultKind::Silent)
+        FaultRule::new(ReplyFault::Silent)
             .motor(id(4))
             .during(t0 + ms(2), t0 + ms(5)),
     );
@@ -200,7 +202,7 @@ fn a_motor_goes_silent() {
 
 #[test]
 fn a_silent_motor_does_not_obey_either() {
-    let config = SimConfig::with_motors(2).fault(FaultRule::new(FaultKind::Silent).motor(id(2)));
+    let config = SimConfig::with_motors(2).fault(FaultRule::new(ReplyFault::Silent).motor(id(2)));
     let (clock, mut bus) = sim_bus(config);
     let t0 = clock.now();
     bus.send(&MultiTorque::new([IqControl::new(200).unwrap().into(); 4]).encode())
@@ -215,7 +217,7 @@ fn a_silent_motor_does_not_obey_either() {
 #[test]
 fn duplicate_reply() {
     let config = SimConfig::with_motors(4).fault(
-        FaultRule::new(FaultKind::DuplicateReply)
+        FaultRule::new(ReplyFault::DuplicateReply)
             .motor(id(1))
             .multi_torque()
             .frames_window(0, 1),
@@ -233,7 +235,7 @@ fn duplicate_reply() {
 fn bus_off_for_a_while() {
     // The 3rd 0x280 (frame index 2) sends the controller bus-off for 4.5 ms.
     let config = SimConfig::with_motors(4).fault(
-        FaultRule::new(FaultKind::BusOff {
+        FaultRule::new(BusFault::BusOff {
             duration: us(4_500),
         })
         .multi_torque()
@@ -285,7 +287,7 @@ fn low_voltage_flag_from_a_sagging_supply() {
     // The supply drops to 30 V (below the 36 V threshold) from 20 ms to 40 ms.
     let t0 = Timestamp::from_nanos(1_000_000);
     let config = SimConfig::with_motors(1).fault(
-        FaultRule::new(FaultKind::LowVoltage { volts: 30.0 }).during(t0 + ms(20), t0 + ms(40)),
+        FaultRule::new(PhysicalFault::LowVoltage { volts: 30.0 }).during(t0 + ms(20), t0 + ms(40)),
     );
     let (clock, mut bus) = sim_bus(config);
     ask(
@@ -326,7 +328,7 @@ fn low_voltage_flag_from_a_sagging_supply() {
 fn over_temperature_flag_from_a_hot_winding() {
     // The winding is held at 95 °C from the 2nd to the 4th status-1 read of motor 2.
     let config = SimConfig::with_motors(2).fault(
-        FaultRule::new(FaultKind::OverTemperature { celsius: 95.0 })
+        FaultRule::new(PhysicalFault::OverTemperature { celsius: 95.0 })
             .motor(id(2))
             .command(Command::ReadStatus1)
             .frames_window(1, 3),
@@ -366,7 +368,7 @@ fn a_stalled_controller_fills_the_tx_queue() {
     // The first 0x280 stalls the host's controller for 30 ms (e.g. a flood of higher-priority
     // traffic): the loop keeps sending every millisecond and the queue fills.
     let config = SimConfig::with_motors(4).fault(
-        FaultRule::new(FaultKind::TxStall { duration: ms(30) })
+        FaultRule::new(BusFault::TxStall { duration: ms(30) })
             .multi_torque()
             .frames_window(0, 1),
     );
@@ -426,19 +428,19 @@ type Run = (
 fn scenario(seed: u64) -> Run {
     let config = SimConfig::with_motors(4)
         .seed(seed)
-        .fault(FaultRule::new(FaultKind::DropReply).with_probability(0.05))
-        .fault(FaultRule::new(FaultKind::CorruptBytes { count: 1 }).with_probability(0.05))
+        .fault(FaultRule::new(ReplyFault::DropReply).with_probability(0.05))
+        .fault(FaultRule::new(ReplyFault::CorruptBytes { count: 1 }).with_probability(0.05))
         .fault(
-            FaultRule::new(FaultKind::LateReply { delay: us(700) })
+            FaultRule::new(ReplyFault::LateReply { delay: us(700) })
                 .motors(MotorSet::of(&[
                     MotorId::new(2).unwrap(),
                     MotorId::new(3).unwrap(),
                 ]))
                 .with_probability(0.1),
         )
-        .fault(FaultRule::new(FaultKind::DuplicateReply).with_probability(0.02))
+        .fault(FaultRule::new(ReplyFault::DuplicateReply).with_probability(0.02))
         .fault(
-            FaultRule::new(FaultKind::BusOff { duration: ms(3) })
+            FaultRule::new(BusFault::BusOff { duration: ms(3) })
                 .multi_torque()
                 .with_probability(0.01),
         );

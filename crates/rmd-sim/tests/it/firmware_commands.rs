@@ -12,7 +12,7 @@ use core::time::Duration;
 
 use rmd_bus::Timestamp;
 use rmd_protocol::{CanFrame, EncoderValue, EncoderWidth, MotorId, PidParams};
-use rmd_sim::{ClearErrorReply, FaultKind, FaultRule, MotorConfig, SimConfig, SimMotors};
+use rmd_sim::{ClearErrorReply, FaultRule, MotorConfig, PhysicalFault, SimConfig, SimMotors};
 
 enum Expect {
     /// This exact reply (DLC 8, ID 0x141).
@@ -492,7 +492,7 @@ fn command_0x9b_clear_error() {
         "latched until cleared once the cause is gone",
         defaults,
         vec![
-            FaultRule::new(FaultKind::LowVoltage { volts: 20.0 })
+            FaultRule::new(PhysicalFault::LowVoltage { volts: 20.0 })
                 .during(Timestamp::ZERO, Timestamp::from_nanos(5_000_000)),
         ],
         &[

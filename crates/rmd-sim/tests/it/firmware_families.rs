@@ -9,7 +9,7 @@ use rmd_bus::Timestamp;
 use rmd_protocol::*;
 use rmd_sim::firmware::SIM_V3_MODEL;
 use rmd_sim::{
-    CommandSet, ControlMode, FaultKind, FaultRule, FirmwareFamily, FirmwareTraps, ScheduledFrame,
+    CommandSet, ControlMode, FaultRule, FirmwareFamily, FirmwareTraps, ReplyFault, ScheduledFrame,
     SimConfig, SimMotors, V3Params,
 };
 
@@ -133,7 +133,7 @@ fn identifies_a_mixed_bus_and_absent_or_silent_motors() {
         &[FirmwareFamily::V161, MF, FirmwareFamily::MyActuatorV3, MG],
         |c| {
             c.faults
-                .push(FaultRule::new(FaultKind::Silent).motor(id(4)))
+                .push(FaultRule::new(ReplyFault::Silent).motor(id(4)))
         },
     );
     let families: Vec<_> = (1..=5).map(|n| bench.identify(n).family).collect();

@@ -18,8 +18,8 @@ use rmd_protocol::{
     StatusPosition, V3ErrorState, V3Firmware, V3Function, V3Status1, WatchdogTimeout,
 };
 use rmd_sim::{
-    ControlMode, FaultKind, FaultRule, FirmwareFamily, FirmwareTraps, MotorSnapshot, SimBus,
-    SimConfig, V3Params,
+    BusFault, ControlMode, FaultRule, FirmwareFamily, FirmwareTraps, MotorSnapshot, PhysicalFault,
+    SimBus, SimConfig, V3Params,
 };
 
 /// The default motor's output torque constant: 2.09 N·m/A (`MotorParams::default`).
@@ -406,7 +406,8 @@ fn status_1_reports_error_flags_that_clear_with_their_cause() {
     let t0 = rmd_bus::Timestamp::from_nanos(1_000_000);
     let mut bus = V3Bus::with(1, V3Params::default(), |c| {
         c.faults.push(
-            FaultRule::new(FaultKind::LowVoltage { volts: 30.0 }).during(t0 + ms(20), t0 + ms(40)),
+            FaultRule::new(PhysicalFault::LowVoltage { volts: 30.0 })
+                .during(t0 + ms(20), t0 + ms(40)),
         )
     });
     let error = |bus: &mut V3Bus| bus.status1(1).error_state;
@@ -592,7 +593,7 @@ fn single_turn_angle_by_firmware_date() {
 }
 
 /// A watchdog in ROM at power-up (`V3Params::watchdog`), and a host that falls silent
-/// (`FaultKind::HostSilent`): the host's frames vanish while `send` still succeeds, and only the
+/// (`BusFault::HostSilent`): the host's frames vanish while `send` still succeeds, and only the
 /// motor's own watchdog turns the output off, within its protection time. Without the watchdog
 /// the motor keeps its last current.
 #[test]
@@ -604,7 +605,7 @@ fn a_silent_host_leaves_only_the_motors_watchdog_to_stop_it() {
         };
         let mut bus = V3Bus::with(1, v3, |c| {
             c.faults.push(
-                FaultRule::new(FaultKind::HostSilent)
+                FaultRule::new(BusFault::HostSilent)
                     .first_after(rmd_bus::Timestamp::ZERO + ms(20), 1),
             );
         });

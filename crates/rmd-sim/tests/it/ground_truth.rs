@@ -6,7 +6,7 @@ use crate::common;
 use common::*;
 use rmd_bus::{CanBus, Clock};
 use rmd_protocol::{Dialect, IqControl, MultiTorque, Request};
-use rmd_sim::{FaultKind, FaultRule, SimConfig};
+use rmd_sim::{FaultRule, PhysicalFault, SimConfig};
 
 #[test]
 fn safe_since_follows_the_firmware_through_torque_zero_torque_off_and_protection() {
@@ -44,7 +44,7 @@ fn safe_since_follows_the_firmware_through_torque_zero_torque_off_and_protection
     // A protection trip (low voltage) makes a driven motor safe by itself.
     let (clock, mut bus) = sim_bus(
         SimConfig::with_motors(1).seed(4).fault(
-            FaultRule::new(FaultKind::LowVoltage { volts: 30.0 })
+            FaultRule::new(PhysicalFault::LowVoltage { volts: 30.0 })
                 .during(start + ms(5), start + ms(1_000)),
         ),
     );

@@ -12,7 +12,7 @@ use rmd_bus::{
 };
 use rmd_protocol::{CanFrame, IqControl, MultiTorque};
 use rmd_sim::threaded::{ThreadOptions, ThreadedSim};
-use rmd_sim::{FaultKind, FaultRule, Node, SimBus, SimConfig};
+use rmd_sim::{BusFault, FaultRule, Node, SimBus, SimConfig};
 
 fn frame(k: i64) -> CanFrame {
     MultiTorque::new([IqControl::new((37 * k) % 400 - 200).unwrap().into(); 4]).encode()
@@ -159,7 +159,7 @@ fn readiness_gives_the_doorbell_then_the_arrival_then_ready() {
 #[test]
 fn bus_off_is_received_then_sends_are_refused_until_the_restart() {
     let config = SimConfig::with_motors(1).seed(3).fault(
-        FaultRule::new(FaultKind::BusOff {
+        FaultRule::new(BusFault::BusOff {
             duration: Duration::from_millis(5),
         })
         .multi_torque()
