@@ -239,10 +239,10 @@ fn motion_v3_bus() {
         .seed(43)
         .firmware_family(rmd_sim::FirmwareFamily::MyActuatorV3);
     for f in [
-        FaultRule::new(FaultKind::DropReply).with_probability(0.02),
+        FaultRule::new(ReplyFault::DropReply).with_probability(0.02),
         // Truncated, not corrupted: random bytes in a status reply's error flags would be a
         // motor error, a fault.
-        FaultRule::new(FaultKind::WrongDlc { dlc: 5 }).with_probability(0.02),
+        FaultRule::new(ReplyFault::WrongDlc { dlc: 5 }).with_probability(0.02),
     ] {
         v3 = v3.fault(f);
     }
