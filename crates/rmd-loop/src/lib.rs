@@ -52,6 +52,7 @@ mod motion;
 pub mod os;
 mod panics;
 mod protection;
+mod rejection;
 pub mod report;
 pub mod robot;
 mod safe_stop;

@@ -11,7 +11,7 @@
 
 use rmd_protocol::{MitCommand, MitFeedback, MitRanges};
 
-use crate::commands::Rejection;
+use crate::rejection::Rejection;
 use crate::robot::JointSpec;
 
 /// Degrees per radian: a gain per degree is this many times the same gain per radian.

@@ -7,12 +7,12 @@ use rmd_bus::BusError;
 use rmd_protocol::{Finding, MotorId, ProtocolFamily};
 use serde::Serialize;
 
-use crate::commands::Rejection;
 use crate::guard::LimitBreach;
 use crate::health::MotorFlag;
 use crate::joint::JointId;
 use crate::os::RtStatus;
 use crate::protection::{MotorProtection, ProtectionLine};
+use crate::rejection::Rejection;
 use crate::robot::Robot;
 pub use crate::safe_stop::{
     BusSafeStop, BusStopOutcome, MotorSafeStop, SafeStopBy, SafeStopReport,
