@@ -460,13 +460,10 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                         .into_iter()
                         .zip(parts.robot.buses())
                         .map(|(bus, spec)| BusLink {
-                            bus,
-                            joints: spec.joint_range(),
-                            exchange: spec.exchange,
                             // The supervisor acts while the loop ticks: torque was commanded.
-                            commanded: true,
                             // It only makes motors safe: no status requests.
-                            health_next: None,
+                            commanded: true,
+                            ..BusLink::new(bus, spec)
                         })
                         .collect(),
                     ids: parts.exchange.motors.iter().map(|m| m.id).collect(),

@@ -21,7 +21,7 @@ use core::fmt;
 use core::time::Duration;
 
 use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, Clock, Timestamp};
-use rmd_protocol::{Command, MotorId, Request};
+use rmd_protocol::{Command, MULTI_TORQUE_MOTORS, MotorId, Request};
 use serde::Serialize;
 
 use crate::bus_link::BusLink;
@@ -371,22 +371,35 @@ fn step_bus<B: CanBus>(
                 };
             }
             Phase::Zero { next } => {
-                let (frame, reached) = match link.exchange {
-                    // One 0x280 frame for the bus's motors 1..=4.
-                    ExchangeKind::MultiTorque => (torque_frame(&ZERO_TORQUE), link.joints()),
-                    // Each motor's own zero request, in its family's scale (on a `motion`
-                    // bus too: a V3 motor leaves motion mode for zero torque).
-                    ExchangeKind::PerMotor | ExchangeKind::Motion => {
-                        let d = joints[next].dialect;
-                        (torque_request(d, ids[next], zero_iq(d)), next..next + 1)
+                // One 0x280 frame for the bus's motors 1..=4 (sent for the first of them), each
+                // other motor its own zero request, in its family's scale (on a `motion` bus
+                // too: a V3 motor leaves motion mode for zero torque).
+                let in_frame = match link.exchange {
+                    ExchangeKind::MultiTorque => {
+                        usize::from(ids[next].get()) <= MULTI_TORQUE_MOTORS
                     }
+                    ExchangeKind::PerMotor | ExchangeKind::Motion => false,
+                };
+                if in_frame && report.motors[next].zero_torque_sent {
+                    stop.phase = Phase::Zero { next: next + 1 };
+                    continue;
+                }
+                let frame = if in_frame {
+                    torque_frame(&ZERO_TORQUE)
+                } else {
+                    let d = joints[next].dialect;
+                    torque_request(d, ids[next], zero_iq(d))
                 };
                 match link.bus.send(&frame) {
                     Ok(()) => {
-                        for m in reached.clone() {
-                            report.motors[m].zero_torque_sent = true;
+                        for m in link.joints() {
+                            let reached = m == next
+                                || (in_frame && usize::from(ids[m].get()) <= MULTI_TORQUE_MOTORS);
+                            if reached {
+                                report.motors[m].zero_torque_sent = true;
+                            }
                         }
-                        stop.phase = Phase::Zero { next: reached.end };
+                        stop.phase = Phase::Zero { next: next + 1 };
                     }
                     Err(e) => return note(stop, e, now),
                 }

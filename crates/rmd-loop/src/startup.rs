@@ -68,10 +68,17 @@ pub(crate) fn identify_motors<B: CanBus, C: Clock>(
         if let Some(request) = shared.stop.pending() {
             return Err(request.into());
         }
-        // A 0x280 frame reaches ids 1..=4, described or not; a per-motor bus addresses its
-        // described motors only.
+        // A 0x280 frame reaches ids 1..=4, described or not; a per-motor bus, and a multi-torque
+        // bus beyond id 4, addresses its described motors only.
         let ids: Vec<MotorId> = match link.exchange {
-            ExchangeKind::MultiTorque => multi_torque_ids().to_vec(),
+            // And the described motors beyond them, driven by 0xA1 requests of their own.
+            ExchangeKind::MultiTorque => {
+                let beyond = link
+                    .joints()
+                    .map(|j| robot.joints()[j].motor)
+                    .filter(|id| usize::from(id.get()) > MULTI_TORQUE_MOTORS);
+                multi_torque_ids().into_iter().chain(beyond).collect()
+            }
             ExchangeKind::PerMotor | ExchangeKind::Motion => {
                 link.joints().map(|j| robot.joints()[j].motor).collect()
             }

@@ -625,6 +625,34 @@ fn bench_loop_and_rate_run_v3_motors_in_motion_mode() {
     assert!(err.contains("no motion mode"), "{err}");
 }
 
+/// `--exchange multi-torque --motors 8`: one 0x280 frame for ids 1..=4 and an 0xA1 request for
+/// each of 5..=8 (13 frames an exchange instead of a per-motor bus's 16): a higher wire limit.
+#[test]
+fn eight_motors_on_a_0x280_frame_and_requests_beyond_it_beat_eight_per_motor() {
+    let v = json(
+        "bench loop --motors 8 --exchange multi-torque --rate 500 --virtual-time --duration 1s \
+         --json",
+    );
+    assert_eq!(v["ticks"], 500, "{v}");
+    assert_eq!(v["missing_replies"], 0, "{v}");
+    assert_eq!(v["late_replies"], 0, "{v}");
+    for motor in v["safe_stop"]["motors"].as_array().unwrap() {
+        assert_eq!(motor["off_confirmed"], true, "{motor}");
+    }
+    let limit = |exchange: &str| {
+        json(&format!(
+            "bench rate --motors 8 --exchange {exchange} --virtual-time --duration 500ms --json"
+        ))["wire_limit_hz"]
+            .as_f64()
+            .unwrap()
+    };
+    let (mixed, per_motor) = (limit("multi-torque"), limit("per-motor"));
+    assert!(
+        mixed > 1.15 * per_motor,
+        "{mixed} Hz against {per_motor} Hz"
+    );
+}
+
 #[test]
 fn telemetry_cost_alternates_rounds_and_reports_what_every_sink_got() {
     let v = json("bench telemetry --motors 1 --rate 200 --duration 300ms --rounds 2 --json");

@@ -68,12 +68,9 @@ impl<B> Exchange<B> {
             .iter()
             .zip(buses)
             .map(|(spec, bus)| BusLink {
-                bus,
-                joints: spec.joint_range(),
-                exchange: spec.exchange,
-                commanded: false,
                 health_next: (spec.health_rotation && spec.motor_count() > 0)
                     .then_some(spec.joint_range().start),
+                ..BusLink::new(bus, spec)
             })
             .collect::<Vec<_>>();
         let motors: Vec<MotorLink> = robot

@@ -3,11 +3,12 @@
 //! reply is collected.
 
 use rmd_bus::{BusError, CanBus, Timestamp};
+use rmd_protocol::MULTI_TORQUE_MOTORS;
 
 use super::Exchange;
 use super::frames::{ZERO_TORQUE, torque_frame, torque_request, zero_iq};
+use crate::bus_link::Requests;
 use crate::report::Fault;
-use crate::robot::ExchangeKind;
 use crate::stats::LoopStats;
 
 /// What a send carries.
@@ -34,8 +35,8 @@ impl<B: CanBus> Exchange<B> {
     ) -> Result<(), Fault> {
         let link = &mut self.links[b];
         link.commanded = true;
-        match link.exchange {
-            ExchangeKind::MultiTorque => {
+        match link.requests {
+            Requests::Frame => {
                 let slots = match torque {
                     Torque::Staged => &self.staged[b],
                     Torque::Zero => &ZERO_TORQUE,
@@ -49,7 +50,8 @@ impl<B: CanBus> Exchange<B> {
                     Err(error) => sent_error(b, error, stats)?,
                 }
             }
-            ExchangeKind::Motion => {
+            Requests::FrameAndBeyond => self.send_frame_and_beyond(b, torque, tick, at, stats)?,
+            Requests::Motion => {
                 for m in link.joints() {
                     let motor = &mut self.motors[m];
                     let Some(motion) = &motor.motion else {
@@ -65,7 +67,7 @@ impl<B: CanBus> Exchange<B> {
                     }
                 }
             }
-            ExchangeKind::PerMotor => {
+            Requests::PerMotor => {
                 for m in link.joints() {
                     let motor = &mut self.motors[m];
                     let iq = match torque {
@@ -82,6 +84,52 @@ impl<B: CanBus> Exchange<B> {
         // The start-up probe asks for torque replies only.
         if torque == Torque::Staged {
             self.send_status(b, tick, at, stats)?;
+        }
+        Ok(())
+    }
+}
+
+impl<B: CanBus> Exchange<B> {
+    /// Sends `multi-torque` bus `b`'s 0x280 frame of `torque` for its motors 1..=4, then each
+    /// motor beyond id 4 its own 0xA1 request.
+    #[inline(never)]
+    fn send_frame_and_beyond(
+        &mut self,
+        b: usize,
+        torque: Torque,
+        tick: u64,
+        at: Timestamp,
+        stats: &mut LoopStats,
+    ) -> Result<(), Fault> {
+        let link = &mut self.links[b];
+        let slots = match torque {
+            Torque::Staged => &self.staged[b],
+            Torque::Zero => &ZERO_TORQUE,
+        };
+        match link.bus.send(&torque_frame(slots)) {
+            Ok(()) => {
+                for m in link.joints() {
+                    let motor = &mut self.motors[m];
+                    if motor.slot < MULTI_TORQUE_MOTORS {
+                        motor.pending.push(tick, at);
+                    }
+                }
+            }
+            Err(error) => sent_error(b, error, stats)?,
+        }
+        for m in link.joints() {
+            let motor = &mut self.motors[m];
+            if motor.slot < MULTI_TORQUE_MOTORS {
+                continue;
+            }
+            let iq = match torque {
+                Torque::Staged => motor.staged,
+                Torque::Zero => zero_iq(motor.dialect),
+            };
+            match link.bus.send(&torque_request(motor.dialect, motor.id, iq)) {
+                Ok(()) => motor.pending.push(tick, at),
+                Err(error) => sent_error(b, error, stats)?,
+            }
         }
         Ok(())
     }

@@ -207,8 +207,9 @@ pub enum RejectedCommandPolicy {
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ExchangeKind {
-    /// One 0x280 frame carrying the torque of motors 1..=4, answered by each with 0xA1
-    /// (v1.61 and LK-TECH only: on a MyActuator V3 bus 0x280 is one command for every motor).
+    /// One 0x280 frame carrying the torque of motors 1..=4, answered by each with 0xA1, and one
+    /// 0xA1 request for each motor of a higher id (v1.61 and LK-TECH only: on a MyActuator V3
+    /// bus 0x280 is one command for every motor).
     MultiTorque,
     /// One 0xA1 torque request per motor (`0x140 + id`, any id 1..=32), each in its motor's
     /// own family and scale, answered on the motor's reply id; every family.
@@ -270,8 +271,8 @@ impl Direction {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MotorConfig {
-    /// Motor id (1..=4 on a `multi-torque` bus: one 0x280 frame drives ids 1..4; 1..=32 on a
-    /// `per-motor` bus).
+    /// Motor id, 1..=32 (on a `multi-torque` bus the 0x280 frame drives ids 1..=4, and each
+    /// higher id gets an 0xA1 request of its own).
     pub id: u8,
     /// The joint's name (e.g. "knee"): how controllers, reports and telemetry address it.
     /// Default: `bus<b>_motor<id>`.

@@ -59,7 +59,8 @@ use crate::schedule::{OverrunPolicy, Period};
 
 /// Most buses one loop drives.
 pub const MAX_BUSES: usize = 8;
-/// Most motors a `multi-torque` bus carries: one 0x280 frame addresses ids 1..=4.
+/// The motor ids one 0x280 frame drives (1..=4): a `multi-torque` bus drives higher ids with
+/// 0xA1 requests of their own.
 pub const MAX_MOTORS_PER_BUS: usize = MULTI_TORQUE_MOTORS;
 /// Most joints one loop drives (whatever their buses).
 pub const MAX_JOINTS: usize = 32;
@@ -223,6 +224,9 @@ pub struct BusSpec {
     /// [`health_budget`](Self::health_budget) within the reply window).
     pub health_rotation: bool,
     joints: Range<usize>,
+    /// On a `multi-torque` bus, its motors beyond the 0x280 frame's ids 1..=4 (each driven by
+    /// an 0xA1 request of its own).
+    beyond_frame: u32,
 }
 
 impl BusSpec {
@@ -241,10 +245,11 @@ impl BusSpec {
         self.joints.len()
     }
 
-    /// The request frames of one exchange: one 0x280 frame (`multi-torque`), or one per motor.
+    /// The request frames of one exchange: one 0x280 frame (`multi-torque`) and one per motor
+    /// beyond its ids 1..=4, or one per motor.
     pub fn requests_per_exchange(&self) -> u32 {
         match self.exchange {
-            ExchangeKind::MultiTorque => 1,
+            ExchangeKind::MultiTorque => 1 + self.beyond_frame,
             // A motion-mode command is an 8-byte standard frame, as an 0xA1 request is.
             ExchangeKind::PerMotor | ExchangeKind::Motion => self.joints.len() as u32,
         }
@@ -552,7 +557,14 @@ impl Robot {
             }
             let mut spec = spec;
             spec.exchange = exchange_of(bus, &joints[spec.joint_range()], &key)?;
-            check_bus_layout(bus, &spec, &key)?;
+            spec.beyond_frame = match spec.exchange {
+                ExchangeKind::MultiTorque => joints[spec.joint_range()]
+                    .iter()
+                    .filter(|j| j.slot() >= MAX_MOTORS_PER_BUS)
+                    .count() as u32,
+                ExchangeKind::PerMotor | ExchangeKind::Motion => 0,
+            };
+            check_bus_layout(&spec, &key)?;
             if joints.len() > MAX_JOINTS {
                 return Err(invalid(
                     format!("{key}.motor"),
@@ -565,6 +577,7 @@ impl Robot {
             let explicit_deadline = config.loop_config.reply_deadline_us.is_some();
             check_budget(&spec, &settings, explicit_deadline, &key)?;
             spec.health_rotation = settings.health_rotation && health_fits(&spec, &settings);
+            check_motion_temperature(&spec, &joints[spec.joint_range()], &settings, &key)?;
             buses.push(spec);
         }
         Ok(Self {
@@ -799,6 +812,7 @@ fn bus_spec(b: usize, bus: &BusConfig, key: &str, first: usize) -> Result<BusSpe
         // Decided once the exchange's budget is known (`health_fits`).
         health_rotation: false,
         joints: first..first + bus.motors.len(),
+        beyond_frame: 0,
     })
 }
 
@@ -1089,7 +1103,12 @@ fn exchange_of(
         }
         (Some(kind), _) => Ok(kind),
         (None, Some(_)) => Ok(ExchangeKind::PerMotor),
-        (None, None) => Ok(ExchangeKind::MultiTorque),
+        // The 0x280 frame for ids 1..=4 (and 0xA1 requests for the ids beyond), unless no motor
+        // has one of those ids.
+        (None, None) if joints.iter().any(|j| j.slot() < MAX_MOTORS_PER_BUS) => {
+            Ok(ExchangeKind::MultiTorque)
+        }
+        (None, None) => Ok(ExchangeKind::PerMotor),
     }
 }
 
@@ -1127,34 +1146,51 @@ fn check_motion_joints(joints: &[JointSpec], key: &str) -> Result<(), RobotError
     Ok(())
 }
 
-/// What the bus's exchange allows: a `multi-torque` bus drives (and acknowledges) ids 1..=4
-/// only; a `per-motor` bus commands only its described motors.
-fn check_bus_layout(bus: &BusConfig, spec: &BusSpec, key: &str) -> Result<(), RobotError> {
+/// A `motion` bus's replies carry no temperature: its joints' temperature limits are watched
+/// through the health rotation's status replies, so a temperature limit there needs the
+/// rotation on.
+fn check_motion_temperature(
+    bus: &BusSpec,
+    joints: &[JointSpec],
+    settings: &LoopSettings,
+    key: &str,
+) -> Result<(), RobotError> {
+    if bus.exchange != ExchangeKind::Motion || bus.health_rotation {
+        return Ok(());
+    }
+    let Some(j) = joints
+        .iter()
+        .find(|j| j.temperature_limit_celsius.is_some())
+    else {
+        return Ok(());
+    };
+    let why = if settings.health_rotation {
+        format!(
+            "this bus has no room for it at {} Hz (its exchange with a status request and \
+             reply needs up to {} us): lower loop.rate_hz or put fewer motors on the bus",
+            settings.period.hz(),
+            bus.health_budget().as_micros()
+        )
+    } else {
+        "loop.health_rotation is off: turn it on".to_string()
+    };
+    Err(invalid(
+        format!("{key}.exchange"),
+        format!(
+            "is \"motion\" and joint `{}` has temperature_limit_celsius, but motion-mode replies \
+             carry no temperature: the limit is watched through the health rotation's status \
+             replies, and {why}; or remove the limit, or use exchange = \"per-motor\"",
+            j.name
+        ),
+    ))
+}
+
+/// What the bus's exchange allows: a `multi-torque` bus drives ids 1..=4 with its 0x280 frame
+/// (and acknowledges undescribed ones among them) and any higher id with 0xA1 requests of its
+/// own; a `per-motor` or `motion` bus commands only its described motors.
+fn check_bus_layout(spec: &BusSpec, key: &str) -> Result<(), RobotError> {
     match spec.exchange {
-        ExchangeKind::MultiTorque => {
-            if bus.motors.len() > MAX_MOTORS_PER_BUS {
-                return Err(invalid(
-                    format!("{key}.motor"),
-                    format!(
-                        "has {} motors, one 0x280 frame drives at most 4 (ids 1..=4): use \
-                         exchange = \"per-motor\" or put more motors on another bus",
-                        bus.motors.len()
-                    ),
-                ));
-            }
-            for (m, motor) in bus.motors.iter().enumerate() {
-                if usize::from(motor.id) > MAX_MOTORS_PER_BUS {
-                    return Err(invalid(
-                        format!("{key}.motor[{m}].id"),
-                        format!(
-                            "is {}, must be 1..=4 (one 0x280 frame drives motor ids 1 to 4; use \
-                             exchange = \"per-motor\" or put more motors on another bus)",
-                            motor.id
-                        ),
-                    ));
-                }
-            }
-        }
+        ExchangeKind::MultiTorque => {}
         ExchangeKind::PerMotor | ExchangeKind::Motion => {
             if !spec.zero_torque_ids.is_empty() {
                 return Err(invalid(
@@ -1338,7 +1374,7 @@ mod tests {
 
     #[test]
     fn bad_values_name_their_key() {
-        expect_invalid(&LEG.replace("id = 2", "id = 5"), "bus[0].motor[1].id");
+        expect_invalid(&LEG.replace("id = 2", "id = 33"), "bus[0].motor[1].id");
         expect_invalid(&LEG.replace("id = 2", "id = 0"), "bus[0].motor[1].id");
         expect_invalid(&LEG.replace("id = 2", "id = 1"), "bus[0].motor[1].id");
         expect_invalid(
@@ -1605,14 +1641,16 @@ mod tests {
     }
 
     #[test]
-    fn more_than_four_motors_on_a_bus_is_refused() {
+    fn ids_beyond_four_get_requests_of_their_own() {
         let mut bus = BusConfig::new("can0");
         for id in [1, 2, 3, 4, 5] {
             bus = bus.with_motor(MotorConfig::new(id));
         }
-        let err = Robot::try_from(RobotConfig::new(100.0).with_bus(bus.clone())).unwrap_err();
-        assert!(matches!(err, RobotError::Invalid { ref key, .. } if key == "bus[0].motor"));
-        // A per-motor bus carries them (ids up to 32), when the rate leaves the wire time.
+        // The 0x280 frame for ids 1..=4, an 0xA1 request for id 5.
+        let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(bus.clone())).unwrap();
+        assert_eq!(robot.buses()[0].exchange, ExchangeKind::MultiTorque);
+        assert_eq!(robot.buses()[0].requests_per_exchange(), 2);
+        // A per-motor bus: one request each (ids up to 32), when the rate leaves the wire time.
         let per_motor = bus
             .exchange(ExchangeKind::PerMotor)
             .with_motor(MotorConfig::new(32));
@@ -1620,10 +1658,20 @@ mod tests {
         assert_eq!(robot.buses()[0].exchange, ExchangeKind::PerMotor);
         assert_eq!(robot.buses()[0].requests_per_exchange(), 6);
         assert_eq!(robot.joints()[5].motor.get(), 32);
-        // A multi-torque bus drives ids 1..=4 only.
+        // Without an id of 1..=4 there is nothing for a 0x280 frame to do: per-motor.
         let high = BusConfig::new("can0").with_motor(MotorConfig::new(5));
-        let err = Robot::try_from(RobotConfig::new(100.0).with_bus(high)).unwrap_err();
-        assert!(matches!(err, RobotError::Invalid { ref key, .. } if key == "bus[0].motor[0].id"));
+        let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(high)).unwrap();
+        assert_eq!(robot.buses()[0].exchange, ExchangeKind::PerMotor);
+        // Thirty-two motors on one bus take their wire time: refused at 1 kHz, naming the rate.
+        let mut full = BusConfig::new("can0");
+        for id in 1..=32 {
+            full = full.with_motor(MotorConfig::new(id));
+        }
+        let err = Robot::try_from(RobotConfig::new(1000.0).with_bus(full)).unwrap_err();
+        assert!(
+            err.to_string().contains("highest rate this bus can carry"),
+            "{err}"
+        );
     }
 
     fn v3_bus(motors: u8) -> BusConfig {

@@ -302,6 +302,27 @@ fn motion_mode_is_refused_where_a_bus_has_none() {
     );
     let err = Robot::try_from(no_kt).unwrap_err().to_string();
     assert!(err.contains("torque constant"), "{err}");
+    // A temperature limit on a motion bus is watched through the health rotation's status
+    // replies (motion replies carry no temperature): refused where the rotation has no room.
+    let hot = |rate_hz: f64| {
+        let mut bus = BusConfig::new("can0")
+            .protocol("myactuator-v3")
+            .exchange(ExchangeKind::Motion);
+        for n in 1..=3 {
+            bus = bus.with_motor(
+                MotorConfig::new(n)
+                    .torque_constant(KT)
+                    .temperature_limit(70.0),
+            );
+        }
+        Robot::try_from(RobotConfig::new(rate_hz).with_bus(bus))
+    };
+    let err = hot(1000.0).unwrap_err().to_string();
+    assert!(
+        err.contains("carry no temperature") && err.contains("no room"),
+        "{err}"
+    );
+    assert!(hot(500.0).unwrap().buses()[0].health_rotation);
 }
 
 /// Commands joint 0 with a setpoint beyond its limits once, at tick 100.

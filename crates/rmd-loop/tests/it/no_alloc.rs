@@ -119,7 +119,8 @@ fn steady_state_ticks_allocate_nothing() {
 }
 
 /// A per-motor bus of MyActuator V3 motors (one 0xA1 request each per tick) beside a
-/// multi-torque v1.61 bus, with faults on the per-motor requests: nothing allocates either.
+/// multi-torque v1.61 bus of six motors (ids 5 and 6 by 0xA1 requests of their own), with
+/// faults on the per-motor requests: nothing allocates either.
 fn per_motor_v3_bus() {
     rmd_test_support::alloc::reset_counted();
     let clock = VirtualClock::new();
@@ -148,10 +149,17 @@ fn per_motor_v3_bus() {
     }
     let v3 = v3.firmware_family(rmd_sim::FirmwareFamily::MyActuatorV3);
     let bus0 = SharedSimBus::new(rmd_sim::SimBus::new(clock.clone(), v3).unwrap());
-    let bus1 = SharedSimBus::new(sim(&clock, 4, 42, &[]));
+    // Bus 1: six v1.61 motors, the 0x280 frame for ids 1..=4 and 0xA1 requests for 5 and 6.
+    let bus1 = SharedSimBus::new(sim(&clock, 6, 42, &[]));
     // At 500 Hz, where the health rotation has room on both buses.
     let mut config = robot_config(500.0, 2, 4);
     config.buses[0].motors.truncate(3);
+    for id in [5, 6] {
+        let mut motor = config.buses[1].motors[0].clone();
+        motor.id = id;
+        motor.name = Some(format!("extra{id}"));
+        config.buses[1].motors.push(motor);
+    }
     config.buses[0].protocol = Some("myactuator-v3".to_string());
     config.loop_config.missing_reply_fault_after = 1000;
     with_limits(&mut config);
@@ -160,12 +168,14 @@ fn per_motor_v3_bus() {
         robot.buses()[0].exchange,
         rmd_loop::robot::ExchangeKind::PerMotor
     );
+    assert_eq!(robot.buses()[1].requests_per_exchange(), 3);
     assert!(robot.buses().iter().all(|b| b.health_rotation));
+    assert_eq!(robot.buses()[1].requests_per_exchange(), 3);
     let mut rt = RtLoop::unsupervised(
         robot,
         clock.clone(),
         vec![bus0.clone(), bus1.clone()],
-        PdTo::new(&[10.0; 7]),
+        PdTo::new(&[10.0; 9]),
     )
     .unwrap()
     .supervise(vec![Box::new(bus0), Box::new(bus1)])
@@ -189,7 +199,8 @@ fn per_motor_v3_bus() {
         v3_motors.iter().any(|m| m.counters.missing_replies > 0)
             && v3_motors.iter().any(|m| m.counters.bad_frames > 0)
             && stats.buses[0].tx_errors > 0
-            && stats.motors.iter().all(|m| m.counters.status_replies > 400),
+            // Six motors on bus 1: each asked every sixth tick, 333 times in 2000.
+            && stats.motors.iter().all(|m| m.counters.status_replies > 300),
         "faults happened on the per-motor bus, and the health rotation ran: {stats}"
     );
     assert_eq!(

@@ -210,6 +210,91 @@ fn v161_motors_beyond_id_4_are_driven_per_motor() {
     }
 }
 
+/// A `multi-torque` bus beyond id 4: one 0x280 frame for ids 1..=4, an 0xA1 request for each
+/// higher id, all before any reply; every motor's current by ground truth; the safe stop's zero
+/// torque the same way (one 0x280 frame, then the 0xA1s), every motor off.
+#[test]
+fn a_multi_torque_bus_drives_ids_beyond_4_with_their_own_requests() {
+    let clock = VirtualClock::new();
+    let ids = [1, 2, 3, 4, 5, 6, 7, 8];
+    let d = [Dialect::V161; 8];
+    let mut sim = sim_of(&clock, &ids, &d, &[]);
+    sim.record_trace(1_000_000);
+    let bus = rmd_sim::SharedSimBus::new(sim);
+    // The default exchange of a v1.61 bus with ids 1..=4 among its motors.
+    let robot =
+        Robot::try_from(RobotConfig::new(400.0).with_bus(motors(BusConfig::new("can0"), &ids, &d)))
+            .unwrap();
+    let spec = &robot.buses()[0];
+    assert_eq!(spec.exchange, ExchangeKind::MultiTorque);
+    // One 0x280 frame and four 0xA1 requests, eight replies: 13 frames, not 16.
+    assert_eq!(spec.requests_per_exchange(), 5);
+    let mut rt = RtLoop::unsupervised(robot, clock, vec![bus.clone()], Constant(1.5)).unwrap();
+    let telemetry = rt.telemetry();
+    let mut running = started(rt);
+    for _ in 0..200 {
+        assert!(running.step().is_continue());
+    }
+    for j in telemetry.latest().unwrap().joints() {
+        assert!(j.feedback.freshness.is_fresh(), "{:?}", j.feedback);
+    }
+    let commanded: Vec<(u8, f64)> = ids
+        .iter()
+        .filter_map(|&m| match bus.lock().snapshot(id(m)).unwrap().mode {
+            ControlMode::Torque { current_a } => Some((m, current_a)),
+            _ => None,
+        })
+        .collect();
+    let out = running.finish(rmd_loop::StopReason::Requested);
+    let r = &out.report;
+    assert_eq!(r.stats.missing_replies, 0, "{r}");
+    assert_eq!(r.stats.late_replies, 0, "{r}");
+    assert!(
+        r.stats
+            .motors
+            .iter()
+            .all(|m| m.counters.unexpected_replies == 0),
+        "{r}"
+    );
+    assert_eq!(commanded.len(), ids.len());
+    for (m, amps) in &commanded {
+        assert!((amps - 1.5).abs() < 0.01, "motor {m} commanded {amps} A");
+    }
+    assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
+    drop(out);
+    let mut sim = bus.lock();
+    for &m in &ids {
+        assert_eq!(
+            sim.snapshot(id(m)).unwrap().mode,
+            ControlMode::Off,
+            "motor {m}"
+        );
+    }
+    // Every tick: the 0x280 frame, then 0xA1 to 0x145..=0x148, before the tick's replies.
+    let host: Vec<u16> = sim
+        .trace()
+        .iter()
+        .filter(|t| t.from == Node::Host && (t.frame.id() == 0x280 || t.frame.data()[0] == 0xA1))
+        .map(|t| t.frame.id())
+        .collect();
+    let frames = host.iter().filter(|&&i| i == 0x280).count();
+    assert!(frames >= 200, "{frames} 0x280 frames");
+    for (i, &frame) in host.iter().enumerate() {
+        if frame == 0x280 && i + 5 <= host.len() {
+            assert_eq!(
+                host[i + 1..i + 5],
+                [0x145, 0x146, 0x147, 0x148],
+                "{:x?}",
+                &host[i..i + 5]
+            );
+        }
+    }
+    assert!(
+        !host.iter().any(|&i| (0x141..=0x144).contains(&i)),
+        "ids 1..=4 are driven by the 0x280 frame only"
+    );
+}
+
 #[test]
 fn a_bus_mixing_families_drives_each_motor_in_its_own_scale() {
     let clock = VirtualClock::new();

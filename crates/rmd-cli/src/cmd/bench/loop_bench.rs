@@ -55,7 +55,8 @@ use rmd_rig::telemetry::{TelemetryReport, TelemetrySinks};
     channels live while it runs; --csv FILE one row per tick (docs/telemetry.md)."
 )]
 pub(crate) struct LoopArgs {
-    /// Motors per bus, 1..=8 (ids 1..=N on every bus; beyond 4 driven per motor).
+    /// Motors per bus, 1..=8 (ids 1..=N on every bus; beyond 4 driven per motor, or with
+    /// `--exchange multi-torque` the 0x280 frame for ids 1..=4 and 0xA1 requests beyond).
     #[arg(long, default_value = "4", value_parser = flags::motors)]
     motors: u8,
     /// Simulated CAN buses (1 Mbit/s each), 1..=8, exchanged in parallel.

@@ -15,13 +15,15 @@
 //!
 //! A per-motor exchange (one 0xA1 request per motor, `rmd bench rate --sim-firmware
 //! myactuator-v3`) is the same with `motors` requests back to back before the replies: its cycle
-//! runs from the first request's start to the end of the last reply's intermission.
+//! runs from the first request's start to the end of the last reply's intermission. So is a
+//! multi-torque bus beyond id 4 (`--exchange multi-torque --motors 8`): the 0x280 frame, then
+//! an 0xA1 request per motor beyond id 4.
 
 use core::time::Duration;
 
 use rmd_bus::Timestamp;
 use rmd_bus::wire::{INTERFRAME_BITS, bits_to_duration, frame_bits, frame_duration};
-use rmd_protocol::MULTI_TORQUE_CAN_ID;
+use rmd_protocol::{MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS};
 use rmd_sim::{Node, Transmission};
 use serde_json::{Value, json};
 
@@ -58,10 +60,23 @@ pub(crate) fn exchanges(trace: &[Transmission], motors: usize, bitrate: u32) -> 
             i += 1;
             continue;
         }
+        // A multi-torque bus beyond id 4: the 0x280 frame, then one 0xA1 request per motor
+        // beyond it (its replies may interleave with them).
+        if motors > MULTI_TORQUE_MOTORS && requests[0].frame.id() == MULTI_TORQUE_CAN_ID {
+            let expected = 1 + motors - MULTI_TORQUE_MOTORS;
+            match interleaved(&trace[i..], motors, expected, bitrate) {
+                Some((exchange, taken)) => {
+                    out.push(exchange);
+                    i += taken;
+                }
+                None => i += requests.len(),
+            }
+            continue;
+        }
         // More requests than fit in one turnaround (8 motors per motor at 1 Mbit/s): the first
         // replies win arbitration over the later requests, and the two interleave.
         if requests.len() < motors
-            && let Some((exchange, taken)) = interleaved(&trace[i..], motors, bitrate)
+            && let Some((exchange, taken)) = interleaved(&trace[i..], motors, motors, bitrate)
         {
             out.push(exchange);
             i += taken;
@@ -115,15 +130,24 @@ fn is_per_motor_request(frame: &rmd_protocol::CanFrame) -> bool {
     frame.data().first() == Some(&0xA1) || motion.contains(&frame.id())
 }
 
-/// A per-motor exchange whose requests and replies interleave on the wire, from `trace[0]` (a
-/// host frame): `motors` 0xA1 requests and `motors` motor frames, in any order, the first
-/// reply after the first request. Returns it and the transmissions it took; `None` when the
+/// An exchange whose requests and replies interleave on the wire, from `trace[0]` (a host
+/// frame): `expected` requests (0xA1 or motion-mode requests, the first of them possibly a 0x280
+/// frame) and `motors` motor frames, in any order, the first reply after the first request. Returns it and the transmissions it took; `None` when the
 /// frames do not make one.
-fn interleaved(trace: &[Transmission], motors: usize, bitrate: u32) -> Option<(Exchange, usize)> {
+fn interleaved(
+    trace: &[Transmission],
+    motors: usize,
+    expected: usize,
+    bitrate: u32,
+) -> Option<(Exchange, usize)> {
     let (mut requests, mut replies) = (Vec::new(), Vec::new());
     for t in trace {
+        // A 0x280 frame may open the exchange (a multi-torque bus beyond id 4).
+        let opens = requests.is_empty() && t.frame.id() == MULTI_TORQUE_CAN_ID;
         match t.from {
-            Node::Host if requests.len() < motors && is_per_motor_request(&t.frame) => {
+            Node::Host
+                if requests.len() < expected && (opens || is_per_motor_request(&t.frame)) =>
+            {
                 requests.push(t);
             }
             Node::Host => return None,
@@ -134,7 +158,7 @@ fn interleaved(trace: &[Transmission], motors: usize, bitrate: u32) -> Option<(E
             break;
         }
     }
-    if requests.len() != motors || replies.len() != motors {
+    if requests.len() != expected || replies.len() != motors {
         return None;
     }
     let all: Vec<&Transmission> = requests.iter().chain(&replies).copied().collect();
@@ -330,6 +354,37 @@ mod tests {
         }
         // Counted as exchanges of 4 motors, none.
         assert_eq!(exchanges(bus.trace(), 4, 1_000_000).len(), 0);
+    }
+
+    #[test]
+    fn a_0x280_frame_and_four_requests_beyond_it_make_one_exchange_of_eight_motors() {
+        // A multi-torque bus beyond id 4: the 0x280 frame for ids 1..=4, then 0xA1 requests to
+        // 5..=8; the first replies interleave with the later requests.
+        let clock = VirtualClock::new();
+        let mut bus = SimBus::new(clock.clone(), SimConfig::with_motors(8).seed(6)).unwrap();
+        bus.record_trace(1000);
+        let v161 = rmd_protocol::Dialect::V161;
+        for k in 0..10 {
+            let iq = rmd_protocol::ScaledCurrent::saturating(10 * k, v161.iq_control_scale());
+            let frame = rmd_protocol::MultiTorque::new([iq; 4]);
+            bus.send(&v161.encode_multi_torque(&frame).unwrap())
+                .unwrap();
+            for m in 5..=8 {
+                let request = rmd_protocol::Request::Torque { iq_control: iq };
+                let id = rmd_protocol::MotorId::new(m).unwrap();
+                bus.send(&v161.encode(id, &request).unwrap()).unwrap();
+            }
+            let end = clock.now() + Duration::from_millis(4);
+            while bus.recv_until(end).unwrap().is_some() {}
+        }
+        let ex = exchanges(bus.trace(), 8, 1_000_000);
+        assert_eq!(ex.len(), 10);
+        for e in &ex {
+            assert_eq!(e.cycle, e.frames + e.turnaround - intermission(1_000_000));
+            // 13 frames (5 requests, 8 replies), not the 16 of a per-motor bus.
+            assert!(e.frames >= Duration::from_micros(13 * 111), "{e:?}");
+            assert!(e.frames <= Duration::from_micros(13 * 135), "{e:?}");
+        }
     }
 
     #[test]

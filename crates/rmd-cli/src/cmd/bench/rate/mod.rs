@@ -88,7 +88,8 @@ pub(crate) struct RateArgs {
     /// (`1,2,4,8`) searches each bus count in turn.
     #[arg(long, default_value = "1", value_delimiter = ',', value_parser = flags::buses)]
     buses: Vec<usize>,
-    /// Motors per bus, 1..=8 (ids 1..=N; beyond 4 driven per motor).
+    /// Motors per bus, 1..=8 (ids 1..=N; beyond 4 driven per motor, or with `--exchange
+    /// multi-torque` the 0x280 frame for ids 1..=4 and 0xA1 requests beyond).
     #[arg(long, default_value = "4", value_parser = flags::motors)]
     motors: u8,
     /// The simulated motors' firmware: v1.61 (default; one 0x280 frame per bus and tick) or

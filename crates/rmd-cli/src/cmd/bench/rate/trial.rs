@@ -251,12 +251,7 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
     l.health_rotation = false;
     let robot = rmd_loop::Robot::try_from(config).map_err(|e| e.to_string())?;
     let expected_ticks = (args.duration.as_nanos() / period.as_nanos()) as u64;
-    let requests = match robot.buses()[0].exchange {
-        rmd_loop::robot::ExchangeKind::MultiTorque => 1,
-        rmd_loop::robot::ExchangeKind::PerMotor | rmd_loop::robot::ExchangeKind::Motion => {
-            usize::from(args.motors)
-        }
-    };
+    let requests = robot.buses()[0].requests_per_exchange() as usize;
     let frames_per_exchange = usize::from(args.motors) + requests;
     // Start-up probes, every tick, and the safe stop (zero torque, motor-off and replies).
     let trace = (expected_ticks as usize + 64) * frames_per_exchange + 64;
