@@ -31,6 +31,7 @@ pub(crate) fn robot(spec: &DrillSpec) -> Result<Robot, rmd_loop::RobotError> {
     for bus in 0..spec.buses {
         let mut bus_config = BusConfig::new("sim");
         bus_config.name = Some(format!("bus{bus}"));
+        bus_config.exchange = spec.exchange;
         for id in 1..=spec.motors {
             if bus == 0 && undescribed(spec).is_some_and(|u| u.get() == id) {
                 continue;

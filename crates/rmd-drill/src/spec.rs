@@ -2,6 +2,7 @@
 
 use core::time::Duration;
 
+use rmd_loop::robot::ExchangeKind;
 use rmd_protocol::ProtocolFamily;
 use rmd_rig::SimTime;
 use rmd_rig::signals::Signals;
@@ -36,6 +37,7 @@ pub struct DrillSpec {
     pub(crate) time: SimTime,
     pub(crate) signals: Option<Signals>,
     pub(crate) firmware: ProtocolFamily,
+    pub(crate) exchange: Option<ExchangeKind>,
 }
 
 impl DrillSpec {
@@ -51,6 +53,7 @@ impl DrillSpec {
             time: SimTime::Real,
             signals: None,
             firmware: ProtocolFamily::V161,
+            exchange: None,
         }
     }
 
@@ -85,6 +88,14 @@ impl DrillSpec {
     /// carries at most 3 motors at the drill's 1 kHz on 1 Mbit/s.
     pub fn firmware(mut self, firmware: ProtocolFamily) -> Self {
         self.firmware = firmware;
+        self
+    }
+
+    /// Exchanges with every bus's motors this way (`motion`: MyActuator V3's motion mode, the
+    /// drill's torques as feed-forward torque) instead of the family's default; the robot
+    /// description refuses what the motors cannot take.
+    pub fn exchange(mut self, exchange: ExchangeKind) -> Self {
+        self.exchange = Some(exchange);
         self
     }
 

@@ -137,6 +137,18 @@ pub(crate) fn lk_series(text: &str) -> Result<LkSeries, String> {
         .map_err(|_| format!("unknown LK-TECH motor series `{text}`: expected mf or mg"))
 }
 
+/// `--exchange`: `multi-torque`, `per-motor` or `motion` (MyActuator V3's motion mode).
+pub(crate) fn exchange(text: &str) -> Result<rmd_loop::robot::ExchangeKind, String> {
+    match text.trim() {
+        "multi-torque" => Ok(rmd_loop::robot::ExchangeKind::MultiTorque),
+        "per-motor" => Ok(rmd_loop::robot::ExchangeKind::PerMotor),
+        "motion" => Ok(rmd_loop::robot::ExchangeKind::Motion),
+        other => Err(format!(
+            "`{other}` is no exchange: multi-torque, per-motor or motion"
+        )),
+    }
+}
+
 /// `--sim-firmware`: a firmware family the simulator emulates, `v1.61`, `lk-v2.3x` or
 /// `myactuator-v3`.
 pub(crate) fn sim_firmware(text: &str) -> Result<ProtocolFamily, String> {

@@ -60,9 +60,14 @@ pub(crate) struct DrillArgs {
     #[arg(long, default_value_t = 1, value_name = "N")]
     buses: u8,
     /// Motors per bus, 1..=4 [default: 4; 3 with --sim-firmware myactuator-v3, the most its
-    /// per-motor exchange carries at 1 kHz on 1 Mbit/s].
+    /// per-motor exchange carries at 1 kHz on 1 Mbit/s; 2 with --exchange motion, the most
+    /// whose temperature the health rotation still watches at 1 kHz].
     #[arg(long, value_name = "M")]
     motors: Option<u8>,
+    /// How every bus exchanges with its motors: multi-torque, per-motor or motion (MyActuator
+    /// V3's motion mode, the drill's torques as feed-forward) [default: the firmware's].
+    #[arg(long, value_name = "KIND", value_parser = crate::args::parse::exchange)]
+    exchange: Option<rmd_loop::robot::ExchangeKind>,
     /// The simulated motors' firmware: v1.61, lk-v2.3x (MG series) or myactuator-v3 (driven by
     /// the per-motor exchange, made safe without a 0x280 frame).
     #[arg(long, value_name = "FIRMWARE", default_value = "v1.61", value_parser = crate::args::parse::sim_firmware)]
@@ -90,10 +95,12 @@ pub(crate) struct DrillArgs {
 impl DrillArgs {
     /// Motors per bus: as given, or the most the firmware's exchange carries at 1 kHz (4).
     fn motors(&self) -> u8 {
-        self.motors.unwrap_or(match self.sim_firmware {
-            rmd_protocol::ProtocolFamily::MyActuatorV3 => 3,
-            _ => 4,
-        })
+        self.motors
+            .unwrap_or(match (self.sim_firmware, self.exchange) {
+                (_, Some(rmd_loop::robot::ExchangeKind::Motion)) => 2,
+                (rmd_protocol::ProtocolFamily::MyActuatorV3, _) => 3,
+                _ => 4,
+            })
     }
 }
 
@@ -126,7 +133,7 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
         Err(e) => return report::failure(e),
     };
     let spec = |fault| {
-        DrillSpec::new(fault)
+        let spec = DrillSpec::new(fault)
             .buses(args.buses)
             .motors(args.motors())
             .firmware(args.sim_firmware)
@@ -134,7 +141,11 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
             .seconds(args.seconds)
             .seed(args.seed)
             .time(time)
-            .stopped_by(signals)
+            .stopped_by(signals);
+        match args.exchange {
+            Some(kind) => spec.exchange(kind),
+            None => spec,
+        }
     };
     let result = if (args.chaos || args.all) && args.telemetry.any() {
         Err(CliError::Usage(

@@ -1,7 +1,7 @@
 //! Value parsers of the flags only the benchmarks have (`--motors`, `--buses`), and the guard of
 //! their loop `--rate`. The run flags they share with other commands are in `rmd_rig::args`.
 
-use rmd_loop::robot::{ExchangeKind, MAX_BUSES, MAX_MOTORS_PER_BUS};
+use rmd_loop::robot::{MAX_BUSES, MAX_MOTORS_PER_BUS};
 
 /// The most motors per bus a benchmark runs: beyond [`MAX_MOTORS_PER_BUS`] (what one 0x280
 /// frame drives) the bus exchanges per motor.
@@ -43,18 +43,6 @@ pub(crate) fn motors(text: &str) -> Result<u8, String> {
     Ok(n)
 }
 
-/// `--exchange`: `multi-torque`, `per-motor` or `motion` (MyActuator V3's motion mode).
-pub(crate) fn exchange(text: &str) -> Result<ExchangeKind, String> {
-    match text.trim() {
-        "multi-torque" => Ok(ExchangeKind::MultiTorque),
-        "per-motor" => Ok(ExchangeKind::PerMotor),
-        "motion" => Ok(ExchangeKind::Motion),
-        other => Err(format!(
-            "`{other}` is no exchange: multi-torque, per-motor or motion"
-        )),
-    }
-}
-
 /// `--buses`: 1..=8.
 pub(crate) fn buses(text: &str) -> Result<usize, String> {
     let n: usize = text
@@ -78,8 +66,6 @@ mod tests {
         assert!(motors("9").unwrap_err().contains("--buses"));
         assert!(motors("0").is_err());
         assert_eq!(buses("8").unwrap(), 8);
-        assert_eq!(exchange("motion").unwrap(), ExchangeKind::Motion);
-        assert!(exchange("mit").unwrap_err().contains("per-motor"));
         assert!(buses("9").is_err());
         assert_eq!(loop_rate("1000").unwrap(), 1000.0);
         for bad in ["1e-300", "0.01", "0", "-5", "inf", "NaN", "1e300"] {

@@ -88,7 +88,7 @@ pub(crate) struct LoopArgs {
     /// per-motor (one 0xA1 request per motor) or motion (MyActuator V3's motion mode: one
     /// 0x400 + id command per motor, the benchmark's PD law run in the motors). Default: per-motor
     /// for V3 motors and beyond 4 motors per bus, else multi-torque.
-    #[arg(long, value_name = "KIND", value_parser = flags::exchange)]
+    #[arg(long, value_name = "KIND", value_parser = crate::args::parse::exchange)]
     exchange: Option<rmd_loop::robot::ExchangeKind>,
     #[command(flatten)]
     rt: RealtimeArgs,

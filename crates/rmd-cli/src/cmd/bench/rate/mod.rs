@@ -100,7 +100,7 @@ pub(crate) struct RateArgs {
     /// per-motor (one 0xA1 request per motor) or motion (MyActuator V3's motion mode: one
     /// 0x400 + id command per motor, the benchmark's PD law run in the motors). Default: per-motor
     /// for V3 motors and beyond 4 motors per bus, else multi-torque.
-    #[arg(long, value_name = "KIND", value_parser = flags::exchange)]
+    #[arg(long, value_name = "KIND", value_parser = crate::args::parse::exchange)]
     exchange: Option<rmd_loop::robot::ExchangeKind>,
     /// Length of each trial (e.g. 10s, 500ms; a bare number is seconds).
     #[arg(long, visible_alias = "seconds", value_name = "DURATION", default_value = "10s", value_parser = run_length, allow_hyphen_values = true)]
