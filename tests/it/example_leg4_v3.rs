@@ -3,6 +3,8 @@
 //! `example_leg4.rs`: the foot tracks the step cycle, the loop keeps time, no 0x280 frame is ever
 //! sent, and the motors end off by the simulated firmware's ground truth.
 
+use crate::support;
+
 use core::time::Duration;
 
 use rmd_demos::impedance::Gains;
@@ -158,6 +160,40 @@ fn the_v3_leg_in_motion_mode_tracks_the_step_cycle_like_leg4() {
         }
     }
     assert_eq!(off, JOINTS);
+}
+
+/// The example's binary on the V3 leg in motion mode, in real time (simulated motors on their
+/// own threads): it runs, reports, and leaves every motor off. What must hold when every core
+/// is loaded: the run may end on a fault (a motor silent while its simulator waited for a CPU),
+/// never with a motor left on.
+#[test]
+fn the_example_runs_the_v3_leg_in_motion_mode_in_real_time() {
+    let file = support::temp_file("leg4-v3-motion.toml");
+    let motion = ROBOT.replace("exchange = \"per-motor\"", "exchange = \"motion\"");
+    assert_eq!(motion.matches("exchange = \"motion\"").count(), 2);
+    std::fs::write(&file, motion).unwrap();
+    let ran = support::run(
+        "leg4",
+        &["--robot", file.to_str().unwrap(), "--duration", "1"],
+    );
+    std::fs::remove_file(&file).ok();
+    assert!(
+        matches!(ran.code, Some(0 | 1)),
+        "{:?}\n{}\n{}",
+        ran.code,
+        ran.stdout,
+        ran.stderr
+    );
+    for line in [
+        "rmd-rt loop report: 4 motor(s) on 2 bus(es) at 1000 Hz",
+        "4/4 motors confirmed off",
+    ] {
+        assert!(
+            ran.stdout.contains(line),
+            "{line:?} missing in:\n{}",
+            ran.stdout
+        );
+    }
 }
 
 #[test]
