@@ -74,9 +74,12 @@ mod controller;
 mod error;
 mod handle;
 mod law;
+mod motion;
 mod setpoint;
 mod shared;
 mod state;
+mod status;
+mod step;
 pub mod trajectory;
 
 pub use config::{
