@@ -61,7 +61,8 @@ def test_a_v3_leg_in_motion_mode_runs_the_servos_law_in_its_motors(tmp_path):
             ), motion
             assert math.radians(m["output_angle_deg"]) == pytest.approx(target, abs=0.01), m
         # The joints not commanded hold where they were, in motion mode too.
-        assert all(m["mode"] == "motion" and m["motion"]["kp_nm_per_rad"] > 79 for m in motors.values())
+        for m in motors.values():
+            assert m["mode"] == "motion" and m["motion"]["kp_nm_per_rad"] > 79, m
         report = loop.stop()
     assert report["normal_stop"], report["stop_reason"]
     assert loop.simulator().all_safe()
