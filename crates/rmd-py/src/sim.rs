@@ -47,6 +47,28 @@ fn pid<'py>(py: Python<'py>, p: &PidParams) -> PyResult<Bound<'py, PyDict>> {
     Ok(d)
 }
 
+/// The motion-mode setpoint the firmware obeys (output side: rad from the motor's zero, rad/s,
+/// N·m per rad, N·m per rad/s, N·m), or None outside motion mode.
+fn motion<'py>(py: Python<'py>, mode: ControlMode) -> PyResult<Option<Bound<'py, PyDict>>> {
+    let ControlMode::Motion {
+        position_rad,
+        velocity_rad_s,
+        kp,
+        kd,
+        torque_nm,
+    } = mode
+    else {
+        return Ok(None);
+    };
+    let d = PyDict::new(py);
+    d.set_item("position_rad", position_rad)?;
+    d.set_item("velocity_rad_s", velocity_rad_s)?;
+    d.set_item("kp_nm_per_rad", kp)?;
+    d.set_item("kd_nm_s_per_rad", kd)?;
+    d.set_item("torque_nm", torque_nm)?;
+    Ok(Some(d))
+}
+
 fn mode_name(mode: ControlMode) -> &'static str {
     match mode {
         ControlMode::Off => "off",
@@ -77,6 +99,7 @@ fn snapshot_dict<'py>(
     d.set_item("voltage_v", s.voltage_v)?;
     d.set_item("error_state", s.error_state.raw())?;
     d.set_item("mode", mode_name(s.mode))?;
+    d.set_item("motion", motion(py, s.mode)?)?;
     d.set_item("stopped", s.stopped)?;
     d.set_item("energising", s.energising)?;
     d.set_item("safe", s.safe_since.is_some())?;
@@ -90,7 +113,10 @@ impl Simulator {
     /// Every simulated motor's true state now, bus by bus: a list of dicts with `bus`, `id`,
     /// `joint` (or None), `time_s` (simulator clock), `motor_angle_deg`, `output_angle_deg`,
     /// `motor_speed_dps`, `current_a`, `output_torque_nm`, `temperature_c`, `voltage_v`,
-    /// `error_state`, `mode` (`"off"`, `"torque"`, `"speed"`, `"position"`), `stopped`,
+    /// `error_state`, `mode` (`"off"`, `"torque"`, `"speed"`, `"position"`, `"motion"`),
+    /// `motion` (in motion mode, the setpoint obeyed: `position_rad` from the motor's zero,
+    /// `velocity_rad_s`, `kp_nm_per_rad`, `kd_nm_s_per_rad`, `torque_nm`, output side; else
+    /// None), `stopped`,
     /// `energising` (applies or is commanded torque), `safe` (applies none and is commanded
     /// none: off, stopped, tripped or at zero torque), `pid_ram`, `pid_rom`.
     fn motors<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {

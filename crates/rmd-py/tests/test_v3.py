@@ -30,3 +30,39 @@ def test_a_v3_leg_follows_setpoints_and_ends_safe():
     assert report["normal_stop"], report["stop_reason"]
     assert all(m["off_confirmed"] for m in report["safe_stop"]["motors"])
     assert loop.simulator().all_safe()
+
+
+def test_a_v3_leg_in_motion_mode_runs_the_servos_law_in_its_motors(tmp_path):
+    # leg4-v3.toml with both buses exchanging in motion mode (0x400 + id).
+    text = LEG4_V3.read_text()
+    assert text.count('exchange = "per-motor"') == 2
+    path = tmp_path / "leg4-v3-motion.toml"
+    path.write_text(text.replace('exchange = "per-motor"', 'exchange = "motion"'))
+    robot = rmd_rt.Robot.from_toml(path)
+    with robot.start(sim=True, virtual_time=True, servo_toml=STIFF_SERVO) as loop:
+        loop.set_positions({"knee": 1.3, "hip_fe": -0.3})
+        loop.sleep(1.0)
+        positions = dict(zip(loop.joint_names, loop.positions()))
+        # Motion-mode replies carry 16-bit positions: finer than per-motor's whole degrees.
+        assert positions["knee"] == pytest.approx(1.3, abs=0.01)
+        assert positions["hip_fe"] == pytest.approx(-0.3, abs=0.01)
+        motors = {m["joint"]: m for m in loop.simulator().motors()}
+        for joint, target in (("knee", 1.3), ("hip_fe", -0.3)):
+            m = motors[joint]
+            # The firmware obeys motion-mode commands with the servo's own gains (STIFF_SERVO:
+            # kp 80 N*m/rad, kd 2 N*m*s/rad) on the target, from the motor's zero.
+            assert m["mode"] == "motion", m
+            motion = m["motion"]
+            assert motion["kp_nm_per_rad"] == pytest.approx(80.0, abs=0.2), motion
+            assert motion["kd_nm_s_per_rad"] == pytest.approx(2.0, abs=0.01), motion
+            zero = {"knee": -40.0, "hip_fe": 50.0}[joint]
+            assert motion["position_rad"] == pytest.approx(
+                target + math.radians(zero), abs=1e-3
+            ), motion
+            assert math.radians(m["output_angle_deg"]) == pytest.approx(target, abs=0.01), m
+        # The joints not commanded hold where they were, in motion mode too.
+        for m in motors.values():
+            assert m["mode"] == "motion" and m["motion"]["kp_nm_per_rad"] > 79, m
+        report = loop.stop()
+    assert report["normal_stop"], report["stop_reason"]
+    assert loop.simulator().all_safe()

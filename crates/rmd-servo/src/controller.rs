@@ -1,20 +1,26 @@
 //! The servo on the loop thread: takes the messages of the tick, follows each joint's mode,
-//! commands torque, publishes its state. Allocates nothing, takes no lock, never waits.
+//! commands torque (or, on a motion bus, gives the motor the law's setpoint), publishes its
+//! state. Allocates nothing, takes no lock, never waits.
 
 use std::sync::Arc;
 
 use rmd_loop::commands::MAX_SIGNALS;
 use rmd_loop::mailbox::{Receiver, Sender, mailbox};
+use rmd_loop::robot::JointSpec;
 use rmd_loop::{
-    Commands, Controller, Feedback, Flow, JointFeedback, JointId, StopReason, TickContext,
+    CommandKind, Commands, Controller, Feedback, Flow, JointFeedback, JointId, StopReason,
+    TickContext,
 };
 
-use crate::config::{JointServo, ServoConfig, StalePolicy};
+use crate::config::{JointOutput, JointServo, ServoConfig, StalePolicy};
 use crate::handle::ServoHandle;
-use crate::law;
+use crate::law::{self, Demand};
+use crate::motion::motion_step;
 use crate::setpoint::Setpoint;
 use crate::shared::{Life, Message, Shared};
-use crate::state::{JointCounters, Reference, ServoMode, ServoState};
+use crate::state::{JointCounters, ServoMode, ServoState};
+use crate::status::{self, Done};
+use crate::step;
 use crate::trajectory::TrajectoryStart;
 use crate::trajectory::buffer::TrajectoryBuffer;
 use crate::trajectory::plan::within_limits;
@@ -80,6 +86,8 @@ impl Mode {
 /// One joint on the loop thread.
 #[derive(Copy, Clone, Debug)]
 struct JointRt {
+    /// The joint of the robot.
+    id: JointId,
     mode: Mode,
     /// Loop time of the last setpoint (or mode change that restarts the stale clock).
     since_s: f64,
@@ -142,7 +150,8 @@ impl ServoController {
             let _ = free.send(buffer);
         }
         let (outbox, states) = mailbox(2);
-        let joint = JointRt {
+        let joint = |id| JointRt {
+            id,
             mode: Mode::Disabled,
             since_s: 0.0,
             stale: false,
@@ -163,7 +172,7 @@ impl ServoController {
             free,
             spare: Vec::with_capacity(options.trajectory_buffers),
             slots: (0..options.trajectory_buffers).map(|_| None).collect(),
-            joints: vec![joint; joints],
+            joints: config.ids().iter().copied().map(joint).collect(),
             state: Box::new(ServoState::new(joints)),
             outbox,
             epoch: 0,
@@ -221,7 +230,7 @@ impl ServoController {
     /// without one; the state a trajectory starting now starts from.
     fn current(&self, joint: usize, now: f64, fb: &Feedback<'_>) -> Kin {
         let measured = || {
-            let f = fb[JointId::from_index(joint)].joint;
+            let f = fb[self.joints[joint].id].joint;
             Kin {
                 p: f.angle_rad(),
                 v: f.velocity_rad_s(),
@@ -258,7 +267,7 @@ impl ServoController {
                 point,
                 shift,
             } => match &self.slots[slot] {
-                Some(s) => sample(&s.buffer, column, point, shift, now).0,
+                Some(s) => step::sample(&s.buffer, column, point, shift, now).0,
                 None => measured(),
             },
             Mode::Disabled | Mode::ZeroTorque | Mode::Effort { .. } => measured(),
@@ -277,7 +286,7 @@ impl ServoController {
         for i in 0..self.joints.len() {
             let mode = if self.enabled {
                 Mode::Hold {
-                    position: fb[JointId::from_index(i)].joint.angle_rad(),
+                    position: fb[self.joints[i].id].joint.angle_rad(),
                 }
             } else {
                 Mode::Disabled
@@ -492,92 +501,85 @@ impl ServoController {
         j.counters.stale_events += 1;
     }
 
-    /// This tick's torque for one joint: the step of its mode, clamped, sent; its status written.
+    /// This tick's command for joint `id` (measured `f`): its mode's step, turned into torque
+    /// or a motion setpoint, sent; its status written.
     fn run_joint(
         &mut self,
-        joint: usize,
+        id: JointId,
+        f: &JointFeedback,
         now: f64,
         dt: f64,
-        fb: &Feedback<'_>,
         cmd: &mut Commands<'_>,
     ) {
-        let id = JointId::from_index(joint);
-        let f = fb[id];
+        let joint = id.index();
         let (p, v) = (f.joint.angle_rad(), f.joint.velocity_rad_s());
         self.check_stale(joint, now, p);
-        let step = self.step(joint, now, dt, p, v);
-        let (effort, clamped) = law::clamp_effort(
-            step.effort,
-            self.config.joints()[joint].limits.max_effort_nm,
-        );
-        cmd.set_torque(id, effort);
-        if let Some(position) = step.finished {
+        let (demand, finished) = self.step(joint, now, dt, p);
+        let servo = &self.config.joints()[joint];
+        let (effort_nm, clamped) = match self.config.outputs()[joint] {
+            JointOutput::Torque => {
+                let (effort, clamped) = law::torque(servo, &demand, p, v);
+                cmd.set_torque(id, effort);
+                (effort, clamped)
+            }
+            JointOutput::Motion(limits) => {
+                let out = motion_step(servo, &limits, &demand, p, v);
+                cmd.set_motion(id, out.command);
+                (out.effort_nm, out.clamped)
+            }
+        };
+        if let Some(position) = finished {
             // The trajectory is over: hold its last point.
             self.set_mode(joint, Mode::Hold { position });
             self.joints[joint].since_s = now;
         }
+        let j = &mut self.joints[joint];
         if clamped {
-            self.joints[joint].counters.clamped += 1;
+            j.counters.clamped += 1;
         }
-        let error = step.reference.map(|r| r.p - p);
+        let error_rad = demand.reference.map(|r| r.p - p);
         if joint < self.signals {
-            cmd.set_signal(joint, error.unwrap_or(0.0));
+            cmd.set_signal(joint, error_rad.unwrap_or(0.0));
         }
-        self.write_status(joint, &f, &step, effort, error);
+        let done = Done {
+            mode: j.mode.public(),
+            demand,
+            effort_nm,
+            error_rad,
+            stale: j.stale,
+            counters: j.counters,
+        };
+        status::write(&mut self.state.joints_mut()[joint], f, &done);
     }
 
-    /// The step of `joint`'s mode at `now`, measured at position `p` and velocity `v`: its
-    /// reference, feed-forward and unclamped effort. Advances a velocity reference and a
-    /// trajectory's point; says when a trajectory ended.
-    fn step(&mut self, joint: usize, now: f64, dt: f64, p: f64, v: f64) -> Step {
+    /// The step of `joint`'s mode at `now`, measured at position `p`: what it asks of the law,
+    /// and the last point of a trajectory that ended this tick. Advances a velocity reference
+    /// and a trajectory's point.
+    fn step(&mut self, joint: usize, now: f64, dt: f64, p: f64) -> (Demand, Option<f64>) {
         let servo = &self.config.joints()[joint];
-        let mut finished = None;
-        let (reference, effort_ff, effort) = match self.joints[joint].mode {
-            Mode::Disabled | Mode::ZeroTorque => (None, 0.0, 0.0),
-            Mode::Hold { position } => (
-                Some(Kin {
-                    p: position,
-                    v: 0.0,
-                    a: 0.0,
-                }),
-                0.0,
-                law::pd(servo, position, 0.0, p, v),
-            ),
+        match self.joints[joint].mode {
+            Mode::Disabled | Mode::ZeroTorque => (Demand::NONE, None),
+            Mode::Hold { position } => (step::hold(position), None),
             Mode::Position {
                 position,
                 velocity_ff,
                 effort_ff,
-            } => (
-                Some(Kin {
-                    p: position,
-                    v: velocity_ff,
-                    a: 0.0,
-                }),
-                effort_ff,
-                law::pd(servo, position, velocity_ff, p, v) + effort_ff,
-            ),
+            } => (step::position(position, velocity_ff, effort_ff), None),
             Mode::Velocity {
                 velocity,
                 effort_ff,
                 reference,
             } => {
-                let (r, aim) = law::advance_velocity_reference(servo, reference, velocity, dt, p);
+                let (demand, reference) =
+                    step::velocity(servo, velocity, effort_ff, reference, dt, p);
                 self.joints[joint].mode = Mode::Velocity {
                     velocity,
                     effort_ff,
-                    reference: r,
+                    reference,
                 };
-                (
-                    Some(Kin {
-                        p: r,
-                        v: aim,
-                        a: 0.0,
-                    }),
-                    effort_ff,
-                    law::pd(servo, r, aim, p, v) + effort_ff,
-                )
+                (demand, None)
             }
-            Mode::Effort { effort } => (None, effort, effort),
+            Mode::Effort { effort } => (step::effort(effort), None),
             Mode::Trajectory {
                 slot,
                 column,
@@ -585,59 +587,21 @@ impl ServoController {
                 shift,
             } => match &self.slots[slot] {
                 Some(s) => {
-                    let (k, point, done) = sample(&s.buffer, column, point, shift, now);
-                    if done {
-                        finished = Some(k.p);
-                    } else {
-                        self.joints[joint].mode = Mode::Trajectory {
-                            slot,
-                            column,
-                            point,
-                            shift,
-                        };
+                    let t = step::trajectory(&s.buffer, column, point, shift, now);
+                    if t.finished {
+                        return (t.demand, t.demand.reference.map(|k| k.p));
                     }
-                    (Some(k), 0.0, law::pd(servo, k.p, k.v, p, v))
+                    self.joints[joint].mode = Mode::Trajectory {
+                        slot,
+                        column,
+                        point: t.point,
+                        shift,
+                    };
+                    (t.demand, None)
                 }
-                None => {
-                    finished = Some(p);
-                    (None, 0.0, 0.0)
-                }
+                None => (Demand::NONE, Some(p)),
             },
-        };
-        Step {
-            reference,
-            effort_ff,
-            effort,
-            finished,
         }
-    }
-
-    /// Writes `joint`'s status for this tick: what its motor said and what the servo did.
-    fn write_status(
-        &mut self,
-        joint: usize,
-        f: &JointFeedback,
-        step: &Step,
-        effort: f64,
-        error: Option<f64>,
-    ) {
-        let j = &self.joints[joint];
-        let status = &mut self.state.joints_mut()[joint];
-        status.position_rad = f.joint.angle_rad();
-        status.velocity_rad_s = f.joint.velocity_rad_s();
-        status.effort_nm = f.joint.torque_nm.unwrap_or(0.0);
-        status.fresh = f.is_fresh();
-        status.received_at = f.received_at;
-        status.temperature_celsius = f.motor.temperature_celsius;
-        status.voltage_volts = f.health.map(|h| h.voltage_volts);
-        status.current_amps = f.motor.current_amps;
-        status.mode = j.mode.public();
-        status.reference = step.reference.map(Reference::from_kin);
-        status.effort_ff_nm = step.effort_ff;
-        status.commanded_effort_nm = effort;
-        status.position_error_rad = error;
-        status.stale = j.stale;
-        status.counters = j.counters;
     }
 
     fn publish(&mut self, ctx: &TickContext) {
@@ -654,49 +618,9 @@ impl ServoController {
     fn zero(&mut self, ctx: &TickContext, fb: &Feedback<'_>, cmd: &mut Commands<'_>) {
         cmd.zero_all();
         for (status, (_, f)) in self.state.joints_mut().iter_mut().zip(fb.iter()) {
-            status.position_rad = f.joint.angle_rad();
-            status.velocity_rad_s = f.joint.velocity_rad_s();
-            status.commanded_effort_nm = 0.0;
-            status.mode = ServoMode::Disabled;
-            status.reference = None;
-            status.position_error_rad = None;
+            status::write_zero(status, f);
         }
         self.publish(ctx);
-    }
-}
-
-/// One joint's step in its mode, before the effort limit.
-struct Step {
-    /// Where the joint should be (none in effort and zero-torque modes).
-    reference: Option<Kin>,
-    /// The feed-forward effort, N·m.
-    effort_ff: f64,
-    /// The effort the mode asks, N·m.
-    effort: f64,
-    /// The last point of a trajectory that ended this tick.
-    finished: Option<f64>,
-}
-
-/// The state of `column` of `buffer` at loop time `now`, starting the search at `point`:
-/// the state, the point it heads for, and whether the trajectory is over.
-fn sample(
-    buffer: &TrajectoryBuffer,
-    column: usize,
-    mut point: usize,
-    shift: f64,
-    now: f64,
-) -> (Kin, usize, bool) {
-    let t = now - buffer.started_at;
-    loop {
-        let s = buffer.segment(point, column);
-        let local = t - s.start_s - if point > 0 { shift } else { 0.0 };
-        if local < s.duration_s {
-            return (s.state_at(local), point, false);
-        }
-        if point + 1 >= buffer.points() {
-            return (s.to, point, true);
-        }
-        point += 1;
     }
 }
 
@@ -708,6 +632,19 @@ impl Controller for ServoController {
             .take(self.signals)
             .map(|j| format!("servo_{}_error_rad", j.name))
             .collect()
+    }
+
+    /// [`CommandKind::Motion`] for a joint on an `exchange = "motion"` bus: the motor runs the
+    /// PD law with the servo's gains and targets ([`ServoConfig::command_kind`]).
+    fn command_kind(&self, joint: &JointSpec) -> CommandKind {
+        self.config
+            .joints()
+            .iter()
+            .zip(self.config.ids())
+            .find(|(servo, _)| servo.name == joint.name)
+            .map_or(CommandKind::Current, |(_, &id)| {
+                self.config.command_kind(id)
+            })
     }
 
     fn start(&mut self, ctx: &TickContext, fb: &Feedback<'_>) {
@@ -726,7 +663,7 @@ impl Controller for ServoController {
             return;
         }
         for i in 0..self.joints.len() {
-            let position = fb[JointId::from_index(i)].joint.angle_rad();
+            let position = fb[self.joints[i].id].joint.angle_rad();
             if !self.config.joints()[i].limits.allows_position(position) {
                 self.halt = Some("a joint is outside its position limits at start");
             }
@@ -754,8 +691,8 @@ impl Controller for ServoController {
         self.take_messages(now, fb);
         self.start_due(now, fb);
         let dt = ctx.dt();
-        for joint in 0..self.joints.len() {
-            self.run_joint(joint, now, dt, fb, cmd);
+        for (id, f) in fb.iter() {
+            self.run_joint(id, f, now, dt, cmd);
         }
         self.publish(ctx);
         Flow::Continue

@@ -101,8 +101,9 @@ impl ServoHandle {
             .config
             .joints()
             .iter()
-            .position(|j| j.name == name)
-            .map(JointId::from_index)
+            .zip(self.inner.config.ids())
+            .find(|(j, _)| j.name == name)
+            .map(|(_, &id)| id)
             .ok_or_else(|| ServoError::UnknownJoint {
                 name: name.to_string(),
                 known: self.joint_names().collect::<Vec<_>>().join(", "),

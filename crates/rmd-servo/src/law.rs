@@ -1,7 +1,44 @@
-//! The control law of one joint, as pure functions: PD on the reference, the velocity mode's
-//! moving reference, the effort clamp.
+//! The control law of one joint, as pure functions: what a mode asks of the law ([`Demand`]),
+//! PD on the reference, the velocity mode's moving reference, the effort clamp, the torque the
+//! servo sends when it runs the law itself.
 
 use crate::config::JointServo;
+use crate::trajectory::segment::Kin;
+
+/// What a joint's mode asks of the law this tick: PD towards a reference (position and
+/// velocity), plus a feed-forward torque. Every mode is one of these: hold (a position at
+/// rest), position, velocity (a moving position), trajectory (its sample) with the reference;
+/// effort (the feed-forward alone), zero torque and disabled (nothing) without.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct Demand {
+    /// Where the joint should be (the PD law's targets); `None`: no PD term.
+    pub(crate) reference: Option<Kin>,
+    /// Feed-forward torque (in effort mode the setpoint itself), N·m.
+    pub(crate) effort_ff: f64,
+}
+
+impl Demand {
+    /// No torque at all.
+    pub(crate) const NONE: Demand = Demand {
+        reference: None,
+        effort_ff: 0.0,
+    };
+
+    /// The torque the law gives at position `p` and velocity `v`, before the effort limit:
+    /// τ = kp·(r − p) + kd·(ṙ − v) + τ_ff, or τ_ff without a reference.
+    pub(crate) fn effort(&self, joint: &JointServo, p: f64, v: f64) -> f64 {
+        match self.reference {
+            Some(r) => pd(joint, r.p, r.v, p, v) + self.effort_ff,
+            None => self.effort_ff,
+        }
+    }
+}
+
+/// The torque the servo sends for `demand` at `p`, `v` when it runs the law itself (N·m,
+/// within ±`max_effort_nm`), and whether it had to be clamped.
+pub(crate) fn torque(joint: &JointServo, demand: &Demand, p: f64, v: f64) -> (f64, bool) {
+    clamp_effort(demand.effort(joint, p, v), joint.limits.max_effort_nm)
+}
 
 /// τ = kp·(reference − position) + kd·(reference velocity − velocity), N·m.
 pub(crate) fn pd(
@@ -51,11 +88,12 @@ pub(crate) fn advance_velocity_reference(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::config::{Gains, JointLimits, LimitSource, StalePolicy, StaleRule};
 
-    fn joint() -> JointServo {
+    /// A joint: kp 10 N·m/rad, kd 0.5 N·m·s/rad, ±1 rad, 2 rad/s, 2 N·m.
+    pub(crate) fn joint() -> JointServo {
         JointServo {
             name: "j".into(),
             gains: Gains {
@@ -78,6 +116,30 @@ mod tests {
                 policy: StalePolicy::Hold,
             },
         }
+    }
+
+    #[test]
+    fn a_demand_is_pd_on_its_reference_plus_its_feed_forward_then_clamped() {
+        let j = joint();
+        let at = |p, v| Kin { p, v, a: 0.0 };
+        let position = Demand {
+            reference: Some(at(0.1, 0.2)),
+            effort_ff: 0.25,
+        };
+        // 10 * (0.1 - 0.05) + 0.5 * (0.2 - 0.1) + 0.25 = 0.8
+        assert!((position.effort(&j, 0.05, 0.1) - 0.8).abs() < 1e-12);
+        assert_eq!(
+            torque(&j, &position, 0.05, 0.1),
+            (position.effort(&j, 0.05, 0.1), false)
+        );
+        // Far from its reference: clamped to max_effort_nm = 2.
+        assert_eq!(torque(&j, &position, -1.0, 0.0), (2.0, true));
+        let effort = Demand {
+            reference: None,
+            effort_ff: -1.5,
+        };
+        assert_eq!(torque(&j, &effort, 0.7, 3.0), (-1.5, false));
+        assert_eq!(torque(&j, &Demand::NONE, 0.7, 3.0), (0.0, false));
     }
 
     #[test]

@@ -18,6 +18,10 @@
 //! and hold (at start, after a trajectory, after enabling). The torque is clamped to the
 //! joint's `max_effort_nm`; the loop clamps the current to `current_limit_amps`.
 //!
+//! **Motion mode**: a joint on a MyActuator V3 bus with `exchange = "motion"` gets the law's
+//! reference, gains (per degree: the N·m/rad gains times π/180) and feed-forward as one motion
+//! setpoint per tick ([`ServoConfig::command_kind`]); the motor runs the law itself.
+//!
 //! **Stale setpoints**: a position, velocity or effort setpoint not renewed within
 //! `stale_after_ms` turns into a hold or zero torque (`stale_policy`), counted.
 //!
@@ -74,9 +78,12 @@ mod controller;
 mod error;
 mod handle;
 mod law;
+mod motion;
 mod setpoint;
 mod shared;
 mod state;
+mod status;
+mod step;
 pub mod trajectory;
 
 pub use config::{

@@ -83,6 +83,13 @@ class NativeBus:
     def simulator(self) -> Optional[Simulator]: ...
     def now_s(self) -> float: ...
 
+class SimMotion(TypedDict):
+    position_rad: float
+    velocity_rad_s: float
+    kp_nm_per_rad: float
+    kd_nm_s_per_rad: float
+    torque_nm: float
+
 class SimMotor(TypedDict):
     bus: int
     id: int
@@ -96,7 +103,8 @@ class SimMotor(TypedDict):
     temperature_c: float
     voltage_v: float
     error_state: int
-    mode: Literal["off", "torque", "speed", "position"]
+    mode: Literal["off", "torque", "speed", "position", "motion"]
+    motion: Optional[SimMotion]
     stopped: bool
     energising: bool
     safe: bool

@@ -1,7 +1,8 @@
 //! The servo port on the real-time loop with the joint servo and simulated motors, in virtual
 //! time (the loop stepped tick by tick here): validated messages move the simulated joints,
 //! the servo's own refusals come back typed and counted by kind, diagnostics carry the servo's
-//! state, the loop's statistics and how it ended, and the estop actions do what they say.
+//! state, the loop's statistics and how it ended, and the estop actions do what they say; on a
+//! MyActuator V3 bus in motion mode, a position command goes out as a motion setpoint.
 //! (The node over DDS on top of it: `tests/it/no_alloc.rs` here, and `tests/ros2/run.sh` against
 //! Cyclone DDS.)
 
@@ -10,11 +11,12 @@ use std::time::Duration;
 
 use rmd_bus::VirtualClock;
 use rmd_loop::{LoopOutcome, Robot, RtLoop, Running, StopReason};
+use rmd_protocol::MotorId;
 use rmd_ros2::msg;
 use rmd_ros2::servo::{EstopAction, LoopFeed, ServoPort};
 use rmd_ros2::{CommandMode, Enable, PortError, RejectionKind, RobotPort, Validator};
 use rmd_servo::{ServoConfig, ServoController};
-use rmd_sim::SimBus;
+use rmd_sim::{ControlMode, SharedSimBus, SimBus};
 
 const ROBOT: &str = r#"
 [loop]
@@ -349,4 +351,62 @@ fn estop_can_end_the_run_and_nothing_enables_it_again() {
     let end = port.diagnostics().stopped.unwrap();
     assert!(!end.normal);
     assert!(end.reason.contains("estop"), "{end:?}");
+}
+
+#[test]
+fn a_position_command_on_a_motion_bus_goes_out_as_a_motion_setpoint() {
+    // The same joints on MyActuator V3 motors, their bus in motion mode; the simulated bus
+    // shared, so that the test reads the motors while the loop runs.
+    let toml = ROBOT.replace(
+        "interface = \"can0\"\n",
+        "interface = \"can0\"\nprotocol = \"myactuator-v3\"\nexchange = \"motion\"\n",
+    );
+    let robot = Robot::from_toml(&toml).unwrap();
+    let (servo, handle) = ServoController::new(ServoConfig::from_toml(&robot, SERVO).unwrap());
+    let clock = VirtualClock::new();
+    let bus = rmd_rig::open::sim_buses(&clock, rmd_rig::sim::sim_configs(&robot, 3))
+        .unwrap()
+        .remove(0);
+    let bus = SharedSimBus::new(bus);
+    let mut port = ServoPort::new(handle, &robot, clock.clone()).unwrap();
+    let validator = Validator::new(port.joints(), CommandMode::Auto);
+    let rt = RtLoop::unsupervised(robot, clock, vec![bus.clone()], servo).unwrap();
+    let mut running = rt.start().map_err(|o| o.report.to_string()).unwrap();
+    HOOK.call_once(|| std::panic::set_hook(Box::new(|info| eprintln!("{info}"))));
+    let _ = running.step();
+
+    let both = command(&["hip", "knee"], &[0.3, -0.2]);
+    port.send_setpoints(&validator.joint_command(&both).unwrap())
+        .unwrap();
+    for _ in 0..600 {
+        assert!(running.step().is_continue());
+    }
+    let s = port.latest_state().unwrap();
+    assert!((s.position_rad[0] - 0.3).abs() < TOL, "{s:?}");
+    assert!((s.position_rad[1] + 0.2).abs() < TOL, "{s:?}");
+    // By the simulated firmware: each motor runs the servo's law on the commanded position
+    // (p_des at the output, from the motor's zero 20 degrees below the joint's), with the
+    // servo's gains (kp 60 N·m/rad, kd 1.5 N·m·s/rad), and the joint is there.
+    for (id, target) in [(1, 0.3), (2, -0.2)] {
+        let snapshot = bus.lock().snapshot(MotorId::new(id).unwrap()).unwrap();
+        match snapshot.mode {
+            ControlMode::Motion {
+                position_rad,
+                kp,
+                kd,
+                ..
+            } => {
+                assert!((position_rad - 20f64.to_radians() - target).abs() < 1e-3);
+                assert!(
+                    (kp - 60.0).abs() < 0.2 && (kd - 1.5).abs() < 0.01,
+                    "{kp} {kd}"
+                );
+            }
+            other => panic!("motor {id} is in {other:?}, not motion mode"),
+        }
+        let truth = snapshot.output_angle_deg.to_radians();
+        assert!((truth - target).abs() < TOL, "motor {id} at {truth} rad");
+    }
+    let outcome = running.finish(StopReason::Requested);
+    assert!(outcome.report.normal_stop, "{}", outcome.report);
 }

@@ -44,8 +44,8 @@ pub mod file;
 
 use core::time::Duration;
 
-use rmd_loop::robot::JointSpec;
-use rmd_loop::{JointId, Robot};
+use rmd_loop::robot::{ExchangeKind, JointSpec};
+use rmd_loop::{CommandKind, JointId, Robot};
 
 pub use error::ServoConfigError;
 pub use file::{JointSettings, MAX_FILE_BYTES, ServoFile, ServoOptions, StalePolicy};
@@ -192,11 +192,58 @@ pub struct Options {
     pub max_trajectory_points: usize,
 }
 
+/// How the servo commands one joint, from its bus's exchange.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) enum JointOutput {
+    /// Torque every tick: the servo runs the PD law.
+    Torque,
+    /// Motion-mode setpoints (a MyActuator V3 bus with `exchange = "motion"`): the motor runs
+    /// the PD law with the servo's gains and targets, kept within these limits.
+    Motion(MotionLimits),
+}
+
+/// The bounds of a joint's motion-mode setpoints, joint degrees and deg/s: the servo's limits,
+/// within the robot description's (which the loop refuses setpoints beyond; converting the
+/// servo's radians back to degrees must not step past them by a rounding).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct MotionLimits {
+    /// Lowest position setpoint, degrees.
+    pub(crate) position_min_deg: f64,
+    /// Highest position setpoint, degrees.
+    pub(crate) position_max_deg: f64,
+    /// Fastest velocity setpoint either way, deg/s.
+    pub(crate) velocity_max_dps: f64,
+}
+
+impl MotionLimits {
+    fn new(servo: &JointLimits, spec: &JointSpec) -> Self {
+        let described = spec.limits;
+        Self {
+            position_min_deg: servo
+                .position_min_rad
+                .to_degrees()
+                .max(described.position_min_deg),
+            position_max_deg: servo
+                .position_max_rad
+                .to_degrees()
+                .min(described.position_max_deg),
+            velocity_max_dps: servo
+                .max_velocity_rad_s
+                .to_degrees()
+                .min(described.velocity_max_dps),
+        }
+    }
+}
+
 /// A checked servo configuration for one robot: one [`JointServo`] per joint, in the robot's
 /// joint order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ServoConfig {
     joints: Vec<JointServo>,
+    /// The robot's joint ids, in the same order.
+    ids: Vec<JointId>,
+    /// How each joint is commanded, in the same order.
+    outputs: Vec<JointOutput>,
     options: Options,
 }
 
@@ -224,8 +271,22 @@ impl ServoConfig {
             .iter()
             .map(|spec| joint_servo(spec, &file.defaults, file.joint.get(&spec.name)))
             .collect::<Result<Vec<_>, _>>()?;
+        let outputs = robot
+            .joints()
+            .iter()
+            .zip(&joints)
+            .map(|(spec, servo)| match robot.buses()[spec.bus].exchange {
+                ExchangeKind::Motion => JointOutput::Motion(MotionLimits::new(&servo.limits, spec)),
+                ExchangeKind::MultiTorque | ExchangeKind::PerMotor => JointOutput::Torque,
+            })
+            .collect();
         let options = options(&file.servo)?;
-        Ok(Self { joints, options })
+        Ok(Self {
+            joints,
+            ids: robot.joint_ids().collect(),
+            outputs,
+            options,
+        })
     }
 
     /// The built-in defaults for every joint of `robot`.
@@ -257,6 +318,27 @@ impl ServoConfig {
     /// Every joint's settings, in the robot's joint order.
     pub fn joints(&self) -> &[JointServo] {
         &self.joints
+    }
+
+    /// How the servo commands joint `id`: [`CommandKind::Motion`] when its bus is
+    /// `exchange = "motion"` (the motor runs the PD law with the servo's gains and targets),
+    /// else [`CommandKind::Current`] (the servo runs it and sends torque). A joint the robot
+    /// does not have: `Current`.
+    pub fn command_kind(&self, id: JointId) -> CommandKind {
+        match self.outputs.get(id.index()) {
+            Some(JointOutput::Motion(_)) => CommandKind::Motion,
+            Some(JointOutput::Torque) | None => CommandKind::Current,
+        }
+    }
+
+    /// The robot's joint ids, in its joint order.
+    pub(crate) fn ids(&self) -> &[JointId] {
+        &self.ids
+    }
+
+    /// How each joint is commanded, in the robot's joint order.
+    pub(crate) fn outputs(&self) -> &[JointOutput] {
+        &self.outputs
     }
 
     /// The options.

@@ -7,6 +7,7 @@ mod common;
 static ALLOCATOR: rmd_test_support::alloc::CountingAllocator =
     rmd_test_support::alloc::CountingAllocator;
 
+mod motion;
 mod no_alloc;
 mod safety;
 mod setpoints;

@@ -7,7 +7,7 @@ use std::ops::ControlFlow;
 use std::sync::Once;
 
 use rmd_bus::VirtualClock;
-use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
+use rmd_loop::robot::{BusConfig, ExchangeKind, MotorConfig, RobotConfig};
 use rmd_loop::{LoopOutcome, Robot, RtLoop, Running, StopReason, TelemetryReceiver};
 use rmd_protocol::MotorId;
 use rmd_servo::{ServoConfig, ServoController, ServoHandle, ServoState};
@@ -36,7 +36,24 @@ pub fn robot() -> Robot {
 
 /// The robot with what `change` makes of joint `i`'s motor.
 pub fn leg(change: impl Fn(usize, MotorConfig) -> MotorConfig) -> Robot {
-    let mut bus = BusConfig::new("sim");
+    leg_on(1000.0, BusConfig::new("sim"), change)
+}
+
+/// The leg on MyActuator V3 motors whose bus exchanges `exchange` (`Motion`: the servo runs
+/// its position and velocity modes in the motors), at 500 Hz (four V3 motors on one bus need
+/// up to 1080 us an exchange).
+pub fn v3_leg(exchange: ExchangeKind) -> Robot {
+    let bus = BusConfig::new("sim")
+        .protocol("myactuator-v3")
+        .exchange(exchange);
+    leg_on(500.0, bus, |_, motor| motor)
+}
+
+fn leg_on(
+    rate_hz: f64,
+    mut bus: BusConfig,
+    change: impl Fn(usize, MotorConfig) -> MotorConfig,
+) -> Robot {
     for (i, name) in JOINTS.iter().enumerate() {
         let motor = MotorConfig::new(i as u8 + 1)
             .name(name)
@@ -46,7 +63,7 @@ pub fn leg(change: impl Fn(usize, MotorConfig) -> MotorConfig) -> Robot {
             .zero_offset_deg(20.0);
         bus = bus.with_motor(change(i, motor));
     }
-    Robot::try_from(RobotConfig::new(1000.0).with_bus(bus)).unwrap()
+    Robot::try_from(RobotConfig::new(rate_hz).with_bus(bus)).unwrap()
 }
 
 /// A servo in a running loop, stepped by the test.
@@ -68,7 +85,11 @@ impl Bench {
     /// The leg with `servo` (TOML) and these initial joint angles (degrees), started and
     /// stepped once (so that the servo has published a state).
     pub fn new(servo: &str, initial_deg: [f64; 4]) -> Self {
-        let robot = robot();
+        Self::on(robot(), servo, initial_deg)
+    }
+
+    /// [`Bench::new`] for another robot of the leg's joints (one bus).
+    pub fn on(robot: Robot, servo: &str, initial_deg: [f64; 4]) -> Self {
         let config = ServoConfig::from_toml(&robot, servo).unwrap();
         let (controller, handle) = ServoController::new(config);
         Self::with(robot, controller, handle, initial_deg)
@@ -127,7 +148,8 @@ impl Bench {
 
     /// Runs `seconds` of loop time.
     pub fn run_s(&mut self, seconds: f64) {
-        self.step((seconds / DT).round() as usize);
+        let period = self.robot.settings().period.get().as_secs_f64();
+        self.step((seconds / period).round() as usize);
     }
 
     /// Runs until `done` holds for the state (at most `max_ticks`); whether it did.
