@@ -25,12 +25,13 @@ use rmd_bus::{CanBus, Clock, MonotonicClock, Timestamp};
 use rmd_protocol::ScaledCurrent;
 
 use crate::bus_link::BusLink;
-use crate::commands::{Commands, MAX_SIGNALS, MotionSlots, PackedMotion, Rejections};
+use crate::commands::{Commands, MAX_SIGNALS, MotionSlots, Rejections};
 use crate::controller::{Controller, Flow, TickContext};
 use crate::exchange::{Exchange, Torque};
 use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
 use crate::guard::LimitGuard;
+use crate::loop_parts::LoopParts;
 use crate::mapping::JointMap;
 use crate::motion::{CommandKind, MotionMap};
 use crate::os::{CpuLatencyHold, RtSetup, RtStatus};
@@ -44,8 +45,7 @@ use crate::stats::LoopStats;
 use crate::stopper::Stopper;
 use crate::supervisor::{SafetyPort, Supervisor};
 use crate::telemetry::{
-    self, Published, TelemetryDelivery, TelemetryReceiver, TelemetrySample, TelemetrySender,
-    TickTimes,
+    self, Published, TelemetryDelivery, TelemetryReceiver, TelemetrySample, TickTimes,
 };
 use crate::watch::{Phase, Takeover};
 
@@ -106,34 +106,6 @@ pub enum BuildError {
     },
 }
 
-/// Everything a loop owns besides its controller, before and after it starts.
-#[derive(Debug)]
-pub(crate) struct Parts<B, C> {
-    pub(crate) robot: Robot,
-    pub(crate) clock: C,
-    pub(crate) exchange: Exchange<B>,
-    pub(crate) stats: LoopStats,
-    pub(crate) shared: Arc<Shared>,
-    maps: Vec<JointMap>,
-    /// Each joint's limits, as the tick checks them.
-    guards: Vec<LimitGuard>,
-    /// Whether any joint has a limit (a robot without them pays one branch per tick).
-    limits_on: bool,
-    /// Motor-side amperes per joint: the controller's commands, then what was staged.
-    command_amps: Vec<f64>,
-    /// Per joint, its motion-mode conversions (`None` off a `motion` bus); empty when no bus
-    /// is a `motion` bus.
-    pub(crate) motion_maps: Vec<Option<MotionMap>>,
-    /// Per joint, this tick's motion setpoint (as long as `motion_maps`).
-    command_motion: Vec<Option<PackedMotion>>,
-    signals: [f64; MAX_SIGNALS],
-    signal_count: usize,
-    rejections: Rejections,
-    telemetry: Option<(TelemetrySender, TelemetryDelivery)>,
-    /// This tick's timings so far, for its telemetry sample.
-    times: TickTimes,
-}
-
 /// The real-time loop: a robot, its buses, a clock and a controller, ready to start.
 ///
 /// Run it on the current thread with [`run`](RtLoop::run), or on a dedicated thread with
@@ -163,7 +135,7 @@ pub(crate) struct Parts<B, C> {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub struct RtLoop<B, C, K> {
-    parts: Parts<B, C>,
+    parts: LoopParts<B, C>,
     controller: K,
     ports: Option<Vec<SafetyPort>>,
 }
@@ -184,7 +156,7 @@ impl<B: core::fmt::Debug, C: core::fmt::Debug, K: core::fmt::Debug> core::fmt::D
 /// one tick, [`finish`](Running::finish) ends the run.
 #[derive(Debug)]
 pub struct Running<B, C, K> {
-    parts: Parts<B, C>,
+    parts: LoopParts<B, C>,
     controller: K,
     scheduler: Scheduler,
     start: Timestamp,
@@ -253,7 +225,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 Vec::new()
             };
         Ok(Self {
-            parts: Parts {
+            parts: LoopParts {
                 command_motion: vec![None; motion_maps.len()],
                 motion_maps,
                 exchange,
@@ -606,7 +578,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
     /// Send on every bus, then collect from every bus, then account for missing replies. Returns
     /// when the tick's last reply came, if every motor's did.
     fn exchange(&mut self, timing: &TickTiming) -> Result<Option<Timestamp>, StopReason> {
-        let Parts {
+        let LoopParts {
             exchange,
             stats,
             clock,
@@ -761,7 +733,7 @@ fn wait_for_takeover(shared: &Shared, supervisor: Option<JoinHandle<()>>) -> Opt
     shared.watch.take_takeover()
 }
 
-impl<B, C> Parts<B, C> {
+impl<B, C> LoopParts<B, C> {
     /// Adds this tick's rejected commands to the statistics; with the `fault` policy, the first
     /// one is the fault that ends the run.
     fn count_rejections(&mut self) -> Option<Fault> {
@@ -884,7 +856,7 @@ impl<B, C> Parts<B, C> {
     }
 }
 
-impl<B, C: Clock> Parts<B, C> {
+impl<B, C: Clock> LoopParts<B, C> {
     /// Publishes this tick's sample, if anything receives telemetry.
     fn publish(&mut self, timing: &TickTiming, start: Timestamp) {
         let Some((tx, delivery)) = &mut self.telemetry else {

@@ -5,7 +5,7 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use rmd_bus::{CanBus, Clock, Timestamp};
 
 use crate::controller::Controller;
-use crate::engine::Parts;
+use crate::loop_parts::LoopParts;
 use crate::os::RtStatus;
 use crate::panics;
 use crate::protection::MotorProtection;
@@ -26,7 +26,7 @@ pub struct LoopOutcome<K> {
 /// did), tells it the loop stopped, and reports. `start` is when tick 0 was due, if the loop got
 /// that far.
 pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
-    mut parts: Parts<B, C>,
+    mut parts: LoopParts<B, C>,
     mut controller: K,
     reason: StopReason,
     realtime: RtStatus,

@@ -46,6 +46,7 @@ pub mod health;
 pub mod jitter;
 pub mod joint;
 mod joint_array;
+mod loop_parts;
 pub mod mailbox;
 pub mod mapping;
 mod motion;

@@ -13,9 +13,9 @@ use rmd_protocol::{
     probe_requests,
 };
 
-use crate::engine::Parts;
 use crate::exchange::motor::MotorMotion;
 use crate::exchange::{Collected, Torque};
+use crate::loop_parts::LoopParts;
 use crate::os::{self, CpuLatencyRequest, RtRequest, RtSetup};
 use crate::report::{Fault, IdentifiedMotor, MotorRef, StopReason};
 use crate::robot::{ExchangeKind, LoopSettings};
@@ -53,10 +53,10 @@ fn probe_timeout(settings: &LoopSettings) -> Duration {
 /// would not mean per-motor torque, and a motor that answers but is not described (unless the
 /// bus lists it in `zero_torque_ids`). Returns what was found.
 pub(crate) fn identify_motors<B: CanBus, C: Clock>(
-    parts: &mut Parts<B, C>,
+    parts: &mut LoopParts<B, C>,
 ) -> Result<Vec<IdentifiedMotor>, StopReason> {
     let timeout = probe_timeout(parts.robot.settings());
-    let Parts {
+    let LoopParts {
         exchange,
         clock,
         robot,
@@ -265,10 +265,10 @@ fn check(
 /// motor that does not confirm stops the start. Its bus then counts as commanded: the safe stop
 /// locks the brake again.
 pub(crate) fn release_brakes<B: CanBus, C: Clock>(
-    parts: &mut Parts<B, C>,
+    parts: &mut LoopParts<B, C>,
 ) -> Result<(), StopReason> {
     let timeout = probe_timeout(parts.robot.settings());
-    let Parts {
+    let LoopParts {
         exchange,
         clock,
         robot,
@@ -342,10 +342,10 @@ fn exchange_motor_ref(robot: &crate::robot::Robot, j: usize) -> MotorRef {
 
 /// The start-up probe: one zero-torque exchange at a time, waiting generously for replies,
 /// until every motor has answered (which also measures each motor's round trip).
-pub(crate) fn probe<B: CanBus, C: Clock>(parts: &mut Parts<B, C>) -> Result<(), StopReason> {
+pub(crate) fn probe<B: CanBus, C: Clock>(parts: &mut LoopParts<B, C>) -> Result<(), StopReason> {
     let settings = *parts.robot.settings();
     let timeout = probe_timeout(&settings);
-    let Parts {
+    let LoopParts {
         exchange,
         stats,
         clock,
