@@ -112,7 +112,8 @@ pub struct Site<'a> {
 /// What a program brings to its run once it knows its robot.
 #[derive(Debug)]
 pub struct Launch<K, S> {
-    /// The first line on standard output, saying what runs (not with `--quiet` or `--json`).
+    /// The first line on standard output, saying what runs (not with `--quiet` or `--json`;
+    /// empty: none).
     pub banner: String,
     /// What is about to move, said before real motors move (see [`RobotArgs::confirm_motion`]).
     pub motion: String,
@@ -120,11 +121,12 @@ pub struct Launch<K, S> {
     pub sims: Vec<SimConfig>,
     /// The controller.
     pub controller: K,
-    /// The program's part of the status line; handed to the results after the run.
+    /// The program's part of the status line (`()`: none); handed to the results after the run.
     pub status: S,
 }
 
-/// What a program says after the report, and whether the run did what it set out to do.
+/// What a program says after the report (not with `--json`; an empty text: nothing), and whether
+/// the run did what it set out to do.
 pub trait Verdict: fmt::Display {
     /// Whether the program achieved its aim: `false` turns the exit status of a run that ended
     /// normally into 1.
@@ -133,7 +135,7 @@ pub trait Verdict: fmt::Display {
     }
 }
 
-/// Results that are only said.
+/// Results that are only said (`String::new()`: nothing to say).
 impl Verdict for String {}
 
 impl<'a> Program<'a> {
@@ -227,7 +229,7 @@ impl<'a> Program<'a> {
         })?;
         let json = self.output.json;
         let chatty = !(self.output.quiet || json);
-        if chatty {
+        if chatty && !launch.banner.is_empty() {
             say(&launch.banner);
         }
         if !self.robot.confirm_motion(&placement, &launch.motion) {
@@ -252,9 +254,10 @@ impl<'a> Program<'a> {
         }
         finished.print_report(json);
         let verdict = results(&finished, &launch.status, &robot);
-        if !json {
+        let said = verdict.to_string();
+        if !json && !said.is_empty() {
             let gap = if self.gap_before_results { "\n" } else { "" };
-            say(format_args!("{gap}{verdict}"));
+            say(format_args!("{gap}{said}"));
         }
         Ok(match finished.exit_status() {
             EXIT_OK if !verdict.ok() => ExitCode::from(EXIT_FAULT),
