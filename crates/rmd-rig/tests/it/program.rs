@@ -7,7 +7,6 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use clap::Parser;
 use rmd_loop::{Commands, Controller, Feedback, Flow, TelemetrySample, TickContext};
 use rmd_rig::args::{LoopArgs, OutputArgs, RobotArgs};
 use rmd_rig::program::{Launch, Program, Verdict};
@@ -18,18 +17,31 @@ use rmd_rig::sim;
 const ROBOT: &str =
     "[[bus]]\ninterface = \"can0\"\n[[bus.motor]]\nid = 1\nname = \"arm\"\ngear_ratio = 9.0";
 
-#[derive(Parser)]
+/// The standard flags: `--virtual-time --quiet`, `--rate`, `--duration` and `--csv` as given.
 struct Args {
-    #[command(flatten)]
     robot: RobotArgs,
-    #[command(flatten)]
     run: LoopArgs,
-    #[command(flatten)]
     output: OutputArgs,
 }
 
-fn args(flags: &[&str]) -> Args {
-    Args::parse_from(std::iter::once("test").chain(flags.iter().copied()))
+fn args(rate: Option<f64>, duration: Option<Duration>, csv: Option<&Path>) -> Args {
+    let mut output = OutputArgs {
+        quiet: true,
+        ..OutputArgs::default()
+    };
+    output.telemetry.csv = csv.map(Path::to_path_buf);
+    Args {
+        robot: RobotArgs {
+            virtual_time: true,
+            ..RobotArgs::default()
+        },
+        run: LoopArgs {
+            rate,
+            duration,
+            ..LoopArgs::default()
+        },
+        output,
+    }
 }
 
 struct Idle;
@@ -71,15 +83,10 @@ impl Verdict for Counted {
     }
 }
 
-/// Runs the one-motor program with `flags`, its own duration 1 s and CSV file `csv`, and results
+/// Runs the one-motor program with `args`, its own duration 1 s and CSV file `csv`, and results
 /// that want `wanted` ticks; returns the exit status, the rate and duration its setup saw, and
 /// the ticks its results saw.
-fn run(
-    flags: &[&str],
-    csv: &Path,
-    wanted: u64,
-) -> (ExitCode, Option<(f64, Option<Duration>)>, u64) {
-    let args = args(flags);
+fn run(args: &Args, csv: &Path, wanted: u64) -> (ExitCode, Option<(f64, Option<Duration>)>, u64) {
     let mut seen_by_setup = None;
     let mut seen_by_results = 0;
     let code = Program::new("test", ROBOT, &args.robot, &args.run, &args.output)
@@ -113,9 +120,8 @@ fn run(
 fn the_flags_reach_the_setup_and_the_run_and_the_results_set_the_exit_status() {
     let dir = tempfile::tempdir().unwrap();
     let own = dir.path().join("own.csv");
-    let flags = ["--virtual-time", "--rate", "500", "--quiet"];
     // The program's duration, at the flag's rate: 500 ticks, seen by the status and the results.
-    let (code, setup, ticks) = run(&flags, &own, 500);
+    let (code, setup, ticks) = run(&args(Some(500.0), None, None), &own, 500);
     assert_eq!(code, ExitCode::SUCCESS);
     assert_eq!(setup, Some((500.0, Some(Duration::from_secs(1)))));
     assert_eq!(ticks, 500);
@@ -124,9 +130,8 @@ fn the_flags_reach_the_setup_and_the_run_and_the_results_set_the_exit_status() {
 
     // --duration and --csv replace the program's own; results that miss their aim exit 1.
     let other = dir.path().join("other.csv");
-    let other_flag = other.to_str().unwrap();
     std::fs::remove_file(&own).unwrap();
-    let flags = [&flags[..], &["--duration", "200ms", "--csv", other_flag]].concat();
+    let flags = args(Some(500.0), Some(Duration::from_millis(200)), Some(&other));
     let (code, setup, ticks) = run(&flags, &own, 500);
     assert_eq!(code, ExitCode::from(rmd_rig::runner::EXIT_FAULT));
     assert_eq!(setup, Some((500.0, Some(Duration::from_millis(200)))));
@@ -142,7 +147,7 @@ fn the_flags_reach_the_setup_and_the_run_and_the_results_set_the_exit_status() {
 fn a_setup_that_fails_or_a_bad_description_exits_2_before_anything_runs() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("never.csv");
-    let args = args(&["--virtual-time", "--quiet"]);
+    let args = args(None, None, None);
     let code = Program::new("test", ROBOT, &args.robot, &args.run, &args.output)
         .csv(&csv)
         .main(
