@@ -29,19 +29,15 @@
 //! says which, and how the zero offsets centre each joint's power-up window on it), with the
 //! foot free to move.
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Parser;
-use rmd_demos::DemoError;
 use rmd_demos::leg::LegModel;
 use rmd_demos::leg4::{self, LegStatus, StepController};
-use rmd_demos::support::{self, parse_finite, say};
+use rmd_demos::support::parse_finite;
 use rmd_rt::rig::args::{LoopArgs, OutputArgs, RobotArgs};
-use rmd_rt::rig::runner::{Runner, exit_with_error};
-use rmd_rt::rig::{PlacementDefault, Rig};
-use rmd_rt::{Robot, RunLimit};
+use rmd_rt::rig::program::{Launch, Program};
 
 /// The robot, unless `--robot FILE` replaces it.
 const ROBOT: &str = include_str!("robots/leg4.toml");
@@ -73,61 +69,36 @@ struct Args {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    run(&args).unwrap_or_else(|e| exit_with_error("leg4", &e))
-}
-
-fn run(args: &Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    // The robot: its description with the loop flags written in, checked once.
-    let duration = args.run.duration.unwrap_or(DURATION);
-    let mut description = args.robot.description(ROBOT)?;
-    args.run.apply(&mut description);
-    let robot = Robot::try_from(description)?;
-    // Simulated motors unless --iface names an interface.
-    let placement = args.robot.placement(&robot, PlacementDefault::Simulated)?;
-
-    // The controller finds its joints by name; the step is planned and checked before anything
-    // moves.
-    let model = LegModel::new();
-    let gains = leg4::gains(!args.no_gravity_compensation, args.stiffness, args.damping)?;
-    let controller = StepController::new(&robot, model.clone(), gains, leg4::plan_cycle(&model)?)?;
-    let chatty = !(args.output.quiet || args.output.json);
-    if chatty {
-        say(format_args!(
-            "leg4: 4-motor leg on {placement}, {} Hz, {}",
-            robot.settings().period.hz(),
-            controller.describe()
-        ));
-    }
-    if !args
-        .robot
-        .confirm_motion(&placement, "the leg will step for the given duration")
-    {
-        return Err(DemoError::NotConfirmed.into());
-    }
-    let rig = Rig::open(&robot, &placement, leg4::sims(&robot, args.robot.seed)?)?;
-    let rt = rig.into_loop(robot, controller)?;
-
-    let csv = args
-        .output
-        .telemetry
-        .csv
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("target/leg4.csv"));
-    let mut status = LegStatus::default();
-    let finished = Runner::from_args(&args.output)
-        .csv(Some(csv.as_path()))
-        .status(&mut status)
-        .run(rt, RunLimit::Duration(duration))?;
-    if chatty {
-        say(support::time_line(&finished));
-    }
-    finished.print_report(args.output.json);
-    let results = finished
-        .outcome
-        .controller
-        .results(&finished.outcome.report);
-    if !args.output.json {
-        say(format_args!("\n{results}"));
-    }
-    Ok(support::exit_code(&finished, results.ok()))
+    Program::new("leg4", ROBOT, &args.robot, &args.run, &args.output)
+        .duration(DURATION)
+        .csv("target/leg4.csv")
+        .time_line()
+        .gap_before_results()
+        .main(
+            |site| {
+                // The controller finds its joints by name; the step is planned and checked
+                // before anything moves.
+                let model = LegModel::new();
+                let gains =
+                    leg4::gains(!args.no_gravity_compensation, args.stiffness, args.damping)?;
+                let cycle = leg4::plan_cycle(&model)?;
+                let controller = StepController::new(site.robot, model, gains, cycle)?;
+                Ok(Launch {
+                    banner: format!(
+                        "leg4: 4-motor leg on {}, {} Hz, {}",
+                        site.placement,
+                        site.robot.settings().period.hz(),
+                        controller.describe()
+                    ),
+                    motion: "the leg will step for the given duration".into(),
+                    sims: leg4::sims(site.robot, args.robot.seed)?,
+                    controller,
+                    status: LegStatus::default(),
+                })
+            },
+            |finished, _, _| {
+                let outcome = &finished.outcome;
+                outcome.controller.results(&outcome.report)
+            },
+        )
 }

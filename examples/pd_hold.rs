@@ -21,13 +21,10 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Parser;
-use rmd_demos::DemoError;
 use rmd_demos::pd_hold::{self, HoldStatus, PdHold};
-use rmd_demos::support::{parse_finite, say};
+use rmd_demos::support::parse_finite;
 use rmd_rt::rig::args::{LoopArgs, OutputArgs, RobotArgs};
-use rmd_rt::rig::runner::{Runner, exit_with_error};
-use rmd_rt::rig::{PlacementDefault, Rig};
-use rmd_rt::{Robot, RunLimit};
+use rmd_rt::rig::program::{Launch, Program};
 
 /// The robot, unless `--robot FILE` replaces it.
 const ROBOT: &str = include_str!("robots/pd_hold.toml");
@@ -59,40 +56,23 @@ struct Args {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    run(&args).unwrap_or_else(|e| exit_with_error("pd_hold", &e))
-}
-
-fn run(args: &Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    let duration = args.run.duration.unwrap_or(DURATION);
-    let mut description = args.robot.description(ROBOT)?;
-    args.run.apply(&mut description);
-    let robot = Robot::try_from(description)?;
-    let placement = args.robot.placement(&robot, PlacementDefault::Simulated)?;
-    let chatty = !(args.output.quiet || args.output.json);
-    if chatty {
-        say(format_args!(
-            "pd_hold: turning every joint by {} deg and holding it for {:.1} s ({placement})",
-            args.move_deg,
-            duration.as_secs_f64()
-        ));
-    }
-    if !args
-        .robot
-        .confirm_motion(&placement, "every joint will turn and hold")
-    {
-        return Err(DemoError::NotConfirmed.into());
-    }
-    let rig = Rig::open(&robot, &placement, pd_hold::sims(&robot, args.robot.seed))?;
-    let hold = PdHold::new(&robot, args.move_deg);
-    let rt = rig.into_loop(robot.clone(), hold)?;
-
-    let mut status = HoldStatus::default();
-    let finished = Runner::from_args(&args.output)
-        .status(&mut status)
-        .run(rt, RunLimit::Duration(duration))?;
-    finished.print_report(args.output.json);
-    if !args.output.json {
-        say(status.results(&robot, &finished.outcome.controller));
-    }
-    Ok(finished.exit_code())
+    Program::new("pd_hold", ROBOT, &args.robot, &args.run, &args.output)
+        .duration(DURATION)
+        .main(
+            |site| {
+                Ok(Launch {
+                    banner: format!(
+                        "pd_hold: turning every joint by {} deg and holding it for {:.1} s ({})",
+                        args.move_deg,
+                        site.duration.unwrap_or(DURATION).as_secs_f64(),
+                        site.placement
+                    ),
+                    motion: "every joint will turn and hold".into(),
+                    sims: pd_hold::sims(site.robot, args.robot.seed),
+                    controller: PdHold::new(site.robot, args.move_deg),
+                    status: HoldStatus::default(),
+                })
+            },
+            |finished, status, robot| status.results(robot, &finished.outcome.controller),
+        )
 }

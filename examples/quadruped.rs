@@ -21,18 +21,14 @@
 //! The simulated robot is on a stand: each joint carries its leg's weight, but there is no
 //! ground contact, so the body's weight on the feet is not simulated (see docs/simulator.md).
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Parser;
-use rmd_demos::DemoError;
 use rmd_demos::quadruped::{self, CROUCH_HEIGHT_M, STAND_HEIGHT_M, StandController, StandStatus};
-use rmd_demos::support::{self, parse_finite, say};
+use rmd_demos::support::parse_finite;
 use rmd_rt::rig::args::{LoopArgs, OutputArgs, RobotArgs};
-use rmd_rt::rig::runner::{Runner, exit_with_error};
-use rmd_rt::rig::{PlacementDefault, Rig};
-use rmd_rt::{Robot, RunLimit};
+use rmd_rt::rig::program::{Launch, Program};
 
 /// The robot, unless `--robot FILE` replaces it.
 const ROBOT: &str = include_str!("robots/quadruped.toml");
@@ -58,62 +54,36 @@ struct Args {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    run(&args).unwrap_or_else(|e| exit_with_error("quadruped", &e))
-}
-
-fn run(args: &Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    let duration = args.run.duration.unwrap_or(DURATION);
-    let mut description = args.robot.description(ROBOT)?;
-    args.run.apply(&mut description);
-    let robot = Robot::try_from(description)?;
-    let placement = args.robot.placement(&robot, PlacementDefault::Simulated)?;
-
-    // A height the legs cannot reach is refused here, before anything moves.
-    let controller = StandController::new(&robot, args.height)?;
-    let chatty = !(args.output.quiet || args.output.json);
-    if chatty {
-        say(format_args!(
-            "quadruped: {} motors on {} buses ({placement}), {} Hz: {} 0x280 frames per tick; \
-             standing up from {CROUCH_HEIGHT_M:.2} m to {:.2} m, then holding",
-            robot.joint_count(),
-            robot.buses().len(),
-            robot.settings().period.hz(),
-            robot.buses().len(),
-            args.height
-        ));
-    }
-    let what = "the robot will stand up from its crouch and hold the pose";
-    if !args.robot.confirm_motion(&placement, what) {
-        return Err(DemoError::NotConfirmed.into());
-    }
-    let rig = Rig::open(
-        &robot,
-        &placement,
-        quadruped::sims(&robot, args.robot.seed)?,
-    )?;
-    let rt = rig.into_loop(robot, controller)?;
-
-    let csv = args
-        .output
-        .telemetry
-        .csv
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("target/quadruped.csv"));
-    let mut status = StandStatus::default();
-    let finished = Runner::from_args(&args.output)
-        .csv(Some(csv.as_path()))
-        .status(&mut status)
-        .run(rt, RunLimit::Duration(duration))?;
-    if chatty {
-        say(support::time_line(&finished));
-    }
-    finished.print_report(args.output.json);
-    let results = finished
-        .outcome
-        .controller
-        .results(&finished.outcome.report);
-    if !args.output.json {
-        say(format_args!("\n{results}"));
-    }
-    Ok(support::exit_code(&finished, results.ok()))
+    Program::new("quadruped", ROBOT, &args.robot, &args.run, &args.output)
+        .duration(DURATION)
+        .csv("target/quadruped.csv")
+        .time_line()
+        .gap_before_results()
+        .main(
+            |site| {
+                let robot = site.robot;
+                // A height the legs cannot reach is refused here, before anything moves.
+                let controller = StandController::new(robot, args.height)?;
+                Ok(Launch {
+                    banner: format!(
+                        "quadruped: {} motors on {} buses ({}), {} Hz: {} 0x280 frames per \
+                         tick; standing up from {CROUCH_HEIGHT_M:.2} m to {:.2} m, then holding",
+                        robot.joint_count(),
+                        robot.buses().len(),
+                        site.placement,
+                        robot.settings().period.hz(),
+                        robot.buses().len(),
+                        args.height
+                    ),
+                    motion: "the robot will stand up from its crouch and hold the pose".into(),
+                    sims: quadruped::sims(robot, args.robot.seed)?,
+                    controller,
+                    status: StandStatus::default(),
+                })
+            },
+            |finished, _, _| {
+                let outcome = &finished.outcome;
+                outcome.controller.results(&outcome.report)
+            },
+        )
 }

@@ -20,19 +20,14 @@
 //! The run ends after the last waypoint (or gives up after `--duration`, 30 s by default). At
 //! the end it prints, for each waypoint, how far each joint was from it after the pause.
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Parser;
-use rmd_demos::DemoError;
 use rmd_demos::leg::LegModel;
-use rmd_demos::support::{self, say};
 use rmd_demos::trajectory_follow::{self, FollowStatus, Follower};
 use rmd_rt::rig::args::{LoopArgs, OutputArgs, RobotArgs};
-use rmd_rt::rig::runner::{Runner, exit_with_error};
-use rmd_rt::rig::{PlacementDefault, Rig};
-use rmd_rt::{Robot, RunLimit};
+use rmd_rt::rig::program::{Launch, Program};
 
 /// The robot (the leg of `leg4`), unless `--robot FILE` replaces it.
 const ROBOT: &str = include_str!("robots/leg4.toml");
@@ -71,60 +66,38 @@ fn pause(text: &str) -> Result<Duration, String> {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    run(&args).unwrap_or_else(|e| exit_with_error("trajectory_follow", &e))
-}
-
-fn run(args: &Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    let duration = args.run.duration.unwrap_or(DURATION);
-    let mut description = args.robot.description(ROBOT)?;
-    args.run.apply(&mut description);
-    let robot = Robot::try_from(description)?;
-    let placement = args.robot.placement(&robot, PlacementDefault::Simulated)?;
-
-    // Waypoints are checked against the joint limits before anything moves.
-    let model = LegModel::new();
-    let waypoints = trajectory_follow::parse_waypoints(&model, &args.waypoints)?;
-    let follower = Follower::new(&robot, model, waypoints, args.pause.as_secs_f64())?;
-    let tour = follower.waypoints().len();
-    let chatty = !(args.output.quiet || args.output.json);
-    if chatty {
-        say(format_args!(
-            "trajectory_follow: 4-motor leg on {placement}, {} Hz, {tour} waypoint(s), {:.1} s pause at each",
-            robot.settings().period.hz(),
-            args.pause.as_secs_f64()
-        ));
-    }
-    if !args
-        .robot
-        .confirm_motion(&placement, "the leg will move through the waypoints")
-    {
-        return Err(DemoError::NotConfirmed.into());
-    }
-    let rig = Rig::open(
-        &robot,
-        &placement,
-        trajectory_follow::sims(&robot, args.robot.seed)?,
-    )?;
-    let rt = rig.into_loop(robot, follower)?;
-
-    let csv = args
-        .output
-        .telemetry
-        .csv
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("target/trajectory_follow.csv"));
-    let mut status = FollowStatus::new(tour);
-    let finished = Runner::from_args(&args.output)
-        .csv(Some(csv.as_path()))
-        .status(&mut status)
-        .run(rt, RunLimit::Duration(duration))?;
-    if chatty {
-        say(support::time_line(&finished));
-    }
-    finished.print_report(args.output.json);
-    let results = finished.outcome.controller.results();
-    if !args.output.json {
-        say(format_args!("\n{results}"));
-    }
-    Ok(support::exit_code(&finished, results.ok()))
+    Program::new(
+        "trajectory_follow",
+        ROBOT,
+        &args.robot,
+        &args.run,
+        &args.output,
+    )
+    .duration(DURATION)
+    .csv("target/trajectory_follow.csv")
+    .time_line()
+    .gap_before_results()
+    .main(
+        |site| {
+            // Waypoints are checked against the joint limits before anything moves.
+            let model = LegModel::new();
+            let waypoints = trajectory_follow::parse_waypoints(&model, &args.waypoints)?;
+            let pause_s = args.pause.as_secs_f64();
+            let follower = Follower::new(site.robot, model, waypoints, pause_s)?;
+            let tour = follower.waypoints().len();
+            Ok(Launch {
+                banner: format!(
+                    "trajectory_follow: 4-motor leg on {}, {} Hz, {tour} waypoint(s), \
+                         {pause_s:.1} s pause at each",
+                    site.placement,
+                    site.robot.settings().period.hz(),
+                ),
+                motion: "the leg will move through the waypoints".into(),
+                sims: trajectory_follow::sims(site.robot, args.robot.seed)?,
+                controller: follower,
+                status: FollowStatus::new(tour),
+            })
+        },
+        |finished, _, _| finished.outcome.controller.results(),
+    )
 }

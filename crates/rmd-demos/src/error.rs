@@ -94,7 +94,4 @@ pub enum DemoError {
     /// A bad option value.
     #[error("{0}")]
     Usage(String),
-    /// Motion on real motors was not confirmed.
-    #[error("not started: moving the real motors was not confirmed")]
-    NotConfirmed,
 }

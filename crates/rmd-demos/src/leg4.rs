@@ -20,6 +20,7 @@ use nalgebra::Vector4;
 use rmd_loop::{
     Commands, Controller, Feedback, Flow, JointId, LoopReport, Robot, TelemetrySample, TickContext,
 };
+use rmd_rig::program::Verdict;
 use rmd_rig::runner::Status;
 use rmd_sim::SimConfig;
 use rmd_traj::TrajectoryError;
@@ -415,6 +416,12 @@ impl LegResults {
     /// Whether the controller ran as planned (it did not stop the run itself).
     pub fn ok(&self) -> bool {
         self.halt.is_none()
+    }
+}
+
+impl Verdict for LegResults {
+    fn ok(&self) -> bool {
+        LegResults::ok(self)
     }
 }
 

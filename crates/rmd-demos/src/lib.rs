@@ -1,7 +1,7 @@
 //! # rmd-demos: the models and controllers of the rmd-rt examples
 //!
-//! What is specific to the examples in `examples/` (their `main`s only parse flags, load the
-//! robot description, open it with `rmd-rig` and run): the 4-motor leg's model, the Cartesian
+//! What is specific to the examples in `examples/` (their `main`s only parse flags and hand
+//! their robot, controller and results to `rmd_rig::program::Program`): the 4-motor leg's model, the Cartesian
 //! impedance law, the step cycle, and each example's controller, simulated robot, status line and
 //! results. Ordinary library code, so the examples' tests import it like any crate. It sits on
 //! `rmd-loop`, `rmd-rig`, `rmd-sim` and `rmd-traj`; nothing depends on it but the examples and
@@ -12,8 +12,9 @@
 //! - [`impedance`]: `torque = J^T (K (x_d - x) + D (v_d - v)) + g(q)` with joint-limit springs;
 //! - [`step_cycle`]: a stance and a swing planned with the trajectory generator;
 //! - [`pd_hold`], [`leg4`], [`quadruped`], [`trajectory_follow`]: each example's controller,
-//!   simulated robot, status line (`rmd_rig::runner::Status`) and results;
-//! - [`support`]: the exit status and telemetry settings every example's `main` shares.
+//!   simulated robot, status line (`rmd_rig::runner::Status`) and results
+//!   (`rmd_rig::program::Verdict`);
+//! - [`support`]: the motors' part of the status line and the value parser of the examples' flags.
 //!
 //! The robot descriptions the examples start from are `examples/robots/*.toml`.
 //!

@@ -11,6 +11,7 @@ use core::fmt;
 use rmd_loop::{
     Commands, Controller, Feedback, Flow, JointArray, Robot, TelemetrySample, TickContext,
 };
+use rmd_rig::program::Verdict;
 use rmd_rig::runner::Status;
 use rmd_sim::{GravityLink, SimConfig};
 
@@ -154,6 +155,9 @@ pub struct HoldResults {
     /// Every joint (none if the loop never ticked).
     pub joints: Vec<FinalJoint>,
 }
+
+/// Said after the report; a hold has no aim of its own to miss.
+impl Verdict for HoldResults {}
 
 impl fmt::Display for HoldResults {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

@@ -16,6 +16,7 @@ use nalgebra::Vector4;
 use rmd_loop::{
     Commands, Controller, Feedback, Flow, JointId, LoopReport, Robot, TelemetrySample, TickContext,
 };
+use rmd_rig::program::Verdict;
 use rmd_rig::runner::Status;
 use rmd_sim::SimConfig;
 use rmd_traj::{Input, Trajectory, TrajectoryError, calculate};
@@ -386,6 +387,12 @@ impl StandResults {
     /// Whether the robot stood up and the controller did not stop the run itself.
     pub fn ok(&self) -> bool {
         self.halt.is_none() && self.reached_at_s.is_some()
+    }
+}
+
+impl Verdict for StandResults {
+    fn ok(&self) -> bool {
+        StandResults::ok(self)
     }
 }
 

@@ -1,13 +1,9 @@
-//! What every example's `main` uses besides `rmd-rig`: a status-line part for the motors, the
-//! exit status of a run whose controller may have stopped it on purpose, and printing that
-//! survives a closed pipe.
+//! What every example's `main` uses besides `rmd-rig`: a status-line part for the motors and a
+//! value parser for its own flags.
 
 use core::fmt;
-use std::io::Write;
-use std::process::ExitCode;
 
 use rmd_loop::TelemetrySample;
-use rmd_rig::runner::{EXIT_FAULT, EXIT_OK, Finished};
 
 /// The largest torque current and temperature of any motor so far (a part of the examples'
 /// status lines): `|iq| <= 2.3 A  25 degC`.
@@ -39,31 +35,6 @@ impl fmt::Display for MotorExtremes {
             self.max_abs_current_amps, self.max_temperature_celsius
         )
     }
-}
-
-/// The exit status of an example's run: the runner's (0 normal, 1 fault, 130 interrupted), but
-/// 1 when the loop ended normally and yet the example did not do what it set out to (its
-/// controller stopped the run on a joint limit, the robot never stood up, ...).
-pub fn exit_code<K>(finished: &Finished<K>, demo_ok: bool) -> ExitCode {
-    match finished.exit_status() {
-        EXIT_OK if !demo_ok => ExitCode::from(EXIT_FAULT),
-        status => ExitCode::from(status),
-    }
-}
-
-/// `ran 10.0 s of loop time in 0.6 s of wall time`.
-pub fn time_line<K>(finished: &Finished<K>) -> String {
-    format!(
-        "ran {:.1} s of loop time in {:.1} s of wall time",
-        finished.outcome.report.duration_s,
-        finished.wall_time.as_secs_f64()
-    )
-}
-
-/// Prints `text` and a line break on standard output; a closed standard output (`| head`) is
-/// ignored: printing never stops a run.
-pub fn say(text: impl fmt::Display) {
-    let _ = writeln!(std::io::stdout(), "{text}");
 }
 
 /// Parses a finite number (a clap value parser for the examples' own flags): `inf`, `NaN` and

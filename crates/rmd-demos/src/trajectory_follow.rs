@@ -13,6 +13,7 @@ use core::fmt;
 
 use nalgebra::Vector4;
 use rmd_loop::{Commands, Controller, Feedback, Flow, Robot, TelemetrySample, TickContext};
+use rmd_rig::program::Verdict;
 use rmd_rig::runner::Status;
 use rmd_sim::SimConfig;
 use rmd_traj::{Input, OnlineGenerator, OnlineStatus, TrajectoryError};
@@ -396,6 +397,12 @@ impl FollowResults {
     /// Whether every waypoint was reached without a planning error.
     pub fn ok(&self) -> bool {
         self.error.is_none() && self.reached.len() == self.waypoints
+    }
+}
+
+impl Verdict for FollowResults {
+    fn ok(&self) -> bool {
+        FollowResults::ok(self)
     }
 }
 

@@ -117,4 +117,7 @@ pub enum RigError {
     /// A bad command-line value.
     #[error("{0}")]
     Usage(String),
+    /// Moving real motors was not confirmed (no Enter, or no terminal and no `--yes`).
+    #[error("not started: moving the real motors was not confirmed")]
+    NotConfirmed,
 }

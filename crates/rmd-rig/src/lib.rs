@@ -36,7 +36,8 @@
 //! - [`sim`]: simulated motors that match a description;
 //! - [`signals`]: Ctrl-C / SIGTERM: stop, then emergency stop, then exit;
 //! - [`args`]: the standard flags (`--robot`, `--sim`, `--iface`, `--duration`, `--rate`, ...);
-//! - [`runner`]: running a loop with a status line, CSV, the report and exit codes.
+//! - [`runner`]: running a loop with a status line, CSV, the report and exit codes;
+//! - [`program`]: a whole program around one controller, from its flags to its exit status.
 
 pub mod args;
 mod bus;
@@ -44,6 +45,7 @@ mod clock;
 mod error;
 pub mod open;
 pub mod placement;
+pub mod program;
 pub mod runner;
 pub mod signals;
 pub mod sim;

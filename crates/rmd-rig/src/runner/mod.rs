@@ -54,6 +54,14 @@ pub trait Status {
     fn line(&self) -> String;
 }
 
+/// No part of the status line: the runner's own progress only.
+impl Status for () {
+    fn observe(&mut self, _: &TelemetrySample) {}
+    fn line(&self) -> String {
+        String::new()
+    }
+}
+
 /// What a run produced.
 #[derive(Debug)]
 pub struct Finished<K> {

@@ -2,4 +2,5 @@
 //! dependencies are linked once for all of them.
 
 mod open;
+mod program;
 mod signals;
