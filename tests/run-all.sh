@@ -12,7 +12,7 @@ took() {
 }
 
 # The Rust tests (unit, integration, property), once, with every core busy: the real-time ones
-# must hold on a loaded machine, and what holds there holds on a quiet one (with `cargo nextest`
+# must hold on a loaded machine, the stricter test of timing (with `cargo nextest`
 # when it is installed, else `cargo test`).
 took ./tests/under-load.sh
 # nextest does not run doc tests.
