@@ -2,7 +2,7 @@
 //!
 //! A description is written as TOML (or built in code) in its [file form](mod@file), then
 //! converted once, with [`Robot::try_from`] or [`Robot::from_file`], into a [`Robot`] whose
-//! every value is checked and typed: motor ids are [`MotorId`]s that fit a 0x280 frame, encoder
+//! every value is checked and typed: motor ids are [`MotorId`]s (1..=32), encoder
 //! widths are [`EncoderWidth`]s, the rate is a [`Period`], the reply deadline a [`Duration`].
 //! Errors name the key. Nothing downstream validates again.
 //!
@@ -24,7 +24,7 @@
 //! let hip = robot.joint("hip")?;
 //! assert_eq!(robot.spec(hip).motor.get(), 1);
 //! assert_eq!(robot.settings().period.get().as_millis(), 2);
-//! assert!(Robot::from_toml("[[bus]]\ninterface = \"can0\"\n[[bus.motor]]\nid = 5").is_err());
+//! assert!(Robot::from_toml("[[bus]]\ninterface = \"can0\"\n[[bus.motor]]\nid = 33").is_err());
 //! # Ok::<(), rmd_loop::robot::RobotError>(())
 //! ```
 
