@@ -9,6 +9,7 @@ use rmd_protocol::{MULTI_TORQUE_MOTORS, MotorId};
 
 use super::error::{RobotError, invalid};
 use super::file::{BusConfig, ExchangeKind};
+use super::joint::JointSpec;
 use crate::joint::JointId;
 
 /// The motor ids one 0x280 frame drives (1..=4): a `multi-torque` bus drives higher ids with
@@ -70,7 +71,7 @@ pub struct BusSpec {
     joints: Range<usize>,
     /// On a `multi-torque` bus, its motors beyond the 0x280 frame's ids 1..=4 (each driven by
     /// an 0xA1 request of its own).
-    pub(super) beyond_frame: u32,
+    beyond_frame: u32,
 }
 
 impl BusSpec {
@@ -119,6 +120,20 @@ impl BusSpec {
             self.bitrate,
             self.turnaround,
         )
+    }
+
+    /// Sets its exchange, decided once its motors' dialects are known (`exchange_of`), with
+    /// what follows from it: the motors a `multi-torque` exchange drives beyond its 0x280
+    /// frame. `joints` are this bus's joints.
+    pub(super) fn set_exchange(&mut self, exchange: ExchangeKind, joints: &[JointSpec]) {
+        self.exchange = exchange;
+        self.beyond_frame = match exchange {
+            ExchangeKind::MultiTorque => joints
+                .iter()
+                .filter(|j| j.slot() >= MAX_MOTORS_PER_BUS)
+                .count() as u32,
+            ExchangeKind::PerMotor | ExchangeKind::Motion => 0,
+        };
     }
 }
 

@@ -280,14 +280,8 @@ impl Robot {
                 joints.push(joint);
             }
             let mut spec = spec;
-            spec.exchange = exchange_of(bus, &joints[spec.joint_range()], &key)?;
-            spec.beyond_frame = match spec.exchange {
-                ExchangeKind::MultiTorque => joints[spec.joint_range()]
-                    .iter()
-                    .filter(|j| j.slot() >= MAX_MOTORS_PER_BUS)
-                    .count() as u32,
-                ExchangeKind::PerMotor | ExchangeKind::Motion => 0,
-            };
+            let exchange = exchange_of(bus, &joints[spec.joint_range()], &key)?;
+            spec.set_exchange(exchange, &joints[spec.joint_range()]);
             check_bus_layout(&spec, &key)?;
             if joints.len() > MAX_JOINTS {
                 return Err(invalid(
