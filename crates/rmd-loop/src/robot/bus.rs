@@ -213,3 +213,23 @@ pub(super) fn bus_spec(
         beyond_frame: 0,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::robot::test_fixtures::{LEG, expect_invalid};
+
+    #[test]
+    fn bad_bus_values_name_their_key() {
+        expect_invalid(
+            &LEG.replace("interface = \"can0\"", "interface = \" \""),
+            "bus[0].interface",
+        );
+        expect_invalid(
+            &LEG.replace(
+                "interface = \"can0\"",
+                "interface = \"can0\"\nturnaround_us = 18446744073709551615",
+            ),
+            "bus[0].turnaround_us",
+        );
+    }
+}

@@ -231,3 +231,133 @@ fn highest_rate_hz(period: Duration) -> u64 {
     }
     hz
 }
+
+#[cfg(test)]
+mod tests {
+    use core::time::Duration;
+
+    use crate::robot::test_fixtures::v3_bus;
+    use crate::robot::{
+        BusConfig, ExchangeKind, MotorConfig, ReplyMode, Robot, RobotConfig, RobotError,
+    };
+
+    #[test]
+    fn a_period_the_bus_cannot_carry_is_refused() {
+        // 4 motors at 1 Mbit/s need up to 875 us: 2 kHz (500 us period) cannot work.
+        let mut bus = BusConfig::new("can0");
+        for id in 1..=4 {
+            bus = bus.with_motor(MotorConfig::new(id));
+        }
+        let err = Robot::try_from(RobotConfig::new(2000.0).with_bus(bus.clone())).unwrap_err();
+        assert!(err.to_string().contains("875 us"), "{err}");
+        // 1 kHz fits with the default 900 us reply deadline.
+        Robot::try_from(RobotConfig::new(1000.0).with_bus(bus.clone())).unwrap();
+        // Pipelined mode only needs the exchange to fit in the period.
+        let mut pipelined = RobotConfig::new(1100.0).with_bus(bus.clone());
+        pipelined.loop_config.reply_mode = ReplyMode::Pipelined;
+        Robot::try_from(pipelined).unwrap();
+        // A lower bit rate needs a lower rate.
+        assert!(Robot::try_from(RobotConfig::new(1000.0).with_bus(bus.bitrate(500_000))).is_err());
+    }
+
+    #[test]
+    fn ids_beyond_four_get_requests_of_their_own() {
+        let mut bus = BusConfig::new("can0");
+        for id in [1, 2, 3, 4, 5] {
+            bus = bus.with_motor(MotorConfig::new(id));
+        }
+        // The 0x280 frame for ids 1..=4, an 0xA1 request for id 5.
+        let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(bus.clone())).unwrap();
+        assert_eq!(robot.buses()[0].exchange, ExchangeKind::MultiTorque);
+        assert_eq!(robot.buses()[0].requests_per_exchange(), 2);
+        // A per-motor bus: one request each (ids up to 32), when the rate leaves the wire time.
+        let per_motor = bus
+            .exchange(ExchangeKind::PerMotor)
+            .with_motor(MotorConfig::new(32));
+        let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(per_motor)).unwrap();
+        assert_eq!(robot.buses()[0].exchange, ExchangeKind::PerMotor);
+        assert_eq!(robot.buses()[0].requests_per_exchange(), 6);
+        assert_eq!(robot.joints()[5].motor.get(), 32);
+        // Without an id of 1..=4 there is nothing for a 0x280 frame to do: per-motor.
+        let high = BusConfig::new("can0").with_motor(MotorConfig::new(5));
+        let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(high)).unwrap();
+        assert_eq!(robot.buses()[0].exchange, ExchangeKind::PerMotor);
+        // Thirty-two motors on one bus take their wire time: refused at 1 kHz, naming the rate.
+        let mut full = BusConfig::new("can0");
+        for id in 1..=32 {
+            full = full.with_motor(MotorConfig::new(id));
+        }
+        let err = Robot::try_from(RobotConfig::new(1000.0).with_bus(full)).unwrap_err();
+        assert!(
+            err.to_string().contains("highest rate this bus can carry"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_v3_bus_exchanges_per_motor_and_refuses_multi_torque() {
+        let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(v3_bus(3))).unwrap();
+        let bus = &robot.buses()[0];
+        assert_eq!(bus.exchange, ExchangeKind::PerMotor);
+        // Three requests outlast the first motor's turnaround: 6 frames of 135 us.
+        assert_eq!(bus.exchange_budget(), Duration::from_micros(810));
+        let multi = v3_bus(3).exchange(ExchangeKind::MultiTorque);
+        match Robot::try_from(RobotConfig::new(1000.0).with_bus(multi)) {
+            Err(RobotError::Invalid { key, problem, .. }) => {
+                assert_eq!(key, "bus[0].exchange");
+                assert!(problem.contains("per-motor"), "{problem}");
+            }
+            other => panic!("{other:?}"),
+        }
+        // A bus mixing a v1.61 motor with a V3 one is per-motor too.
+        let mixed = BusConfig::new("can0")
+            .with_motor(MotorConfig::new(1))
+            .with_motor(MotorConfig::new(2).protocol("myactuator-v3", None));
+        let robot = Robot::try_from(RobotConfig::new(1000.0).with_bus(mixed)).unwrap();
+        assert_eq!(robot.buses()[0].exchange, ExchangeKind::PerMotor);
+    }
+
+    #[test]
+    fn a_rate_beyond_the_wire_budget_is_refused_naming_the_highest_it_can_carry() {
+        // Four V3 motors per-motor at 1 Mbit/s: 4 * 135 + 4 * 135 = 1080 us; the default reply
+        // deadline (90% of the period) holds it from 1200 us: 833 Hz.
+        let err = Robot::try_from(RobotConfig::new(1000.0).with_bus(v3_bus(4))).unwrap_err();
+        let RobotError::Invalid { key, problem, .. } = err else {
+            panic!("{err:?}")
+        };
+        assert_eq!(key, "bus[0]");
+        assert!(
+            problem.contains("highest rate this bus can carry is 833 Hz"),
+            "{problem}"
+        );
+        assert!(problem.contains("fewer motors"), "{problem}");
+        Robot::try_from(RobotConfig::new(833.0).with_bus(v3_bus(4))).unwrap();
+        assert!(Robot::try_from(RobotConfig::new(834.0).with_bus(v3_bus(4))).is_err());
+        // Pipelined: the period must hold it: 1 / 1080 us = 925.9 Hz.
+        let mut pipelined = RobotConfig::new(1000.0).with_bus(v3_bus(4));
+        pipelined.loop_config.reply_mode = ReplyMode::Pipelined;
+        let err = Robot::try_from(pipelined.clone()).unwrap_err();
+        assert!(err.to_string().contains("is 925 Hz"), "{err}");
+        pipelined.loop_config.rate_hz = 925.0;
+        Robot::try_from(pipelined).unwrap();
+        // The highest rate named is always one the check accepts, for every layout.
+        for motors in 1..=8u8 {
+            for bitrate in [125_000, 500_000, 1_000_000] {
+                let bus = v3_bus(motors).bitrate(bitrate);
+                let Err(RobotError::Invalid { problem, .. }) =
+                    Robot::try_from(RobotConfig::new(5000.0).with_bus(bus.clone()))
+                else {
+                    panic!("5 kHz accepted");
+                };
+                let hz: f64 = problem
+                    .split("can carry is ")
+                    .nth(1)
+                    .and_then(|rest| rest.split(' ').next())
+                    .and_then(|n| n.parse().ok())
+                    .unwrap_or_else(|| panic!("{problem}"));
+                Robot::try_from(RobotConfig::new(hz).with_bus(bus.clone())).unwrap();
+                assert!(Robot::try_from(RobotConfig::new(hz + 1.0).with_bus(bus)).is_err());
+            }
+        }
+    }
+}

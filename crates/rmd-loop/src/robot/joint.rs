@@ -356,3 +356,155 @@ pub(super) fn check_watchdog_period(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::robot::test_fixtures::{LEG, expect_invalid, v3_bus};
+    use crate::robot::{BusConfig, MotorConfig, Robot, RobotConfig, RobotError};
+
+    #[test]
+    fn bad_motor_values_name_their_key() {
+        expect_invalid(&LEG.replace("id = 2", "id = 33"), "bus[0].motor[1].id");
+        expect_invalid(&LEG.replace("id = 2", "id = 0"), "bus[0].motor[1].id");
+        expect_invalid(
+            &LEG.replace("gear_ratio = 6.0", "gear_ratio = -6.0"),
+            "bus[0].motor[0].gear_ratio",
+        );
+        expect_invalid(
+            &LEG.replace("current_limit_amps = 8.0", "current_limit_amps = 40.0"),
+            "bus[0].motor[0].current_limit_amps",
+        );
+        expect_invalid(
+            &LEG.replace(
+                "[[bus.motor]]\n        id = 2",
+                "[[bus.motor]]\n        id = 2\n        encoder_bits = 20",
+            ),
+            "bus[0].motor[1].encoder_bits",
+        );
+    }
+
+    #[test]
+    fn physically_absurd_motor_values_are_refused_naming_their_key() {
+        let motor = "[[bus.motor]]\n        id = 2";
+        let on_motor = |line: &str| LEG.replace(motor, &format!("{motor}\n        {line}"));
+        for (line, key) in [
+            ("gear_ratio = 1e308", "bus[0].motor[1].gear_ratio"),
+            ("gear_ratio = 1e-308", "bus[0].motor[1].gear_ratio"),
+            ("gear_ratio = nan", "bus[0].motor[1].gear_ratio"),
+            ("gear_ratio = 0.0", "bus[0].motor[1].gear_ratio"),
+            ("zero_offset_deg = 1e308", "bus[0].motor[1].zero_offset_deg"),
+            (
+                "zero_offset_deg = -3601.0",
+                "bus[0].motor[1].zero_offset_deg",
+            ),
+            ("zero_offset_deg = inf", "bus[0].motor[1].zero_offset_deg"),
+            (
+                "torque_constant_nm_per_amp = 1e308",
+                "bus[0].motor[1].torque_constant_nm_per_amp",
+            ),
+            (
+                "torque_constant_nm_per_amp = 1e-308",
+                "bus[0].motor[1].torque_constant_nm_per_amp",
+            ),
+            (
+                "current_limit_amps = 1e-308",
+                "bus[0].motor[1].current_limit_amps",
+            ),
+            (
+                "temperature_limit_celsius = 1e308",
+                "bus[0].motor[1].temperature_limit_celsius",
+            ),
+        ] {
+            expect_invalid(&on_motor(line), key);
+        }
+        // The edges of the ranges are accepted: a 1:100 step-up, a 1000:1 reduction.
+        for line in [
+            "gear_ratio = 0.01",
+            "gear_ratio = 1000.0",
+            "zero_offset_deg = -3600.0",
+        ] {
+            Robot::from_toml(&on_motor(line)).unwrap();
+        }
+    }
+
+    #[test]
+    fn a_brake_is_described_on_v3_motors_only() {
+        let braked = BusConfig::new("can0").with_motor(MotorConfig::new(1).brake(true));
+        expect_invalid(
+            &RobotConfig::new(100.0).with_bus(braked).to_toml(),
+            "bus[0].motor[0].brake",
+        );
+        let braked = v3_bus(1);
+        let mut braked = braked;
+        braked.motors[0].brake = true;
+        let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(braked)).unwrap();
+        assert!(robot.joints()[0].brake);
+    }
+
+    #[test]
+    fn every_width_from_12_to_18_bits_is_accepted() {
+        for bits in 12..=18 {
+            let text = LEG.replace(
+                "[[bus.motor]]\n        id = 2",
+                &format!("[[bus.motor]]\n        id = 2\n        encoder_bits = {bits}"),
+            );
+            let robot = Robot::from_toml(&text).unwrap();
+            assert_eq!(robot.joints()[1].encoder.bits(), bits);
+        }
+    }
+
+    #[test]
+    fn a_watchdog_is_described_on_v3_motors_only_and_spans_several_periods() {
+        let refused = |robot: RobotConfig, key: &str, words: &str| match Robot::try_from(robot) {
+            Err(RobotError::Invalid {
+                key: k, problem, ..
+            }) => {
+                assert_eq!(k, key, "{problem}");
+                assert!(problem.contains(words), "{problem}");
+            }
+            other => panic!("expected an error on {key}, got {other:?}"),
+        };
+        // v1.61 has no watchdog.
+        let v161 = BusConfig::new("can0").with_motor(MotorConfig::new(1).watchdog_ms(50));
+        refused(
+            RobotConfig::new(100.0).with_bus(v161),
+            "bus[0].motor[0].watchdog_ms",
+            "only MyActuator V3 motors have a communication watchdog",
+        );
+        // 5 ms proved too short on real motors.
+        let mut short = v3_bus(1);
+        short.motors[0].watchdog_ms = Some(5);
+        refused(
+            RobotConfig::new(1000.0).with_bus(short),
+            "bus[0].motor[0].watchdog_ms",
+            "at least 10 ms",
+        );
+        // At 50 Hz a tick is 20 ms: 50 ms is less than three of them.
+        let mut slow = v3_bus(1);
+        slow.motors[0].watchdog_ms = Some(50);
+        refused(
+            RobotConfig::new(50.0).with_bus(slow.clone()),
+            "bus[0].motor[0].watchdog_ms",
+            "shorter than 3 of the loop's periods (60 ms at 50 Hz)",
+        );
+        let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(slow)).unwrap();
+        assert_eq!(robot.joints()[0].watchdog.map(|w| w.millis()), Some(50));
+        // 0 describes a watchdog that is off, at any rate; no key, none described.
+        let mut off = v3_bus(2);
+        off.motors[0].watchdog_ms = Some(0);
+        let robot = Robot::try_from(RobotConfig::new(1.0).with_bus(off)).unwrap();
+        assert!(robot.joints()[0].watchdog.is_some_and(|w| w.is_off()));
+        assert_eq!(robot.joints()[1].watchdog, None);
+        // The key round-trips through TOML.
+        let text = RobotConfig::new(100.0)
+            .with_bus(
+                BusConfig::new("can0")
+                    .protocol("myactuator-v3")
+                    .with_motor(MotorConfig::new(1).watchdog_ms(80)),
+            )
+            .to_toml();
+        assert!(text.contains("watchdog_ms = 80"), "{text}");
+        let robot = Robot::from_toml(&text).unwrap();
+        assert_eq!(robot.joints()[0].watchdog.map(|w| w.millis()), Some(80));
+    }
+}

@@ -263,3 +263,116 @@ pub(super) fn default_reply_deadline(p: Duration) -> Duration {
     p.saturating_sub((p / 10).max(Duration::from_micros(50)))
         .max(p / 2)
 }
+
+#[cfg(test)]
+mod tests {
+    use core::time::Duration;
+
+    use crate::robot::test_fixtures::{LEG, expect_invalid};
+    use crate::robot::{Robot, RobotError};
+
+    #[test]
+    fn bad_loop_values_name_their_key() {
+        expect_invalid(
+            &LEG.replace("rate_hz = 500.0", "rate_hz = 0.0"),
+            "loop.rate_hz",
+        );
+        expect_invalid(
+            &LEG.replace("spin_margin_us = 20", "spin_margin_us = 5000"),
+            "loop.spin_margin_us",
+        );
+        expect_invalid(&LEG.replace("after = 5", "after = 0"), "loop.overrun.after");
+        expect_invalid(
+            &LEG.replace("cpu = 1", "cpu = 1\nfifo_priority = 100"),
+            "loop.fifo_priority",
+        );
+        expect_invalid(
+            &LEG.replace("cpu = 1", "cpu = 1\ncpu_dma_latency_us = 1000001"),
+            "loop.cpu_dma_latency_us",
+        );
+    }
+
+    #[test]
+    fn physically_absurd_loop_values_are_refused_naming_their_key() {
+        let on_loop = |line: &str| LEG.replace("[loop]", &format!("[loop]\n{line}"));
+        for (line, key) in [
+            (
+                "stall_bound_ms = 18446744073709551615",
+                "loop.stall_bound_ms",
+            ),
+            (
+                "missing_reply_fault_after = 0",
+                "loop.missing_reply_fault_after",
+            ),
+            ("startup_probes = 4294967295", "loop.startup_probes"),
+            (
+                "telemetry_capacity = 1000000000000",
+                "loop.telemetry_capacity",
+            ),
+            (
+                "reply_deadline_us = 18446744073709551615",
+                "loop.reply_deadline_us",
+            ),
+        ] {
+            expect_invalid(&on_loop(line), key);
+        }
+        expect_invalid(&LEG.replace("cpu = 1", "cpu = 4096"), "loop.cpu");
+        expect_invalid(
+            &LEG.replace("rate_hz = 500.0", "rate_hz = 1e308"),
+            "loop.rate_hz",
+        );
+    }
+
+    #[test]
+    fn the_cpu_latency_request_parses_and_defaults_to_zero_with_real_time_settings() {
+        let latency = |text: &str| {
+            Robot::from_toml(text)
+                .unwrap()
+                .settings()
+                .realtime
+                .cpu_dma_latency
+        };
+        let us = Duration::from_micros;
+        // Auto: 0 us when pinned or SCHED_FIFO, off otherwise.
+        assert_eq!(latency(LEG), Some(us(0)));
+        let plain = LEG.replace("cpu = 1\n", "");
+        assert_eq!(latency(&plain), None);
+        assert_eq!(
+            latency(&plain.replace("rate_hz = 500.0", "rate_hz = 500.0\nfifo_priority = 80")),
+            Some(us(0))
+        );
+        // Given: a number of microseconds, or off, whatever else is set.
+        assert_eq!(
+            latency(&LEG.replace("cpu = 1", "cpu = 1\ncpu_dma_latency_us = 25")),
+            Some(us(25))
+        );
+        assert_eq!(
+            latency(&plain.replace("rate_hz = 500.0", "rate_hz = 500.0\ncpu_dma_latency_us = 3")),
+            Some(us(3))
+        );
+        assert_eq!(
+            latency(&LEG.replace("cpu = 1", "cpu = 1\ncpu_dma_latency_us = \"off\"")),
+            None
+        );
+        assert_eq!(
+            latency(&LEG.replace("cpu = 1", "cpu = 1\ncpu_dma_latency_us = \"auto\"")),
+            Some(us(0))
+        );
+        // Survives a round trip through TOML.
+        let robot =
+            Robot::from_toml(&LEG.replace("cpu = 1", "cpu = 1\ncpu_dma_latency_us = \"off\""))
+                .unwrap();
+        assert_eq!(Robot::from_toml(&robot.config().to_toml()).unwrap(), robot);
+        // Anything else is a parse error that says what is expected.
+        for bad in ["-1", "\"on\"", "1.5", "5000000000"] {
+            let err = Robot::from_toml(
+                &LEG.replace("cpu = 1", &format!("cpu = 1\ncpu_dma_latency_us = {bad}")),
+            )
+            .unwrap_err();
+            assert!(
+                matches!(&err, RobotError::Parse { message: m, .. } if m.contains("microseconds") && m.contains("off")),
+                "{bad}: {err}"
+            );
+        }
+    }
+}
