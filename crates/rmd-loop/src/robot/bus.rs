@@ -137,6 +137,8 @@ impl BusSpec {
     }
 }
 
+/// Bus `b`'s `[[bus]]` entry (at `key`, its first joint the robot's joint `first`), checked
+/// alone; its exchange is decided with its motors (`BusSpec::set_exchange`).
 pub(super) fn bus_spec(
     b: usize,
     bus: &BusConfig,

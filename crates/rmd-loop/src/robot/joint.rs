@@ -161,6 +161,8 @@ fn dialect_of(
     Ok(dialect)
 }
 
+/// Motor entry `m` of bus `b` (at `key`), checked alone: each key's rule where the key is
+/// read; the rules across motors, buses and the loop are the caller's.
 pub(super) fn joint_spec(
     b: usize,
     bus: &BusConfig,

@@ -103,6 +103,8 @@ impl Default for SafeStopSettings {
     }
 }
 
+/// The `[loop]` table, checked: each key's rule where the key is read (errors name
+/// `loop.<key>`).
 pub(super) fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> {
     let period = Period::from_hz(l.rate_hz).map_err(|e| invalid("loop.rate_hz", e.to_string()))?;
     let p = period.get();
@@ -225,6 +227,7 @@ pub(super) fn loop_settings(l: &LoopConfig) -> Result<LoopSettings, RobotError> 
     })
 }
 
+/// The `[safe_stop]` table, checked (errors name `safe_stop.<key>`).
 pub(super) fn safe_stop_settings(c: &SafeStopConfig) -> Result<SafeStopSettings, RobotError> {
     if c.deadline_ms == 0 || c.deadline_ms > 60_000 {
         return Err(invalid(
