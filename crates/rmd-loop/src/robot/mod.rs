@@ -25,7 +25,7 @@
 //! let hip = robot.joint("hip")?;
 //! assert_eq!(robot.spec(hip).motor.get(), 1);
 //! assert_eq!(robot.settings().period.get().as_millis(), 2);
-//! assert!(Robot::from_toml("[[bus]]\ninterface = \"can0\"\n[[bus.motor]]\nid = 5").is_err());
+//! assert!(Robot::from_toml("[[bus]]\ninterface = \"can0\"\n[[bus.motor]]\nid = 33").is_err());
 //! # Ok::<(), rmd_loop::robot::RobotError>(())
 //! ```
 
