@@ -360,7 +360,7 @@ pub fn sim_motor_mut<'a>(
     sims: &'a mut [SimConfig],
     robot: &Robot,
     joint: JointId,
-) -> &'a mut rmd_sim::MotorConfig {
+) -> &'a mut rmd_sim::SimMotorConfig {
     let spec = robot.spec(joint);
     let first = robot.buses()[spec.bus].joint_range().start;
     &mut sims[spec.bus].motors[joint.index() - first]

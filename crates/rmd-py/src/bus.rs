@@ -12,7 +12,7 @@ use rmd_bus::{CanFrame, Clock};
 use rmd_frames::json::FrameJson;
 use rmd_protocol::{EncoderWidth, FIRST_MOTOR_CAN_ID, MotorId, Reply};
 use rmd_rig::{AnyBus, AnyClock, SharedSim, SimTime};
-use rmd_sim::{MotorConfig, SimBus, SimConfig};
+use rmd_sim::{SimBus, SimConfig, SimMotorConfig};
 
 use crate::args;
 use crate::errors::{
@@ -165,7 +165,7 @@ impl NativeBus {
                     .ok_or_else(|| {
                         ConfigError::new_err(format!("invalid motor id {id}: must be 1..=32"))
                     })?;
-                let mut sim = MotorConfig::new(motor);
+                let mut sim = SimMotorConfig::new(motor);
                 sim.firmware.encoder_width = width;
                 sim.firmware.family = family;
                 config.motors.push(sim);

@@ -57,8 +57,8 @@ pub fn sim_config(robot: &Robot, bus: &BusSpec, seed: u64) -> SimConfig {
 /// assert!((sim.motor.torque_constant_nm_per_a * 9.0 - 2.09).abs() < 1e-12);
 /// # Ok::<(), rmd_loop::RobotError>(())
 /// ```
-pub fn sim_motor(joint: &JointSpec) -> rmd_sim::MotorConfig {
-    let mut sim = rmd_sim::MotorConfig::new(joint.motor);
+pub fn sim_motor(joint: &JointSpec) -> rmd_sim::SimMotorConfig {
+    let mut sim = rmd_sim::SimMotorConfig::new(joint.motor);
     sim.firmware.speak(joint.dialect);
     sim.motor.gear_ratio = joint.gear_ratio;
     if let Some(kt) = joint.torque_constant_nm_per_amp {

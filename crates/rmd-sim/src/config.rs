@@ -246,14 +246,14 @@ impl FirmwareParams {
 ///
 /// ```
 /// use rmd_protocol::MotorId;
-/// use rmd_sim::{GravityLink, MotorConfig};
-/// let mut knee = MotorConfig::new(MotorId::new(3).unwrap());
+/// use rmd_sim::{GravityLink, SimMotorConfig};
+/// let mut knee = SimMotorConfig::new(MotorId::new(3).unwrap());
 /// knee.load.gravity = Some(GravityLink { mass_kg: 1.5, length_m: 0.25, angle_offset_deg: 90.0 });
 /// knee.motor.gear_ratio = 6.0;
 /// knee.validate().unwrap();
 /// ```
 #[derive(Clone, Debug, PartialEq)]
-pub struct MotorConfig {
+pub struct SimMotorConfig {
     /// The motor's id (it answers on 0x140 + id, MyActuator V3 firmware on 0x240 + id; ids
     /// 1..=4 also answer 0x280, every V3 motor answers a 0x280 command).
     pub id: MotorId,
@@ -274,7 +274,7 @@ pub struct MotorConfig {
     pub turnaround_jitter: Duration,
 }
 
-impl MotorConfig {
+impl SimMotorConfig {
     /// An RMD-X8-class motor with id `id` and every default.
     pub fn new(id: MotorId) -> Self {
         Self {
@@ -306,7 +306,7 @@ impl MotorConfig {
 
 /// The simulated wire and the host's queues.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub struct BusConfig {
+pub struct SimBusConfig {
     /// Frame timing: a bit rate (default 1 Mbit/s) or instant.
     pub timing: WireTiming,
     /// Depth of the host's transmit queue, frames. Default 10 (SocketCAN's default
@@ -321,7 +321,7 @@ pub struct BusConfig {
     pub motor_mailboxes: usize,
 }
 
-impl Default for BusConfig {
+impl Default for SimBusConfig {
     fn default() -> Self {
         Self {
             timing: WireTiming::Bitrate(1_000_000),
@@ -332,7 +332,7 @@ impl Default for BusConfig {
     }
 }
 
-impl BusConfig {
+impl SimBusConfig {
     /// Checks every value is meaningful.
     pub fn validate(&self) -> Result<(), ConfigError> {
         let check = |name, v: usize, max: usize, expected| {
@@ -377,9 +377,9 @@ impl BusConfig {
 #[derive(Clone, Debug, PartialEq)]
 pub struct SimConfig {
     /// The wire and the host's queues.
-    pub bus: BusConfig,
+    pub bus: SimBusConfig,
     /// The motors (ids must be unique).
-    pub motors: Vec<MotorConfig>,
+    pub motors: Vec<SimMotorConfig>,
     /// Fault-injection rules, evaluated in order.
     pub faults: Vec<FaultRule>,
     /// Seed of every pseudo-random draw (faults, turnaround jitter).
@@ -390,10 +390,10 @@ impl SimConfig {
     /// Motors with ids 1..=`count` (at most 32), every default, on a 1 Mbit/s bus, seed 0.
     pub fn with_motors(count: u8) -> Self {
         Self {
-            bus: BusConfig::default(),
+            bus: SimBusConfig::default(),
             motors: (1..=count.min(MotorId::MAX))
                 .filter_map(|id| MotorId::new(id).ok())
-                .map(MotorConfig::new)
+                .map(SimMotorConfig::new)
                 .collect(),
             faults: Vec::new(),
             seed: 0,
@@ -451,7 +451,7 @@ impl SimConfig {
     }
 }
 
-pub(crate) fn validate_motors(motors: &[MotorConfig]) -> Result<(), ConfigError> {
+pub(crate) fn validate_motors(motors: &[SimMotorConfig]) -> Result<(), ConfigError> {
     let mut seen = 0u64;
     for m in motors {
         m.validate()?;

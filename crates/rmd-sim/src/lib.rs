@@ -63,7 +63,9 @@ pub mod threaded;
 pub mod wire;
 
 pub use bus::{BusStats, SimBus};
-pub use config::{BusConfig, ClearErrorReply, FirmwareParams, MotorConfig, SimConfig, V3Params};
+pub use config::{
+    ClearErrorReply, FirmwareParams, SimBusConfig, SimConfig, SimMotorConfig, V3Params,
+};
 pub use error::ConfigError;
 pub use family::{CommandSet, FirmwareFamily, FirmwareTraps};
 pub use fault::{

@@ -7,7 +7,7 @@ use rand_pcg::rand_core::Rng;
 use rmd_bus::Timestamp;
 use rmd_protocol::{CanFrame, Dialect, ErrorState, MotorId, PidParams};
 
-use crate::config::MotorConfig;
+use crate::config::SimMotorConfig;
 use crate::error::ConfigError;
 use crate::family::FirmwareFamily;
 use crate::fault::{FaultEngine, stream};
@@ -95,7 +95,7 @@ pub struct TrapStats {
 /// One simulated motor.
 #[derive(Clone, Debug)]
 pub struct SimMotor {
-    config: MotorConfig,
+    config: SimMotorConfig,
     firmware: Firmware,
     plant: Plant,
     /// Time of the plant's state, a multiple of the substep.
@@ -124,7 +124,7 @@ pub struct SimMotor {
 
 impl SimMotor {
     pub(crate) fn new(
-        config: MotorConfig,
+        config: SimMotorConfig,
         start: Timestamp,
         seed: u64,
     ) -> Result<Self, ConfigError> {
@@ -176,7 +176,7 @@ impl SimMotor {
     }
 
     /// Its configuration.
-    pub fn config(&self) -> &MotorConfig {
+    pub fn config(&self) -> &SimMotorConfig {
         &self.config
     }
 

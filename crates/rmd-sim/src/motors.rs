@@ -7,7 +7,7 @@ use rmd_protocol::{
     CanFrame, DecodedRequest, Dialect, LkSeries, MULTI_TORQUE_CAN_ID, MotorId, MultiTorque, Request,
 };
 
-use crate::config::{MotorConfig, SimConfig, validate_motors};
+use crate::config::{SimConfig, SimMotorConfig, validate_motors};
 use crate::error::ConfigError;
 use crate::family::FirmwareFamily;
 use crate::fault::{FaultEngine, FaultRule, FrameKind, MotorSet, ReplyFaults};
@@ -119,7 +119,7 @@ impl SimMotors {
 
     /// Motors `motors` with fault rules `faults` and seed `seed`, starting at `start`.
     pub fn from_parts(
-        motors: &[MotorConfig],
+        motors: &[SimMotorConfig],
         faults: &[FaultRule],
         seed: u64,
         start: Timestamp,

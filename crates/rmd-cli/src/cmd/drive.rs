@@ -465,7 +465,9 @@ mod tests {
         use clap::Parser;
         use rmd_bus::{BusError, CanBus, CanFrame, MonotonicClock, Received};
         use rmd_protocol::LkSeries;
-        use rmd_sim::{ControlMode, FirmwareFamily, MotorConfig, MotorSnapshot, SimBus, SimConfig};
+        use rmd_sim::{
+            ControlMode, FirmwareFamily, MotorSnapshot, SimBus, SimConfig, SimMotorConfig,
+        };
 
         use super::*;
         use crate::live::exchange::Setup;
@@ -508,7 +510,7 @@ mod tests {
             let mut argv = vec!["rmd", "--sim", "--sim-ids", "1"];
             argv.extend_from_slice(options);
             let args = Cli::parse_from(argv).bus;
-            let mut motor = MotorConfig::new(MotorId::new(1).unwrap());
+            let mut motor = SimMotorConfig::new(MotorId::new(1).unwrap());
             motor.firmware.family = family;
             motor.firmware.v3.has_brake = family == FirmwareFamily::MyActuatorV3;
             let mut config = SimConfig::with_motors(0);
@@ -608,7 +610,9 @@ mod tests {
                 let (seen, last) = drive_sim(family, &options, Goal::Speed(speed));
                 // The firmware keeps motor-side targets: V3's 90 dps are the output's.
                 let ratio = if family == FirmwareFamily::MyActuatorV3 {
-                    MotorConfig::new(MotorId::new(1).unwrap()).motor.gear_ratio
+                    SimMotorConfig::new(MotorId::new(1).unwrap())
+                        .motor
+                        .gear_ratio
                 } else {
                     1.0
                 };

@@ -18,8 +18,8 @@ use rmd_bus::record::RecordOptions;
 use rmd_bus::{BusError, BusMessage, CanBus, Clock, MonotonicClock};
 use rmd_protocol::{EncoderWidth, LkSeries, ProtocolFamily};
 use rmd_sim::{
-    FaultRule, FirmwareFamily, GravityLink, MotorConfig, MotorSet, ReplyFault, ScheduledFrame,
-    SimConfig, SimMotors,
+    FaultRule, FirmwareFamily, GravityLink, MotorSet, ReplyFault, ScheduledFrame, SimConfig,
+    SimMotorConfig, SimMotors,
 };
 
 use crate::args::ids::{self, IdList};
@@ -164,7 +164,7 @@ fn config(args: &SimArgs) -> Result<SimConfig, String> {
         .iter()
         .zip(families)
         .map(|(&id, family)| {
-            let mut motor = MotorConfig::new(id);
+            let mut motor = SimMotorConfig::new(id);
             motor.firmware.family = family;
             motor.firmware.encoder_width = m.encoder_bits;
             motor.motor.gear_ratio = m.gear_ratio;

@@ -25,7 +25,7 @@ use rmd_protocol::{
     Command, Dialect, EncoderWidth, Finding, FirmwareDate, MotorId, ProtocolFamily, Reply, Request,
     Status1, V3Firmware, identify,
 };
-use rmd_sim::{FirmwareFamily, MotorConfig, SimBus, SimConfig};
+use rmd_sim::{FirmwareFamily, SimBus, SimConfig, SimMotorConfig};
 
 use crate::args::bus::BusArgs;
 use crate::args::ids::IdList;
@@ -522,7 +522,7 @@ pub(crate) fn simulated_bus(
         .iter()
         .enumerate()
         .map(|(k, &id)| {
-            let mut motor = MotorConfig::new(id);
+            let mut motor = SimMotorConfig::new(id);
             motor.firmware.encoder_width = width;
             motor.firmware.family = families.get(k).copied().unwrap_or_default();
             motor

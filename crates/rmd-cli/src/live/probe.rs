@@ -124,7 +124,7 @@ mod tests {
     use super::*;
     use rmd_bus::VirtualClock;
     use rmd_protocol::{Finding, LkSeries, ProtocolFamily, identify};
-    use rmd_sim::{FaultRule, FirmwareFamily, MotorConfig, ReplyFault, SimBus, SimConfig};
+    use rmd_sim::{FaultRule, FirmwareFamily, ReplyFault, SimBus, SimConfig, SimMotorConfig};
 
     fn id(n: u8) -> MotorId {
         MotorId::new(n).unwrap()
@@ -146,7 +146,7 @@ mod tests {
             .iter()
             .enumerate()
             .map(|(k, &family)| {
-                let mut motor = MotorConfig::new(id(k as u8 + 1));
+                let mut motor = SimMotorConfig::new(id(k as u8 + 1));
                 motor.firmware.family = family;
                 motor
             })

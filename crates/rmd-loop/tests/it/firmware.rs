@@ -20,7 +20,7 @@ fn sim_of(clock: &VirtualClock, ids: &[u8], family: FirmwareFamily) -> SimBus<Vi
     let mut config = SimConfig::with_motors(0).seed(7);
     config.motors = ids
         .iter()
-        .map(|&n| rmd_sim::MotorConfig::new(id(n)))
+        .map(|&n| rmd_sim::SimMotorConfig::new(id(n)))
         .collect();
     SimBus::new(clock.clone(), config.firmware_family(family)).unwrap()
 }

@@ -49,7 +49,7 @@ fn sim(clock: &VirtualClock) -> SimBus<VirtualClock> {
     let mut config = SimConfig::with_motors(0).seed(5);
     config.motors = (1..=3)
         .map(|n| {
-            let mut m = rmd_sim::MotorConfig::new(id(n));
+            let mut m = rmd_sim::SimMotorConfig::new(id(n));
             m.firmware.speak(V3);
             m
         })

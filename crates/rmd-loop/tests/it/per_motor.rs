@@ -42,7 +42,7 @@ fn sim_of(
         .iter()
         .zip(dialects)
         .map(|(&n, d)| {
-            let mut m = rmd_sim::MotorConfig::new(id(n));
+            let mut m = rmd_sim::SimMotorConfig::new(id(n));
             m.firmware.speak(*d);
             m
         })
@@ -422,7 +422,7 @@ fn braked_v3_motors_are_released_before_torque_and_locked_after_motor_off() {
     config.motors = ids
         .iter()
         .map(|&n| {
-            let mut m = rmd_sim::MotorConfig::new(id(n));
+            let mut m = rmd_sim::SimMotorConfig::new(id(n));
             m.firmware.speak(V3);
             m.firmware.v3.has_brake = true;
             m
@@ -543,7 +543,7 @@ fn the_start_reads_each_v3_motors_firmware_date_and_model() {
         .iter()
         .zip(d)
         .map(|(&n, dialect)| {
-            let mut m = rmd_sim::MotorConfig::new(id(n));
+            let mut m = rmd_sim::SimMotorConfig::new(id(n));
             m.firmware.speak(dialect);
             m
         })

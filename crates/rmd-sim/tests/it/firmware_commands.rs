@@ -12,7 +12,7 @@ use core::time::Duration;
 
 use rmd_bus::Timestamp;
 use rmd_protocol::{CanFrame, EncoderValue, EncoderWidth, MotorId, PidParams};
-use rmd_sim::{ClearErrorReply, FaultRule, MotorConfig, PhysicalFault, SimConfig, SimMotors};
+use rmd_sim::{ClearErrorReply, FaultRule, PhysicalFault, SimConfig, SimMotorConfig, SimMotors};
 
 enum Expect {
     /// This exact reply (DLC 8, ID 0x141).
@@ -37,7 +37,12 @@ fn id1() -> MotorId {
 }
 
 /// Runs `steps` against one motor configured by `setup`.
-fn run(case: &str, setup: impl FnOnce(&mut MotorConfig), faults: Vec<FaultRule>, steps: &[Step]) {
+fn run(
+    case: &str,
+    setup: impl FnOnce(&mut SimMotorConfig),
+    faults: Vec<FaultRule>,
+    steps: &[Step],
+) {
     let mut config = SimConfig::with_motors(1);
     setup(&mut config.motors[0]);
     config.faults = faults;
@@ -79,14 +84,14 @@ fn run(case: &str, setup: impl FnOnce(&mut MotorConfig), faults: Vec<FaultRule>,
     }
 }
 
-fn defaults(_: &mut MotorConfig) {}
+fn defaults(_: &mut SimMotorConfig) {}
 
-fn mounted_quarter_turn(m: &mut MotorConfig) {
+fn mounted_quarter_turn(m: &mut SimMotorConfig) {
     m.motor.encoder_mount_offset_turns = 0.25;
 }
 
 /// A rotor that cannot turn (huge dry friction), so currents can be read at a known angle.
-fn stuck(m: &mut MotorConfig) {
+fn stuck(m: &mut SimMotorConfig) {
     m.motor.coulomb_friction_nm = 1_000.0;
 }
 
@@ -887,7 +892,7 @@ fn frame_0x280_multi_torque() {
     let mut config = SimConfig::with_motors(0);
     config.motors = [2, 5]
         .iter()
-        .map(|&i| MotorConfig::new(MotorId::new(i).unwrap()))
+        .map(|&i| SimMotorConfig::new(MotorId::new(i).unwrap()))
         .collect();
     let mut motors = SimMotors::new(&config, Timestamp::ZERO).unwrap();
     let ids: Vec<u16> = motors.handle(&frame, t).map(|r| r.frame.id()).collect();
