@@ -1,26 +1,26 @@
 //! [`RejectionKind`]: the counters of refused network input, shared by the validator, the port
 //! and the node's statistics.
 
-/// The kinds of [`Rejection`](crate::Rejection), plus the failures that are not about a
+/// The kinds of [`MessageRejection`](crate::MessageRejection), plus the failures that are not about a
 /// message's values as the node checks them (undecodable samples, inputs the port refused or
 /// found infeasible); used to count them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RejectionKind {
-    /// [`crate::Rejection::Empty`].
+    /// [`crate::MessageRejection::Empty`].
     Empty,
-    /// [`crate::Rejection::UnknownJoint`].
+    /// [`crate::MessageRejection::UnknownJoint`].
     UnknownJoint,
-    /// [`crate::Rejection::DuplicateJoint`].
+    /// [`crate::MessageRejection::DuplicateJoint`].
     DuplicateJoint,
-    /// [`crate::Rejection::LengthMismatch`] and [`crate::Rejection::MissingField`].
+    /// [`crate::MessageRejection::LengthMismatch`] and [`crate::MessageRejection::MissingField`].
     LengthMismatch,
-    /// [`crate::Rejection::NotFinite`].
+    /// [`crate::MessageRejection::NotFinite`].
     NotFinite,
-    /// [`crate::Rejection::OutOfLimit`].
+    /// [`crate::MessageRejection::OutOfLimit`].
     OutOfLimit,
-    /// [`crate::Rejection::TimeNotIncreasing`] and [`crate::Rejection::BadTime`].
+    /// [`crate::MessageRejection::TimeNotIncreasing`] and [`crate::MessageRejection::BadTime`].
     BadTime,
-    /// [`crate::Rejection::Unsupported`].
+    /// [`crate::MessageRejection::Unsupported`].
     Unsupported,
     /// A trajectory the robot cannot follow as given, found by the robot's own checks
     /// ([`crate::PortError::Invalid`]): too many points, not ending at rest, no motion within

@@ -10,7 +10,7 @@
 //!   `joint_trajectory` (`trajectory_msgs/msg/JointTrajectory`) and `enable`
 //!   (`std_msgs/msg/Bool`: `true` enables, `false` is an emergency stop);
 //! - rejects bad input (unknown joints, NaN, out-of-limit values, mismatched lengths, empty
-//!   messages, non-increasing trajectory times) with a typed, counted [`Rejection`]; nothing of
+//!   messages, non-increasing trajectory times) with a typed, counted [`MessageRejection`]; nothing of
 //!   a rejected message reaches the robot.
 //!
 //! The robot is a [`RobotPort`]: the node reads samples and diagnostics from it and gives it
@@ -58,4 +58,4 @@ pub use port::{
     RobotDiagnostics, RobotPort, RobotState, Setpoint, Setpoints, Trajectory, TrajectoryPoint,
 };
 pub use stats::{Input, NodeStats};
-pub use validate::{CommandMode, Field, Rejection, Validator};
+pub use validate::{CommandMode, MessageField, MessageRejection, Validator};

@@ -1,5 +1,5 @@
 //! Turning network messages into port inputs: every check a message must pass before anything
-//! of it reaches the robot, each failure a typed [`Rejection`].
+//! of it reaches the robot, each failure a typed [`MessageRejection`].
 //!
 //! A message is taken whole or not at all: one bad value rejects the message, and the robot
 //! keeps what it had.
@@ -12,7 +12,7 @@ use crate::port::{JointIndex, JointInfo, Setpoint, Setpoints, Trajectory, Trajec
 
 /// Which array of a message a rejection is about.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Field {
+pub enum MessageField {
     /// `position` / `positions`.
     Position,
     /// `velocity` / `velocities`.
@@ -23,20 +23,20 @@ pub enum Field {
     Acceleration,
 }
 
-impl std::fmt::Display for Field {
+impl std::fmt::Display for MessageField {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
-            Field::Position => "position",
-            Field::Velocity => "velocity",
-            Field::Effort => "effort",
-            Field::Acceleration => "acceleration",
+            MessageField::Position => "position",
+            MessageField::Velocity => "velocity",
+            MessageField::Effort => "effort",
+            MessageField::Acceleration => "acceleration",
         })
     }
 }
 
 /// Why a message from the network was not passed to the robot.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum Rejection {
+pub enum MessageRejection {
     /// The message names no joints, or carries no values or no points.
     #[error("empty {0}: send at least one joint with at least one value")]
     Empty(&'static str),
@@ -58,7 +58,7 @@ pub enum Rejection {
     )]
     LengthMismatch {
         /// The array.
-        field: Field,
+        field: MessageField,
         /// The number of joints named.
         expected: usize,
         /// The array's length.
@@ -68,7 +68,7 @@ pub enum Rejection {
     #[error("{field} is required by the node's command mode but the message has none")]
     MissingField {
         /// The missing array.
-        field: Field,
+        field: MessageField,
     },
     /// NaN or infinity.
     #[error("{field} of joint {joint:?} is {value}: send finite numbers only")]
@@ -76,7 +76,7 @@ pub enum Rejection {
         /// The joint.
         joint: String,
         /// The array.
-        field: Field,
+        field: MessageField,
         /// The value (NaN or ±inf).
         value: f64,
     },
@@ -88,7 +88,7 @@ pub enum Rejection {
         /// The joint.
         joint: String,
         /// The array.
-        field: Field,
+        field: MessageField,
         /// The value received.
         value: f64,
         /// The limit it broke (the bound for positions, the magnitude for the others).
@@ -112,25 +112,25 @@ pub enum Rejection {
     },
     /// A field the node does not forward.
     #[error("{0} in trajectory points is not supported: leave it empty")]
-    Unsupported(Field),
+    Unsupported(MessageField),
 }
 
-impl Rejection {
+impl MessageRejection {
     /// The counter this rejection goes to.
     pub fn kind(&self) -> RejectionKind {
         match self {
-            Rejection::Empty(_) => RejectionKind::Empty,
-            Rejection::UnknownJoint { .. } => RejectionKind::UnknownJoint,
-            Rejection::DuplicateJoint { .. } => RejectionKind::DuplicateJoint,
-            Rejection::LengthMismatch { .. } | Rejection::MissingField { .. } => {
+            MessageRejection::Empty(_) => RejectionKind::Empty,
+            MessageRejection::UnknownJoint { .. } => RejectionKind::UnknownJoint,
+            MessageRejection::DuplicateJoint { .. } => RejectionKind::DuplicateJoint,
+            MessageRejection::LengthMismatch { .. } | MessageRejection::MissingField { .. } => {
                 RejectionKind::LengthMismatch
             }
-            Rejection::NotFinite { .. } => RejectionKind::NotFinite,
-            Rejection::OutOfLimit { .. } => RejectionKind::OutOfLimit,
-            Rejection::TimeNotIncreasing { .. } | Rejection::BadTime { .. } => {
+            MessageRejection::NotFinite { .. } => RejectionKind::NotFinite,
+            MessageRejection::OutOfLimit { .. } => RejectionKind::OutOfLimit,
+            MessageRejection::TimeNotIncreasing { .. } | MessageRejection::BadTime { .. } => {
                 RejectionKind::BadTime
             }
-            Rejection::Unsupported(_) => RejectionKind::Unsupported,
+            MessageRejection::Unsupported(_) => RejectionKind::Unsupported,
         }
     }
 }
@@ -177,9 +177,13 @@ impl Validator {
     }
 
     /// Maps names to joint indices: known, distinct, at least one.
-    fn resolve(&self, names: &[String], what: &'static str) -> Result<Vec<JointIndex>, Rejection> {
+    fn resolve(
+        &self,
+        names: &[String],
+        what: &'static str,
+    ) -> Result<Vec<JointIndex>, MessageRejection> {
         if names.is_empty() {
-            return Err(Rejection::Empty(what));
+            return Err(MessageRejection::Empty(what));
         }
         let mut out: Vec<JointIndex> = Vec::with_capacity(names.len());
         for name in names {
@@ -188,25 +192,30 @@ impl Validator {
                 .iter()
                 .position(|j| &j.name == name)
                 .map(JointIndex)
-                .ok_or_else(|| Rejection::UnknownJoint { name: name.clone() })?;
+                .ok_or_else(|| MessageRejection::UnknownJoint { name: name.clone() })?;
             if out.contains(&index) {
-                return Err(Rejection::DuplicateJoint { name: name.clone() });
+                return Err(MessageRejection::DuplicateJoint { name: name.clone() });
             }
             out.push(index);
         }
         Ok(out)
     }
 
-    fn check_value(&self, joint: JointIndex, field: Field, value: f64) -> Result<(), Rejection> {
+    fn check_value(
+        &self,
+        joint: JointIndex,
+        field: MessageField,
+        value: f64,
+    ) -> Result<(), MessageRejection> {
         let info = &self.joints[joint.0];
         if !value.is_finite() {
-            return Err(Rejection::NotFinite {
+            return Err(MessageRejection::NotFinite {
                 joint: info.name.clone(),
                 field,
                 value,
             });
         }
-        let out_of_limit = |limit: f64| Rejection::OutOfLimit {
+        let out_of_limit = |limit: f64| MessageRejection::OutOfLimit {
             joint: info.name.clone(),
             field,
             value,
@@ -214,7 +223,7 @@ impl Validator {
         };
         let l = &info.limits;
         match field {
-            Field::Position => {
+            MessageField::Position => {
                 if let Some(min) = l.position_min_rad.filter(|&min| value < min) {
                     return Err(out_of_limit(min));
                 }
@@ -222,17 +231,17 @@ impl Validator {
                     return Err(out_of_limit(max));
                 }
             }
-            Field::Velocity => {
+            MessageField::Velocity => {
                 if let Some(max) = l.velocity_max_rad_s.filter(|&max| value.abs() > max) {
                     return Err(out_of_limit(max));
                 }
             }
-            Field::Effort => {
+            MessageField::Effort => {
                 if let Some(max) = l.effort_max_nm.filter(|&max| value.abs() > max) {
                     return Err(out_of_limit(max));
                 }
             }
-            Field::Acceleration => {}
+            MessageField::Acceleration => {}
         }
         Ok(())
     }
@@ -242,14 +251,14 @@ impl Validator {
     fn check_array(
         &self,
         joints: &[JointIndex],
-        field: Field,
+        field: MessageField,
         values: &[f64],
-    ) -> Result<bool, Rejection> {
+    ) -> Result<bool, MessageRejection> {
         if values.is_empty() {
             return Ok(false);
         }
         if values.len() != joints.len() {
-            return Err(Rejection::LengthMismatch {
+            return Err(MessageRejection::LengthMismatch {
                 field,
                 expected: joints.len(),
                 got: values.len(),
@@ -257,7 +266,7 @@ impl Validator {
         }
         for (&joint, &value) in joints.iter().zip(values) {
             if !value.is_finite() {
-                return Err(Rejection::NotFinite {
+                return Err(MessageRejection::NotFinite {
                     joint: self.joints[joint.0].name.clone(),
                     field,
                     value,
@@ -268,27 +277,27 @@ impl Validator {
     }
 
     /// A `joint_commands` message as setpoints.
-    pub fn joint_command(&self, m: &msg::JointState) -> Result<Setpoints, Rejection> {
+    pub fn joint_command(&self, m: &msg::JointState) -> Result<Setpoints, MessageRejection> {
         let joints = self.resolve(&m.name, "joint command")?;
-        let has_p = self.check_array(&joints, Field::Position, &m.position)?;
-        let has_v = self.check_array(&joints, Field::Velocity, &m.velocity)?;
-        let has_e = self.check_array(&joints, Field::Effort, &m.effort)?;
+        let has_p = self.check_array(&joints, MessageField::Position, &m.position)?;
+        let has_v = self.check_array(&joints, MessageField::Velocity, &m.velocity)?;
+        let has_e = self.check_array(&joints, MessageField::Effort, &m.effort)?;
         let used = match self.mode {
-            CommandMode::Auto if has_p => Field::Position,
-            CommandMode::Auto if has_v => Field::Velocity,
-            CommandMode::Auto if has_e => Field::Effort,
-            CommandMode::Auto => return Err(Rejection::Empty("joint command")),
-            CommandMode::Position => Field::Position,
-            CommandMode::Velocity => Field::Velocity,
-            CommandMode::Effort => Field::Effort,
+            CommandMode::Auto if has_p => MessageField::Position,
+            CommandMode::Auto if has_v => MessageField::Velocity,
+            CommandMode::Auto if has_e => MessageField::Effort,
+            CommandMode::Auto => return Err(MessageRejection::Empty("joint command")),
+            CommandMode::Position => MessageField::Position,
+            CommandMode::Velocity => MessageField::Velocity,
+            CommandMode::Effort => MessageField::Effort,
         };
         let present = match used {
-            Field::Position => has_p,
-            Field::Velocity => has_v,
+            MessageField::Position => has_p,
+            MessageField::Velocity => has_v,
             _ => has_e,
         };
         if !present {
-            return Err(Rejection::MissingField { field: used });
+            return Err(MessageRejection::MissingField { field: used });
         }
         let value = |values: &[f64], i: usize, present: bool| if present { values[i] } else { 0.0 };
         let mut out = Vec::with_capacity(joints.len());
@@ -299,26 +308,26 @@ impl Validator {
             // Limits apply to every value the setpoint carries (feed-forward included), and
             // only to those: an unused array's contents do not matter.
             let setpoint = match used {
-                Field::Position => {
-                    self.check_value(joint, Field::Position, p)?;
-                    self.check_value(joint, Field::Velocity, v)?;
-                    self.check_value(joint, Field::Effort, e)?;
+                MessageField::Position => {
+                    self.check_value(joint, MessageField::Position, p)?;
+                    self.check_value(joint, MessageField::Velocity, v)?;
+                    self.check_value(joint, MessageField::Effort, e)?;
                     Setpoint::Position {
                         position_rad: p,
                         velocity_ff_rad_s: v,
                         effort_ff_nm: e,
                     }
                 }
-                Field::Velocity => {
-                    self.check_value(joint, Field::Velocity, v)?;
-                    self.check_value(joint, Field::Effort, e)?;
+                MessageField::Velocity => {
+                    self.check_value(joint, MessageField::Velocity, v)?;
+                    self.check_value(joint, MessageField::Effort, e)?;
                     Setpoint::Velocity {
                         velocity_rad_s: v,
                         effort_ff_nm: e,
                     }
                 }
                 _ => {
-                    self.check_value(joint, Field::Effort, e)?;
+                    self.check_value(joint, MessageField::Effort, e)?;
                     Setpoint::Effort { effort_nm: e }
                 }
             };
@@ -331,39 +340,39 @@ impl Validator {
     }
 
     /// A `joint_trajectory` message as a trajectory.
-    pub fn trajectory(&self, m: &msg::JointTrajectory) -> Result<Trajectory, Rejection> {
+    pub fn trajectory(&self, m: &msg::JointTrajectory) -> Result<Trajectory, MessageRejection> {
         let joints = self.resolve(&m.joint_names, "trajectory")?;
         if m.points.is_empty() {
-            return Err(Rejection::Empty("trajectory (no points)"));
+            return Err(MessageRejection::Empty("trajectory (no points)"));
         }
         let mut points: Vec<TrajectoryPoint> = Vec::with_capacity(m.points.len());
         for (index, p) in m.points.iter().enumerate() {
-            if !self.check_array(&joints, Field::Position, &p.positions)? {
-                return Err(Rejection::MissingField {
-                    field: Field::Position,
+            if !self.check_array(&joints, MessageField::Position, &p.positions)? {
+                return Err(MessageRejection::MissingField {
+                    field: MessageField::Position,
                 });
             }
-            let has_v = self.check_array(&joints, Field::Velocity, &p.velocities)?;
-            let has_a = self.check_array(&joints, Field::Acceleration, &p.accelerations)?;
+            let has_v = self.check_array(&joints, MessageField::Velocity, &p.velocities)?;
+            let has_a = self.check_array(&joints, MessageField::Acceleration, &p.accelerations)?;
             if !p.effort.is_empty() {
-                return Err(Rejection::Unsupported(Field::Effort));
+                return Err(MessageRejection::Unsupported(MessageField::Effort));
             }
             for (i, &joint) in joints.iter().enumerate() {
-                self.check_value(joint, Field::Position, p.positions[i])?;
+                self.check_value(joint, MessageField::Position, p.positions[i])?;
                 if has_v {
-                    self.check_value(joint, Field::Velocity, p.velocities[i])?;
+                    self.check_value(joint, MessageField::Velocity, p.velocities[i])?;
                 }
             }
             let t = p.time_from_start;
             if t.sec < 0 || t.nanosec >= 1_000_000_000 {
-                return Err(Rejection::BadTime { index });
+                return Err(MessageRejection::BadTime { index });
             }
             let time_from_start = Duration::new(u64::from(t.sec.unsigned_abs()), t.nanosec);
             if points
                 .last()
                 .is_some_and(|prev| time_from_start <= prev.time_from_start)
             {
-                return Err(Rejection::TimeNotIncreasing { index });
+                return Err(MessageRejection::TimeNotIncreasing { index });
             }
             points.push(TrajectoryPoint {
                 time_from_start,
@@ -505,8 +514,8 @@ mod tests {
         let r = v(CommandMode::Effort).joint_command(&cmd(&["hip"], &[0.0], &[], &[]));
         assert_eq!(
             r,
-            Err(Rejection::MissingField {
-                field: Field::Effort
+            Err(MessageRejection::MissingField {
+                field: MessageField::Effort
             })
         );
         assert_eq!(r.unwrap_err().kind(), RejectionKind::LengthMismatch);
@@ -540,13 +549,13 @@ mod tests {
         let v = v(CommandMode::Auto);
         assert_eq!(
             v.joint_command(&cmd(&["hip", "elbow"], &[0.0, 0.0], &[], &[])),
-            Err(Rejection::UnknownJoint {
+            Err(MessageRejection::UnknownJoint {
                 name: "elbow".into()
             })
         );
         assert_eq!(
             v.joint_command(&cmd(&["hip", "hip"], &[0.0, 0.0], &[], &[])),
-            Err(Rejection::DuplicateJoint { name: "hip".into() })
+            Err(MessageRejection::DuplicateJoint { name: "hip".into() })
         );
     }
 
@@ -555,8 +564,8 @@ mod tests {
         let r = v(CommandMode::Auto).joint_command(&cmd(&["hip", "knee"], &[0.0], &[], &[]));
         assert_eq!(
             r,
-            Err(Rejection::LengthMismatch {
-                field: Field::Position,
+            Err(MessageRejection::LengthMismatch {
+                field: MessageField::Position,
                 expected: 2,
                 got: 1
             })
@@ -586,9 +595,9 @@ mod tests {
         let v = v(CommandMode::Auto);
         assert_eq!(
             v.joint_command(&cmd(&["hip"], &[2.5], &[], &[])),
-            Err(Rejection::OutOfLimit {
+            Err(MessageRejection::OutOfLimit {
                 joint: "hip".into(),
-                field: Field::Position,
+                field: MessageField::Position,
                 value: 2.5,
                 limit: 2.0
             })
@@ -667,7 +676,7 @@ mod tests {
                 &["hip"],
                 vec![point(1.0, &[0.0]), point(1.0, &[0.5])]
             )),
-            Err(Rejection::TimeNotIncreasing { index: 1 })
+            Err(MessageRejection::TimeNotIncreasing { index: 1 })
         );
         assert_eq!(
             kind(traj(&["hip"], vec![point(2.0, &[0.0]), point(1.0, &[0.5])])),
@@ -689,7 +698,7 @@ mod tests {
 
     #[test]
     fn rejection_messages_tell_what_to_do() {
-        let r = Rejection::UnknownJoint {
+        let r = MessageRejection::UnknownJoint {
             name: "elbow".into(),
         };
         assert_eq!(
