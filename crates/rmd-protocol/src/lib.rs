@@ -149,7 +149,7 @@ mod status;
 mod status1;
 mod v3;
 mod values;
-mod wire;
+mod bytes;
 
 pub use command::Command;
 pub use convert::Conversion;

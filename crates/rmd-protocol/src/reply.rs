@@ -13,7 +13,7 @@ use crate::v3::{
     V3ErrorState, V3Function, V3Revision, V3Status1, WatchdogTimeout,
 };
 use crate::values::{Accel, CircleAngle, MotorAngle, PhaseCurrent, Speed, Temperature, Voltage};
-use crate::wire::{
+use crate::bytes::{
     i16_at, i32_at, i56_at_1, put_i16, put_i32, put_i56_at_1, put_u16, put_u32, u16_at, u32_at,
 };
 

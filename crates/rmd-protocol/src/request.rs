@@ -13,7 +13,7 @@ use crate::v3::{
     FunctionControl, MaxTorquePercent, ModelIndex, ModelPart, V3Function, WatchdogTimeout,
 };
 use crate::values::{Accel, AngleControl, MaxSpeed, SingleTurnAngle, SpeedControl};
-use crate::wire::{i16_at, i32_at, put_i16, put_i32, put_u16, put_u32, u16_at, u32_at};
+use crate::bytes::{i16_at, i32_at, put_i16, put_i32, put_u16, put_u32, u16_at, u32_at};
 
 /// A request to one motor: one variant per command, carrying its typed fields, for every
 /// family (a family takes the variants of its [`commands`](Dialect::commands); encoding

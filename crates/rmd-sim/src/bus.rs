@@ -23,7 +23,7 @@ use crate::error::ConfigError;
 use crate::fault::BusFault;
 use crate::motor::MotorSnapshot;
 use crate::motors::{SimMotors, classify};
-use crate::wire::{Node, Transmission, Wire, WireStep};
+use crate::medium::{Node, Transmission, Wire, WireStep};
 
 /// Counters of a simulated bus.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]

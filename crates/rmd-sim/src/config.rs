@@ -11,7 +11,7 @@ use crate::error::ConfigError;
 use crate::family::{FirmwareFamily, FirmwareTraps};
 use crate::fault::FaultRule;
 use crate::params::{LoadParams, MotorParams, non_negative};
-use crate::wire::WireTiming;
+use crate::medium::WireTiming;
 
 /// Which command byte the motor puts in its reply to 0x9B (clear error flags).
 ///

@@ -12,7 +12,8 @@
 //!   V3 firmware and firmware-state traps ([`family`]);
 //! - [`physics`]: rotor + gearbox + load, friction, torque constant, current response, gravity
 //!   link, temperature, supply sag ([`params`]: the parameters and their sources);
-//! - [`wire`]: the event-driven CAN wire (exact frame lengths, arbitration, queues);
+//! - `medium`: the event-driven CAN wire (exact frame lengths, arbitration, queues; its
+//!   [`WireTiming`], [`Transmission`] and [`Node`] are re-exported);
 //! - [`fault`]: fault-injection rules;
 //! - [`SimMotors`]: the motors of a bus as firmware (frames in, timed replies out), usable on a
 //!   real CAN interface too;
@@ -60,7 +61,7 @@ mod request;
 mod shared;
 #[cfg(target_os = "linux")]
 pub mod threaded;
-pub mod wire;
+mod medium;
 
 pub use bus::{BusStats, SimBus};
 pub use config::{
@@ -77,4 +78,4 @@ pub use motors::{Replies, ScheduledFrame, SimMotors};
 pub use params::{GravityLink, LoadParams, MotorParams, STANDARD_GRAVITY};
 pub use physics::SUBSTEP;
 pub use shared::SharedSimBus;
-pub use wire::{Node, Transmission, WireTiming};
+pub use medium::{Node, Transmission, WireTiming};
