@@ -10,7 +10,7 @@
 //! recorder's queue are dropped and counted). When the command ends, [`Recording::finish`] gives
 //! the writer [`FINISH_LIMIT`] to write the rest; a signal (Ctrl-C, SIGTERM) ends that wait at
 //! once. What was not written is counted and reported, and the command fails (exit 1, or 130
-//! after a signal). Regular files are written as before.
+//! after a signal). Regular files are written directly.
 
 use std::fs::File;
 use std::io::{self, Write};

@@ -1057,8 +1057,8 @@ fn off_stop_run_take_joint_names() {
     assert!(err.contains("which motors?"), "{err}");
 }
 
-/// A command that takes motor ids refuses --robot instead of ignoring it (it used to talk to
-/// whatever --iface/--sim said, description unread).
+/// A command that takes motor ids refuses --robot instead of ignoring it (and talking to
+/// whatever --iface/--sim say, the description unread).
 #[test]
 fn commands_without_joint_names_refuse_a_robot() {
     let robot = leg_robot();

@@ -148,7 +148,7 @@ fn recorded_session(test: &str) -> PathBuf {
 
 #[test]
 fn status_piped_into_head_ends_quietly() {
-    // The command of the issue: `rmd status --sim 1-4 | head -2`.
+    // `rmd status --sim 1-4 | head -2`.
     for close in [Close::StdoutAtOnce, Close::StdoutAfterFirstLine] {
         quiet_end(&["status", "--sim", "1-4"], close, 0);
         quiet_end(&["status", "--sim", "1-4", "--json"], close, 0);

@@ -44,7 +44,7 @@ fn lk_status1_of_the_issue_capture() {
     reply_vector(MG, f, expected);
     let (_, lk) = MF.decode_reply(&f).unwrap();
     assert_eq!(lk.status1().unwrap().volts(), 48.7);
-    // The trap the issue describes: v1.61 reads DATA[3..=4] = 0x0013.
+    // The trap: a v1.61 decoder reads DATA[3..=4] = 0x0013.
     let (_, v161) = Dialect::V161.decode_reply(&f).unwrap();
     assert_eq!(v161.status1().unwrap().volts(), 1.9);
 }

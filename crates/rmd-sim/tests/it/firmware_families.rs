@@ -170,7 +170,7 @@ fn lk_status1_layout_on_the_wire() {
     // 25 °C (0x19), 48.00 V = 4800 = 0x12C0 in DATA[2..=3], no bus current, motor on.
     let reply = bench.ask(Dialect::V161.encode(id(1), &Request::ReadStatus1).unwrap());
     assert_eq!(reply, frame(0x141, [0x9A, 0x19, 0xC0, 0x12, 0, 0, 0x00, 0]));
-    // A v1.61 decoder reads 1.8 V from it (the trap).
+    // A v1.61 decoder reads 1.8 V from it (the trap of mixed families).
     let (_, v161) = Dialect::V161.decode_reply(&reply).unwrap();
     assert!((v161.status1().unwrap().volts() - 1.8).abs() < 1e-9);
     let (_, lk) = Dialect::LkV23x(LkSeries::Mg).decode_reply(&reply).unwrap();

@@ -496,7 +496,7 @@ mod tests {
 
     #[test]
     fn classify_alone_takes_a_repeated_query_for_the_reply() {
-        // Without look-ahead (`rmd replay`): the rules as before the exception.
+        // Without look-ahead (`rmd replay`): the rules without the exception.
         let mut p = Pairing::default();
         assert_eq!(p.classify(0x141, &Q9C, None), Role::Request);
         assert_eq!(p.classify(0x141, &Q9C, None), STATUS2);

@@ -22,7 +22,7 @@
 //!
 //! In real time each simulated bus runs on its own thread (`--sim thread`, the default), as real
 //! motors do, so that the loop thread is measured alone and the loop waits on every bus at
-//! once; `--sim inline` runs them inside the loop's thread (as before: the loop then also pays
+//! once; `--sim inline` runs them inside the loop's thread (the loop then also pays
 //! for their firmware and physics); `--virtual-time` runs everything on a virtual clock.
 
 mod attribution;
