@@ -2,11 +2,11 @@
 
 use core::fmt;
 
+use crate::bytes::u16_at;
 use crate::command::Command;
 use crate::family::ProtocolFamily;
 use crate::frame::CanFrame;
 use crate::ids::{MotorId, V3_REPLY_BASE_ID};
-use crate::bytes::u16_at;
 
 /// Lowest supply voltage a plausible status-1 reading may show, V. Below every motor's
 /// low-voltage protection (LK's smallest drivers take 7.4 V; RMD motors 24 V or 48 V).

@@ -122,6 +122,7 @@
 //! [`Reply::SetWatchdog`]).
 #![no_std]
 
+mod bytes;
 mod codec;
 mod command;
 mod convert;
@@ -149,7 +150,6 @@ mod status;
 mod status1;
 mod v3;
 mod values;
-mod bytes;
 
 pub use command::Command;
 pub use convert::Conversion;

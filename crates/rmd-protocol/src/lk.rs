@@ -1,11 +1,11 @@
 //! LK-TECH V2.3x layouts that differ from v1.61: status 1 (0x9A / 0x9B) and the single-turn
 //! angle (0x94).
 
+use crate::bytes::{i16_at, put_i16, put_u16, u16_at};
 use crate::error::ProtocolError;
 use crate::field::Field;
 use crate::status::ErrorState;
 use crate::values::{Temperature, wire_value};
-use crate::bytes::{i16_at, put_i16, put_u16, u16_at};
 
 wire_value! {
     /// LK-TECH `voltage` of the 0x9A / 0x9B replies: u16 in DATA\[2..=3\], 0.01 V/LSB

@@ -1,11 +1,11 @@
 //! The 0x280 multi-motor torque frame of v1.61 and LK-TECH V2.3x.
 
+use crate::bytes::{i16_at, put_i16};
 use crate::current::ScaledCurrent;
 use crate::error::ProtocolError;
 use crate::frame::CanFrame;
 use crate::ids::{MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS, MotorId};
 use crate::scale::CurrentScale;
-use crate::bytes::{i16_at, put_i16};
 
 /// The multi-motor torque command (CAN ID 0x280) of v1.61 and LK-TECH: one `iqControl` for
 /// each of motors 1..=4 in DATA\[0..=7\] (little-endian i16 each, no command byte), each in its

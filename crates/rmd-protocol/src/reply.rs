@@ -1,5 +1,8 @@
 //! Replies: what one motor answers (DATA\[0\] = the command byte), in every family.
 
+use crate::bytes::{
+    i16_at, i32_at, i56_at_1, put_i16, put_i32, put_i56_at_1, put_u16, put_u32, u16_at, u32_at,
+};
 use crate::command::Command;
 use crate::current::ScaledCurrent;
 use crate::dialect::Dialect;
@@ -13,9 +16,6 @@ use crate::v3::{
     V3ErrorState, V3Function, V3Revision, V3Status1, WatchdogTimeout,
 };
 use crate::values::{Accel, CircleAngle, MotorAngle, PhaseCurrent, Speed, Temperature, Voltage};
-use crate::bytes::{
-    i16_at, i32_at, i56_at_1, put_i16, put_i32, put_i56_at_1, put_u16, put_u32, u16_at, u32_at,
-};
 
 /// A motor's reply: one variant per command, carrying its typed fields, for every family.
 /// Decode it with [`Dialect::decode_reply`] or [`Dialect::decode_reply_to`], encode it (the

@@ -1,5 +1,6 @@
 //! Requests: what the host sends to one motor (CAN ID 0x140 + id), in every family.
 
+use crate::bytes::{i16_at, i32_at, put_i16, put_i32, put_u16, put_u32, u16_at, u32_at};
 use crate::command::Command;
 use crate::current::ScaledCurrent;
 use crate::dialect::Dialect;
@@ -13,7 +14,6 @@ use crate::v3::{
     FunctionControl, MaxTorquePercent, ModelIndex, ModelPart, V3Function, WatchdogTimeout,
 };
 use crate::values::{Accel, AngleControl, MaxSpeed, SingleTurnAngle, SpeedControl};
-use crate::bytes::{i16_at, i32_at, put_i16, put_i32, put_u16, put_u32, u16_at, u32_at};
 
 /// A request to one motor: one variant per command, carrying its typed fields, for every
 /// family (a family takes the variants of its [`commands`](Dialect::commands); encoding

@@ -21,9 +21,9 @@ use rmd_protocol::{CanFrame, MotorId};
 use crate::config::SimConfig;
 use crate::error::ConfigError;
 use crate::fault::BusFault;
+use crate::medium::{Node, Transmission, Wire, WireStep};
 use crate::motor::MotorSnapshot;
 use crate::motors::{SimMotors, classify};
-use crate::medium::{Node, Transmission, Wire, WireStep};
 
 /// Counters of a simulated bus.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]

@@ -10,8 +10,8 @@ use rmd_protocol::{
 use crate::error::ConfigError;
 use crate::family::{FirmwareFamily, FirmwareTraps};
 use crate::fault::FaultRule;
-use crate::params::{LoadParams, MotorParams, non_negative};
 use crate::medium::WireTiming;
+use crate::params::{LoadParams, MotorParams, non_negative};
 
 /// Which command byte the motor puts in its reply to 0x9B (clear error flags).
 ///

@@ -53,6 +53,7 @@ pub mod error;
 pub mod family;
 pub mod fault;
 pub mod firmware;
+mod medium;
 pub mod motor;
 pub mod motors;
 pub mod params;
@@ -61,7 +62,6 @@ mod request;
 mod shared;
 #[cfg(target_os = "linux")]
 pub mod threaded;
-mod medium;
 
 pub use bus::{BusStats, SimBus};
 pub use config::{
@@ -73,9 +73,9 @@ pub use fault::{
     BusFault, FaultKind, FaultRule, FrameFilter, MotorSet, PhysicalFault, ReplyFault, Window,
 };
 pub use firmware::ControlMode;
+pub use medium::{Node, Transmission, WireTiming};
 pub use motor::{MotorSnapshot, MotorStats, SimMotor, TrapStats};
 pub use motors::{Replies, ScheduledFrame, SimMotors};
 pub use params::{GravityLink, LoadParams, MotorParams, STANDARD_GRAVITY};
 pub use physics::SUBSTEP;
 pub use shared::SharedSimBus;
-pub use medium::{Node, Transmission, WireTiming};
