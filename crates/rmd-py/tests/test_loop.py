@@ -181,7 +181,7 @@ def test_start_errors_are_clear(leg4):
     with pytest.raises(rmd_rt.ConfigError, match="toe"):
         robot.start(sim=True, sim_initial_deg={"toe": 1.0})
     with pytest.raises(rmd_rt.ConfigError):
-        rmd_rt.Robot.from_toml_str("[[bus]]\ninterface = 'can0'\n[[bus.motor]]\nid = 9\n")
+        rmd_rt.Robot.from_toml_str("[[bus]]\ninterface = 'can0'\n[[bus.motor]]\nid = 33\n")
 
 
 def test_mcap_recording_switched_on_and_off_from_python(leg4, tmp_path):
