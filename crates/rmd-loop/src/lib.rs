@@ -34,17 +34,17 @@
 //! (zero torque then motor off), `finish` (the report).
 
 mod bus_link;
-pub mod commands;
-pub mod controller;
-pub mod engine;
+mod commands;
+mod controller;
+mod engine;
 mod exchange;
-pub mod feedback;
+mod feedback;
 mod finish;
 mod guard;
-pub mod handle;
-pub mod health;
+mod handle;
+mod health;
 pub mod jitter;
-pub mod joint;
+mod joint;
 mod joint_array;
 mod loop_parts;
 pub mod mailbox;
@@ -54,7 +54,7 @@ pub mod os;
 mod panics;
 mod protection;
 mod rejection;
-pub mod report;
+mod report;
 pub mod robot;
 mod safe_stop;
 pub mod schedule;
@@ -62,7 +62,7 @@ mod shared;
 mod stall;
 mod startup;
 pub mod stats;
-pub mod stop;
+mod stop;
 mod stopper;
 pub mod supervisor;
 pub mod telemetry;
@@ -83,7 +83,10 @@ pub use joint::JointId;
 pub use joint_array::JointArray;
 pub use motion::{CommandKind, MotionCommand};
 pub use protection::{MotorProtection, Protection};
-pub use report::{Fault, LoopReport, MotorRef, SafeStopReport, StopReason};
+pub use report::{
+    BusSafeStop, BusStopOutcome, Fault, IdentifiedMotor, LoopReport, MotorRef, MotorSafeStop,
+    PanicReport, SafeStopBy, SafeStopReport, StopReason,
+};
 pub use robot::{Robot, RobotError};
 pub use stall::{StallCause, TickStage};
 pub use stats::{LoopStats, Percentiles, StatsSummary};

@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use rmd_loop::commands::MAX_SIGNALS;
+use rmd_loop::MAX_SIGNALS;
 use rmd_loop::mailbox::{Receiver, Sender, mailbox};
 use rmd_loop::robot::JointSpec;
 use rmd_loop::{

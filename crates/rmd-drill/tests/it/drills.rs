@@ -81,10 +81,7 @@ fn a_hanging_controller_is_stopped_by_the_supervisor_at_the_stall_bound() {
     ) {
         // Not before the bound (counted from the last sign of life, up to a period before).
         assert!(d.time_to_safe_ms.unwrap() >= 50.0 - 1.0);
-        assert_eq!(
-            d.report.safe_stop.by,
-            rmd_loop::report::SafeStopBy::Supervisor
-        );
+        assert_eq!(d.report.safe_stop.by, rmd_loop::SafeStopBy::Supervisor);
     }
 }
 

@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use common::*;
 use rmd_bus::MonotonicClock;
-use rmd_loop::report::SafeStopBy;
+use rmd_loop::SafeStopBy;
 use rmd_loop::supervisor::SafetyPort;
 use rmd_loop::{
     Commands, Controller, Fault, Feedback, Flow, RtLoop, RunLimit, StallCause, StopReason,

@@ -241,7 +241,7 @@ fn bus_off_on_one_bus_stops_every_bus_and_the_safe_stop_waits_for_its_restart() 
         .buses
         .iter()
         .map(|b| match b.outcome {
-            rmd_loop::report::BusStopOutcome::Confirmed { after_ms } => after_ms,
+            rmd_loop::BusStopOutcome::Confirmed { after_ms } => after_ms,
             other => panic!("{other:?}"),
         })
         .collect();
