@@ -36,7 +36,7 @@ pub(crate) fn robot(spec: &DrillSpec) -> Result<Robot, rmd_loop::RobotError> {
             if bus == 0 && undescribed(spec).is_some_and(|u| u.get() == id) {
                 continue;
             }
-            bus_config = bus_config.with_motor(motor(id, spec.firmware));
+            bus_config = bus_config.with_motor(motor(id, spec.family_of(id)));
         }
         config = config.with_bus(bus_config);
     }

@@ -37,6 +37,7 @@ pub struct DrillSpec {
     pub(crate) time: SimTime,
     pub(crate) signals: Option<Signals>,
     pub(crate) firmware: ProtocolFamily,
+    pub(crate) mixed_with: Option<ProtocolFamily>,
     pub(crate) exchange: Option<ExchangeKind>,
 }
 
@@ -53,6 +54,7 @@ impl DrillSpec {
             time: SimTime::Real,
             signals: None,
             firmware: ProtocolFamily::V161,
+            mixed_with: None,
             exchange: None,
         }
     }
@@ -89,6 +91,22 @@ impl DrillSpec {
     pub fn firmware(mut self, firmware: ProtocolFamily) -> Self {
         self.firmware = firmware;
         self
+    }
+
+    /// Makes every bus mix families: the motors of even ids run `other`'s firmware (described
+    /// so), the others [`firmware`](Self::firmware)'s. A bus with a MyActuator V3 motor among
+    /// them is driven per motor, each motor in its own family's scale.
+    pub fn mixed_with(mut self, other: ProtocolFamily) -> Self {
+        self.mixed_with = Some(other);
+        self
+    }
+
+    /// The firmware family of motor `id`.
+    pub(crate) fn family_of(&self, id: u8) -> ProtocolFamily {
+        match self.mixed_with {
+            Some(other) if id.is_multiple_of(2) => other,
+            Some(_) | None => self.firmware,
+        }
     }
 
     /// Exchanges with every bus's motors this way (`motion`: MyActuator V3's motion mode, the

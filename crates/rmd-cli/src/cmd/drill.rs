@@ -72,6 +72,10 @@ pub(crate) struct DrillArgs {
     /// the per-motor exchange, made safe without a 0x280 frame).
     #[arg(long, value_name = "FIRMWARE", default_value = "v1.61", value_parser = crate::args::parse::sim_firmware)]
     sim_firmware: rmd_protocol::ProtocolFamily,
+    /// A second firmware for the motors of even ids (a bus mixing families, e.g. v1.61 with
+    /// myactuator-v3: driven per motor, each in its own family's scale).
+    #[arg(long, value_name = "FIRMWARE", value_parser = crate::args::parse::sim_firmware)]
+    mix_firmware: Option<rmd_protocol::ProtocolFamily>,
     /// When the fault strikes after the start (seconds, or 300ms, ...).
     #[arg(long, default_value = "0.5", value_parser = at, value_name = "SECONDS")]
     at: Duration,
@@ -99,6 +103,7 @@ impl DrillArgs {
             .unwrap_or(match (self.sim_firmware, self.exchange) {
                 (_, Some(rmd_loop::robot::ExchangeKind::Motion)) => 2,
                 (rmd_protocol::ProtocolFamily::MyActuatorV3, _) => 3,
+                _ if self.mix_firmware == Some(rmd_protocol::ProtocolFamily::MyActuatorV3) => 3,
                 _ => 4,
             })
     }
@@ -142,6 +147,10 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
             .seed(args.seed)
             .time(time)
             .stopped_by(signals);
+        let spec = match args.mix_firmware {
+            Some(other) => spec.mixed_with(other),
+            None => spec,
+        };
         match args.exchange {
             Some(kind) => spec.exchange(kind),
             None => spec,

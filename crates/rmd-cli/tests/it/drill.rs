@@ -232,6 +232,57 @@ fn every_kind_ends_safe_on_v3_and_lk_motors() {
     }
 }
 
+/// Every kind of the matrix on buses mixing families (v1.61 motors on odd ids, MyActuator V3 on
+/// even ids, driven per motor, each in its own scale): each drill ends with every motor safe by
+/// the simulated firmware's ground truth.
+#[test]
+fn every_kind_ends_safe_on_buses_mixing_families() {
+    let (code, stdout, stderr) = rmd(&[
+        "drill",
+        "--all",
+        "--virtual-time",
+        "--json",
+        "--seconds",
+        "0.6",
+        "--at",
+        "0.2",
+        "--sim-firmware",
+        "v1.61",
+        "--mix-firmware",
+        "myactuator-v3",
+        "--buses",
+        "2",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let drills: Vec<Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(drills.len(), 17);
+    for d in &drills {
+        assert_eq!(d["motors_energised_after"], 0, "{d}");
+        assert_eq!(
+            d["believed_off_but_energised"],
+            serde_json::json!([]),
+            "{d}"
+        );
+    }
+    // Both families answered, on one bus.
+    let stop = drills.iter().find(|d| d["fault"] == "stop").unwrap();
+    let families: Vec<(u64, &str)> = stop["report"]["identified"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|m| m["bus"] == 0)
+        .map(|m| (m["motor"].as_u64().unwrap(), m["family"].as_str().unwrap()))
+        .collect();
+    assert_eq!(
+        families,
+        [(1, "v1.61"), (2, "myactuator-v3"), (3, "v1.61")],
+        "{stop}"
+    );
+}
+
 /// Four V3 motors on one bus need more than a 1 kHz tick on the wire: refused before anything
 /// runs, naming the rate the bus can carry.
 #[test]
