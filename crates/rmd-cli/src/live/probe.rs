@@ -54,7 +54,9 @@ pub(crate) fn probe(
         for frame in probe_requests(motor) {
             send(bus, clock, &frame, timing.timeout, motor)?;
         }
-        collect(bus, clock, timing.timeout, motor, &mut answers)?;
+        collect(bus, clock, timing.timeout, motor, &mut answers, |a| {
+            a.status1().is_some() && a.status2().is_some()
+        })?;
         if answers.status1().is_some() || answers.status2().is_some() {
             break;
         }
@@ -66,27 +68,45 @@ pub(crate) fn probe(
         .any(|f| f.id() == v3_id);
     if answered_as_v3 && answers.model().is_none() {
         send(bus, clock, &model_request(motor), timing.timeout, motor)?;
-        collect(bus, clock, timing.timeout, motor, &mut answers)?;
+        collect(bus, clock, timing.timeout, motor, &mut answers, |a| {
+            a.model().is_some()
+        })?;
     }
     Ok(answers)
 }
 
-/// Offers every frame received within `timeout` to `answers`.
+/// How long the bus must stay quiet after the answers came for the collection to end early (at
+/// least; as long as the slowest answer took, if longer): an answer of a second family on the
+/// other reply id comes as soon as the first.
+const QUIET: Duration = Duration::from_millis(3);
+
+/// Offers every frame received within `timeout` to `answers`; once `complete` says they are, only
+/// until the bus has been quiet for [`QUIET`] or as long as the answers took, whichever is longer
+/// (a motor answering on both reply ids is still heard; a long timeout is not waited out).
 fn collect(
     bus: &mut dyn CanBus,
     clock: &dyn Clock,
     timeout: Duration,
     motor: MotorId,
     answers: &mut ProbeAnswers,
+    complete: fn(&ProbeAnswers) -> bool,
 ) -> Result<(), ExchangeError> {
-    let deadline = clock.now() + timeout;
+    let started = clock.now();
+    let deadline = started + timeout;
+    let mut until = deadline;
     while let Some(received) = bus
-        .recv_until(deadline)
+        .recv_until(until)
         .map_err(|error| receive_error(motor, Command::ReadStatus1, error))?
     {
         match received.message {
             BusMessage::Frame(frame) => {
-                answers.offer(motor, &frame);
+                if answers.offer(motor, &frame) && complete(answers) {
+                    let took = received
+                        .at
+                        .checked_duration_since(started)
+                        .unwrap_or_default();
+                    until = (received.at + took.max(QUIET)).min(deadline);
+                }
             }
             BusMessage::Event(BusEvent::BusOff) => {
                 return Err(receive_error(motor, Command::ReadStatus1, BusError::BusOff));
@@ -182,6 +202,27 @@ mod tests {
             (absent.family, absent.evidence.finding),
             (ProtocolFamily::Unknown, Finding::NoAnswer)
         );
+    }
+
+    #[test]
+    fn a_long_timeout_is_not_waited_out_once_the_answers_came() {
+        let (clock, mut bus) = sim_bus(&[FirmwareFamily::V161, FirmwareFamily::MyActuatorV3], &[]);
+        let minute = ProbeTiming {
+            timeout: Duration::from_secs(60),
+            retries: 0,
+        };
+        for n in [1, 2] {
+            let before = clock.now();
+            let answers = probe(&mut bus, &clock, minute, id(n)).unwrap();
+            assert_ne!(identify(id(n), &answers).family, ProtocolFamily::Unknown);
+            // The answers, then the bus quiet for as long as they took (a few ms), not a minute.
+            let waited = clock.now() - before;
+            assert!(waited < Duration::from_millis(50), "motor {n}: {waited:?}");
+        }
+        // An absent motor is waited for the whole timeout.
+        let before = clock.now();
+        probe(&mut bus, &clock, minute, id(3)).unwrap();
+        assert!(clock.now() - before >= Duration::from_secs(60));
     }
 
     #[test]
