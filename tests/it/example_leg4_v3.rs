@@ -15,19 +15,22 @@ use rmd_rt::bus::VirtualClock;
 use rmd_rt::protocol::{MULTI_TORQUE_CAN_ID, MotorId, ProtocolFamily};
 use rmd_rt::rig::open::sim_buses;
 use rmd_rt::rt::robot::{ExchangeKind, RobotConfig};
-use rmd_rt::sim::{ControlMode, Node};
+use rmd_rt::sim::{ControlMode, Node, SimBus};
 use rmd_rt::{Robot, RtLoop, RunLimit, StopReason};
 
 /// The example's V3 robot description.
 const ROBOT: &str = include_str!("../../examples/robots/leg4-v3.toml");
 
-#[test]
-fn the_v3_leg_tracks_the_step_cycle_like_leg4() {
-    let robot = Robot::try_from(RobotConfig::from_toml(ROBOT).unwrap()).unwrap();
-    assert_eq!(robot.buses().len(), 2);
-    for bus in robot.buses() {
-        assert_eq!(bus.exchange, ExchangeKind::PerMotor);
+/// Runs the step cycle for 5 s of virtual time on the V3 leg, its buses exchanging `exchange`,
+/// with the tracking checks of `example_leg4.rs`, the safe end (every motor off by the
+/// firmware's ground truth) and no 0x280 frame on a V3 bus; returns the buses (their traces).
+fn step_cycle_on_v3(exchange: ExchangeKind) -> Vec<SimBus<VirtualClock>> {
+    let mut config = RobotConfig::from_toml(ROBOT).unwrap();
+    for bus in &mut config.buses {
+        bus.exchange = Some(exchange);
     }
+    let robot = Robot::try_from(config).unwrap();
+    assert_eq!(robot.buses().len(), 2);
     let clock = VirtualClock::new();
     let mut buses = sim_buses(&clock, leg4::sims(&robot, 1).unwrap()).unwrap();
     for bus in &mut buses {
@@ -57,12 +60,13 @@ fn the_v3_leg_tracks_the_step_cycle_like_leg4() {
     // leg4's stated tracking error is within 12 mm of the planned step cycle, 4 mm rms; within
     // 5 mm in the stance (2.5 mm rms). V3's status reports the output angle in whole degrees
     // (about 3.5 mm of foot per degree of hip): the rms bound holds, the peaks are about 1 mm
-    // higher (measured 12.0 mm, stance 2.65 mm rms and 5.95 mm max; deterministic in virtual
-    // time), so those bounds are 1 mm wider here.
+    // higher (per-motor: 11.8 mm, stance 2.67 mm rms and 6.16 mm max; motion mode, whose
+    // replies carry 16-bit positions: 9.57 mm, stance 1.70 mm rms and 3.89 mm max;
+    // deterministic in virtual time), so those bounds are 1 mm wider here.
     let (rms, max) = (k.tracking.rms() * 1e3, k.tracking.max * 1e3);
     let (stance_rms, stance_max) = (k.stance_tracking.rms() * 1e3, k.stance_tracking.max * 1e3);
     println!(
-        "V3 tracking: rms {rms:.2} mm, max {max:.2} mm; stance rms {stance_rms:.2} mm, max {stance_max:.2} mm"
+        "V3 {exchange} tracking: rms {rms:.2} mm, max {max:.2} mm; stance rms {stance_rms:.2} mm, max {stance_max:.2} mm"
     );
     assert!(rms < 4.0 && max < 13.0, "rms {rms} mm, max {max} mm");
     assert!(
@@ -88,78 +92,32 @@ fn the_v3_leg_tracks_the_step_cycle_like_leg4() {
         }
     }
     assert_eq!(off, JOINTS);
+    buses
+}
+
+#[test]
+fn the_v3_leg_tracks_the_step_cycle_like_leg4() {
+    let robot = Robot::try_from(RobotConfig::from_toml(ROBOT).unwrap()).unwrap();
+    for bus in robot.buses() {
+        assert_eq!(bus.exchange, ExchangeKind::PerMotor);
+    }
+    step_cycle_on_v3(ExchangeKind::PerMotor);
 }
 
 /// The same leg with both buses in motion mode (`exchange = "motion"`): the controller's joint
 /// torques go out as motion-mode commands with zero gains and feed-forward torque (0x400 + id),
-/// the replies (0x500 + id) carry 16-bit positions: the same tracking checks hold, tighter.
+/// the replies (0x500 + id) carry 16-bit positions: the same tracking checks hold.
 #[test]
 fn the_v3_leg_in_motion_mode_tracks_the_step_cycle_like_leg4() {
-    let mut config = RobotConfig::from_toml(ROBOT).unwrap();
-    for bus in &mut config.buses {
-        bus.exchange = Some(ExchangeKind::Motion);
-    }
-    let robot = Robot::try_from(config).unwrap();
-    let clock = VirtualClock::new();
-    let mut buses = sim_buses(&clock, leg4::sims(&robot, 1).unwrap()).unwrap();
-    for bus in &mut buses {
-        bus.record_trace(100_000);
-    }
-    let cycle = StepCycle::plan(StepParams::new(leg4::step_center(&LegModel::new()))).unwrap();
-    let controller = StepController::new(&robot, LegModel::new(), Gains::new(), cycle).unwrap();
-    let rt =
-        RtLoop::unsupervised(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
-    let out = rt.run(RunLimit::Duration(Duration::from_secs(5)));
-    let r = &out.report;
-    assert_eq!(r.stop_reason, StopReason::TickLimit, "{r}");
-    assert_eq!(r.stats.ticks, 5000);
-    assert_eq!(r.stats.deadline_misses, 0);
-    assert_eq!(r.stats.missing_replies, 0);
-    assert_eq!(r.stats.late_replies, 0);
-    let k = &out.controller;
-    assert_eq!(k.halt, None);
-    assert_eq!(k.stale_ticks, 0);
-    assert!(k.cycles >= 4, "{} cycles", k.cycles);
-    // The bounds of the per-motor V3 test above (leg4's, 1 mm wider on the peaks); measured
-    // 2.84 mm rms, 9.57 mm max, stance 1.70 mm rms and 3.89 mm max (deterministic in virtual
-    // time) against per-motor's 3.60, 11.78, 2.67 and 6.16: motion replies carry 16-bit
-    // positions, not whole degrees.
-    let (rms, max) = (k.tracking.rms() * 1e3, k.tracking.max * 1e3);
-    let (stance_rms, stance_max) = (k.stance_tracking.rms() * 1e3, k.stance_tracking.max * 1e3);
-    println!(
-        "V3 motion-mode tracking: rms {rms:.2} mm, max {max:.2} mm; stance rms {stance_rms:.2} mm, max {stance_max:.2} mm"
-    );
-    assert!(rms < 4.0 && max < 13.0, "rms {rms} mm, max {max} mm");
-    assert!(
-        stance_rms < 3.0 && stance_max < 6.5,
-        "stance rms {stance_rms}, max {stance_max}"
-    );
-    assert!(k.tracking.count > 4000 && rms > 0.1);
-    assert!(r.safe_stop.all_off_confirmed(), "{}", r.safe_stop);
-    drop(out);
-    let mut off = 0;
-    for bus in &mut buses {
-        let trace = bus.trace();
-        assert!(
-            !trace
-                .iter()
-                .any(|t| t.from == Node::Host && t.frame.id() == MULTI_TORQUE_CAN_ID),
-            "a 0x280 frame went out on a V3 bus"
-        );
+    for bus in step_cycle_on_v3(ExchangeKind::Motion) {
         // Every torque of the run went out as a motion-mode command.
-        let motion = trace
+        let motion = bus
+            .trace()
             .iter()
             .filter(|t| t.from == Node::Host && (0x401..=0x420).contains(&t.frame.id()))
             .count();
         assert!(motion >= 2 * 5000, "{motion} motion-mode commands");
-        for id in 1..=JOINTS as u8 {
-            if let Some(snapshot) = bus.snapshot(MotorId::new(id).unwrap()) {
-                assert_eq!(snapshot.mode, ControlMode::Off, "motor {id}: {snapshot:?}");
-                off += 1;
-            }
-        }
     }
-    assert_eq!(off, JOINTS);
 }
 
 /// The example's binary on the V3 leg in motion mode, in real time (simulated motors on their

@@ -40,6 +40,9 @@ pub(crate) fn zero_iq(dialect: Dialect) -> ScaledCurrent {
     ScaledCurrent::saturating(0, dialect.iq_control_scale())
 }
 
+/// The expected command byte of a motor that sends no torque replies: no byte equals it.
+const NO_TORQUE_REPLY: u16 = 0x100;
+
 /// The reply a motor owes for a request, decided once when the loop is built: the CAN id it
 /// comes on, the command byte in its DATA\[0\], and the dialect its status is read in. Matching
 /// a received frame is then an id comparison per motor of the bus, and decoding it one check
@@ -48,8 +51,9 @@ pub(crate) fn zero_iq(dialect: Dialect) -> ScaledCurrent {
 pub(crate) struct ReplyExpectation {
     /// The CAN id of the motor's replies.
     pub(crate) can_id: u16,
-    /// DATA\[0\] of the reply.
-    command: u8,
+    /// DATA\[0\] of the reply; [`NO_TORQUE_REPLY`] (no byte) when the motor's replies are not
+    /// torque replies (a `motion` bus's).
+    command: u16,
     /// The dialect its status is read in (the `iq` scale, what DATA\[6..=7\] holds).
     dialect: Dialect,
 }
@@ -61,18 +65,18 @@ impl ReplyExpectation {
     pub(crate) fn torque(joint: &JointSpec) -> Self {
         Self {
             can_id: joint.dialect.reply_id(joint.motor),
-            command: Command::Torque.code(),
+            command: u16::from(Command::Torque.code()),
             dialect: joint.dialect,
         }
     }
 
-    /// What joint `joint`'s motor answers to a motion-mode command: `0x500 + id`, whose DATA\[0\]
-    /// is the motor id (never a torque reply's command byte, so [`decode`](Self::decode) passes
-    /// it by to the motion-mode decoder).
+    /// What joint `joint`'s motor answers to a motion-mode command: `0x500 + id`, never a
+    /// torque reply, whatever its DATA\[0\] ([`decode`](Self::decode) passes every frame by to
+    /// the motion-mode decoder).
     pub(crate) fn motion(joint: &JointSpec) -> Self {
         Self {
             can_id: V3_MOTION_REPLY_BASE_ID + u16::from(joint.motor.get()),
-            command: Command::Torque.code(),
+            command: NO_TORQUE_REPLY,
             dialect: joint.dialect,
         }
     }
@@ -82,7 +86,7 @@ impl ReplyExpectation {
     #[inline]
     pub(crate) fn decode(&self, frame: &CanFrame) -> Option<Status2> {
         let data = frame.data8()?;
-        if data[0] != self.command {
+        if u16::from(data[0]) != self.command {
             return None;
         }
         Status2::from_data(data, self.dialect).ok()
@@ -118,6 +122,35 @@ mod tests {
             }
         }
         frames
+    }
+
+    #[test]
+    fn a_motion_reply_is_never_read_as_a_torque_reply() {
+        let motor = MotorConfig::new(3)
+            .protocol("myactuator-v3", None)
+            .torque_constant(2.0);
+        let robot = Robot::try_from(
+            RobotConfig::new(100.0).with_bus(
+                BusConfig::new("can0")
+                    .exchange(crate::robot::ExchangeKind::Motion)
+                    .with_motor(motor),
+            ),
+        )
+        .unwrap();
+        let expect = ReplyExpectation::motion(&robot.joints()[0]);
+        assert_eq!(expect.can_id, 0x503);
+        // A motion reply whose DATA[0] was corrupted into 0xA1: valid as a V3 torque reply's
+        // bytes, but not one.
+        let corrupted = CanFrame::new(0x503, &[0xA1, 30, 0x10, 0, 0x10, 0, 0x34, 0x12]).unwrap();
+        assert!(
+            ReplyExpectation::torque(&robot.joints()[0])
+                .decode(&corrupted)
+                .is_some()
+        );
+        assert_eq!(expect.decode(&corrupted), None);
+        for frame in frames() {
+            assert_eq!(expect.decode(&frame), None, "{frame}");
+        }
     }
 
     #[test]

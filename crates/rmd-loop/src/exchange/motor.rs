@@ -366,30 +366,44 @@ impl MotorLink {
                 )
             }
         };
-        let current_amps = status.iq.amps();
-        self.last_reply_ns = Some(at_ns);
-        self.ticks_since_reply = 0;
-        // Field by field: the motor's health (status replies) stays as it is.
-        feedback.joint = JointState {
-            angle_deg: self.map.joint_angle_deg(motor_deg),
-            velocity_dps: self.map.joint_velocity_dps(speed_dps),
-            torque_nm: self.map.joint_torque_nm(current_amps),
-        };
-        feedback.motor = MotorState {
+        let motor = MotorState {
             angle_deg: motor_deg,
             speed_dps,
-            current_amps,
+            current_amps: status.iq.amps(),
             temperature_celsius: status.temperature.celsius(),
         };
-        feedback.raw = RawReply::Torque(RawStatus {
+        let raw = RawReply::Torque(RawStatus {
             temperature: status.temperature.raw(),
             iq: status.iq.raw(),
             speed: status.speed.raw(),
             encoder: raw_position,
         });
+        self.record(feedback, at, (class, age_ticks), motor, raw);
+        class
+    }
+
+    /// Writes a matched reply's values, received at `at`, into `feedback`, field by field (the
+    /// motor's health, from status replies, stays as it is), with its class and age.
+    #[inline(always)]
+    fn record(
+        &mut self,
+        feedback: &mut JointFeedback,
+        at: Timestamp,
+        (class, age_ticks): (ReplyClass, u32),
+        motor: MotorState,
+        raw: RawReply,
+    ) {
+        self.last_reply_ns = Some(at.as_nanos());
+        self.ticks_since_reply = 0;
+        feedback.joint = JointState {
+            angle_deg: self.map.joint_angle_deg(motor.angle_deg),
+            velocity_dps: self.map.joint_velocity_dps(motor.speed_dps),
+            torque_nm: self.map.joint_torque_nm(motor.current_amps),
+        };
+        feedback.motor = motor;
+        feedback.raw = raw;
         feedback.freshness = Self::freshness(class, age_ticks, feedback.freshness);
         feedback.received_at = at;
-        class
     }
 
     /// Handles a motion-mode reply (decoded with its firmware's ranges) as
@@ -412,14 +426,7 @@ impl MotorLink {
             return ReplyClass::Unexpected;
         };
         let (motor_deg, speed_dps, current_amps) = motion.map.motor_side(reply);
-        self.last_reply_ns = Some(at.as_nanos());
-        self.ticks_since_reply = 0;
-        feedback.joint = JointState {
-            angle_deg: self.map.joint_angle_deg(motor_deg),
-            velocity_dps: self.map.joint_velocity_dps(speed_dps),
-            torque_nm: self.map.joint_torque_nm(current_amps),
-        };
-        feedback.motor = MotorState {
+        let motor = MotorState {
             angle_deg: motor_deg,
             speed_dps,
             current_amps,
@@ -430,13 +437,12 @@ impl MotorLink {
                 }),
         };
         let [position, velocity, torque] = reply.raw();
-        feedback.raw = RawReply::Motion(RawMotion {
+        let raw = RawReply::Motion(RawMotion {
             position,
             velocity,
             torque,
         });
-        feedback.freshness = Self::freshness(class, age_ticks, feedback.freshness);
-        feedback.received_at = at;
+        self.record(feedback, at, (class, age_ticks), motor, raw);
         class
     }
 }

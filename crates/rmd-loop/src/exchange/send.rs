@@ -7,6 +7,7 @@ use rmd_protocol::MULTI_TORQUE_MOTORS;
 
 use super::Exchange;
 use super::frames::{ZERO_TORQUE, torque_frame, torque_request, zero_iq};
+use super::motor::MotorLink;
 use crate::bus_link::Requests;
 use crate::report::Fault;
 use crate::stats::LoopStats;
@@ -69,14 +70,10 @@ impl<B: CanBus> Exchange<B> {
             }
             Requests::PerMotor => {
                 for m in link.joints() {
-                    let motor = &mut self.motors[m];
-                    let iq = match torque {
-                        Torque::Staged => motor.staged,
-                        Torque::Zero => zero_iq(motor.dialect),
-                    };
-                    match link.bus.send(&torque_request(motor.dialect, motor.id, iq)) {
-                        Ok(()) => motor.pending.push(tick, at),
-                        Err(error) => sent_error(b, error, stats)?,
+                    let sent =
+                        send_own_request(&mut link.bus, &mut self.motors[m], torque, tick, at);
+                    if let Err(error) = sent {
+                        sent_error(b, error, stats)?;
                     }
                 }
             }
@@ -122,17 +119,31 @@ impl<B: CanBus> Exchange<B> {
             if motor.slot < MULTI_TORQUE_MOTORS {
                 continue;
             }
-            let iq = match torque {
-                Torque::Staged => motor.staged,
-                Torque::Zero => zero_iq(motor.dialect),
-            };
-            match link.bus.send(&torque_request(motor.dialect, motor.id, iq)) {
-                Ok(()) => motor.pending.push(tick, at),
-                Err(error) => sent_error(b, error, stats)?,
+            if let Err(error) = send_own_request(&mut link.bus, motor, torque, tick, at) {
+                sent_error(b, error, stats)?;
             }
         }
         Ok(())
     }
+}
+
+/// Sends `motor` its own 0xA1 request of `torque` (in its dialect's scale) on `bus` and records
+/// it, sent at `at` in `tick`.
+#[inline(always)]
+fn send_own_request<B: CanBus>(
+    bus: &mut B,
+    motor: &mut MotorLink,
+    torque: Torque,
+    tick: u64,
+    at: Timestamp,
+) -> Result<(), BusError> {
+    let iq = match torque {
+        Torque::Staged => motor.staged,
+        Torque::Zero => zero_iq(motor.dialect),
+    };
+    bus.send(&torque_request(motor.dialect, motor.id, iq))?;
+    motor.pending.push(tick, at);
+    Ok(())
 }
 
 /// A refused send: counted; a full queue or a transient error rides through, bus-off and a lost
