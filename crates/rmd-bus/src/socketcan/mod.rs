@@ -52,7 +52,8 @@
 //!
 //! The kernel stamps each frame on `CLOCK_REALTIME` when its network stack receives it. At
 //! read time the backend samples `CLOCK_MONOTONIC`, `CLOCK_REALTIME`, `CLOCK_MONOTONIC` and
-//! subtracts the measured offset. The error is below 100 ns plus, if NTP slews the wall clock
+//! subtracts the measured offset (sampled again when the thread was preempted between the
+//! reads). The error is below 100 ns plus, if NTP slews the wall clock
 //! meanwhile, at most 500 ppm of the time the frame waited in the socket; a wall-clock *step*
 //! while frames wait is clamped so that timestamps never exceed the read time and never go
 //! backwards. See [`Received::at`].

@@ -15,7 +15,9 @@
 //!
 //! Error of the conversion:
 //! - sampling: at most half the gap between the two monotonic reads (typically well under
-//!   100 ns);
+//!   100 ns). A thread preempted between the reads (a loaded host, an emulated VM) widens the
+//!   gap to milliseconds, which would date frames that much too early or late: a sample wider
+//!   than 20 us is taken again, up to four times, and the tightest is used;
 //! - clock adjustment between reception and read: NTP or PTP *slewing* changes the wall clock's
 //!   rate by at most 500 ppm, so a frame read `d` after reception is off by at most
 //!   `0.0005 * d` (0.5 µs for a frame read 1 ms after it arrived);
@@ -34,9 +36,39 @@ pub(crate) struct ClockSample {
     pub(crate) mono_after: u64,
 }
 
+/// A sample whose two monotonic reads are at most this far apart (ns) is taken as it is. The
+/// three vDSO reads take well under a microsecond; a wider gap means the thread was preempted
+/// between them (a loaded host, an emulated VM), and the offset would be off by up to half of it.
+const TIGHT_SAMPLE_NS: u64 = 20_000;
+
+/// Samples taken at most per conversion, looking for a tight one.
+const MAX_SAMPLES: usize = 4;
+
 impl ClockSample {
-    /// Samples the clocks now.
+    /// Samples the clocks now: the tightest of up to [`MAX_SAMPLES`] samples, stopping at the
+    /// first whose monotonic reads are at most [`TIGHT_SAMPLE_NS`] apart.
     pub(crate) fn now() -> Self {
+        Self::tightest(Self::read)
+    }
+
+    /// The tightest of up to [`MAX_SAMPLES`] samples taken by `sample`, stopping at the first
+    /// tight one.
+    fn tightest(mut sample: impl FnMut() -> Self) -> Self {
+        let mut best = sample();
+        for _ in 1..MAX_SAMPLES {
+            if best.gap() <= TIGHT_SAMPLE_NS {
+                break;
+            }
+            let next = sample();
+            if next.gap() < best.gap() {
+                best = next;
+            }
+        }
+        best
+    }
+
+    /// One sample of the clocks.
+    fn read() -> Self {
         use nix::time::ClockId;
         let read = |clock: ClockId| {
             nix::time::clock_gettime(clock)
@@ -51,6 +83,11 @@ impl ClockSample {
             real,
             mono_after,
         }
+    }
+
+    /// Nanoseconds between the two monotonic reads: twice the sample's worst offset error.
+    fn gap(&self) -> u64 {
+        self.mono_after.saturating_sub(self.mono_before)
     }
 }
 
@@ -120,6 +157,51 @@ mod tests {
         // monotonic reads.
         let mono = realtime_to_monotonic(sample.real, sample, 0);
         assert!((sample.mono_before..=sample.mono_after).contains(&mono));
+    }
+
+    #[test]
+    fn a_sample_stretched_by_preemption_is_taken_again() {
+        // The thread was preempted for 30 ms between the first sample's reads: its offset would
+        // put every frame up to 15 ms early. The second sample is tight and is the one used.
+        let stretched = ClockSample {
+            mono_before: 1_000_000_000,
+            real: 9_000_030_000_000,
+            mono_after: 1_030_000_100,
+        };
+        let tight = ClockSample {
+            mono_before: 1_030_001_000,
+            real: 9_000_030_001_100,
+            mono_after: 1_030_001_200,
+        };
+        let mut samples = [stretched, tight, stretched].into_iter();
+        let mut taken = 0;
+        let best = ClockSample::tightest(|| {
+            taken += 1;
+            samples.next().unwrap()
+        });
+        assert_eq!((best, taken), (tight, 2));
+        // A frame received 1 ms before: converted with the tight sample, it is exact.
+        let rx = tight.real - 1_000_000;
+        assert_eq!(
+            realtime_to_monotonic(rx, best, 0),
+            1_030_001_100 - 1_000_000
+        );
+        // A tight first sample is taken alone; when none is tight, the tightest of four.
+        let mut taken = 0;
+        ClockSample::tightest(|| {
+            taken += 1;
+            tight
+        });
+        assert_eq!(taken, 1);
+        let wide = |gap: u64| ClockSample {
+            mono_before: 0,
+            real: 0,
+            mono_after: gap,
+        };
+        let mut gaps = [90_000, 40_000, 70_000, 50_000, 10].into_iter();
+        let best = ClockSample::tightest(|| wide(gaps.next().unwrap()));
+        assert_eq!(best.mono_after, 40_000);
+        assert_eq!(gaps.next(), Some(10));
     }
 
     #[test]

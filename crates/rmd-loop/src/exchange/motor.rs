@@ -448,13 +448,16 @@ impl MotorLink {
 }
 
 /// A motor's status requests (0x9A) not answered yet: the tick and send time (ns) of the newest
-/// [`STATUS_PENDING`], oldest first. The firmware answers in order, and a motor's status
-/// requests are a rotation (at least a tick) apart, far more than a round trip: a status reply
-/// answers the newest request sent at least the shortest physical round trip before it arrived,
-/// and the older ones outstanding then are lost (counted). A request pushed when the ring is
-/// full gives up the oldest (counted). So a reply may come after its tick's collection ended
-/// (read in the next tick: on a one-motor bus, after the next request went out) and still
-/// answer its own request, and a lost reply never shifts the later ones.
+/// [`STATUS_PENDING`], oldest first. The firmware answers in order, and a status reply rides
+/// the bus right behind the torque replies of its tick, so it takes about the motor's torque
+/// round trip. A reply answers, among the requests it could answer (sent at least the shortest
+/// physical round trip before it arrived), the one whose delay is closest to that round trip;
+/// the older ones outstanding then are lost (counted). So a lost reply never shifts the later
+/// ones, and a link slower than the rotation (a round trip of a period or more, pipelined)
+/// still matches each reply to its own request. A reply that fits no request's timing (a stall
+/// held every reply up), or a motor with no round trip measured, answers the oldest: first in,
+/// first out, as the firmware answers. A request pushed when the ring is full gives up the
+/// oldest (counted).
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
 pub(crate) struct StatusPending {
     entries: [(u64, u64); STATUS_PENDING],
@@ -465,6 +468,14 @@ pub(crate) struct StatusPending {
 /// request: it comes just after the torque reply its tick's collection (one tick later) stops
 /// at, so the next tick's reads it, when two newer requests are outstanding.
 const STATUS_PENDING: usize = 4;
+
+/// How far from the torque round trip a status reply's delay may be and still fit its request:
+/// the round trip again (the replies of the bus's other motors come between, at most one round
+/// trip's worth of frames) plus 100 us of turnaround jitter. A reply held up longer (a stall)
+/// fits none, and is matched first in, first out.
+fn status_slack(round_trip_ns: u64) -> u64 {
+    round_trip_ns.saturating_add(100_000)
+}
 
 impl StatusPending {
     /// Records a request of `tick` sent at `sent_ns`; returns whether the oldest was given up
@@ -482,26 +493,48 @@ impl StatusPending {
         full
     }
 
-    /// The tick of the request a reply received at `received_ns` answers (the newest sent at
-    /// least `min_round_trip_ns` before), and how many older requests it shows lost; `None`
-    /// when it could answer none (an unexpected reply).
+    /// The tick of the request a reply received at `received_ns` answers, and how many older
+    /// requests it shows lost; `None` when it could answer none (an unexpected reply). See the
+    /// type's docs for the rule; `round_trip_ns` is the motor's tracked torque round trip.
     #[inline]
     pub(crate) fn answer(
         &mut self,
         received_ns: u64,
         min_round_trip_ns: u64,
+        round_trip_ns: Option<u64>,
     ) -> Option<(u64, u64)> {
-        let i = (0..self.len)
-            .rev()
-            .find(|&i| self.entries[i].1.saturating_add(min_round_trip_ns) <= received_ns)?;
+        // Send times grow: the requests it could answer are a prefix of the ring.
+        let answerable = self.entries[..self.len]
+            .iter()
+            .take_while(|&&(_, sent)| sent.saturating_add(min_round_trip_ns) <= received_ns)
+            .count();
+        if answerable == 0 {
+            return None;
+        }
+        let i = round_trip_ns
+            .and_then(|rtt| self.closest_on_time(answerable, received_ns, rtt))
+            .unwrap_or(0);
         let tick = self.entries[i].0;
         // Entries after `i` (newer requests) stay outstanding, moved to the front.
-        let kept = self.len - i - 1;
-        for k in 0..kept {
-            self.entries[k] = self.entries[i + 1 + k];
-        }
-        self.len = kept;
+        self.entries.copy_within(i + 1..self.len, 0);
+        self.len -= i + 1;
         Some((tick, i as u64))
+    }
+
+    /// Of the first `answerable` requests, the one whose delay to `received_ns` is closest to
+    /// `round_trip_ns` (the older on a tie), if that delay is within [`status_slack`] of it.
+    fn closest_on_time(
+        &self,
+        answerable: usize,
+        received_ns: u64,
+        round_trip_ns: u64,
+    ) -> Option<usize> {
+        let miss = |i: usize| {
+            let delay = received_ns.saturating_sub(self.entries[i].1);
+            delay.abs_diff(round_trip_ns)
+        };
+        let best = (1..answerable).fold(0, |best, i| if miss(i) < miss(best) { i } else { best });
+        (miss(best) <= status_slack(round_trip_ns)).then_some(best)
     }
 
     /// Forgets everything outstanding.
@@ -756,5 +789,42 @@ mod tests {
         );
         assert_eq!(c.bad_frames, 1);
         assert_eq!(fb, before);
+    }
+
+    #[test]
+    fn a_status_reply_answers_its_own_request_on_a_fast_link_or_a_slow_one() {
+        let ms = |ms: u64| ms * 1_000_000;
+        let shortest = 216_000;
+        // Requests 10 ms apart (a rotation), round trip 1 ms. Request 1's reply was lost: request
+        // 2's answers request 2, and request 1 is counted lost.
+        let mut p = StatusPending::default();
+        p.push(1, ms(0));
+        p.push(2, ms(10));
+        assert_eq!(p.answer(ms(11), shortest, Some(ms(1))), Some((2, 1)));
+        assert_eq!(p.len, 0);
+        // A link slower than the rotation: requests 100 ms apart, each answered 100.5 ms later.
+        // The reply to request 1 comes after request 2 went out, and still answers request 1.
+        let mut p = StatusPending::default();
+        p.push(1, ms(0));
+        p.push(2, ms(100));
+        let rtt = Some(ms(100));
+        assert_eq!(p.answer(ms(100) + 500_000, shortest, rtt), Some((1, 0)));
+        assert_eq!(p.answer(ms(200) + 500_000, shortest, rtt), Some((2, 0)));
+        assert_eq!(p.answer(ms(201), shortest, rtt), None);
+        // A stall held every reply up 50 ms: they fit no request's timing and are taken first in,
+        // first out, none left unexpected.
+        let mut p = StatusPending::default();
+        for k in 0..3 {
+            p.push(k, ms(k));
+        }
+        for k in 0..3 {
+            assert_eq!(p.answer(ms(50 + k), shortest, Some(ms(1))), Some((k, 0)));
+        }
+        // No round trip measured yet: first in, first out. Too early for every request: none.
+        let mut p = StatusPending::default();
+        p.push(4, ms(0));
+        p.push(5, ms(10));
+        assert_eq!(p.answer(ms(10), shortest, None), Some((4, 0)));
+        assert_eq!(p.answer(ms(10) + 100_000, shortest, None), None);
     }
 }

@@ -87,9 +87,11 @@ impl<B> Exchange<B> {
             return Ok(Received::Item);
         };
         let min_round_trip_ns = motor.min_round_trip_ns();
-        let Some((requested_tick, lost)) = motor
-            .status_pending
-            .answer(at.as_nanos(), min_round_trip_ns)
+        let round_trip_ns = motor.round_trip_ns();
+        let Some((requested_tick, lost)) =
+            motor
+                .status_pending
+                .answer(at.as_nanos(), min_round_trip_ns, round_trip_ns)
         else {
             counters.unexpected_replies += 1;
             return Ok(Received::Item);

@@ -853,3 +853,54 @@ fn pipelined_status_replies_read_two_ticks_later_still_answer_their_own_requests
         assert_eq!(c.status_replies, 48, "{rate} Hz: {r}");
     }
 }
+
+#[test]
+fn on_a_link_slower_than_the_period_each_status_reply_answers_its_own_request() {
+    // Pipelined at 10 Hz, one motor answering in 100 ms (an emulated VM): each status reply
+    // comes after the next status request went out, and still answers its own. Its reading's
+    // age proves it; none is counted lost or unexpected.
+    for (turnaround_ms, jitter_ms) in [(100, 5), (150, 0), (60, 40), (2, 0)] {
+        let clock = VirtualClock::new();
+        let mut config = rmd_sim::SimConfig::with_motors(1).seed(4);
+        config.bus.motor_mailboxes = 8;
+        for m in &mut config.motors {
+            m.turnaround = Duration::from_millis(turnaround_ms);
+            m.turnaround_jitter = Duration::from_millis(jitter_ms);
+        }
+        let mut bus = rmd_sim::SimBus::new(clock.clone(), config).unwrap();
+        let mut robot = robot_config(10.0, 1, 1);
+        robot.loop_config.reply_mode = rmd_loop::robot::ReplyMode::Pipelined;
+        robot.buses[0].motors[0].temperature_limit_celsius = Some(70.0);
+        let robot = rmd_loop::Robot::try_from(robot).unwrap();
+        let rt = RtLoop::unsupervised(robot, clock.clone(), vec![&mut bus], HealthWatch::from(1))
+            .unwrap();
+        let out = rt.run(RunLimit::Ticks(50));
+        let r = &out.report;
+        assert_eq!(r.stop_reason, StopReason::TickLimit, "{r}");
+        let c = &r.stats.motors[0].counters;
+        assert_eq!(
+            (
+                c.missing_replies,
+                c.late_replies,
+                c.unexpected_replies,
+                c.bad_frames
+            ),
+            (0, 0, 0, 0),
+            "{turnaround_ms} ms: {r}"
+        );
+        assert_eq!(c.missing_status_replies, 0, "{turnaround_ms} ms: {r}");
+        // 50 requests; the last two are still on their way when the loop stops.
+        assert!(c.status_replies >= 47, "{turnaround_ms} ms: {r}");
+        // Read two ticks after its request, never taken for a newer one's (age 0 or 1).
+        assert!(
+            out.controller.oldest >= 2,
+            "{turnaround_ms} ms: {}",
+            out.controller.oldest
+        );
+        assert!(
+            out.controller.oldest <= 3,
+            "{turnaround_ms} ms: {}",
+            out.controller.oldest
+        );
+    }
+}
