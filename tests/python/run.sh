@@ -58,7 +58,7 @@ make_venv() {
     local minor
     minor=$("$python" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
     say "installing python$minor-venv with apt"
-    apt-get update -qq && apt-get install -y -qq "python$minor-venv" >/dev/null
+    flock /tmp/rmd-apt.lock apt-get update -qq && flock /tmp/rmd-apt.lock apt-get install -y -qq "python$minor-venv" >/dev/null
   fi
   say "installing the pinned test tools ($requirements) into $venv"
   "$python" -m venv --clear "$venv"

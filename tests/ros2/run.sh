@@ -38,8 +38,8 @@ fastdds_pkgs=(libfastrtps-dev g++)
 if [[ ! -e /usr/include/fastdds/dds/domain/DomainParticipant.hpp ]] || ! command -v g++ >/dev/null; then
   if [[ $(id -u) -eq 0 ]]; then
     echo "ros2 interop: installing ${fastdds_pkgs[*]} (Debian) for the Fast DDS peer"
-    apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${fastdds_pkgs[@]}" >/dev/null
+    flock /tmp/rmd-apt.lock apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive flock /tmp/rmd-apt.lock apt-get install -y -qq "${fastdds_pkgs[@]}" >/dev/null
   else
     echo "ros2 interop: the Fast DDS peer needs Debian's ${fastdds_pkgs[*]}: apt-get install ${fastdds_pkgs[*]}" >&2
     exit 1

@@ -24,12 +24,13 @@ vcan_log() { echo "vcan: $*" >&2; }
 vcan_die() { echo "vcan: error: $*" >&2; exit 2; }
 
 # Runs apt-get; on a machine whose package lists are missing or stale, updates them once and
-# retries.
+# retries. Every apt-get of the test scripts holds /tmp/rmd-apt.lock: tests/run-all.sh runs
+# them side by side, and apt refuses to run twice at once.
 vcan_apt() {
-  if ! apt-get "$@" >"$VCAN_CACHE/apt.log" 2>&1; then
+  if ! flock /tmp/rmd-apt.lock apt-get "$@" >"$VCAN_CACHE/apt.log" 2>&1; then
     vcan_log "apt-get $1 failed; updating the package lists and retrying"
-    apt-get update -qq >>"$VCAN_CACHE/apt.log" 2>&1 || true
-    apt-get "$@" >>"$VCAN_CACHE/apt.log" 2>&1 || {
+    flock /tmp/rmd-apt.lock apt-get update -qq >>"$VCAN_CACHE/apt.log" 2>&1 || true
+    flock /tmp/rmd-apt.lock apt-get "$@" >>"$VCAN_CACHE/apt.log" 2>&1 || {
       tail -20 "$VCAN_CACHE/apt.log" >&2
       vcan_die "apt-get $* failed (see $VCAN_CACHE/apt.log)"
     }
@@ -42,7 +43,7 @@ vcan_kernel_package() {
   package="$(apt-cache depends linux-image-amd64 2>/dev/null |
     sed -n 's/^ *Depends: \(linux-image-[0-9][^ ]*-amd64\)$/\1/p' | head -n 1)"
   if [ -z "$package" ]; then
-    apt-get update -qq >/dev/null 2>&1 || true
+    flock /tmp/rmd-apt.lock apt-get update -qq >/dev/null 2>&1 || true
     package="$(apt-cache depends linux-image-amd64 2>/dev/null |
       sed -n 's/^ *Depends: \(linux-image-[0-9][^ ]*-amd64\)$/\1/p' | head -n 1)"
   fi
