@@ -125,7 +125,12 @@ pub fn run_with_telemetry(
     {
         match &clock {
             AnyClock::Virtual(clock) => clock.advance(wait),
-            AnyClock::Monotonic(_) => wait_unless_signalled(wait, spec.signals),
+            AnyClock::Monotonic(_) => {
+                if spec.tell_waits {
+                    tell_wait(wait);
+                }
+                wait_unless_signalled(wait, spec.signals)
+            }
         }
     }
     let written: Vec<String> = spec.faults.iter().map(|(f, _)| f.to_string()).collect();
@@ -133,6 +138,17 @@ pub fn run_with_telemetry(
         judge(written.join(" + "), fault_at, &sims, outcome.report),
         telemetry,
     ))
+}
+
+/// Says on stderr that the drill now waits `wait` for the motors' watchdogs (a failed write is
+/// ignored: nothing here may stop the drill).
+fn tell_wait(wait: core::time::Duration) {
+    use std::io::Write;
+    let _ = writeln!(
+        std::io::stderr(),
+        "rmd drill: the host is silent; waiting {:.1} s for the motors' watchdogs to act (Ctrl-C ends the wait)",
+        wait.as_secs_f64()
+    );
 }
 
 /// Sleeps `wait` in real time, in slices of at most 10 ms, and stops early once one of the

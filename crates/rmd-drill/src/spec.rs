@@ -39,6 +39,7 @@ pub struct DrillSpec {
     pub(crate) firmware: ProtocolFamily,
     pub(crate) mixed_with: Option<ProtocolFamily>,
     pub(crate) exchange: Option<ExchangeKind>,
+    pub(crate) tell_waits: bool,
 }
 
 impl DrillSpec {
@@ -56,6 +57,7 @@ impl DrillSpec {
             firmware: ProtocolFamily::V161,
             mixed_with: None,
             exchange: None,
+            tell_waits: false,
         }
     }
 
@@ -140,6 +142,14 @@ impl DrillSpec {
     /// emergency stop; the verdict is still taken from the simulated firmware.
     pub fn stopped_by(mut self, signals: Signals) -> Self {
         self.signals = Some(signals);
+        self
+    }
+
+    /// Before waiting in real time for the motors' watchdogs (after a `host-silent` fault),
+    /// writes one line to stderr saying how long, and that Ctrl-C ends the wait (a write that
+    /// fails is ignored).
+    pub fn tell_waits(mut self) -> Self {
+        self.tell_waits = true;
         self
     }
 

@@ -146,7 +146,8 @@ pub(crate) fn run(args: DrillArgs) -> ExitCode {
             .seconds(args.seconds)
             .seed(args.seed)
             .time(time)
-            .stopped_by(signals);
+            .stopped_by(signals)
+            .tell_waits();
         let spec = match args.mix_firmware {
             Some(other) => spec.mixed_with(other),
             None => spec,

@@ -433,12 +433,19 @@ fn ctrl_c_ends_the_wait_for_a_long_watchdog() {
             "--json",
         ])
         .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    // Well past the silence at 0.2 s and the run's one second, even on a loaded machine: the
-    // drill waits for the watchdog by then.
-    std::thread::sleep(std::time::Duration::from_secs(5));
+    // Once the drill says it waits for the watchdogs (the silence at 0.2 s and the run's one
+    // second are over), Ctrl-C.
+    let mut stderr = std::io::BufRead::lines(std::io::BufReader::new(child.stderr.take().unwrap()));
+    let waiting = stderr
+        .by_ref()
+        .map_while(Result::ok)
+        .any(|line| line.contains("for the motors' watchdogs to act (Ctrl-C ends the wait)"));
+    assert!(waiting, "the drill never said it waits for the watchdogs");
+    // The rest of stderr is read, so that the drill never writes into a closed pipe.
+    let rest = std::thread::spawn(move || stderr.map_while(Result::ok).count());
     kill(Pid::from_raw(child.id() as i32), Signal::SIGINT).unwrap();
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
     let status = loop {
@@ -456,4 +463,5 @@ fn ctrl_c_ends_the_wait_for_a_long_watchdog() {
     std::io::Read::read_to_string(&mut child.stdout.take().unwrap(), &mut stdout).unwrap();
     let d: Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(d["motors_energised_after"], 3, "{d}");
+    rest.join().unwrap();
 }
