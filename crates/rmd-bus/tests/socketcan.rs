@@ -189,13 +189,21 @@ fn receive_timestamps_come_from_the_kernel_on_the_monotonic_time_line() {
         previous = received.at;
     }
 
-    // A frame left waiting in the socket keeps its arrival time, not the time it was read.
-    let sent = now();
+    // A frame left waiting in the socket keeps its arrival time, not the time it was read. (vcan
+    // stamps a frame while its sender's write runs: by the time `send` returned. Timed from
+    // then, a stall of the test thread before the write cannot eat into the 200 ms.)
+    let before = now();
     peer.send(0x142, &[0; 8]);
+    let sent = now();
     std::thread::sleep(Duration::from_millis(200));
     let received = next(&mut bus);
     let read = now();
-    assert!(received.at >= sent.saturating_sub(Duration::from_millis(1)));
+    assert!(
+        received.at >= before.saturating_sub(Duration::from_millis(1))
+            && received.at <= sent + Duration::from_millis(1),
+        "stamped {:?}, sent between {before:?} and {sent:?}",
+        received.at
+    );
     assert!(
         read - received.at >= Duration::from_millis(100),
         "stamped {:?}, read {read:?}: the timestamp is the read time, not the kernel's",

@@ -444,11 +444,13 @@ fn the_loop_drives_four_motors_against_rmd_sim_with_every_reply_matched() {
         let c = &motor.counters;
         // Every reply is matched to its request: on time, or (when the emulated VM stalled for
         // longer than the pipeline's slack: stalls of over a second were seen on a loaded host)
-        // late, in which case its tick counted it missing and the next tick matched it as late.
-        // None is lost, none unexpected, none malformed.
-        assert_eq!(
-            (c.missing_replies, c.unexpected_replies, c.bad_frames),
-            (c.late_replies, 0, 0),
+        // late. A late reply was counted missing in its tick, unless the stall skipped that
+        // tick altogether. None is lost, none unexpected, none malformed.
+        let skipped = report.stats.skipped_ticks;
+        assert!(
+            c.missing_replies <= c.late_replies
+                && c.late_replies <= c.missing_replies + skipped
+                && (c.unexpected_replies, c.bad_frames) == (0, 0),
             "{}: {report}",
             motor.joint
         );
@@ -497,14 +499,13 @@ fn an_example_runs_on_the_interface_through_the_rig() {
 
     assert_eq!(report.stop_reason, StopReason::TickLimit, "{report}");
     assert_eq!(report.stats.ticks, TICKS);
+    // As above: a reply held up by a stall of the emulated VM is late (and was missing in its
+    // tick, unless the stall skipped it); none is lost, unexpected or malformed.
     let motor = &report.stats.motors[0].counters;
-    assert_eq!(
-        (
-            motor.missing_replies,
-            motor.unexpected_replies,
-            motor.bad_frames
-        ),
-        (0, 0, 0),
+    assert!(
+        motor.missing_replies <= motor.late_replies
+            && motor.late_replies <= motor.missing_replies + report.stats.skipped_ticks
+            && (motor.unexpected_replies, motor.bad_frames) == (0, 0),
         "{report}"
     );
     assert!(
