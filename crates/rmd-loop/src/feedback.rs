@@ -13,7 +13,7 @@ use crate::robot::JointSpec;
 
 /// The joint side of a joint's state: after the gear ratio, direction and zero offset.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
-pub struct JointState {
+pub struct JointSide {
     /// Joint angle, degrees (continuous: unwrapped by the loop).
     pub angle_deg: f64,
     /// Joint velocity, deg/s.
@@ -23,7 +23,7 @@ pub struct JointState {
     pub torque_nm: Option<f64>,
 }
 
-impl JointState {
+impl JointSide {
     /// Joint angle in radians.
     pub fn angle_rad(&self) -> f64 {
         self.angle_deg.to_radians()
@@ -37,7 +37,7 @@ impl JointState {
 
 /// The motor side of a joint's state, in the motor's own frame and units.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
-pub struct MotorState {
+pub struct MotorSide {
     /// Continuous rotor angle, degrees (the single-turn encoder unwrapped by the loop; for a
     /// MyActuator V3 motor, which reports its output shaft in whole degrees, that angle times
     /// the gear ratio).
@@ -120,10 +120,10 @@ impl Freshness {
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct JointFeedback {
     /// Joint side: angle, velocity, torque.
-    pub joint: JointState,
+    pub joint: JointSide,
     /// Motor side: rotor angle and speed, current, temperature (in motion mode the newest
     /// status reply's temperature, 0 before the first).
-    pub motor: MotorState,
+    pub motor: MotorSide,
     /// The reply's wire values.
     pub raw: RawReply,
     /// Whether it came in this tick.
@@ -138,12 +138,12 @@ pub struct JointFeedback {
 impl JointFeedback {
     /// Feedback slot before a reply (never shown to a controller).
     pub(crate) const UNSET: Self = Self {
-        joint: JointState {
+        joint: JointSide {
             angle_deg: 0.0,
             velocity_dps: 0.0,
             torque_nm: None,
         },
-        motor: MotorState {
+        motor: MotorSide {
             angle_deg: 0.0,
             speed_dps: 0.0,
             current_amps: 0.0,

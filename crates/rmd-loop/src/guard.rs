@@ -9,7 +9,7 @@
 
 use core::fmt;
 
-use crate::feedback::JointState;
+use crate::feedback::JointSide;
 use crate::robot::JointSpec;
 
 /// Which limit a joint went past.
@@ -105,7 +105,7 @@ impl LimitGuard {
     /// Whether the motor-side current `motor_amps` pushes the joint, in `state`, further past
     /// a limit it is already past.
     #[inline]
-    pub(crate) fn refuses(&self, state: &JointState, motor_amps: f64) -> bool {
+    pub(crate) fn refuses(&self, state: &JointSide, motor_amps: f64) -> bool {
         let joint_amps = self.sign * motor_amps;
         let up = state.angle_deg > self.max_deg || state.velocity_dps > self.max_dps;
         let down = state.angle_deg < self.min_deg || state.velocity_dps < -self.max_dps;
@@ -114,7 +114,7 @@ impl LimitGuard {
 
     /// The limit the joint, in `state`, is further past than its margin, if any.
     #[inline]
-    pub(crate) fn breach(&self, state: &JointState) -> Option<LimitBreach> {
+    pub(crate) fn breach(&self, state: &JointSide) -> Option<LimitBreach> {
         let (angle, velocity) = (state.angle_deg, state.velocity_dps);
         let breach = |kind, value, limit, margin| {
             Some(LimitBreach {
@@ -149,8 +149,8 @@ mod tests {
         LimitGuard::from_spec(&robot.joints()[0])
     }
 
-    fn at(angle_deg: f64, velocity_dps: f64) -> JointState {
-        JointState {
+    fn at(angle_deg: f64, velocity_dps: f64) -> JointSide {
+        JointSide {
             angle_deg,
             velocity_dps,
             torque_nm: None,

@@ -73,7 +73,7 @@ pub use commands::{Commands, MAX_SIGNALS, Rejection};
 pub use controller::{Controller, Flow, TickContext};
 pub use engine::{BuildError, RtLoop, RunLimit, Running};
 pub use feedback::{
-    Feedback, Freshness, JointFeedback, JointState, MotorState, RawMotion, RawReply, RawStatus,
+    Feedback, Freshness, JointFeedback, JointSide, MotorSide, RawMotion, RawReply, RawStatus,
 };
 pub use finish::LoopOutcome;
 pub use guard::{LimitBreach, LimitKind};

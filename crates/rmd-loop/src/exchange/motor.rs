@@ -14,7 +14,7 @@ use rmd_protocol::{
 use super::frames::{ReplyExpectation, zero_iq};
 use super::pending::{PendingRequests, RESYNC_AFTER, min_round_trip};
 use crate::feedback::{
-    Freshness, JointFeedback, JointState, MotorState, RawMotion, RawReply, RawStatus,
+    Freshness, JointFeedback, JointSide, MotorSide, RawMotion, RawReply, RawStatus,
 };
 use crate::joint::JointId;
 use crate::mapping::{EncoderUnwrapper, JointMap, nearest_integer};
@@ -366,7 +366,7 @@ impl MotorLink {
                 )
             }
         };
-        let motor = MotorState {
+        let motor = MotorSide {
             angle_deg: motor_deg,
             speed_dps,
             current_amps: status.iq.amps(),
@@ -390,12 +390,12 @@ impl MotorLink {
         feedback: &mut JointFeedback,
         at: Timestamp,
         (class, age_ticks): (ReplyClass, u32),
-        motor: MotorState,
+        motor: MotorSide,
         raw: RawReply,
     ) {
         self.last_reply_ns = Some(at.as_nanos());
         self.ticks_since_reply = 0;
-        feedback.joint = JointState {
+        feedback.joint = JointSide {
             angle_deg: self.map.joint_angle_deg(motor.angle_deg),
             velocity_dps: self.map.joint_velocity_dps(motor.speed_dps),
             torque_nm: self.map.joint_torque_nm(motor.current_amps),
@@ -426,7 +426,7 @@ impl MotorLink {
             return ReplyClass::Unexpected;
         };
         let (motor_deg, speed_dps, current_amps) = motion.map.motor_side(reply);
-        let motor = MotorState {
+        let motor = MotorSide {
             angle_deg: motor_deg,
             speed_dps,
             current_amps,
