@@ -8,7 +8,7 @@ use rmd_demos::quadruped::{self, CROUCH_HEIGHT_M, LEG_NAMES};
 use rmd_demos::{leg4, pd_hold};
 use rmd_rt::rig::{BusTarget, Placement, PlacementDefault, placement::Overrides};
 use rmd_rt::rt::mapping::power_up_window;
-use rmd_rt::rt::robot::{Direction, JointSpec};
+use rmd_rt::rt::robot::{JointSpec, Mounting};
 use rmd_rt::{JointId, Robot};
 
 const PD_HOLD: &str = include_str!("../../examples/robots/pd_hold.toml");
@@ -117,10 +117,7 @@ fn leg4_toml_is_the_leg_of_the_example() {
         // Motor ids 1..=4 from the body out, every joint 1:9 and direction normal (the model's
         // joint angles are the motors' ways round).
         assert_eq!(joint.motor.get() as usize, i + 1);
-        assert_eq!(
-            (joint.gear_ratio, joint.direction),
-            (9.0, Direction::Normal)
-        );
+        assert_eq!((joint.gear_ratio, joint.direction), (9.0, Mounting::Normal));
         assert_centred(joint, leg4::POWER_UP_DEG[i]);
         assert_limits(joint, LegModel::new().limits[i]);
     }
@@ -153,10 +150,7 @@ fn quadruped_toml_is_the_robot_of_the_example() {
         for (i, id) in leg.ids().into_iter().enumerate() {
             let joint = robot.spec(id);
             assert_eq!(joint.motor.get() as usize, i + 1);
-            assert_eq!(
-                (joint.gear_ratio, joint.direction),
-                (9.0, Direction::Normal)
-            );
+            assert_eq!((joint.gear_ratio, joint.direction), (9.0, Mounting::Normal));
             assert_centred(joint, crouch[i]);
             assert_limits(joint, model.limits[i]);
         }

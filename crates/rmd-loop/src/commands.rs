@@ -213,7 +213,7 @@ mod tests {
             RobotConfig::new(100.0).with_bus(
                 BusConfig::new("can0")
                     .with_motor(MotorConfig::new(1).torque_constant(2.0))
-                    .with_motor(MotorConfig::new(2).direction(crate::robot::Direction::Reversed)),
+                    .with_motor(MotorConfig::new(2).direction(crate::robot::Mounting::Reversed)),
             ),
         )
         .unwrap();

@@ -139,7 +139,7 @@ impl LimitGuard {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::{BusConfig, Direction, MotorConfig, Robot, RobotConfig};
+    use crate::robot::{BusConfig, MotorConfig, Mounting, Robot, RobotConfig};
 
     fn guard(motor: MotorConfig) -> LimitGuard {
         let robot = Robot::try_from(
@@ -186,7 +186,7 @@ mod tests {
         let g = guard(
             MotorConfig::new(1)
                 .position_limits(-10.0, 90.0)
-                .direction(Direction::Reversed),
+                .direction(Mounting::Reversed),
         );
         // Motor-side -1 A is joint-side +1 A: up, refused past the top.
         assert!(g.refuses(&at(91.0, 0.0), -1.0));

@@ -14,7 +14,7 @@ use core::time::Duration;
 
 use rmd_protocol::EncoderWidth;
 
-use crate::robot::{Direction, JointSpec};
+use crate::robot::{JointSpec, Mounting};
 
 /// Beyond this magnitude every `f64` is an integer (2^52).
 const ALL_INTEGERS: f64 = 4_503_599_627_370_496.0;
@@ -198,9 +198,9 @@ impl JointMap {
 ///
 /// ```
 /// use rmd_loop::mapping::power_up_window;
-/// use rmd_loop::robot::{BusConfig, Direction, MotorConfig, Robot, RobotConfig};
+/// use rmd_loop::robot::{BusConfig, Mounting, MotorConfig, Robot, RobotConfig};
 /// let hip = MotorConfig::new(2).gear_ratio(9.0).zero_offset_deg(-30.0);
-/// let reversed = MotorConfig::new(3).gear_ratio(9.0).zero_offset_deg(-30.0).direction(Direction::Reversed);
+/// let reversed = MotorConfig::new(3).gear_ratio(9.0).zero_offset_deg(-30.0).direction(Mounting::Reversed);
 /// let robot = Robot::try_from(RobotConfig::new(100.0).with_bus(BusConfig::new("can0")
 ///     .with_motor(hip)
 ///     .with_motor(reversed)))?;
@@ -212,8 +212,8 @@ pub fn power_up_window(joint: &JointSpec) -> (f64, f64) {
     let width = 360.0 / joint.gear_ratio;
     let start = -joint.zero_offset_deg;
     match joint.direction {
-        Direction::Normal => (start, start + width),
-        Direction::Reversed => (start - width, start),
+        Mounting::Normal => (start, start + width),
+        Mounting::Reversed => (start - width, start),
     }
 }
 
@@ -228,15 +228,15 @@ pub fn power_up_window(joint: &JointSpec) -> (f64, f64) {
 ///
 /// ```
 /// use rmd_loop::mapping::centred_zero_offset_deg;
-/// use rmd_loop::robot::Direction;
+/// use rmd_loop::robot::Mounting;
 /// // A 1:9 joint powering up around 0 degrees: window -20..20.
-/// assert_eq!(centred_zero_offset_deg(9.0, Direction::Normal, 0.0), 20.0);
+/// assert_eq!(centred_zero_offset_deg(9.0, Mounting::Normal, 0.0), 20.0);
 /// ```
-pub fn centred_zero_offset_deg(gear_ratio: f64, direction: Direction, joint_deg: f64) -> f64 {
+pub fn centred_zero_offset_deg(gear_ratio: f64, direction: Mounting, joint_deg: f64) -> f64 {
     let half = 180.0 / gear_ratio;
     match direction {
-        Direction::Normal => -(joint_deg - half),
-        Direction::Reversed => -(joint_deg + half),
+        Mounting::Normal => -(joint_deg - half),
+        Mounting::Reversed => -(joint_deg + half),
     }
 }
 
@@ -313,7 +313,7 @@ mod tests {
     fn joint_mapping_applies_gear_direction_and_offset() {
         let motor = MotorConfig::new(1)
             .gear_ratio(6.0)
-            .direction(Direction::Reversed)
+            .direction(Mounting::Reversed)
             .zero_offset_deg(10.0)
             .torque_constant(0.5);
         let j = map(motor);
@@ -331,7 +331,7 @@ mod tests {
 
     #[test]
     fn power_up_windows_are_centred_where_asked() {
-        for d in [Direction::Normal, Direction::Reversed] {
+        for d in [Mounting::Normal, Mounting::Reversed] {
             let motor = MotorConfig::new(1)
                 .gear_ratio(6.0)
                 .direction(d)

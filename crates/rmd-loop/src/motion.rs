@@ -210,9 +210,9 @@ pub(crate) fn zero_torque(ranges: MitRanges) -> MitCommand {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::{BusConfig, Direction, ExchangeKind, MotorConfig, Robot, RobotConfig};
+    use crate::robot::{BusConfig, ExchangeKind, MotorConfig, Mounting, Robot, RobotConfig};
 
-    fn joint(direction: Direction) -> JointSpec {
+    fn joint(direction: Mounting) -> JointSpec {
         let motor = MotorConfig::new(1)
             .gear_ratio(9.0)
             .torque_constant(2.0)
@@ -234,7 +234,7 @@ mod tests {
 
     #[test]
     fn joint_units_become_output_units_with_the_direction() {
-        for (direction, sign) in [(Direction::Normal, 1.0), (Direction::Reversed, -1.0)] {
+        for (direction, sign) in [(Mounting::Normal, 1.0), (Mounting::Reversed, -1.0)] {
             let map = MotionMap::new(&joint(direction), MitRanges::V4_3);
             let c = MotionCommand {
                 position_deg: 20.0,
@@ -256,7 +256,7 @@ mod tests {
 
     #[test]
     fn bad_setpoints_are_refused_and_torque_is_limited() {
-        let map = MotionMap::new(&joint(Direction::Normal), MitRanges::V4_3);
+        let map = MotionMap::new(&joint(Mounting::Normal), MitRanges::V4_3);
         let ok = MotionCommand::hold(0.0, 1.0, 0.01);
         assert!(map.command(&ok).is_ok());
         let beyond = MotionCommand::hold(91.0, 1.0, 0.01);

@@ -246,10 +246,11 @@ impl core::fmt::Display for ExchangeKind {
     }
 }
 
-/// Which way a joint turns relative to its motor.
+/// How a joint is mounted on its motor: which way it turns relative to the motor (the robot
+/// file's `direction = "normal"` or `"reversed"`).
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
-pub enum Direction {
+pub enum Mounting {
     /// Joint angle grows with the motor angle.
     #[default]
     Normal,
@@ -257,12 +258,12 @@ pub enum Direction {
     Reversed,
 }
 
-impl Direction {
+impl Mounting {
     /// +1.0 or -1.0.
     pub fn sign(self) -> f64 {
         match self {
-            Direction::Normal => 1.0,
-            Direction::Reversed => -1.0,
+            Mounting::Normal => 1.0,
+            Mounting::Reversed => -1.0,
         }
     }
 }
@@ -299,7 +300,7 @@ pub struct MotorConfig {
     pub gear_ratio: Option<f64>,
     /// Joint direction relative to the motor.
     #[serde(default)]
-    pub direction: Direction,
+    pub direction: Mounting,
     /// Joint angle (degrees) subtracted after scaling: joint = dir * motor / gear - offset.
     #[serde(default)]
     pub zero_offset_deg: f64,
@@ -364,7 +365,7 @@ impl MotorConfig {
             lk_series: None,
             encoder_bits: None,
             gear_ratio: None,
-            direction: Direction::Normal,
+            direction: Mounting::Normal,
             zero_offset_deg: 0.0,
             current_limit_amps: default_current_limit(),
             torque_constant_nm_per_amp: None,
@@ -417,7 +418,7 @@ impl MotorConfig {
         self
     }
     /// Sets the direction.
-    pub fn direction(mut self, direction: Direction) -> Self {
+    pub fn direction(mut self, direction: Mounting) -> Self {
         self.direction = direction;
         self
     }

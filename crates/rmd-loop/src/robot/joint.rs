@@ -9,7 +9,7 @@ use rmd_protocol::{
 };
 
 use super::error::{RobotError, Shown, invalid};
-use super::file::{BusConfig, Direction, MotorConfig};
+use super::file::{BusConfig, MotorConfig, Mounting};
 use super::limits::{self, JointLimits};
 use super::settings::LoopSettings;
 
@@ -64,7 +64,7 @@ pub struct JointSpec {
     /// Motor turns per joint turn (positive).
     pub gear_ratio: f64,
     /// Joint direction relative to the motor.
-    pub direction: Direction,
+    pub direction: Mounting,
     /// Joint angle subtracted after scaling, degrees.
     pub zero_offset_deg: f64,
     /// The limit applied to every torque command.

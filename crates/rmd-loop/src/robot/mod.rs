@@ -51,7 +51,7 @@ use exchange::{
     check_budget, check_bus_layout, check_motion_temperature, exchange_of, health_fits,
 };
 pub use file::{
-    BusConfig, CpuLatencySetting, Direction, ExchangeKind, LoopConfig, MotorConfig,
+    BusConfig, CpuLatencySetting, ExchangeKind, LoopConfig, MotorConfig, Mounting,
     RejectedCommandPolicy, ReplyMode, RobotConfig, SafeStopConfig,
 };
 pub use joint::{
@@ -330,7 +330,7 @@ mod tests {
         assert_eq!(s.realtime.cpu_dma_latency, Some(Duration::ZERO));
         assert_eq!(robot.joint_count(), 2);
         let hip = robot.spec(robot.joint("hip").unwrap());
-        assert_eq!(hip.direction, Direction::Reversed);
+        assert_eq!(hip.direction, Mounting::Reversed);
         assert_eq!(hip.encoder.bits(), 14);
         assert_eq!(hip.current_limit.raw(), 500);
         // Never above the described limit: 3.0 A is 187.5 steps of 16 mA, 187 are allowed.

@@ -6,7 +6,7 @@ use crate::common;
 
 use common::*;
 use rmd_bus::VirtualClock;
-use rmd_loop::robot::{BusConfig, Direction, ExchangeKind, MotorConfig, RobotConfig};
+use rmd_loop::robot::{BusConfig, ExchangeKind, MotorConfig, Mounting, RobotConfig};
 use rmd_loop::{
     BuildError, CommandKind, Commands, Controller, Feedback, Flow, MotionCommand, RawReply,
     Rejection, Robot, RtLoop, StopReason, TickContext,
@@ -20,10 +20,10 @@ const V3: Dialect = Dialect::MyActuatorV3(V3Firmware {
 });
 
 /// Joint zero offsets and directions of the three motors.
-const JOINTS: [(f64, Direction); 3] = [
-    (20.0, Direction::Normal),
-    (-10.0, Direction::Reversed),
-    (0.0, Direction::Normal),
+const JOINTS: [(f64, Mounting); 3] = [
+    (20.0, Mounting::Normal),
+    (-10.0, Mounting::Reversed),
+    (0.0, Mounting::Normal),
 ];
 
 fn robot(exchange: Option<ExchangeKind>) -> Robot {

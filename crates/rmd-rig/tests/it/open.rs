@@ -3,7 +3,7 @@
 
 use rmd_bus::VirtualClock;
 use rmd_loop::mapping::centred_zero_offset_deg;
-use rmd_loop::robot::{BusConfig, Direction, MotorConfig, RobotConfig};
+use rmd_loop::robot::{BusConfig, MotorConfig, Mounting, RobotConfig};
 use rmd_loop::{
     Commands, Controller, Feedback, Flow, JointArray, Robot, RtLoop, RunLimit, TickContext,
 };
@@ -35,7 +35,7 @@ impl Controller for Hold {
     }
 }
 
-fn leg(directions: [Direction; 2]) -> Robot {
+fn leg(directions: [Mounting; 2]) -> Robot {
     let mut bus = BusConfig::new("can0");
     for (i, d) in directions.into_iter().enumerate() {
         bus = bus.with_motor(
@@ -58,7 +58,7 @@ fn leg(directions: [Direction; 2]) -> Robot {
 #[test]
 fn simulated_joints_read_their_true_angle_inside_the_power_up_window() {
     for (start, inside) in [(-75.0, true), (-90.0, true), (-60.0, true), (-100.0, false)] {
-        let robot = leg([Direction::Normal, Direction::Reversed]);
+        let robot = leg([Mounting::Normal, Mounting::Reversed]);
         let mut sims = sim::sim_configs(&robot, 3);
         for (m, joint) in sims[0].motors.iter_mut().zip(robot.joints()) {
             m.initial_output_angle_deg = sim::sim_output_angle_deg(joint, start);
@@ -105,7 +105,7 @@ fn simulated_joints_read_their_true_angle_inside_the_power_up_window() {
 
 #[test]
 fn open_builds_working_simulated_buses_on_the_chosen_clock() {
-    let robot = leg([Direction::Normal; 2]);
+    let robot = leg([Mounting::Normal; 2]);
     for time in [SimTime::Virtual, SimTime::Real] {
         let placement = Placement::simulated(&robot, time);
         let rig = Rig::open(&robot, &placement, sim::sim_configs(&robot, 1)).unwrap();
@@ -133,7 +133,7 @@ fn open_builds_working_simulated_buses_on_the_chosen_clock() {
 
 #[test]
 fn bad_simulated_motors_and_counts_are_typed_errors_naming_the_bus() {
-    let robot = leg([Direction::Normal; 2]);
+    let robot = leg([Mounting::Normal; 2]);
     let placement = Placement::simulated(&robot, SimTime::Virtual);
     let mut sims = sim::sim_configs(&robot, 1);
     sims[0].motors[1].load.output_inertia_kg_m2 = -1.0;
@@ -175,7 +175,7 @@ fn a_missing_interface_is_a_typed_error_naming_the_bus() {
 
 #[test]
 fn the_runner_writes_every_tick_to_csv_and_mcap_with_joint_and_signal_columns() {
-    let robot = leg([Direction::Normal; 2]);
+    let robot = leg([Mounting::Normal; 2]);
     let placement = Placement::simulated(&robot, SimTime::Virtual);
     let rig = Rig::open(&robot, &placement, sim::sim_configs(&robot, 2)).unwrap();
     let hold = Hold {

@@ -481,11 +481,11 @@ fn a_servo_configured_for_another_robot_halts_the_loop() {
 /// power-up windows centred on the pose `pose_deg`.
 fn limited_leg(pose_deg: [f64; 4]) -> rmd_loop::Robot {
     use rmd_loop::mapping::centred_zero_offset_deg;
-    use rmd_loop::robot::Direction;
+    use rmd_loop::robot::Mounting;
     let limits = [(-25.0, 25.0), (-100.0, 40.0), (5.0, 165.0), (-110.0, 30.0)];
     common::leg(|i, motor| {
         motor
-            .zero_offset_deg(centred_zero_offset_deg(9.0, Direction::Normal, pose_deg[i]))
+            .zero_offset_deg(centred_zero_offset_deg(9.0, Mounting::Normal, pose_deg[i]))
             .position_limits(limits[i].0, limits[i].1)
             .velocity_limit(180.0)
     })
