@@ -15,17 +15,17 @@
 //! standard (11-bit) IDs, so extended IDs, remote frames and CAN FD frames are typed errors.
 //!
 //! ```
-//! use rmd_bus::candump::{parse_line, Direction, LogLine};
+//! use rmd_bus::candump::{parse_line, FrameDirection, LogLine};
 //! use core::time::Duration;
 //!
 //! let line = parse_line("(1700000000.123456) can0 141#9C00000000000000 R").unwrap();
 //! assert_eq!(line.timestamp, Some(Duration::new(1_700_000_000, 123_456_000)));
 //! assert_eq!(line.interface.as_deref(), Some("can0"));
-//! assert_eq!(line.direction, Some(Direction::Rx));
+//! assert_eq!(line.direction, Some(FrameDirection::Rx));
 //! assert_eq!(line.frame.to_string(), "141#9C00000000000000");
 //!
 //! let default = parse_line("  can0  TX - -  141   [8]  A1 00 00 00 64 00 00 00").unwrap();
-//! assert_eq!(default.direction, Some(Direction::Tx));
+//! assert_eq!(default.direction, Some(FrameDirection::Tx));
 //! assert_eq!(default.frame.data()[4], 0x64);
 //!
 //! let log = LogLine::new(Duration::new(12, 500_000_000), "can0", default.frame);
@@ -40,18 +40,18 @@ use rmd_protocol::CanFrame;
 
 /// Which way a frame went, as seen by the host that recorded the log (candump `-x`).
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
-pub enum Direction {
+pub enum FrameDirection {
     /// Sent by the logging host (`TX`, or ` T` in log files).
     Tx,
     /// Received by the logging host (`RX`, or ` R` in log files).
     Rx,
 }
 
-impl fmt::Display for Direction {
+impl fmt::Display for FrameDirection {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            Direction::Tx => "TX",
-            Direction::Rx => "RX",
+            FrameDirection::Tx => "TX",
+            FrameDirection::Rx => "RX",
         })
     }
 }
@@ -65,7 +65,7 @@ pub struct CandumpLine {
     /// The CAN interface name (`can0`), absent in the compact form.
     pub interface: Option<String>,
     /// candump's direction marker, if the line has one.
-    pub direction: Option<Direction>,
+    pub direction: Option<FrameDirection>,
     /// The frame.
     pub frame: CanFrame,
 }
@@ -180,8 +180,8 @@ pub fn parse_line(line: &str) -> Result<CandumpLine, CandumpError> {
         let frame = parse_compact_frame(tokens[at])?;
         let direction = match &tokens[at + 1..] {
             [] => None,
-            ["T"] => Some(Direction::Tx),
-            ["R"] => Some(Direction::Rx),
+            ["T"] => Some(FrameDirection::Tx),
+            ["R"] => Some(FrameDirection::Rx),
             more => return Err(CandumpError::Trailing(more.join(" "))),
         };
         return Ok(CandumpLine {
@@ -196,8 +196,8 @@ pub fn parse_line(line: &str) -> Result<CandumpLine, CandumpError> {
     let interface = first.to_string();
     let mut i = 1;
     let direction = match tokens.get(i) {
-        Some(&"TX") => Some(Direction::Tx),
-        Some(&"RX") => Some(Direction::Rx),
+        Some(&"TX") => Some(FrameDirection::Tx),
+        Some(&"RX") => Some(FrameDirection::Rx),
         _ => None,
     };
     if direction.is_some() {
@@ -353,11 +353,11 @@ fn parse_timestamp(text: &str) -> Result<Duration, CandumpError> {
 ///
 /// ```
 /// use core::time::Duration;
-/// use rmd_bus::candump::{parse_line, Direction, LogLine};
+/// use rmd_bus::candump::{parse_line, FrameDirection, LogLine};
 /// use rmd_bus::CanFrame;
 /// let frame = CanFrame::new(0x280, &[0x64, 0, 0x9C, 0xFF, 0, 0, 0, 0]).unwrap();
 /// let line = LogLine::new(Duration::new(1_700_000_000, 123_456_789), "can0", frame)
-///     .with_direction(Direction::Tx);
+///     .with_direction(FrameDirection::Tx);
 /// assert_eq!(line.to_string(), "(1700000000.123456) can0 280#64009CFF00000000 T");
 /// assert_eq!(parse_line(&line.to_string()).unwrap().frame, frame);
 /// ```
@@ -368,7 +368,7 @@ pub struct LogLine<'a> {
     /// Interface name.
     pub interface: &'a str,
     /// Direction marker, written as ` T` / ` R` when present.
-    pub direction: Option<Direction>,
+    pub direction: Option<FrameDirection>,
     /// The frame.
     pub frame: CanFrame,
 }
@@ -385,7 +385,7 @@ impl<'a> LogLine<'a> {
     }
 
     /// The same line with a direction marker.
-    pub fn with_direction(self, direction: Direction) -> Self {
+    pub fn with_direction(self, direction: FrameDirection) -> Self {
         Self {
             direction: Some(direction),
             ..self
@@ -404,8 +404,8 @@ impl fmt::Display for LogLine<'_> {
             self.frame
         )?;
         match self.direction {
-            Some(Direction::Tx) => f.write_str(" T"),
-            Some(Direction::Rx) => f.write_str(" R"),
+            Some(FrameDirection::Tx) => f.write_str(" T"),
+            Some(FrameDirection::Rx) => f.write_str(" R"),
             None => Ok(()),
         }
     }
@@ -451,7 +451,7 @@ mod tests {
         assert_eq!(l.direction, None);
         assert_eq!(l.frame, frame(0x141, &STATUS2));
         let l = parse_line("(1700000000.123456) vcan12 141#9C00000000000000 T").unwrap();
-        assert_eq!(l.direction, Some(Direction::Tx));
+        assert_eq!(l.direction, Some(FrameDirection::Tx));
         assert_eq!(l.interface.as_deref(), Some("vcan12"));
         // Round trip through the formatter.
         assert_eq!(
@@ -467,7 +467,7 @@ mod tests {
         assert_eq!((l.timestamp, l.direction), (None, None));
         assert_eq!(l.frame, frame(0x141, &STATUS2));
         let l = parse_line("  can0  RX - -  142   [8]  A1 19 00 08 FF FF FF 3F").unwrap();
-        assert_eq!(l.direction, Some(Direction::Rx));
+        assert_eq!(l.direction, Some(FrameDirection::Rx));
         assert_eq!(
             l.frame,
             frame(0x142, &[0xA1, 0x19, 0x00, 0x08, 0xFF, 0xFF, 0xFF, 0x3F])
@@ -476,7 +476,7 @@ mod tests {
             parse_line(" (1700000000.000001)  can1  TX B E  280   [08]  64 00 9C FF 00 00 D0 07")
                 .unwrap();
         assert_eq!(l.timestamp, Some(Duration::new(1_700_000_000, 1_000)));
-        assert_eq!(l.direction, Some(Direction::Tx));
+        assert_eq!(l.direction, Some(FrameDirection::Tx));
         assert_eq!(l.frame.id(), 0x280);
         // -t d / -t z style timestamps and candump -a ASCII column.
         let l = parse_line("(000.000250)  can0  141   [2]  9C 41   '.A'").unwrap();
@@ -555,7 +555,7 @@ mod tests {
         );
         assert_eq!(
             LogLine::new(Duration::new(1, 0), "can0", f)
-                .with_direction(Direction::Rx)
+                .with_direction(FrameDirection::Rx)
                 .to_string(),
             "(0000000001.000000) can0 141#9C00000000000000 R"
         );

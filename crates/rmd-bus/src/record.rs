@@ -43,7 +43,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 use crossbeam_queue::ArrayQueue;
 
-use crate::candump::{Direction, LogLine};
+use crate::candump::{FrameDirection, LogLine};
 use crate::{BusError, BusMessage, CanBus, CanFrame, Clock, MonotonicClock, Received, Timestamp};
 
 /// Default capacity of the queue between the bus and the writer, in frames (a 1 kHz loop of
@@ -59,8 +59,8 @@ pub struct RecordedFrame {
     /// When it was sent (the clock's time when the inner bus accepted it) or received (the
     /// bus's receive timestamp), on the bus's clock.
     pub at: Timestamp,
-    /// Sent by the caller ([`Direction::Tx`]) or received ([`Direction::Rx`]).
-    pub direction: Direction,
+    /// Sent by the caller ([`FrameDirection::Tx`]) or received ([`FrameDirection::Rx`]).
+    pub direction: FrameDirection,
     /// The frame.
     pub frame: CanFrame,
 }
@@ -350,7 +350,7 @@ impl<B: CanBus, C: Clock> CanBus for Recorder<B, C> {
         self.inner.send(frame)?;
         self.shared.push(RecordedFrame {
             at: self.clock.now(),
-            direction: Direction::Tx,
+            direction: FrameDirection::Tx,
             frame: *frame,
         });
         Ok(())
@@ -365,7 +365,7 @@ impl<B: CanBus, C: Clock> CanBus for Recorder<B, C> {
         {
             self.shared.push(RecordedFrame {
                 at,
-                direction: Direction::Rx,
+                direction: FrameDirection::Rx,
                 frame,
             });
         }

@@ -13,7 +13,7 @@
 //!
 //! ```
 //! use core::time::Duration;
-//! use rmd_bus::candump::Direction;
+//! use rmd_bus::candump::FrameDirection;
 //! use rmd_bus::replay::{read_log, Pace, ReplayBus};
 //! use rmd_bus::{BusMessage, CanBus, Clock, VirtualClock};
 //!
@@ -24,7 +24,7 @@
 //! let parsed = read_log(log.as_bytes())?;
 //! assert!(parsed.bad_lines.is_empty());
 //! // The frames the motors sent, at their original times (virtual time: instant and exact).
-//! let received = parsed.records.into_iter().filter(|r| r.direction == Some(Direction::Rx));
+//! let received = parsed.records.into_iter().filter(|r| r.direction == Some(FrameDirection::Rx));
 //! let clock = VirtualClock::new();
 //! let mut bus = ReplayBus::new(clock.clone(), received, Pace::Original);
 //! let first = bus.recv_until(clock.now() + Duration::from_secs(1)).unwrap().unwrap();
@@ -43,7 +43,7 @@ use std::io::{self, BufRead};
 /// CAN frame is under 60 bytes, of a CAN FD frame under 200; a longer line is not a frame.
 pub const MAX_LINE_BYTES: usize = 1024;
 
-use crate::candump::{CandumpError, Direction, parse_line};
+use crate::candump::{CandumpError, FrameDirection, parse_line};
 use crate::{BusError, BusMessage, CanBus, CanFrame, Clock, Received, Timestamp};
 
 /// One frame of a log.
@@ -56,7 +56,7 @@ pub struct LogRecord {
     /// The interface the line names.
     pub interface: String,
     /// candump's direction marker, if the line has one.
-    pub direction: Option<Direction>,
+    pub direction: Option<FrameDirection>,
     /// The frame.
     pub frame: CanFrame,
 }
@@ -458,7 +458,7 @@ this is not a frame
         let parsed = read_log(LOG.as_bytes()).unwrap();
         let lines: Vec<_> = parsed.records.iter().map(|r| r.line).collect();
         assert_eq!(lines, [1, 2, 4, 7, 8]);
-        assert_eq!(parsed.records[1].direction, Some(Direction::Rx));
+        assert_eq!(parsed.records[1].direction, Some(FrameDirection::Rx));
         assert_eq!(parsed.records[1].interface, "can0");
         assert_eq!(
             parsed.bad_lines,

@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use rmd_bus::candump::{Direction, parse_compact_frame, parse_line};
+use rmd_bus::candump::{FrameDirection, parse_compact_frame, parse_line};
 use rmd_bus::socketcan::{SocketCanBus, SocketCanOptions};
 use rmd_bus::{BusMessage, CanBus, CanFrame, Clock, MonotonicClock};
 use rmd_loop::robot::{BusConfig, MotorConfig, ReplyMode, RobotConfig};
@@ -532,7 +532,7 @@ fn host_commands(path: &Path) -> Vec<(u8, Cmd)> {
         .unwrap()
         .lines()
         .map(|l| parse_line(l).unwrap())
-        .filter(|l| l.direction == Some(Direction::Tx))
+        .filter(|l| l.direction == Some(FrameDirection::Tx))
         .filter_map(|l| match Dialect::V161.decode_request(&l.frame) {
             Ok(DecodedRequest::Single { motor, request }) => Some((motor.get(), request.command())),
             _ => None,
@@ -742,11 +742,11 @@ fn rmd_log_records_the_bus_and_the_log_decodes_and_replays() {
         .collect();
     let sent = lines
         .iter()
-        .filter(|l| l.direction == Some(Direction::Tx))
+        .filter(|l| l.direction == Some(FrameDirection::Tx))
         .count();
     let received = lines
         .iter()
-        .filter(|l| l.direction == Some(Direction::Rx))
+        .filter(|l| l.direction == Some(FrameDirection::Rx))
         .count();
     assert_eq!((sent, received), (9, 9));
     drop(sim);

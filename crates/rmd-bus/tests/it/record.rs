@@ -7,7 +7,7 @@ use std::io::{self, Write};
 use std::sync::mpsc;
 use std::sync::{Arc, Condvar, Mutex};
 
-use rmd_bus::candump::{Direction, parse_line};
+use rmd_bus::candump::{FrameDirection, parse_line};
 use rmd_bus::record::{RecordOptions, RecordStats, record};
 use rmd_bus::{BusError, BusMessage, CanBus, CanFrame, Clock, Received, Timestamp, VirtualClock};
 
@@ -147,7 +147,7 @@ fn a_stalled_writer_never_blocks_the_caller_and_drops_are_counted() {
         .lines()
         .map(|line| {
             let parsed = parse_line(line).unwrap();
-            assert_eq!(parsed.direction, Some(Direction::Tx));
+            assert_eq!(parsed.direction, Some(FrameDirection::Tx));
             number_of(&parsed.frame)
         })
         .collect();

@@ -25,7 +25,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{Args, ValueEnum};
-use rmd_bus::candump::{Direction, LogLine};
+use rmd_bus::candump::{FrameDirection, LogLine};
 use rmd_bus::record::wall_clock_offset;
 use rmd_bus::replay::{BadLine, Due, LogReader, LogRecord, Pace, ReplaySchedule};
 use rmd_bus::{BusMessage, Clock, Timestamp};
@@ -389,7 +389,7 @@ fn play_onto_bus(args: &ReplayArgs, selection: Frames, pace: Pace) -> Result<u64
                     bus.setup().name()
                 ))
             })?;
-            printer.print(bus.clock().now(), Direction::Tx, record.frame)?;
+            printer.print(bus.clock().now(), FrameDirection::Tx, record.frame)?;
             sent += 1;
             printer.progress.set_position(sent);
         }
@@ -482,7 +482,7 @@ impl Printer {
     fn print(
         &mut self,
         at: Timestamp,
-        direction: Direction,
+        direction: FrameDirection,
         frame: rmd_bus::CanFrame,
     ) -> Result<(), WriteError> {
         let timestamp = Duration::from_nanos(at.as_nanos()) + self.offset;
@@ -532,7 +532,7 @@ fn listen_until(
                 if let BusMessage::Frame(frame) = received.message {
                     note_v3_moving(&frame, moved);
                     printer.received += 1;
-                    printer.print(received.at, Direction::Rx, frame)?;
+                    printer.print(received.at, FrameDirection::Rx, frame)?;
                 }
             }
             Ok(None) => {}

@@ -7,7 +7,7 @@
 
 use std::path::PathBuf;
 
-use rmd_bus::candump::{Direction, parse_line};
+use rmd_bus::candump::{FrameDirection, parse_line};
 use rmd_protocol::{
     CanFrame, Command as Cmd, DecodedRequest, Dialect, FirmwareDate, LkSeries, Request, V3Firmware,
 };
@@ -128,7 +128,7 @@ fn sent_in(log: &PathBuf, dialect: Dialect) -> Vec<Request> {
     let text = std::fs::read_to_string(log).unwrap_or_default();
     text.lines()
         .map(|line| parse_line(line).unwrap())
-        .filter(|l| l.direction == Some(Direction::Tx))
+        .filter(|l| l.direction == Some(FrameDirection::Tx))
         .map(|l| match dialect.decode_request(&l.frame) {
             Ok(DecodedRequest::Single { motor, request }) => {
                 assert_eq!(motor.get(), 1, "{}", l.frame);
@@ -583,7 +583,7 @@ fn replay_sends_the_log_as_recorded_then_turns_the_moved_motor_off() {
             .unwrap()
             .lines()
             .map(|l| parse_line(l).unwrap())
-            .filter(|l| l.direction == Some(Direction::Tx))
+            .filter(|l| l.direction == Some(FrameDirection::Tx))
             .map(|l| l.frame)
             .collect();
         assert_eq!(sent[0].to_string(), "141#A100000064000000");

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command as StdCommand, Stdio};
 use std::time::{Duration, Instant};
 
-use rmd_bus::candump::{Direction, parse_line};
+use rmd_bus::candump::{FrameDirection, parse_line};
 use rmd_protocol::{Command as Cmd, DecodedRequest, Dialect, Reply};
 use serde_json::Value;
 
@@ -30,7 +30,7 @@ fn log_path(test: &str) -> PathBuf {
 
 /// One recorded frame: direction and the frame.
 struct Logged {
-    direction: Direction,
+    direction: FrameDirection,
     frame: rmd_protocol::CanFrame,
 }
 
@@ -51,7 +51,7 @@ fn read_log(path: &Path) -> Vec<Logged> {
 /// The commands of the host's single-motor requests in a log, in order.
 fn host_commands(log: &[Logged]) -> Vec<(u8, Cmd)> {
     log.iter()
-        .filter(|l| l.direction == Direction::Tx)
+        .filter(|l| l.direction == FrameDirection::Tx)
         .filter_map(|l| match Dialect::V161.decode_request(&l.frame) {
             Ok(DecodedRequest::Single { motor, request }) => Some((motor.get(), request.command())),
             _ => None,
@@ -156,7 +156,7 @@ fn pid_set_changes_only_the_given_gains_in_ram() {
     // Each request was answered by the motor (a reply follows it on the same id).
     let replies = recorded
         .iter()
-        .filter(|l| l.direction == Direction::Rx)
+        .filter(|l| l.direction == FrameDirection::Rx)
         .count();
     assert_eq!(replies, 4);
 
@@ -569,7 +569,7 @@ fn ctrl_c_turns_a_moving_motor_off() {
         );
         // ... and the motor confirmed it.
         let last = recorded.last().unwrap();
-        assert_eq!(last.direction, Direction::Rx);
+        assert_eq!(last.direction, FrameDirection::Rx);
         assert_eq!(last.frame.data()[0], Cmd::MotorOff.code());
     }
 }
@@ -877,12 +877,12 @@ fn a_recorded_session_decodes_and_replays() {
         .collect();
     let sent: Vec<u16> = session
         .iter()
-        .filter(|l| l.direction == Some(Direction::Tx))
+        .filter(|l| l.direction == Some(FrameDirection::Tx))
         .map(|l| l.frame.id())
         .collect();
     let replies: Vec<(u8, Reply)> = session
         .iter()
-        .filter(|l| l.direction == Some(Direction::Rx))
+        .filter(|l| l.direction == Some(FrameDirection::Rx))
         .map(|l| {
             let (motor, reply) = rmd_protocol::Dialect::V161.decode_reply(&l.frame).unwrap();
             (motor.get(), reply)
@@ -946,7 +946,7 @@ fn replaying_motion_onto_a_real_interface_asks_first() {
     let sent: Vec<_> = stdout
         .lines()
         .map(|l| parse_line(l).unwrap())
-        .filter(|l| l.direction == Some(Direction::Tx))
+        .filter(|l| l.direction == Some(FrameDirection::Tx))
         .map(|l| l.frame.data()[0])
         .collect();
     assert_eq!(sent, [Cmd::Torque.code()]);
@@ -1096,7 +1096,7 @@ fn move_by_joint_name_in_joint_degrees_and_monitor_by_joint() {
     // The motor was sent the joint's target turned into motor degrees: (45 + (-40)) * 9 = 45.
     let sent: Vec<_> = read_log(&log)
         .into_iter()
-        .filter(|l| l.direction == Direction::Tx)
+        .filter(|l| l.direction == FrameDirection::Tx)
         .filter_map(|l| match Dialect::V161.decode_request(&l.frame) {
             Ok(DecodedRequest::Single {
                 motor,
@@ -1134,7 +1134,7 @@ fn move_by_joint_name_in_joint_degrees_and_monitor_by_joint() {
     ]);
     let speeds: Vec<f64> = read_log(&log)
         .into_iter()
-        .filter(|l| l.direction == Direction::Tx)
+        .filter(|l| l.direction == FrameDirection::Tx)
         .filter_map(|l| match Dialect::V161.decode_request(&l.frame) {
             Ok(DecodedRequest::Single {
                 request: rmd_protocol::Request::Position2 { max_speed, .. },

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use rmd_bus::candump::{Direction, parse_line};
+use rmd_bus::candump::{FrameDirection, parse_line};
 use rmd_protocol::{Command as Cmd, DecodedRequest, Dialect};
 
 /// The longest a command may take (a hang is a failure, not a timing goal).
@@ -124,7 +124,7 @@ fn last_command_to(log: &Path, motor: u8) -> Option<Cmd> {
         .lines()
         .rev()
         .filter_map(|l| parse_line(l).ok())
-        .filter(|l| l.direction == Some(Direction::Tx))
+        .filter(|l| l.direction == Some(FrameDirection::Tx))
         .filter_map(|l| match Dialect::V161.decode_request(&l.frame) {
             Ok(DecodedRequest::Single { motor: m, request }) if m.get() == motor => {
                 Some(request.command())

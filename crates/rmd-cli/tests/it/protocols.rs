@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use rmd_bus::candump::{Direction, parse_line};
+use rmd_bus::candump::{FrameDirection, parse_line};
 use serde_json::Value;
 
 use crate::support;
@@ -115,7 +115,7 @@ fn torque_on_an_lk_mf_motor_uses_its_scale() {
         .unwrap()
         .lines()
         .map(|l| parse_line(l).unwrap())
-        .filter(|l| l.direction == Some(Direction::Tx))
+        .filter(|l| l.direction == Some(FrameDirection::Tx))
         .map(|l| l.frame.to_string())
         .collect();
     assert!(sent.len() >= 3, "{sent:?}");

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command as StdCommand, Stdio};
 use std::time::{Duration, Instant};
 
-use rmd_bus::candump::{Direction, parse_line};
+use rmd_bus::candump::{FrameDirection, parse_line};
 use rmd_protocol::{Command as Cmd, DecodedRequest, Dialect};
 
 use crate::support;
@@ -30,7 +30,7 @@ fn temp_path(test: &str, name: &str) -> PathBuf {
 }
 
 /// The recorded frames of a `--log` file: direction, motor id (single-motor frames), command.
-fn frames(path: &Path) -> Vec<(Direction, u16, u8)> {
+fn frames(path: &Path) -> Vec<(FrameDirection, u16, u8)> {
     std::fs::read_to_string(path)
         .unwrap()
         .lines()
@@ -51,7 +51,7 @@ fn host_commands(path: &Path) -> Vec<(u8, Cmd)> {
         .unwrap()
         .lines()
         .map(|line| parse_line(line).unwrap())
-        .filter(|l| l.direction == Some(Direction::Tx))
+        .filter(|l| l.direction == Some(FrameDirection::Tx))
         .filter_map(|l| match Dialect::V161.decode_request(&l.frame) {
             Ok(DecodedRequest::Single { motor, request }) => Some((motor.get(), request.command())),
             _ => None,
@@ -65,7 +65,7 @@ fn ends_with_confirmed_motor_off(path: &Path, motor: u8) {
     let id = 0x140 + u16::from(motor);
     let off = Cmd::MotorOff.code();
     assert!(
-        recorded.ends_with(&[(Direction::Tx, id, off), (Direction::Rx, id, off)]),
+        recorded.ends_with(&[(FrameDirection::Tx, id, off), (FrameDirection::Rx, id, off)]),
         "{:?}",
         &recorded[recorded.len().saturating_sub(4)..]
     );
@@ -274,7 +274,7 @@ fn replaying_rom_writes_asks_first_and_refuses_without_a_terminal() {
     );
     let answered: Vec<u8> = frames(&session)
         .iter()
-        .filter(|f| f.0 == Direction::Rx)
+        .filter(|f| f.0 == FrameDirection::Rx)
         .map(|f| f.2)
         .collect();
     assert_eq!(answered, [0x19, 0x9C, 0x32]);

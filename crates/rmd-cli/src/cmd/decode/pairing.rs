@@ -38,7 +38,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use rmd_bus::candump::Direction;
+use rmd_bus::candump::FrameDirection;
 use rmd_protocol::{
     Command, FIRST_MOTOR_CAN_ID, MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS, MotorId,
     SINGLE_MOTOR_BASE_ID, V3_MOTION_REPLY_BASE_ID, V3_REPLY_BASE_ID,
@@ -102,8 +102,13 @@ impl Pairing {
     /// Classifies the next frame of the log at once by rules 1 to 3 without the exception for
     /// repeated queries (a frame identical to the pending request is its reply), and updates the
     /// state. [`LookAhead`] adds the exception.
-    pub(crate) fn classify(&mut self, can_id: u16, data: &[u8], marker: Option<Direction>) -> Role {
-        if marker == Some(Direction::Tx) {
+    pub(crate) fn classify(
+        &mut self,
+        can_id: u16,
+        data: &[u8],
+        marker: Option<FrameDirection>,
+    ) -> Role {
+        if marker == Some(FrameDirection::Tx) {
             self.seen_tx = true;
         }
         if can_id == MULTI_TORQUE_CAN_ID {
@@ -122,8 +127,8 @@ impl Pairing {
         let pending = self.pending.get(&can_id);
         let answers_pending = matches!((pending, code), (Some(p), Some(c)) if p.answered_by(c));
         let is_reply = match marker {
-            Some(Direction::Tx) => false,
-            Some(Direction::Rx) if self.seen_tx => true,
+            Some(FrameDirection::Tx) => false,
+            Some(FrameDirection::Rx) if self.seen_tx => true,
             _ => answers_pending,
         };
         if is_reply {
@@ -251,15 +256,20 @@ pub(crate) struct LookAhead {
 
 impl LookAhead {
     /// Adds the next frame of the log; its role is decided now or when its run is.
-    pub(crate) fn push(&mut self, can_id: u16, data: &[u8], marker: Option<Direction>) -> Ticket {
+    pub(crate) fn push(
+        &mut self,
+        can_id: u16,
+        data: &[u8],
+        marker: Option<FrameDirection>,
+    ) -> Ticket {
         let ticket = Ticket(self.next);
         self.next += 1;
-        if marker == Some(Direction::Tx) {
+        if marker == Some(FrameDirection::Tx) {
             self.pairing.seen_tx = true;
         }
         let marker_decides = match marker {
-            Some(Direction::Tx) => true,
-            Some(Direction::Rx) => self.pairing.seen_tx,
+            Some(FrameDirection::Tx) => true,
+            Some(FrameDirection::Rx) => self.pairing.seen_tx,
             None => false,
         };
         let repeats = self
@@ -277,8 +287,8 @@ impl LookAhead {
             }
         } else if self.runs.contains_key(&can_id) {
             let is_reply = match marker {
-                Some(Direction::Tx) => false,
-                Some(Direction::Rx) if self.pairing.seen_tx => true,
+                Some(FrameDirection::Tx) => false,
+                Some(FrameDirection::Rx) if self.pairing.seen_tx => true,
                 _ => {
                     let code = data.first().copied();
                     matches!(
@@ -466,27 +476,39 @@ mod tests {
     #[test]
     fn markers_decide_when_the_log_has_tx() {
         let mut p = Pairing::default();
-        assert_eq!(p.classify(0x141, &A1, Some(Direction::Tx)), Role::Request);
         assert_eq!(
-            p.classify(0x141, &A1, Some(Direction::Rx)),
+            p.classify(0x141, &A1, Some(FrameDirection::Tx)),
+            Role::Request
+        );
+        assert_eq!(
+            p.classify(0x141, &A1, Some(FrameDirection::Rx)),
             Role::Reply(Some(Command::Torque))
         );
         // A reply whose request was not logged: still a reply, with no pending command.
         assert_eq!(
-            p.classify(0x141, &[0x9C], Some(Direction::Rx)),
+            p.classify(0x141, &[0x9C], Some(FrameDirection::Rx)),
             Role::Reply(None)
         );
         // A lost reply: the next TX is a request even though the same command is pending.
-        assert_eq!(p.classify(0x142, &A1, Some(Direction::Tx)), Role::Request);
-        assert_eq!(p.classify(0x142, &A1, Some(Direction::Tx)), Role::Request);
+        assert_eq!(
+            p.classify(0x142, &A1, Some(FrameDirection::Tx)),
+            Role::Request
+        );
+        assert_eq!(
+            p.classify(0x142, &A1, Some(FrameDirection::Tx)),
+            Role::Request
+        );
     }
 
     #[test]
     fn listen_only_logs_fall_back_to_pairing() {
         let mut p = Pairing::default();
-        assert_eq!(p.classify(0x141, &A1, Some(Direction::Rx)), Role::Request);
         assert_eq!(
-            p.classify(0x141, &A1, Some(Direction::Rx)),
+            p.classify(0x141, &A1, Some(FrameDirection::Rx)),
+            Role::Request
+        );
+        assert_eq!(
+            p.classify(0x141, &A1, Some(FrameDirection::Rx)),
             Role::Reply(Some(Command::Torque))
         );
     }
@@ -503,7 +525,7 @@ mod tests {
     }
 
     /// The roles of `frames` through the look-ahead, in order.
-    fn marked(frames: &[(u16, &[u8], Option<Direction>)]) -> Vec<Role> {
+    fn marked(frames: &[(u16, &[u8], Option<FrameDirection>)]) -> Vec<Role> {
         let mut p = LookAhead::default();
         let tickets: Vec<Ticket> = frames.iter().map(|(id, d, m)| p.push(*id, d, *m)).collect();
         p.finish();
@@ -536,8 +558,8 @@ mod tests {
 
     #[test]
     fn markers_win_over_the_repeat_rule() {
-        let tx = Some(Direction::Tx);
-        let rx = Some(Direction::Rx);
+        let tx = Some(FrameDirection::Tx);
+        let rx = Some(FrameDirection::Rx);
         assert_eq!(
             marked(&[
                 (0x141, &Q9C, tx),
@@ -558,7 +580,7 @@ mod tests {
 
     /// The roles of `frames` (unmarked) through the look-ahead, in order.
     fn looked_ahead(frames: &[(u16, &[u8])]) -> Vec<Role> {
-        let with: Vec<(u16, &[u8], Option<Direction>)> =
+        let with: Vec<(u16, &[u8], Option<FrameDirection>)> =
             frames.iter().map(|&(id, d)| (id, d, None)).collect();
         marked(&with)
     }
@@ -618,8 +640,8 @@ mod tests {
         assert_eq!(p.take(z), Some(STATUS3));
         // TX / RX in a log with TX: no run is held.
         let mut p = LookAhead::default();
-        let q = p.push(0x141, &Q9C, Some(Direction::Tx));
-        let r = p.push(0x141, &Q9C, Some(Direction::Rx));
+        let q = p.push(0x141, &Q9C, Some(FrameDirection::Tx));
+        let r = p.push(0x141, &Q9C, Some(FrameDirection::Rx));
         assert_eq!((p.take(q), p.take(r)), (Some(Role::Request), Some(STATUS2)));
     }
 }
