@@ -47,7 +47,7 @@ use crate::supervisor::{SafetyPort, Supervisor};
 use crate::telemetry::{
     self, Published, TelemetryDelivery, TelemetryReceiver, TelemetrySample, TickTimes,
 };
-use crate::watch::{Phase, Takeover};
+use crate::watch::{LoopPhase, Takeover};
 
 /// How long the loop sleeps between tries when it waits for room in the telemetry mailbox
 /// ([`TelemetryDelivery::Wait`], virtual time only).
@@ -421,7 +421,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
             )));
         }
         parts.shared.watch.progress(parts.clock.now(), 0);
-        parts.shared.watch.set_phase(Phase::Running);
+        parts.shared.watch.set_phase(LoopPhase::Running);
         let supervisor = match ports {
             None => None,
             Some(ports) => {
@@ -499,7 +499,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         let timing = self.scheduler.wait_next(&self.parts.clock);
         let watch = &self.parts.shared.watch;
         watch.progress(timing.woke, timing.index);
-        if watch.phase() != Phase::Running {
+        if watch.phase() != LoopPhase::Running {
             return ControlFlow::Break(StopReason::EmergencyStop); // replaced by the supervisor's
         }
         // Overslept past the stall bound, and the supervisor did not see it.
@@ -680,7 +680,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
     /// took over, its safe stop and its reason are the run's.
     pub fn finish(self, reason: StopReason) -> LoopOutcome<K> {
         let watch = &self.parts.shared.watch;
-        let takeover = if watch.swap_phase(Phase::Running, Phase::Finishing) {
+        let takeover = if watch.swap_phase(LoopPhase::Running, LoopPhase::Finishing) {
             None
         } else {
             wait_for_takeover(&self.parts.shared, self.supervisor)
@@ -897,7 +897,7 @@ impl<B, C: Clock> LoopParts<B, C> {
                 // Nobody will make room, or the run is to end: stop waiting.
                 if !tx.has_receivers()
                     || self.shared.stop.pending().is_some()
-                    || self.shared.watch.phase() != Phase::Running
+                    || self.shared.watch.phase() != LoopPhase::Running
                 {
                     break false;
                 }

@@ -11,7 +11,7 @@ use crate::panics;
 use crate::protection::MotorProtection;
 use crate::report::{IdentifiedMotor, LoopReport, PanicReport, StopReason};
 use crate::safe_stop;
-use crate::watch::{Phase, Takeover};
+use crate::watch::{LoopPhase, Takeover};
 
 /// The result of a run: the report, and the controller back.
 #[derive(Debug)]
@@ -55,7 +55,7 @@ pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
         }
     };
     let _ = catch_unwind(AssertUnwindSafe(|| controller.stop(&reason)));
-    parts.shared.watch.set_phase(Phase::Finished);
+    parts.shared.watch.set_phase(LoopPhase::Finished);
     parts.shared.set_running(false);
     // After the motors are safe: what the panic left (its backtrace is resolved only here).
     let panic = match &reason {

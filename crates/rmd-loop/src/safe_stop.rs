@@ -208,7 +208,7 @@ fn why(m: &MotorSafeStop, bus: Option<&BusSafeStop>) -> String {
 
 /// Progress of the safe stop on one bus.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
-enum Phase {
+enum BusStopPhase {
     /// Zero torque to the bus's motors from this one (index in description order) on (on a
     /// `multi-torque` bus, the one 0x280 frame when `next` is the first).
     Zero { next: usize },
@@ -226,7 +226,7 @@ enum Phase {
 
 /// The state of one bus during the safe stop.
 struct BusStop {
-    phase: Phase,
+    phase: BusStopPhase,
     bus_off_since: Option<Timestamp>,
     last_error: Option<BusError>,
 }
@@ -266,7 +266,7 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
     let mut stops: Vec<BusStop> = links
         .iter()
         .map(|link| BusStop {
-            phase: Phase::Zero {
+            phase: BusStopPhase::Zero {
                 next: link.joints.start,
             },
             bus_off_since: None,
@@ -287,7 +287,7 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
             }
             step_bus(link, stop, ids, robot.joints(), &mut report, now, settings);
             outcomes[b] = match stop.phase {
-                Phase::Done => Some(BusStopOutcome::Confirmed {
+                BusStopPhase::Done => Some(BusStopOutcome::Confirmed {
                     after_ms: ms(now - start),
                 }),
                 _ => match stop.bus_off_since {
@@ -305,10 +305,10 @@ pub(crate) fn make_safe<B: CanBus, C: Clock>(
                 o.is_some()
                     || matches!(
                         s.phase,
-                        Phase::Confirm { .. }
-                            | Phase::Lock { .. }
-                            | Phase::ConfirmLock { .. }
-                            | Phase::Done
+                        BusStopPhase::Confirm { .. }
+                            | BusStopPhase::Lock { .. }
+                            | BusStopPhase::ConfirmLock { .. }
+                            | BusStopPhase::Done
                     )
             })
         {
@@ -365,12 +365,12 @@ fn step_bus<B: CanBus>(
     receive(link, stop, ids, joints, report, now);
     loop {
         match stop.phase {
-            Phase::Zero { next } if next >= link.joints.end => {
-                stop.phase = Phase::Off {
+            BusStopPhase::Zero { next } if next >= link.joints.end => {
+                stop.phase = BusStopPhase::Off {
                     next: link.joints.start,
                 };
             }
-            Phase::Zero { next } => {
+            BusStopPhase::Zero { next } => {
                 // One 0x280 frame for the bus's motors 1..=4 (sent for the first of them), each
                 // other motor its own zero request, in its family's scale (on a `motion` bus
                 // too: a V3 motor leaves motion mode for zero torque).
@@ -381,7 +381,7 @@ fn step_bus<B: CanBus>(
                     ExchangeKind::PerMotor | ExchangeKind::Motion => false,
                 };
                 if in_frame && report.motors[next].zero_torque_sent {
-                    stop.phase = Phase::Zero { next: next + 1 };
+                    stop.phase = BusStopPhase::Zero { next: next + 1 };
                     continue;
                 }
                 let frame = if in_frame {
@@ -399,78 +399,78 @@ fn step_bus<B: CanBus>(
                                 report.motors[m].zero_torque_sent = true;
                             }
                         }
-                        stop.phase = Phase::Zero { next: next + 1 };
+                        stop.phase = BusStopPhase::Zero { next: next + 1 };
                     }
                     Err(e) => return note(stop, e, now),
                 }
             }
-            Phase::Off { next } if next >= link.joints.end => {
-                stop.phase = Phase::Confirm { round_sent: now };
+            BusStopPhase::Off { next } if next >= link.joints.end => {
+                stop.phase = BusStopPhase::Confirm { round_sent: now };
             }
-            Phase::Off { next } => {
+            BusStopPhase::Off { next } => {
                 if report.motors[next].off_confirmed {
-                    stop.phase = Phase::Off { next: next + 1 };
+                    stop.phase = BusStopPhase::Off { next: next + 1 };
                     continue;
                 }
                 // Motor-off is the same frame in every family (0x140 + id, 0x80).
                 match link.bus.send(&joints[next].dialect.motor_off(ids[next])) {
                     Ok(()) => {
                         report.motors[next].off_attempts += 1;
-                        stop.phase = Phase::Off { next: next + 1 };
+                        stop.phase = BusStopPhase::Off { next: next + 1 };
                     }
                     Err(e) => return note(stop, e, now),
                 }
             }
-            Phase::Confirm { round_sent } => {
+            BusStopPhase::Confirm { round_sent } => {
                 if link.joints().all(|m| report.motors[m].off_confirmed) {
-                    stop.phase = Phase::Lock {
+                    stop.phase = BusStopPhase::Lock {
                         next: link.joints.start,
                     };
                     continue;
                 } else if now - round_sent >= settings.retry_every {
                     // Another round of motor-off for the unconfirmed (not zero torque again: a
                     // torque frame would put the motors already off back in torque mode).
-                    stop.phase = Phase::Off {
+                    stop.phase = BusStopPhase::Off {
                         next: link.joints.start,
                     };
                     continue;
                 }
                 return;
             }
-            Phase::Lock { next } if next >= link.joints.end => {
-                stop.phase = Phase::ConfirmLock { round_sent: now };
+            BusStopPhase::Lock { next } if next >= link.joints.end => {
+                stop.phase = BusStopPhase::ConfirmLock { round_sent: now };
             }
-            Phase::Lock { next } => {
+            BusStopPhase::Lock { next } => {
                 if report.motors[next].brake_locked != Some(false) {
-                    stop.phase = Phase::Lock { next: next + 1 };
+                    stop.phase = BusStopPhase::Lock { next: next + 1 };
                     continue;
                 }
                 let lock = joints[next].dialect.encode(ids[next], &Request::BrakeLock);
                 // Only V3 motors have a brake (checked with the description): `lock` is a frame.
                 let Ok(frame) = lock else {
-                    stop.phase = Phase::Lock { next: next + 1 };
+                    stop.phase = BusStopPhase::Lock { next: next + 1 };
                     continue;
                 };
                 match link.bus.send(&frame) {
-                    Ok(()) => stop.phase = Phase::Lock { next: next + 1 },
+                    Ok(()) => stop.phase = BusStopPhase::Lock { next: next + 1 },
                     Err(e) => return note(stop, e, now),
                 }
             }
-            Phase::ConfirmLock { round_sent } => {
+            BusStopPhase::ConfirmLock { round_sent } => {
                 if link
                     .joints()
                     .all(|m| report.motors[m].brake_locked != Some(false))
                 {
-                    stop.phase = Phase::Done;
+                    stop.phase = BusStopPhase::Done;
                 } else if now - round_sent >= settings.retry_every {
-                    stop.phase = Phase::Lock {
+                    stop.phase = BusStopPhase::Lock {
                         next: link.joints.start,
                     };
                     continue;
                 }
                 return;
             }
-            Phase::Done => return,
+            BusStopPhase::Done => return,
         }
     }
 }

@@ -42,7 +42,7 @@ use crate::safe_stop::make_safe;
 use crate::shared::Shared;
 use crate::stall::{StallCause, StallEvidence};
 use crate::stop::StopRequest;
-use crate::watch::{Phase, Takeover};
+use crate::watch::{LoopPhase, Takeover};
 
 /// A second way onto one bus, for the supervisor: its own SocketCAN socket on the interface, or
 /// a shared handle to a simulated bus.
@@ -123,9 +123,9 @@ impl<C: Clock + 'static> Supervisor<C> {
             std::thread::sleep(look_every);
             let watch = &self.shared.watch;
             match watch.phase() {
-                Phase::Starting => continue,
-                Phase::Running => {}
-                Phase::Finishing | Phase::TakenOver | Phase::Finished => return,
+                LoopPhase::Starting => continue,
+                LoopPhase::Running => {}
+                LoopPhase::Finishing | LoopPhase::TakenOver | LoopPhase::Finished => return,
             }
             // The clock first, then the loop's last sign of life: progress after the clock was
             // read is never mistaken for a stall.
@@ -215,7 +215,7 @@ impl<C: Clock + 'static> Supervisor<C> {
     /// begun to do it.
     fn take_over(&mut self, action: Action) {
         let watch = &self.shared.watch;
-        if !watch.swap_phase(Phase::Running, Phase::TakenOver) {
+        if !watch.swap_phase(LoopPhase::Running, LoopPhase::TakenOver) {
             return; // the loop thread got there first: it makes the motors safe itself
         }
         // Claimed first, judged after: the loop thread, coming back, defers to this reason.

@@ -18,7 +18,7 @@ use crate::stall::TickStage;
 /// The loop's phase.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[repr(u8)]
-pub(crate) enum Phase {
+pub(crate) enum LoopPhase {
     /// Built, or probing the motors.
     Starting = 0,
     /// Ticking.
@@ -31,14 +31,14 @@ pub(crate) enum Phase {
     Finished = 4,
 }
 
-impl Phase {
+impl LoopPhase {
     fn from_u8(v: u8) -> Self {
         match v {
-            0 => Phase::Starting,
-            1 => Phase::Running,
-            2 => Phase::Finishing,
-            3 => Phase::TakenOver,
-            _ => Phase::Finished,
+            0 => LoopPhase::Starting,
+            1 => LoopPhase::Running,
+            2 => LoopPhase::Finishing,
+            3 => LoopPhase::TakenOver,
+            _ => LoopPhase::Finished,
         }
     }
 }
@@ -72,7 +72,7 @@ pub(crate) struct Watch {
 impl Watch {
     pub(crate) fn new() -> Self {
         Self {
-            phase: AtomicU8::new(Phase::Starting as u8),
+            phase: AtomicU8::new(LoopPhase::Starting as u8),
             last_progress_ns: AtomicU64::new(0),
             tick: AtomicU64::new(0),
             stage: AtomicU8::new(TickStage::Waiting as u8),
@@ -82,16 +82,16 @@ impl Watch {
         }
     }
 
-    pub(crate) fn phase(&self) -> Phase {
-        Phase::from_u8(self.phase.load(Ordering::SeqCst))
+    pub(crate) fn phase(&self) -> LoopPhase {
+        LoopPhase::from_u8(self.phase.load(Ordering::SeqCst))
     }
 
-    pub(crate) fn set_phase(&self, phase: Phase) {
+    pub(crate) fn set_phase(&self, phase: LoopPhase) {
         self.phase.store(phase as u8, Ordering::SeqCst);
     }
 
     /// Moves `from -> to` if the phase is `from`; whether it did.
-    pub(crate) fn swap_phase(&self, from: Phase, to: Phase) -> bool {
+    pub(crate) fn swap_phase(&self, from: LoopPhase, to: LoopPhase) -> bool {
         self.phase
             .compare_exchange(from as u8, to as u8, Ordering::SeqCst, Ordering::SeqCst)
             .is_ok()
@@ -125,7 +125,7 @@ impl Watch {
     /// over). If it may, [`end_send`](Self::end_send) must follow the send.
     pub(crate) fn begin_send(&self) -> bool {
         self.sending.store(true, Ordering::SeqCst);
-        if self.phase() == Phase::Running {
+        if self.phase() == LoopPhase::Running {
             true
         } else {
             self.sending.store(false, Ordering::SeqCst);
