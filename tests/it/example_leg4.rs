@@ -11,7 +11,7 @@ use nalgebra::Vector4;
 use rmd_demos::impedance::Gains;
 use rmd_demos::leg::{self, JOINTS, LegModel};
 use rmd_demos::leg4::{self, Halt, SIGNALS, StepController};
-use rmd_demos::step_cycle::{Phase, StepCycle, StepParams};
+use rmd_demos::step_cycle::{StepCycle, StepParams, StepPhase};
 use rmd_rt::bus::VirtualClock;
 use rmd_rt::protocol::MotorId;
 use rmd_rt::rig::open::sim_buses;
@@ -116,7 +116,7 @@ fn the_foot_tracks_the_step_cycle() {
             .sqrt();
         let e = signal(s, leg4::signal::FOOT_ERROR_MM);
         assert!((d * 1000.0 - e).abs() < 1e-9, "tick {}", s.tick);
-        if Phase::from_code(signal(s, leg4::signal::PHASE)) != Some(Phase::Approach) {
+        if StepPhase::from_code(signal(s, leg4::signal::PHASE)) != Some(StepPhase::Approach) {
             max_signal = max_signal.max(e);
         }
     }
@@ -319,8 +319,10 @@ fn the_example_runs_end_to_end_and_writes_every_tick() {
         (0..2000).map(f64::from).collect::<Vec<_>>()
     );
     let phases = csv.values("phase");
-    assert!(phases.iter().all(|p| Phase::from_code(*p).is_some()));
-    assert!(phases.contains(&Phase::Stance.code()) && phases.contains(&Phase::Swing.code()));
+    assert!(phases.iter().all(|p| StepPhase::from_code(*p).is_some()));
+    assert!(
+        phases.contains(&StepPhase::Stance.code()) && phases.contains(&StepPhase::Swing.code())
+    );
     // The knee bends through the step: its angle column moves.
     let knee: Vec<f64> = csv
         .values("knee.position_rad")

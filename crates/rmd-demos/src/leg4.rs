@@ -28,7 +28,7 @@ use rmd_traj::TrajectoryError;
 use crate::error::DemoError;
 use crate::impedance::{self, ErrorStats, Gains, LegState};
 use crate::leg::{self, JOINT_NAMES, JOINTS, LegJoints, LegModel};
-use crate::step_cycle::{Phase, StepCycle, StepParams};
+use crate::step_cycle::{StepCycle, StepParams, StepPhase};
 use crate::support::MotorExtremes;
 
 /// The pose the leg is in when the motors are switched on (degrees: `hip_aa`, `hip_fe`,
@@ -59,7 +59,7 @@ pub const SIGNALS: [&str; 10] = [
 
 /// Positions of the user signals in [`SIGNALS`] (and in a telemetry sample's `signals()`).
 pub mod signal {
-    /// The step's phase: 0 approach, 1 stance, 2 swing ([`Phase::code`](crate::step_cycle::Phase::code)).
+    /// The step's phase: 0 approach, 1 stance, 2 swing ([`StepPhase::code`](crate::step_cycle::StepPhase::code)).
     pub const PHASE: usize = 0;
     /// The desired foot position: x, y, z (m), pitch (rad), from here on.
     pub const FOOT_DESIRED: usize = 1;
@@ -333,9 +333,9 @@ impl Controller for StepController {
             cmd.set_torque(joint, out.torque[i]);
         }
         let error = out.position_error_m(&target.position);
-        if target.phase != Phase::Approach {
+        if target.phase != StepPhase::Approach {
             self.tracking.add(error);
-            if target.phase == Phase::Stance {
+            if target.phase == StepPhase::Stance {
                 self.stance_tracking.add(error);
                 self.stance_z_error_sum += out.foot.z - target.position.z;
             }
@@ -355,7 +355,7 @@ impl Controller for StepController {
 /// largest current and temperature.
 #[derive(Clone, Debug, Default)]
 pub struct LegStatus {
-    phase: Option<Phase>,
+    phase: Option<StepPhase>,
     error_mm: f64,
     max_error_mm: f64,
     motors: MotorExtremes,
@@ -371,9 +371,9 @@ impl Status for LegStatus {
         ) else {
             return;
         };
-        self.phase = Phase::from_code(phase);
+        self.phase = StepPhase::from_code(phase);
         self.error_mm = error;
-        if self.phase.is_some_and(|p| p != Phase::Approach) {
+        if self.phase.is_some_and(|p| p != StepPhase::Approach) {
             self.max_error_mm = self.max_error_mm.max(error);
         }
     }
@@ -381,7 +381,7 @@ impl Status for LegStatus {
     fn line(&self) -> String {
         let leg = match self.phase {
             None => "starting".to_string(),
-            Some(Phase::Approach) => format!("approach foot error {:5.1} mm", self.error_mm),
+            Some(StepPhase::Approach) => format!("approach foot error {:5.1} mm", self.error_mm),
             Some(phase) => format!(
                 "{:<8} foot error {:5.1} mm (max {:4.1})",
                 phase.name(),

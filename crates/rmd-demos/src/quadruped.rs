@@ -60,7 +60,7 @@ pub const SIGNALS: [&str; 8] = [
 
 /// Positions of the user signals in [`SIGNALS`].
 pub mod signal {
-    /// 0 rising, 1 holding ([`Phase::code`](super::Phase::code)).
+    /// 0 rising, 1 holding ([`StandPhase::code`](super::StandPhase::code)).
     pub const PHASE: usize = 0;
     /// The target hip height above the feet, m.
     pub const TARGET_HEIGHT_M: usize = 1;
@@ -123,21 +123,21 @@ pub fn sims(robot: &Robot, seed: u64) -> Result<Vec<SimConfig>, DemoError> {
     Ok(sims)
 }
 
-/// What the robot is doing.
+/// What the robot is doing while it stands up: rising, then holding the pose.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum Phase {
+pub enum StandPhase {
     /// Standing up.
     Rise,
     /// Holding the standing pose.
     Hold,
 }
 
-impl Phase {
+impl StandPhase {
     /// The phase as a number, for a telemetry signal: 0 rising, 1 holding.
     pub fn code(self) -> f64 {
         match self {
-            Phase::Rise => 0.0,
-            Phase::Hold => 1.0,
+            StandPhase::Rise => 0.0,
+            StandPhase::Hold => 1.0,
         }
     }
 }
@@ -291,9 +291,9 @@ impl Controller for StandController {
         let t = ctx.time_s() - self.t0;
         let plan = self.plan.state_at(t);
         let phase = if t < self.plan.duration() {
-            Phase::Rise
+            StandPhase::Rise
         } else {
-            Phase::Hold
+            StandPhase::Hold
         };
         let mut max_error: f64 = 0.0;
         for l in 0..LEGS {
@@ -312,7 +312,7 @@ impl Controller for StandController {
             self.heights_m[l] = -out.foot.z;
             let error = out.position_error_m(&target);
             max_error = max_error.max(error);
-            if phase == Phase::Hold {
+            if phase == StandPhase::Hold {
                 self.hold_error.add(error);
             }
         }
@@ -351,7 +351,7 @@ impl Status for StandStatus {
         };
         format!(
             "{} body height {:.3} m (target {:.3})  foot error <= {:4.1} mm | {}",
-            if s[signal::PHASE] == Phase::Rise.code() {
+            if s[signal::PHASE] == StandPhase::Rise.code() {
                 "rise"
             } else {
                 "hold"

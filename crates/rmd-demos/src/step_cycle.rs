@@ -66,9 +66,9 @@ impl StepParams {
     }
 }
 
-/// What the foot is doing.
+/// What the foot is doing in the step cycle.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum Phase {
+pub enum StepPhase {
     /// Moving from where it was to the start of the cycle.
     Approach,
     /// On the ground (or where the ground would be), moving backwards at the ground speed.
@@ -77,36 +77,36 @@ pub enum Phase {
     Swing,
 }
 
-impl Phase {
+impl StepPhase {
     /// A short name, for displays and CSV files.
     pub fn name(self) -> &'static str {
         match self {
-            Phase::Approach => "approach",
-            Phase::Stance => "stance",
-            Phase::Swing => "swing",
+            StepPhase::Approach => "approach",
+            StepPhase::Stance => "stance",
+            StepPhase::Swing => "swing",
         }
     }
 
     /// The phase as a number, for a telemetry signal: 0 approach, 1 stance, 2 swing.
     pub fn code(self) -> f64 {
         match self {
-            Phase::Approach => 0.0,
-            Phase::Stance => 1.0,
-            Phase::Swing => 2.0,
+            StepPhase::Approach => 0.0,
+            StepPhase::Stance => 1.0,
+            StepPhase::Swing => 2.0,
         }
     }
 
     /// The phase a [`code`](Self::code) stands for.
     ///
     /// ```
-    /// use rmd_demos::step_cycle::Phase;
-    /// for phase in [Phase::Approach, Phase::Stance, Phase::Swing] {
-    ///     assert_eq!(Phase::from_code(phase.code()), Some(phase));
+    /// use rmd_demos::step_cycle::StepPhase;
+    /// for phase in [StepPhase::Approach, StepPhase::Stance, StepPhase::Swing] {
+    ///     assert_eq!(StepPhase::from_code(phase.code()), Some(phase));
     /// }
-    /// assert_eq!(Phase::from_code(0.5), None);
+    /// assert_eq!(StepPhase::from_code(0.5), None);
     /// ```
     pub fn from_code(code: f64) -> Option<Self> {
-        [Phase::Approach, Phase::Stance, Phase::Swing]
+        [StepPhase::Approach, StepPhase::Stance, StepPhase::Swing]
             .into_iter()
             .find(|p| p.code() == code)
     }
@@ -116,7 +116,7 @@ impl Phase {
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct FootTarget {
     /// The phase.
-    pub phase: Phase,
+    pub phase: StepPhase,
     /// Position (m, rad).
     pub position: Vector4<f64>,
     /// Velocity (m/s, rad/s).
@@ -252,7 +252,7 @@ impl StepCycle {
         if t_cycle < 0.0 {
             let (position, velocity) = state(&self.approach, t.max(0.0));
             return FootTarget {
-                phase: Phase::Approach,
+                phase: StepPhase::Approach,
                 position,
                 velocity,
                 cycle: 0,
@@ -268,9 +268,9 @@ impl StepCycle {
         let (position, velocity) = state(&self.segments[index], tau);
         FootTarget {
             phase: if index == 0 {
-                Phase::Stance
+                StepPhase::Stance
             } else {
-                Phase::Swing
+                StepPhase::Swing
             },
             position,
             velocity,
