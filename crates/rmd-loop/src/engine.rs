@@ -31,6 +31,7 @@ use crate::exchange::{Exchange, Torque};
 use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
 use crate::guard::LimitGuard;
+use crate::loop_link::LoopLink;
 use crate::loop_parts::LoopParts;
 use crate::mapping::JointMap;
 use crate::motion::{CommandKind, MotionMap};
@@ -38,7 +39,6 @@ use crate::os::{CpuLatencyHold, RtSetup, RtStatus};
 use crate::report::{Fault, MotorRef, StopReason};
 use crate::robot::{ExchangeKind, RejectedCommandPolicy, Robot};
 use crate::schedule::{Scheduler, TickTiming};
-use crate::shared::Shared;
 use crate::stall::{StallCause, TickStage};
 use crate::startup;
 use crate::stats::LoopStats;
@@ -239,7 +239,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 rejections: Rejections::NONE,
                 telemetry: None,
                 times: TickTimes::default(),
-                shared: Arc::new(Shared::new()),
+                shared: Arc::new(LoopLink::new()),
                 clock,
                 robot,
             },
@@ -303,7 +303,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
         Stopper::new(Arc::clone(&self.parts.shared))
     }
 
-    pub(crate) fn shared(&self) -> Arc<Shared> {
+    pub(crate) fn shared(&self) -> Arc<LoopLink> {
         Arc::clone(&self.parts.shared)
     }
 
@@ -726,7 +726,7 @@ fn duration_ns(d: Duration) -> u64 {
 }
 
 /// Waits for the supervisor that took over to finish its safe stop, and takes what it did.
-fn wait_for_takeover(shared: &Shared, supervisor: Option<JoinHandle<()>>) -> Option<Takeover> {
+fn wait_for_takeover(shared: &LoopLink, supervisor: Option<JoinHandle<()>>) -> Option<Takeover> {
     if let Some(handle) = supervisor {
         let _ = handle.join();
     }

@@ -9,7 +9,7 @@ use rmd_bus::{CanBus, Clock};
 use crate::controller::Controller;
 use crate::engine::{RtLoop, RunLimit};
 use crate::finish::{LoopOutcome, panic_message};
-use crate::shared::Shared;
+use crate::loop_link::LoopLink;
 use crate::stats::{LoopStats, StatsSummary};
 use crate::stop::StopRequest;
 use crate::stopper::Stopper;
@@ -54,7 +54,7 @@ where
 /// Controls a loop running on its own thread. Dropping it stops the loop (motors made safe).
 #[derive(Debug)]
 pub struct LoopHandle<K: Send + 'static> {
-    shared: Arc<Shared>,
+    shared: Arc<LoopLink>,
     thread: Option<JoinHandle<LoopOutcome<K>>>,
     template: LoopStats,
 }

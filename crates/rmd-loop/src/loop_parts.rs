@@ -7,10 +7,10 @@ use std::sync::Arc;
 use crate::commands::{MAX_SIGNALS, PackedMotion, Rejections};
 use crate::exchange::Exchange;
 use crate::guard::LimitGuard;
+use crate::loop_link::LoopLink;
 use crate::mapping::JointMap;
 use crate::motion::MotionMap;
 use crate::robot::Robot;
-use crate::shared::Shared;
 use crate::stats::LoopStats;
 use crate::telemetry::{TelemetryDelivery, TelemetrySender, TickTimes};
 
@@ -21,7 +21,7 @@ pub(crate) struct LoopParts<B, C> {
     pub(crate) clock: C,
     pub(crate) exchange: Exchange<B>,
     pub(crate) stats: LoopStats,
-    pub(crate) shared: Arc<Shared>,
+    pub(crate) shared: Arc<LoopLink>,
     pub(crate) maps: Vec<JointMap>,
     /// Each joint's limits, as the tick checks them.
     pub(crate) guards: Vec<LimitGuard>,

@@ -2,17 +2,17 @@
 
 use std::sync::Arc;
 
-use crate::shared::Shared;
+use crate::loop_link::LoopLink;
 use crate::stop::StopRequest;
 
 /// Stops a loop from another thread (cheap to clone, `Send + Sync`).
 #[derive(Clone, Debug)]
 pub struct Stopper {
-    shared: Arc<Shared>,
+    shared: Arc<LoopLink>,
 }
 
 impl Stopper {
-    pub(crate) fn new(shared: Arc<Shared>) -> Self {
+    pub(crate) fn new(shared: Arc<LoopLink>) -> Self {
         Self { shared }
     }
 

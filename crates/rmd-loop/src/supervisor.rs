@@ -34,12 +34,12 @@ use rmd_bus::{CanBus, Clock, Timestamp};
 use rmd_protocol::MotorId;
 
 use crate::bus_link::BusLink;
+use crate::loop_link::LoopLink;
 use crate::os::thread_stats::{SchedSample, ThreadState, ThreadStats};
 use crate::os::{SupervisorPlacement, SupervisorRequest, place_supervisor};
 use crate::report::{Fault, SafeStopBy, StopReason};
 use crate::robot::Robot;
 use crate::safe_stop::make_safe;
-use crate::shared::Shared;
 use crate::stall::{StallCause, StallEvidence};
 use crate::stop::StopRequest;
 use crate::watch::{LoopPhase, Takeover};
@@ -51,7 +51,7 @@ pub type SafetyPort = Box<dyn CanBus + Send>;
 /// The supervisor of one run, before it starts.
 pub(crate) struct Supervisor<C> {
     pub(crate) clock: C,
-    pub(crate) shared: Arc<Shared>,
+    pub(crate) shared: Arc<LoopLink>,
     pub(crate) links: Vec<BusLink<SafetyPort>>,
     pub(crate) ids: Vec<MotorId>,
     pub(crate) robot: Robot,

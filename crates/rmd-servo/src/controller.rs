@@ -15,9 +15,9 @@ use rmd_loop::{
 use crate::config::{JointOutput, JointServo, ServoConfig, StalePolicy};
 use crate::handle::ServoHandle;
 use crate::law::{self, Demand};
+use crate::link::{Life, Message, ServoLink};
 use crate::motion::motion_step;
 use crate::setpoint::Setpoint;
-use crate::shared::{Life, Message, Shared};
 use crate::state::{JointCounters, ServoMode, ServoState};
 use crate::status::{self, Done};
 use crate::step;
@@ -115,7 +115,7 @@ struct Slot {
 #[derive(Debug)]
 pub struct ServoController {
     config: ServoConfig,
-    shared: Arc<Shared>,
+    shared: Arc<ServoLink>,
     inbox: Receiver<Message>,
     inbox_capacity: usize,
     free: Sender<Box<TrajectoryBuffer>>,
@@ -141,7 +141,7 @@ impl ServoController {
     pub fn new(config: ServoConfig) -> (ServoController, ServoHandle) {
         let options = *config.options();
         let joints = config.joints().len();
-        let shared = Arc::new(Shared::new(options.enabled_at_start));
+        let shared = Arc::new(ServoLink::new(options.enabled_at_start));
         let (tx, inbox) = mailbox(options.queue_capacity);
         let (free, free_rx) = mailbox(options.trajectory_buffers);
         for _ in 0..options.trajectory_buffers {

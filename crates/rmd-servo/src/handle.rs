@@ -8,8 +8,8 @@ use rmd_loop::mailbox::{Receiver, Sender};
 
 use crate::config::ServoConfig;
 use crate::error::ServoError;
+use crate::link::{Batch, Life, Message, ServoLink};
 use crate::setpoint::{JointRef, Setpoint};
-use crate::shared::{Batch, Life, Message, Shared};
 use crate::state::ServoState;
 use crate::trajectory::buffer::TrajectoryBuffer;
 use crate::trajectory::{JointTrajectory, TrajectoryReceipt, plan};
@@ -42,7 +42,7 @@ pub struct ServoHandle {
 #[derive(Debug)]
 struct Inner {
     config: ServoConfig,
-    shared: Arc<Shared>,
+    shared: Arc<ServoLink>,
     tx: Sender<Message>,
     capacity: usize,
     free_tx: Sender<Box<TrajectoryBuffer>>,
@@ -61,7 +61,7 @@ struct Latest {
 impl ServoHandle {
     pub(crate) fn new(
         config: ServoConfig,
-        shared: Arc<Shared>,
+        shared: Arc<ServoLink>,
         tx: Sender<Message>,
         free_tx: Sender<Box<TrajectoryBuffer>>,
         free_rx: Receiver<Box<TrajectoryBuffer>>,

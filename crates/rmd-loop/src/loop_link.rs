@@ -9,9 +9,10 @@ use crate::stats::LoopStats;
 use crate::stop::StopSignal;
 use crate::watch::Watch;
 
-/// Shared between the loop thread and its handles.
+/// The loop thread's link to its handles, stoppers and supervisor: the stop request, the
+/// running flag, the statistics snapshot exchange and what the supervisor watches.
 #[derive(Debug)]
-pub(crate) struct Shared {
+pub(crate) struct LoopLink {
     /// The pending stop request.
     pub(crate) stop: StopSignal,
     running: AtomicBool,
@@ -23,7 +24,7 @@ pub(crate) struct Shared {
     pub(crate) watch: Watch,
 }
 
-impl Shared {
+impl LoopLink {
     pub(crate) fn new() -> Self {
         Self {
             stop: StopSignal::default(),

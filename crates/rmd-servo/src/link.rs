@@ -1,6 +1,7 @@
-//! What the handle and the loop thread share besides the queues: the enable level with its
-//! epoch, the estop latch, whether the servo runs, and the handle's refusal counters. Atomics
-//! only: neither side ever waits for the other.
+//! The link between the servo's handles and its controller on the loop thread: the atomics they
+//! share (the enable level with its epoch, the estop latch, whether the servo runs, the
+//! handle's refusal counters) and the messages the handles queue. Neither side ever waits for
+//! the other.
 
 use core::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};
 
@@ -39,9 +40,10 @@ impl Control {
     }
 }
 
-/// Shared between the handle(s) and the controller.
+/// What the servo's handles and its controller share: the enable level with its epoch, the
+/// estop latch, the servo's life and the refusal counters (atomics only).
 #[derive(Debug)]
-pub(crate) struct Shared {
+pub(crate) struct ServoLink {
     control: AtomicU64,
     estop: AtomicBool,
     life: AtomicU8,
@@ -51,7 +53,7 @@ pub(crate) struct Shared {
     rejected_unattributed: AtomicU64,
 }
 
-impl Shared {
+impl ServoLink {
     pub(crate) fn new(enabled: bool) -> Self {
         Self {
             control: AtomicU64::new(Control { epoch: 0, enabled }.word()),
@@ -165,7 +167,7 @@ mod tests {
 
     #[test]
     fn every_change_of_the_enable_level_starts_an_epoch() {
-        let s = Shared::new(true);
+        let s = ServoLink::new(true);
         assert_eq!(
             s.control(),
             Control {
@@ -212,7 +214,7 @@ mod tests {
 
     #[test]
     fn refusals_are_counted_per_joint_or_unattributed() {
-        let s = Shared::new(true);
+        let s = ServoLink::new(true);
         s.count_rejection(Some(2));
         s.count_rejection(Some(2));
         s.count_rejection(None);
