@@ -4,7 +4,7 @@ use core::fmt;
 
 /// Which input quantity an [`InvalidInput`](TrajectoryError::InvalidInput) error is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Field {
+pub enum InputField {
     /// `current_position`.
     CurrentPosition,
     /// `current_velocity`.
@@ -29,26 +29,26 @@ pub enum Field {
     MaxJerk,
 }
 
-impl Field {
+impl InputField {
     /// The field's name as in [`Input`](crate::Input).
     pub const fn name(self) -> &'static str {
         match self {
-            Field::CurrentPosition => "current_position",
-            Field::CurrentVelocity => "current_velocity",
-            Field::CurrentAcceleration => "current_acceleration",
-            Field::TargetPosition => "target_position",
-            Field::TargetVelocity => "target_velocity",
-            Field::TargetAcceleration => "target_acceleration",
-            Field::MaxVelocity => "max_velocity",
-            Field::MinVelocity => "min_velocity",
-            Field::MaxAcceleration => "max_acceleration",
-            Field::MinAcceleration => "min_acceleration",
-            Field::MaxJerk => "max_jerk",
+            InputField::CurrentPosition => "current_position",
+            InputField::CurrentVelocity => "current_velocity",
+            InputField::CurrentAcceleration => "current_acceleration",
+            InputField::TargetPosition => "target_position",
+            InputField::TargetVelocity => "target_velocity",
+            InputField::TargetAcceleration => "target_acceleration",
+            InputField::MaxVelocity => "max_velocity",
+            InputField::MinVelocity => "min_velocity",
+            InputField::MaxAcceleration => "max_acceleration",
+            InputField::MinAcceleration => "min_acceleration",
+            InputField::MaxJerk => "max_jerk",
         }
     }
 }
 
-impl fmt::Display for Field {
+impl fmt::Display for InputField {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
     }
@@ -58,15 +58,15 @@ impl fmt::Display for Field {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum InvalidReason {
     /// The value is NaN or infinite.
-    NotFinite(Field),
+    NotFinite(InputField),
     /// A maximum limit is negative.
-    NegativeMaximum(Field),
+    NegativeMaximum(InputField),
     /// A minimum limit is positive.
-    PositiveMinimum(Field),
+    PositiveMinimum(InputField),
     /// The target velocity or acceleration lies above its maximum limit.
-    TargetAboveMaximum(Field),
+    TargetAboveMaximum(InputField),
     /// The target velocity or acceleration lies below its minimum limit.
-    TargetBelowMinimum(Field),
+    TargetBelowMinimum(InputField),
     /// The target acceleration drives the velocity above `max_velocity` before it can be
     /// reduced to zero (`af < 0` and `vf + af²/(2 max_jerk) > max_velocity`): the target state can
     /// only be reached by a trajectory that violated the limit just before.
@@ -212,7 +212,7 @@ mod tests {
             (
                 TrajectoryError::InvalidInput {
                     axis: 2,
-                    reason: InvalidReason::NotFinite(Field::MaxJerk),
+                    reason: InvalidReason::NotFinite(InputField::MaxJerk),
                 },
                 "invalid input on axis 2: max_jerk is not a finite number",
             ),

@@ -1,6 +1,6 @@
 //! The problem statement: current state, target state, limits and options.
 
-use crate::error::{Field, InvalidOption, InvalidReason, TrajectoryError};
+use crate::error::{InputField, InvalidOption, InvalidReason, TrajectoryError};
 
 /// What the trajectory has to reach.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -254,18 +254,18 @@ impl AxisInput {
     /// [`validate`](Self::validate), naming the first problem found.
     fn validate_in_detail(&self, axis: usize, position: bool) -> Result<(), TrajectoryError> {
         let err = |reason| Err(TrajectoryError::InvalidInput { axis, reason });
-        let finite: [(f64, Field, bool); 11] = [
-            (self.p0, Field::CurrentPosition, position),
-            (self.v0, Field::CurrentVelocity, true),
-            (self.a0, Field::CurrentAcceleration, true),
-            (self.pf, Field::TargetPosition, position),
-            (self.vf, Field::TargetVelocity, true),
-            (self.af, Field::TargetAcceleration, true),
-            (self.v_max, Field::MaxVelocity, position),
-            (self.v_min, Field::MinVelocity, position),
-            (self.a_max, Field::MaxAcceleration, true),
-            (self.a_min, Field::MinAcceleration, true),
-            (self.j_max, Field::MaxJerk, true),
+        let finite: [(f64, InputField, bool); 11] = [
+            (self.p0, InputField::CurrentPosition, position),
+            (self.v0, InputField::CurrentVelocity, true),
+            (self.a0, InputField::CurrentAcceleration, true),
+            (self.pf, InputField::TargetPosition, position),
+            (self.vf, InputField::TargetVelocity, true),
+            (self.af, InputField::TargetAcceleration, true),
+            (self.v_max, InputField::MaxVelocity, position),
+            (self.v_min, InputField::MinVelocity, position),
+            (self.a_max, InputField::MaxAcceleration, true),
+            (self.a_min, InputField::MinAcceleration, true),
+            (self.j_max, InputField::MaxJerk, true),
         ];
         for (value, field, used) in finite {
             if used && !value.is_finite() {
@@ -273,34 +273,42 @@ impl AxisInput {
             }
         }
         if self.j_max < 0.0 {
-            return err(InvalidReason::NegativeMaximum(Field::MaxJerk));
+            return err(InvalidReason::NegativeMaximum(InputField::MaxJerk));
         }
         if self.a_max < 0.0 {
-            return err(InvalidReason::NegativeMaximum(Field::MaxAcceleration));
+            return err(InvalidReason::NegativeMaximum(InputField::MaxAcceleration));
         }
         if self.a_min > 0.0 {
-            return err(InvalidReason::PositiveMinimum(Field::MinAcceleration));
+            return err(InvalidReason::PositiveMinimum(InputField::MinAcceleration));
         }
         if self.af > self.a_max {
-            return err(InvalidReason::TargetAboveMaximum(Field::TargetAcceleration));
+            return err(InvalidReason::TargetAboveMaximum(
+                InputField::TargetAcceleration,
+            ));
         }
         if self.af < self.a_min {
-            return err(InvalidReason::TargetBelowMinimum(Field::TargetAcceleration));
+            return err(InvalidReason::TargetBelowMinimum(
+                InputField::TargetAcceleration,
+            ));
         }
         if !position {
             return Ok(());
         }
         if self.v_max < 0.0 {
-            return err(InvalidReason::NegativeMaximum(Field::MaxVelocity));
+            return err(InvalidReason::NegativeMaximum(InputField::MaxVelocity));
         }
         if self.v_min > 0.0 {
-            return err(InvalidReason::PositiveMinimum(Field::MinVelocity));
+            return err(InvalidReason::PositiveMinimum(InputField::MinVelocity));
         }
         if self.vf > self.v_max {
-            return err(InvalidReason::TargetAboveMaximum(Field::TargetVelocity));
+            return err(InvalidReason::TargetAboveMaximum(
+                InputField::TargetVelocity,
+            ));
         }
         if self.vf < self.v_min {
-            return err(InvalidReason::TargetBelowMinimum(Field::TargetVelocity));
+            return err(InvalidReason::TargetBelowMinimum(
+                InputField::TargetVelocity,
+            ));
         }
         if self.j_max > 0.0 {
             let swing = self.af * self.af / (2.0 * self.j_max);

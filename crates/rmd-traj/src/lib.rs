@@ -42,7 +42,7 @@ mod trajectory;
 mod velocity;
 
 pub use calculator::MAX_SYNCHRONIZED_DURATION;
-pub use error::{Field, InvalidOption, InvalidReason, TrajectoryError};
+pub use error::{InputField, InvalidOption, InvalidReason, TrajectoryError};
 pub use input::{ControlInterface, DurationDiscretization, Input, Synchronization};
 pub use online::{OnlineGenerator, OnlineStatus};
 pub use profile::{

@@ -1,7 +1,7 @@
 //! Behaviour of the public API: options, errors, online form.
 
 use rmd_traj::{
-    ControlInterface, Direction, DurationDiscretization, Field, Input, InvalidOption,
+    ControlInterface, Direction, DurationDiscretization, Input, InputField, InvalidOption,
     InvalidReason, OnlineGenerator, OnlineStatus, ProfileKind, ReachedLimits, Synchronization,
     TrajectoryError, calculate,
 };
@@ -156,7 +156,7 @@ fn invalid_inputs_are_typed_errors() {
         calculate(&input).unwrap_err(),
         TrajectoryError::InvalidInput {
             axis: 1,
-            reason: InvalidReason::NotFinite(Field::MaxJerk)
+            reason: InvalidReason::NotFinite(InputField::MaxJerk)
         }
     );
     let mut input = unit_limits::<2>();
@@ -165,7 +165,7 @@ fn invalid_inputs_are_typed_errors() {
         calculate(&input).unwrap_err(),
         TrajectoryError::InvalidInput {
             axis: 0,
-            reason: InvalidReason::NegativeMaximum(Field::MaxAcceleration)
+            reason: InvalidReason::NegativeMaximum(InputField::MaxAcceleration)
         }
     );
     let mut input = unit_limits::<1>();
@@ -176,7 +176,7 @@ fn invalid_inputs_are_typed_errors() {
         e,
         TrajectoryError::InvalidInput {
             axis: 0,
-            reason: InvalidReason::TargetAboveMaximum(Field::TargetVelocity)
+            reason: InvalidReason::TargetAboveMaximum(InputField::TargetVelocity)
         }
     );
     let mut input = unit_limits::<1>();
