@@ -34,7 +34,7 @@ use std::time::Duration;
 use criterion::{Criterion, criterion_group, criterion_main};
 use rmd_rt::bus::{CanBus, Clock, VirtualClock};
 use rmd_rt::protocol::{IqControl, MultiTorque};
-use rmd_rt::rt::{Running, TelemetryReceiver};
+use rmd_rt::rt::{Running, telemetry::TelemetryReceiver};
 use rmd_rt::sim::{SimBus, SimConfig};
 use rmd_tick_bench::{MOTORS, NoOp, RATE_HZ, TURNAROUND};
 

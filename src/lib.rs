@@ -63,8 +63,8 @@ pub use rmd_traj as traj;
 
 pub use rmd_loop::{
     CommandKind, Commands, Controller, Fault, Feedback, Flow, JointArray, JointFeedback, JointId,
-    LoopHandle, LoopOutcome, LoopReport, MotionCommand, Robot, RtLoop, RunLimit, StopReason,
-    TickContext,
+    LoopHandle, LoopOutcome, LoopReport, MotionCommand, RtLoop, RunLimit, StopReason, TickContext,
+    robot::Robot,
 };
 
 /// The names a controller program uses: the controller trait and what it sees and writes each
@@ -73,7 +73,7 @@ pub mod prelude {
     pub use crate::rig::{Placement, Rig, SimTime};
     pub use rmd_loop::{
         CommandKind, Commands, Controller, Fault, Feedback, Flow, JointId, LoopOutcome, LoopReport,
-        MotionCommand, Robot, RunLimit, StopReason, TickContext,
+        MotionCommand, RunLimit, StopReason, TickContext, robot::Robot,
     };
     pub use std::time::Duration;
 }

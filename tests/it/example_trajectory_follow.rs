@@ -65,7 +65,8 @@ fn every_waypoint_is_reached() {
             .filter(|s| s.signals()[signal::WAYPOINT] == (w + 1) as f64)
             .collect();
         let moving = |j: usize| -> Vec<bool> {
-            let desired = |s: &rmd_rt::rt::TelemetrySample| s.signals()[signal::DESIRED_DEG + j];
+            let desired =
+                |s: &rmd_rt::rt::telemetry::TelemetrySample| s.signals()[signal::DESIRED_DEG + j];
             of_w.windows(2)
                 .map(|p| (desired(p[1]) - desired(p[0])).abs() > 1e-9)
                 .collect()

@@ -430,7 +430,7 @@ fn the_loop_drives_four_motors_against_rmd_sim_with_every_reply_matched() {
     // 20 Hz made the loop miss ticks. Function is tested here, timing in the benchmarks.
     let mut robot = RobotConfig::new(RATE_HZ).with_bus(bus_config);
     robot.loop_config.reply_mode = ReplyMode::Pipelined;
-    let robot = rmd_loop::Robot::try_from(robot).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(robot).unwrap();
     let bus = SocketCanBus::open(&vcan.name, &SocketCanOptions::new()).unwrap();
     let rt = RtLoop::unsupervised(robot, MonotonicClock, vec![bus], Hold { updates: 0 }).unwrap();
     let outcome = rt.run(RunLimit::Ticks(TICKS));
@@ -480,7 +480,7 @@ fn an_example_runs_on_the_interface_through_the_rig() {
         RobotConfig::from_toml(include_str!("../../../examples/robots/pd_hold.toml")).unwrap();
     config.loop_config.rate_hz = 10.0;
     config.loop_config.reply_mode = ReplyMode::Pipelined;
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     let overrides = Overrides {
         interfaces: vec![vcan.name.clone()],
         ..Overrides::default()

@@ -9,7 +9,7 @@ use rmd_traj::TrajectoryError;
 pub enum DemoError {
     /// The robot description lacks a joint the example needs, or is invalid.
     #[error(transparent)]
-    Robot(#[from] rmd_loop::RobotError),
+    Robot(#[from] rmd_loop::robot::RobotError),
     /// Opening the robot failed.
     #[error(transparent)]
     Rig(#[from] rmd_rig::RigError),

@@ -25,7 +25,7 @@
 //! ```
 
 use nalgebra::{Matrix4, Rotation3, Vector3, Vector4};
-use rmd_loop::{JointId, Robot};
+use rmd_loop::{JointId, robot::Robot};
 use rmd_sim::{GravityLink, STANDARD_GRAVITY, SimConfig};
 
 use crate::error::DemoError;
@@ -307,7 +307,7 @@ pub fn deg(q: &Vector4<f64>) -> [f64; JOINTS] {
 ///
 /// ```
 /// use rmd_demos::leg::LegJoints;
-/// use rmd_loop::Robot;
+/// use rmd_loop::robot::Robot;
 /// let mut text = String::from("[[bus]]\ninterface = \"can0\"\n");
 /// for (id, name) in [(1, "fl_hip_aa"), (2, "fl_hip_fe"), (3, "fl_knee"), (4, "fl_ankle")] {
 ///     text += &format!("[[bus.motor]]\nid = {id}\nname = \"{name}\"\ntorque_constant_nm_per_amp = 2.09\n");

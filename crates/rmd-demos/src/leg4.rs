@@ -18,7 +18,8 @@ use core::fmt;
 
 use nalgebra::Vector4;
 use rmd_loop::{
-    Commands, Controller, Feedback, Flow, JointId, LoopReport, Robot, TelemetrySample, TickContext,
+    Commands, Controller, Feedback, Flow, JointId, LoopReport, TickContext, robot::Robot,
+    telemetry::TelemetrySample,
 };
 use rmd_rig::program::Verdict;
 use rmd_rig::runner::Status;

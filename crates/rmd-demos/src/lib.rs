@@ -23,7 +23,7 @@
 //!
 //! ```
 //! use rmd_demos::pd_hold::{self, PdHold};
-//! use rmd_loop::{Robot, RtLoop, RunLimit};
+//! use rmd_loop::{RtLoop, RunLimit, robot::Robot};
 //! use rmd_rig::{Placement, Rig, SimTime};
 //!
 //! let robot = Robot::from_toml(r#"

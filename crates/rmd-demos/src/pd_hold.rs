@@ -9,7 +9,8 @@
 use core::fmt;
 
 use rmd_loop::{
-    Commands, Controller, Feedback, Flow, JointArray, Robot, TelemetrySample, TickContext,
+    Commands, Controller, Feedback, Flow, JointArray, TickContext, robot::Robot,
+    telemetry::TelemetrySample,
 };
 use rmd_rig::program::Verdict;
 use rmd_rig::runner::Status;

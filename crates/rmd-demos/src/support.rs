@@ -3,7 +3,7 @@
 
 use core::fmt;
 
-use rmd_loop::TelemetrySample;
+use rmd_loop::telemetry::TelemetrySample;
 
 /// The largest torque current and temperature of any motor so far (a part of the examples'
 /// status lines): `|iq| <= 2.3 A  25 degC`.

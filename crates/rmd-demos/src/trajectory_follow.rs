@@ -12,7 +12,9 @@
 use core::fmt;
 
 use nalgebra::Vector4;
-use rmd_loop::{Commands, Controller, Feedback, Flow, Robot, TelemetrySample, TickContext};
+use rmd_loop::{
+    Commands, Controller, Feedback, Flow, TickContext, robot::Robot, telemetry::TelemetrySample,
+};
 use rmd_rig::program::Verdict;
 use rmd_rig::runner::Status;
 use rmd_sim::SimConfig;

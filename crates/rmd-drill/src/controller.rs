@@ -5,7 +5,9 @@ use core::time::Duration;
 use std::sync::{Arc, OnceLock};
 
 use rmd_bus::{Clock, MonotonicClock, Timestamp, VirtualClock};
-use rmd_loop::{Commands, Controller, Feedback, Flow, JointArray, Robot, Stopper, TickContext};
+use rmd_loop::{
+    Commands, Controller, Feedback, Flow, JointArray, Stopper, TickContext, robot::Robot,
+};
 
 use crate::fault::DrillFault;
 

@@ -37,7 +37,7 @@ pub enum DrillError {
     },
     /// The drill's robot or simulated motors could not be built (a bug in the drill).
     #[error("the drill's robot could not be built: {0}")]
-    Robot(#[from] rmd_loop::RobotError),
+    Robot(#[from] rmd_loop::robot::RobotError),
     /// The simulated buses or the loop could not be opened.
     #[error("the drill's loop could not be opened: {0}")]
     Rig(#[from] rmd_rig::RigError),

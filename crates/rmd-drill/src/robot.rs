@@ -2,7 +2,7 @@
 //! 0.2 m long, and the simulated motors' and buses' side of the faults.
 
 use rmd_bus::Timestamp;
-use rmd_loop::Robot;
+use rmd_loop::robot::Robot;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
 use rmd_protocol::{MotorId, ProtocolFamily, WatchdogTimeout};
 use rmd_sim::{BusFault, FaultRule, GravityLink, MotorSet, PhysicalFault, ReplyFault, SimConfig};
@@ -26,7 +26,7 @@ const MOTOR_1: MotorId = match MotorId::new(1) {
 
 /// The drill's robot description: 1 kHz, one bus per `spec.buses` with motors 1..=`motors`
 /// (less an undescribed motor on bus 0).
-pub(crate) fn robot(spec: &DrillSpec) -> Result<Robot, rmd_loop::RobotError> {
+pub(crate) fn robot(spec: &DrillSpec) -> Result<Robot, rmd_loop::robot::RobotError> {
     let mut config = RobotConfig::new(1000.0);
     for bus in 0..spec.buses {
         let mut bus_config = BusConfig::new("sim");

@@ -3,7 +3,7 @@
 //! The robot description, the `Controller` API, the engine, the exchange, the safe stop and the
 //! supervisor. Above `rmd-protocol` and `rmd-bus`; `rmd-rig` opens buses for it.
 //!
-//! Runs a [`Controller`] at a fixed rate for a [`Robot`] of one or more CAN buses
+//! Runs a [`Controller`] at a fixed rate for a [`Robot`](robot::Robot) of one or more CAN buses
 //! of up to four RMD motors each. Every tick it sends one 0x280 multi-motor torque frame per bus,
 //! collects the 0xA1 replies of motors 1..=4 (matched to their requests, late ones recognised),
 //! hands the controller each joint's feedback by [`JointId`], and measures itself: wake latency,
@@ -14,7 +14,8 @@
 //! It sits above `rmd-bus` (any [`CanBus`](rmd_bus::CanBus), any [`Clock`](rmd_bus::Clock)) and
 //! `rmd-protocol`; `rmd-rig` opens real or simulated buses for it.
 //!
-//! - [`robot`]: the robot description (TOML or builder), parsed once into a checked [`Robot`].
+//! - [`robot`]: the robot description (TOML or builder), parsed once into a checked
+//!   [`Robot`](robot::Robot).
 //! - [`Controller`] with [`Feedback`] and [`Commands`]: what you write; [`RtLoop`]: what runs it;
 //!   [`LoopHandle`]: its remote control; [`Stopper`]: a stop button for any thread.
 //! - [`schedule`]: the absolute-deadline scheduler (also used by `rmd bench jitter`).
@@ -87,9 +88,6 @@ pub use report::{
     BusSafeStop, BusStopOutcome, Fault, IdentifiedMotor, LoopReport, MotorRef, MotorSafeStop,
     PanicReport, SafeStopBy, SafeStopReport, StopReason,
 };
-pub use robot::{Robot, RobotError};
 pub use stall::{StallCause, TickStage};
-pub use stats::{LoopStats, Percentiles, StatsSummary};
 pub use stop::StopRequest;
 pub use stopper::Stopper;
-pub use telemetry::{JointSample, TelemetryDelivery, TelemetryReceiver, TelemetrySample};

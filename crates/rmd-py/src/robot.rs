@@ -24,7 +24,7 @@ const MAX_START_TIMEOUT_S: f64 = 600.0;
 /// settings. `Robot.from_toml(path)`, then `start(...)` runs its loop.
 #[pyclass(module = "rmd_rt._native", frozen)]
 pub(crate) struct Robot {
-    robot: rmd_loop::Robot,
+    robot: rmd_loop::robot::Robot,
     source: String,
 }
 
@@ -50,7 +50,7 @@ impl Robot {
     #[staticmethod]
     fn from_toml(path: PathBuf) -> PyResult<Self> {
         guard(|| {
-            let robot = rmd_loop::Robot::from_file(&path)
+            let robot = rmd_loop::robot::Robot::from_file(&path)
                 .map_err(|e| ConfigError::new_err(format!("{}: {e}", path.display())))?;
             Ok(Self {
                 robot,
@@ -63,7 +63,7 @@ impl Robot {
     #[staticmethod]
     fn from_toml_str(text: &str) -> PyResult<Self> {
         guard(|| {
-            let robot = rmd_loop::Robot::from_toml(text)
+            let robot = rmd_loop::robot::Robot::from_toml(text)
                 .map_err(|e| ConfigError::new_err(e.to_string()))?;
             Ok(Self {
                 robot,

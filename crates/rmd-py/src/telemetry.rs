@@ -17,7 +17,10 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crate::process::Owner;
-use rmd_loop::{Robot, TelemetryReceiver, TelemetrySample};
+use rmd_loop::{
+    robot::Robot,
+    telemetry::{TelemetryReceiver, TelemetrySample},
+};
 use rmd_telemetry::{
     JointInfo, LiveOptions, LiveSink, LoopTiming, McapOptions, McapSink, Pipeline, PipelineStats,
     Producer, RunLayout, Telemetry, TickRecord,

@@ -7,7 +7,7 @@
 pub enum RigError {
     /// The robot description is unusable.
     #[error(transparent)]
-    Robot(#[from] rmd_loop::RobotError),
+    Robot(#[from] rmd_loop::robot::RobotError),
     /// The number of interfaces given by order does not match the robot's buses.
     #[error(
         "the robot has {expected} bus(es) but {given} CAN interface(s) were given: pass one \

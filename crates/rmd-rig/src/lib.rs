@@ -3,7 +3,7 @@
 //! Where each bus is, opening SocketCAN or simulated motors, the signal policy, the runner and
 //! the standard flags. Above `rmd-loop`, `rmd-sim` and `rmd-bus`; the `rmd` tool and examples use it.
 //!
-//! Opens a [`Robot`](rmd_loop::Robot) where it is (each bus on the SocketCAN interface its
+//! Opens a [`Robot`](rmd_loop::robot::Robot) where it is (each bus on the SocketCAN interface its
 //! description names, or on simulated motors matching the description; `--iface` and `--sim`
 //! override), handles signals one way for the whole project, and runs loops with a status line,
 //! CSV telemetry, the report and the standard exit codes. It sits above `rmd-loop`, `rmd-sim` and
@@ -12,7 +12,7 @@
 //! A complete program, on simulated motors in virtual time:
 //!
 //! ```
-//! use rmd_loop::{Commands, Controller, Feedback, Flow, Robot, RunLimit, TickContext};
+//! use rmd_loop::{Commands, Controller, Feedback, Flow, RunLimit, TickContext, robot::Robot};
 //! use rmd_rig::{Placement, Rig, SimTime, sim};
 //!
 //! struct Idle;

@@ -2,7 +2,7 @@
 //! motors matching the description, on one clock.
 
 use rmd_bus::Clock;
-use rmd_loop::{Controller, Robot, RtLoop};
+use rmd_loop::{Controller, RtLoop, robot::Robot};
 use rmd_sim::{SimBus, SimConfig};
 
 use crate::bus::{AnyBus, SharedSim};

@@ -2,7 +2,7 @@
 //! or an interface given on the command line (by bus order or by bus name).
 //!
 //! ```
-//! use rmd_loop::Robot;
+//! use rmd_loop::robot::Robot;
 //! use rmd_rig::placement::{BusTarget, Overrides, Placement, PlacementDefault};
 //!
 //! let robot = Robot::from_toml(r#"
@@ -32,8 +32,8 @@
 
 use core::fmt;
 
-use rmd_loop::Robot;
 use rmd_loop::robot::Interface;
+use rmd_loop::robot::Robot;
 
 use crate::error::RigError;
 

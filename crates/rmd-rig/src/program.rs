@@ -11,7 +11,7 @@
 //! use std::time::Duration;
 //!
 //! use clap::Parser;
-//! use rmd_loop::{Commands, Controller, Feedback, Flow, TelemetrySample, TickContext};
+//! use rmd_loop::{Commands, Controller, Feedback, Flow, TickContext, telemetry::TelemetrySample};
 //! use rmd_rig::args::{LoopArgs, OutputArgs, RobotArgs};
 //! use rmd_rig::program::{Launch, Program};
 //! use rmd_rig::runner::Status;
@@ -74,7 +74,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use rmd_loop::{Controller, Robot};
+use rmd_loop::{Controller, robot::Robot};
 use rmd_sim::SimConfig;
 
 use crate::args::{LoopArgs, OutputArgs, RobotArgs};

@@ -9,7 +9,7 @@
 //! `zero_offset_deg` so that the joint's power-up pose lies in that window (see
 //! docs/getting-started.md, "Homing a geared joint").
 
-use rmd_loop::Robot;
+use rmd_loop::robot::Robot;
 use rmd_loop::robot::{BusSpec, JointSpec};
 use rmd_sim::{SimConfig, WireTiming};
 
@@ -40,7 +40,7 @@ pub fn sim_config(robot: &Robot, bus: &BusSpec, seed: u64) -> SimConfig {
 /// [`sim_output_angle_deg`]).
 ///
 /// ```
-/// use rmd_loop::Robot;
+/// use rmd_loop::robot::Robot;
 /// let robot = Robot::from_toml(r#"
 ///     [[bus]]
 ///     interface = "sim"
@@ -55,7 +55,7 @@ pub fn sim_config(robot: &Robot, bus: &BusSpec, seed: u64) -> SimConfig {
 /// assert_eq!(sim.id.get(), 3);
 /// assert_eq!(sim.motor.gear_ratio, 9.0);
 /// assert!((sim.motor.torque_constant_nm_per_a * 9.0 - 2.09).abs() < 1e-12);
-/// # Ok::<(), rmd_loop::RobotError>(())
+/// # Ok::<(), rmd_loop::robot::RobotError>(())
 /// ```
 pub fn sim_motor(joint: &JointSpec) -> rmd_sim::SimMotorConfig {
     let mut sim = rmd_sim::SimMotorConfig::new(joint.motor);
@@ -91,7 +91,7 @@ pub fn sim_output_angle_deg(joint: &JointSpec, joint_deg: f64) -> f64 {
 /// --robot FILE --sim`). A joint whose window is centred on 0 stays at 0.
 ///
 /// ```
-/// use rmd_loop::Robot;
+/// use rmd_loop::robot::Robot;
 /// let robot = Robot::from_toml(r#"
 ///     [[bus]]
 ///     interface = "sim"
@@ -104,7 +104,7 @@ pub fn sim_output_angle_deg(joint: &JointSpec, joint_deg: f64) -> f64 {
 /// rmd_rig::sim::power_up_centred(&robot, &mut sims);
 /// // Window 50..90 degrees of joint: powered up at 70.
 /// assert_eq!(sims[0].motors[0].initial_output_angle_deg, 70.0);
-/// # Ok::<(), rmd_loop::RobotError>(())
+/// # Ok::<(), rmd_loop::robot::RobotError>(())
 /// ```
 pub fn power_up_centred(robot: &Robot, sims: &mut [SimConfig]) {
     for (bus, sim) in robot.buses().iter().zip(sims) {
@@ -118,7 +118,7 @@ pub fn power_up_centred(robot: &Robot, sims: &mut [SimConfig]) {
 
 #[cfg(test)]
 mod tests {
-    use rmd_loop::Robot;
+    use rmd_loop::robot::Robot;
     use rmd_protocol::WatchdogTimeout;
 
     #[test]

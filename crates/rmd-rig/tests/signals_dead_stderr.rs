@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use nix::sys::signal::{Signal, raise};
 use rmd_loop::{
-    Commands, Controller, Feedback, Flow, JointId, Robot, RunLimit, StopReason, TickContext,
+    Commands, Controller, Feedback, Flow, JointId, RunLimit, StopReason, TickContext, robot::Robot,
 };
 use rmd_rig::runner::Runner;
 use rmd_rig::{Placement, Rig, SharedSim, SimTime, signals, sim};

@@ -33,7 +33,7 @@ use clap::Parser;
 use rmd_bus::{BusError, CanBus, Received, Timestamp};
 use rmd_loop::mailbox::{Receiver, Sender, mailbox};
 use rmd_loop::mapping::JointMap;
-use rmd_loop::{LoopReport, Percentiles, Robot, RtLoop, RunLimit};
+use rmd_loop::{LoopReport, RtLoop, RunLimit, robot::Robot, stats::Percentiles};
 use rmd_protocol::{CanFrame, DecodedRequest, Dialect, ScaledCurrent};
 use rmd_rig::{AnyBus, AnyClock, Placement, Rig, SimTime, sim};
 use rmd_ros2::msg::{self, RosMessage};

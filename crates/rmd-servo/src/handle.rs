@@ -21,7 +21,7 @@ use crate::trajectory::{JointTrajectory, TrajectoryReceipt, plan};
 /// counted.
 ///
 /// ```
-/// # use rmd_loop::Robot;
+/// # use rmd_loop::robot::Robot;
 /// # use rmd_servo::{ServoConfig, ServoController, ServoError, Setpoint};
 /// # let robot = Robot::from_toml("[[bus]]\ninterface = \"sim\"\n[[bus.motor]]\nid = 1\nname = \"knee\"\ntorque_constant_nm_per_amp = 2.0\n[[bus.motor]]\nid = 2\nname = \"hip\"\ntorque_constant_nm_per_amp = 2.0")?;
 /// let config = ServoConfig::from_toml(&robot, "[joint.knee]\nposition_max_rad = 1.5")?;

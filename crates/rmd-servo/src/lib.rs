@@ -33,7 +33,7 @@
 //! ```
 //! use std::time::Duration;
 //! use rmd_bus::VirtualClock;
-//! use rmd_loop::{Robot, RtLoop, StopReason};
+//! use rmd_loop::{RtLoop, StopReason, robot::Robot};
 //! use rmd_servo::{JointTrajectory, JointTrajectoryPoint, ServoConfig, ServoController};
 //!
 //! let robot = Robot::from_toml(r#"

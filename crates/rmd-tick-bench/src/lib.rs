@@ -26,7 +26,8 @@ use rmd_bus::{
 };
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
 use rmd_loop::{
-    Commands, Controller, Feedback, Flow, Robot, RtLoop, Running, TelemetryReceiver, TickContext,
+    Commands, Controller, Feedback, Flow, RtLoop, Running, TickContext, robot::Robot,
+    telemetry::TelemetryReceiver,
 };
 use rmd_protocol::{
     CanFrame, Dialect, EncoderValue, ErrorState, Iq, MULTI_TORQUE_CAN_ID, MotorId, Reply, Speed,

@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use clap::{Args, ValueEnum};
 use rmd_loop::robot::RobotConfig;
-use rmd_loop::{LoopOutcome, Robot, StatsSummary};
+use rmd_loop::{LoopOutcome, robot::Robot, stats::StatsSummary};
 use rmd_rig::args::duration::{self, Bounds};
 use rmd_rig::args::{LoopArgs, RobotArgs};
 use rmd_rig::runner::{EXIT_FAULT, EXIT_OK};

@@ -13,7 +13,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Args;
-use rmd_loop::Robot;
+use rmd_loop::robot::Robot;
 use rmd_protocol::{Command, MotorId, Reply, Request, WatchdogTimeout};
 
 use crate::args::bus::BusArgs;

@@ -6,8 +6,8 @@ use std::path::Path;
 use std::time::Duration;
 
 use rmd_bus::MonotonicClock;
-use rmd_loop::Robot;
 use rmd_loop::mapping::JointMap;
+use rmd_loop::robot::Robot;
 use rmd_protocol::{EncoderWidth, MotorId, Reply, Request};
 use rmd_rig::placement::{BusTarget, Overrides, Placement, PlacementDefault};
 use rmd_sim::SimBus;

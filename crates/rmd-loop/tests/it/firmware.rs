@@ -8,7 +8,7 @@ use crate::common;
 use common::*;
 use rmd_bus::VirtualClock;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
-use rmd_loop::{Fault, Robot, RtLoop, RunLimit, StopReason};
+use rmd_loop::{Fault, RtLoop, RunLimit, StopReason, robot::Robot};
 use rmd_protocol::{AngleControl, Dialect, LkSeries, MaxSpeed, ProtocolFamily, Request};
 use rmd_sim::{ControlMode, FirmwareFamily, SharedSimBus, SimBus, SimConfig};
 

@@ -9,7 +9,8 @@ use common::*;
 use rmd_bus::VirtualClock;
 use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
 use rmd_loop::{
-    Commands, Controller, Fault, Feedback, Flow, LimitKind, Robot, RtLoop, StopReason, TickContext,
+    Commands, Controller, Fault, Feedback, Flow, LimitKind, RtLoop, StopReason, TickContext,
+    robot::Robot,
 };
 use rmd_sim::{ControlMode, GravityLink, SharedSimBus, SimBus};
 

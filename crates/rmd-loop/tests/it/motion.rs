@@ -9,7 +9,7 @@ use rmd_bus::VirtualClock;
 use rmd_loop::robot::{BusConfig, ExchangeKind, MotorConfig, Mounting, RobotConfig};
 use rmd_loop::{
     BuildError, CommandKind, Commands, Controller, Feedback, Flow, MotionCommand, RawReply,
-    Rejection, Robot, RtLoop, StopReason, TickContext,
+    Rejection, RtLoop, StopReason, TickContext, robot::Robot,
 };
 use rmd_protocol::{DecodedRequest, Dialect, MitRanges, V3_MOTION_BASE_ID, V3Firmware};
 use rmd_sim::{ControlMode, Node, SimBus, SimConfig};

@@ -65,7 +65,7 @@ fn steady_state_ticks_allocate_nothing() {
     let mut config = robot_config(500.0, 2, 4);
     config.loop_config.missing_reply_fault_after = 1000;
     with_limits(&mut config);
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     assert!(robot.buses().iter().all(|b| b.health_rotation));
     let mut rt = RtLoop::unsupervised(
         robot,
@@ -163,7 +163,7 @@ fn per_motor_v3_bus() {
     config.buses[0].protocol = Some("myactuator-v3".to_string());
     config.loop_config.missing_reply_fault_after = 1000;
     with_limits(&mut config);
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     assert_eq!(
         robot.buses()[0].exchange,
         rmd_loop::robot::ExchangeKind::PerMotor
@@ -262,7 +262,7 @@ fn motion_v3_bus() {
     config.buses[0].protocol = Some("myactuator-v3".to_string());
     config.buses[0].exchange = Some(rmd_loop::robot::ExchangeKind::Motion);
     config.loop_config.missing_reply_fault_after = 1000;
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     assert!(robot.buses()[0].health_rotation);
     let mut rt = RtLoop::unsupervised(
         robot,
@@ -318,7 +318,7 @@ fn every_sink_on() {
     // A small mailbox: the loop waits for the feed thread now and then (virtual time).
     config.loop_config.telemetry_capacity = 64;
     with_limits(&mut config);
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     let mut rt = RtLoop::unsupervised(
         robot,
         clock.clone(),

@@ -51,7 +51,7 @@ fn steady_state_ticks_on_threaded_simulators_allocate_nothing() {
     let mut config = robot_config(500.0, BUSES, 4);
     config.loop_config.missing_reply_fault_after = u32::MAX;
     config.loop_config.stall_bound_ms = Some(60_000);
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     let mut rt = RtLoop::unsupervised(robot, MonotonicClock, loop_ports, PdTo::new(&[10.0; 12]))
         .unwrap()
         .supervise(safety_ports)

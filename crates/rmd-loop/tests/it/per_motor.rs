@@ -8,7 +8,7 @@ use crate::common;
 use common::*;
 use rmd_bus::VirtualClock;
 use rmd_loop::robot::{BusConfig, ExchangeKind, MotorConfig, RobotConfig};
-use rmd_loop::{Protection, Robot, RtLoop, RunLimit};
+use rmd_loop::{Protection, RtLoop, RunLimit, robot::Robot};
 use rmd_protocol::{Dialect, ProtocolFamily, V3Firmware};
 use rmd_sim::{ControlMode, FaultRule, Node, PhysicalFault, ReplyFault, SimBus, SimConfig};
 

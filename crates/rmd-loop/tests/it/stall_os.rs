@@ -25,7 +25,7 @@ fn a_stopped_process_is_a_stall_the_os_caused() {
     // that is not stopped (tens of milliseconds).
     let mut config = robot_config(1000.0, 1, 4);
     config.loop_config.stall_bound_ms = Some(250);
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     let handle = RtLoop::unsupervised(robot, MonotonicClock, vec![bus.clone()], PdTo::hold(4))
         .unwrap()
         .supervise(vec![Box::new(bus.clone())])

@@ -101,7 +101,7 @@ fn supervised_with(
         hung_at: Arc::clone(hung_at),
         returned: Arc::clone(returned),
     };
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     RtLoop::unsupervised(robot, MonotonicClock, vec![bus.clone()], controller)
         .unwrap()
         .supervise(vec![port(bus)])

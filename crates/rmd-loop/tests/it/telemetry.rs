@@ -6,7 +6,7 @@ use core::time::Duration;
 
 use common::*;
 use rmd_bus::VirtualClock;
-use rmd_loop::{RtLoop, RunLimit, StopReason, TelemetryDelivery};
+use rmd_loop::{RtLoop, RunLimit, StopReason, telemetry::TelemetryDelivery};
 
 /// Runs 2000 ticks of the leg on virtual time with a telemetry mailbox of 8 samples, `delivery`,
 /// and a consumer that takes one sample every `every` (none at all if `None`); returns the
@@ -19,7 +19,7 @@ fn run(
     let mut bus = sim(&clock, 4, 3, &[]);
     let mut config = robot_config(1000.0, 1, 4);
     config.loop_config.telemetry_capacity = 8;
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     let mut rt = RtLoop::unsupervised(robot, clock, vec![&mut bus], PdTo::hold(4)).unwrap();
     let rx = rt.telemetry_with(delivery);
     let consumer = match every {

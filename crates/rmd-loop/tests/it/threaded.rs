@@ -182,7 +182,7 @@ fn missing_privileges_are_reported_not_fatal() {
     let mut config = robot_config(1000.0, 1, 2);
     config.loop_config.fifo_priority = Some(10);
     config.loop_config.cpu = Some(0);
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     let rt = RtLoop::unsupervised(robot, clock, vec![bus], PdTo::hold(2)).unwrap();
     let out = rt.spawn(RunLimit::Ticks(100)).unwrap().join().unwrap();
     assert_eq!(out.report.stats.ticks, 100);

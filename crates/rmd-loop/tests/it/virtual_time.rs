@@ -147,7 +147,7 @@ fn corrupted_bytes_never_reach_the_controller_as_fresh_feedback() {
     let mut bus = sim(&clock, 4, 6, &[corrupt]);
     let mut config = robot_config(1000.0, 1, 4);
     config.loop_config.missing_reply_fault_after = 1000;
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     let rt = RtLoop::unsupervised(robot, clock, vec![&mut bus], PdTo::hold(4)).unwrap();
     let out = rt.run(RunLimit::Ticks(2000));
     let m1 = out.report.stats.motors[0].counters;
@@ -373,7 +373,7 @@ fn a_transmit_queue_that_fills_is_counted_not_fatal() {
     let mut bus = sim(&clock, 4, 13, &[stall]);
     let mut config = robot_config(1000.0, 1, 4);
     config.loop_config.missing_reply_fault_after = 100;
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     let rt = RtLoop::unsupervised(robot, clock, vec![&mut bus], PdTo::hold(4)).unwrap();
     let out = rt.run(RunLimit::Ticks(500));
     let r = &out.report;
@@ -468,7 +468,7 @@ fn pipelined_mode_accepts_one_tick_old_feedback_from_slow_motors() {
     let mut config = robot_config(1000.0, 1, 4);
     config.loop_config.reply_mode = rmd_loop::robot::ReplyMode::Pipelined;
     config.loop_config.allow_over_budget = true;
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     let mut rt =
         RtLoop::unsupervised(robot, clock.clone(), vec![&mut slow], PdTo::new(&[5.0; 4])).unwrap();
     let telemetry = rt.telemetry();
@@ -517,7 +517,7 @@ fn run_slow(policy: rmd_loop::schedule::OverrunPolicy, count: u64) -> rmd_loop::
     let mut bus = sim(&clock, 4, 16, &[]);
     let mut config = robot_config(1000.0, 1, 4);
     config.loop_config.overrun = policy;
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     let slow = Slow {
         clock: clock.clone(),
         from: 100,
@@ -577,7 +577,7 @@ fn pipelined_replies_about_a_period_late_are_all_fresh_from_the_first_tick() {
         let mut bus = rmd_sim::SimBus::new(clock.clone(), config).unwrap();
         let mut robot = robot_config(10.0, 1, 4);
         robot.loop_config.reply_mode = rmd_loop::robot::ReplyMode::Pipelined;
-        let robot = rmd_loop::Robot::try_from(robot).unwrap();
+        let robot = rmd_loop::robot::Robot::try_from(robot).unwrap();
         let rt = RtLoop::unsupervised(robot, clock.clone(), vec![&mut bus], PdTo::hold(4)).unwrap();
         let out = rt.run(RunLimit::Ticks(200));
         let r = &out.report;
@@ -611,7 +611,7 @@ fn start_through(fault: ReplyFault, pipelined: bool) -> rmd_loop::LoopReport {
     if pipelined {
         config.loop_config.reply_mode = rmd_loop::robot::ReplyMode::Pipelined;
     }
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     let rt = RtLoop::unsupervised(robot, clock.clone(), vec![&mut bus], PdTo::hold(4)).unwrap();
     let report = rt.run(RunLimit::Ticks(50)).report;
     assert_safe(&mut bus, 4);
@@ -662,7 +662,7 @@ fn run_health<K: rmd_loop::Controller>(
     let clock = VirtualClock::new();
     let mut bus = sim(&clock, motors, 5, faults);
     bus.record_trace(200_000);
-    let robot = rmd_loop::Robot::try_from(config).unwrap();
+    let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
     let out = RtLoop::unsupervised(robot, clock, vec![&mut bus], controller)
         .unwrap()
         .run(RunLimit::Ticks(ticks));
@@ -833,7 +833,7 @@ fn pipelined_status_replies_read_two_ticks_later_still_answer_their_own_requests
         let mut bus = sim(&clock, 1, 3, &[]);
         let mut config = robot_config(rate, 1, 1);
         config.loop_config.reply_mode = rmd_loop::robot::ReplyMode::Pipelined;
-        let robot = rmd_loop::Robot::try_from(config).unwrap();
+        let robot = rmd_loop::robot::Robot::try_from(config).unwrap();
         let out = RtLoop::unsupervised(robot, clock.clone(), vec![&mut bus], PdTo::hold(1))
             .unwrap()
             .run(RunLimit::Ticks(50));
@@ -871,7 +871,7 @@ fn on_a_link_slower_than_the_period_each_status_reply_answers_its_own_request() 
         let mut robot = robot_config(10.0, 1, 1);
         robot.loop_config.reply_mode = rmd_loop::robot::ReplyMode::Pipelined;
         robot.buses[0].motors[0].temperature_limit_celsius = Some(70.0);
-        let robot = rmd_loop::Robot::try_from(robot).unwrap();
+        let robot = rmd_loop::robot::Robot::try_from(robot).unwrap();
         let rt = RtLoop::unsupervised(robot, clock.clone(), vec![&mut bus], HealthWatch::from(1))
             .unwrap();
         let out = rt.run(RunLimit::Ticks(50));

@@ -37,7 +37,7 @@ use std::path::PathBuf;
 
 use rmd_loop::os::{CpuLatencyRequest, RtRequest};
 use rmd_loop::robot::{CpuLatencySetting, RobotConfig, read_config};
-use rmd_loop::{Robot, RunLimit};
+use rmd_loop::{RunLimit, robot::Robot};
 
 use crate::error::RigError;
 use crate::placement::{Overrides, Placement, PlacementDefault};

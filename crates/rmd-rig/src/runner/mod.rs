@@ -23,7 +23,10 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use rmd_bus::{CanBus, Clock};
-use rmd_loop::{Controller, LoopOutcome, RtLoop, RunLimit, TelemetryDelivery, TelemetrySample};
+use rmd_loop::{
+    Controller, LoopOutcome, RtLoop, RunLimit,
+    telemetry::{TelemetryDelivery, TelemetrySample},
+};
 use rmd_telemetry::LiveOptions;
 
 pub use progress::Display;

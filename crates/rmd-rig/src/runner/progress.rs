@@ -5,7 +5,7 @@ use std::io::Write;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rmd_loop::StatsSummary;
+use rmd_loop::stats::StatsSummary;
 
 /// How a run shows its progress.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]

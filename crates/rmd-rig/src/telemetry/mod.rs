@@ -17,7 +17,7 @@
 //! - Without sinks nothing is started, published or counted.
 //!
 //! ```
-//! use rmd_loop::{Commands, Controller, Feedback, Flow, Robot, RunLimit, TickContext};
+//! use rmd_loop::{Commands, Controller, Feedback, Flow, RunLimit, TickContext, robot::Robot};
 //! use rmd_rig::telemetry::{TelemetryOutputs, TelemetrySinks};
 //! use rmd_rig::{Placement, Rig, SimTime, sim};
 //!
@@ -52,7 +52,11 @@ use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
 use rmd_bus::{CanBus, Clock};
-use rmd_loop::{Controller, Robot, RtLoop, TelemetryDelivery, TelemetryReceiver, TelemetrySample};
+use rmd_loop::{
+    Controller, RtLoop,
+    robot::Robot,
+    telemetry::{TelemetryDelivery, TelemetryReceiver, TelemetrySample},
+};
 use rmd_telemetry::{
     CsvSink, Delivery, JointInfo, LayoutError, LiveOptions, LiveSink, McapOptions, McapSink,
     PipelineError, PipelineStats, Producer, RunLayout, SinkError, SinkStats, Telemetry,

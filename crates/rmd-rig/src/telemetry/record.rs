@@ -1,6 +1,6 @@
 //! The loop's samples as telemetry records: [`Recorder`] turns each
-//! [`TelemetrySample`](rmd_loop::TelemetrySample) into a [`TickRecord`], on the telemetry side
-//! (never on the loop thread).
+//! [`TelemetrySample`](rmd_loop::telemetry::TelemetrySample) into a [`TickRecord`], on the
+//! telemetry side (never on the loop thread).
 //!
 //! The loop publishes a tick's sample before the tick ends, so a sample carries the *previous*
 //! tick's work time and deadline count. The recorder holds each record until the next sample
@@ -9,7 +9,10 @@
 //! loop and the telemetry), or at the end of the run, they are unknown: `work_us` is NaN
 //! (written as "no value") and `misses` the count before the tick.
 
-use rmd_loop::{Freshness, JointSample, TelemetrySample};
+use rmd_loop::{
+    Freshness,
+    telemetry::{JointSample, TelemetrySample},
+};
 use rmd_telemetry::{JointRecord, LoopTiming, MAX_JOINTS, MAX_SIGNALS, ReplyAge, TickRecord};
 
 /// Nanoseconds to microseconds.
@@ -79,7 +82,7 @@ pub(crate) fn record_of(sample: &TelemetrySample) -> TickRecord {
 /// Turns samples into records, each completed by the sample after it (see the module docs).
 ///
 /// ```
-/// use rmd_loop::TelemetrySample;
+/// use rmd_loop::telemetry::TelemetrySample;
 /// use rmd_rig::telemetry::Recorder;
 ///
 /// let mut recorder = Recorder::new();
@@ -152,7 +155,7 @@ mod tests {
     use core::time::Duration;
 
     use rmd_bus::Timestamp;
-    use rmd_loop::TelemetrySample;
+    use rmd_loop::telemetry::TelemetrySample;
 
     use super::*;
 

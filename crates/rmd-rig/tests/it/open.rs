@@ -5,7 +5,7 @@ use rmd_bus::VirtualClock;
 use rmd_loop::mapping::centred_zero_offset_deg;
 use rmd_loop::robot::{BusConfig, MotorConfig, Mounting, RobotConfig};
 use rmd_loop::{
-    Commands, Controller, Feedback, Flow, JointArray, Robot, RtLoop, RunLimit, TickContext,
+    Commands, Controller, Feedback, Flow, JointArray, RtLoop, RunLimit, TickContext, robot::Robot,
 };
 use rmd_rig::runner::Runner;
 use rmd_rig::{Placement, PlacementDefault, Rig, RigError, SimTime, open, sim};

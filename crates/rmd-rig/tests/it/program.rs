@@ -7,7 +7,7 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use rmd_loop::{Commands, Controller, Feedback, Flow, TelemetrySample, TickContext};
+use rmd_loop::{Commands, Controller, Feedback, Flow, TickContext, telemetry::TelemetrySample};
 use rmd_rig::args::{LoopArgs, OutputArgs, RobotArgs};
 use rmd_rig::program::{Launch, Program, Verdict};
 use rmd_rig::runner::Status;

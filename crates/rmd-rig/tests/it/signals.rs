@@ -7,7 +7,7 @@ use core::time::Duration;
 
 use nix::sys::signal::{Signal, raise};
 use rmd_loop::{
-    Commands, Controller, Feedback, Flow, Robot, RtLoop, RunLimit, StopReason, TickContext,
+    Commands, Controller, Feedback, Flow, RtLoop, RunLimit, StopReason, TickContext, robot::Robot,
 };
 use rmd_rig::runner::Runner;
 use rmd_rig::{AnyBus, AnyClock, Placement, Rig, SimTime, signals, sim};

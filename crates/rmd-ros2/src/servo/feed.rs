@@ -3,7 +3,7 @@
 
 use std::sync::{Arc, Mutex, PoisonError};
 
-use rmd_loop::{Fault, LoopReport, Robot, StatsSummary, StopReason};
+use rmd_loop::{Fault, LoopReport, StopReason, robot::Robot, stats::StatsSummary};
 
 /// A shared slot between the thread that owns the loop's handle (it takes
 /// [`LoopHandle::snapshot`](rmd_loop::LoopHandle::snapshot)s and, at the end, the report) and

@@ -3,7 +3,7 @@
 
 use std::time::Duration;
 
-use rmd_loop::{Percentiles, StatsSummary};
+use rmd_loop::stats::{Percentiles, StatsSummary};
 use rmd_servo::{JointStatus, ServoHandle, ServoState};
 
 use super::feed::{LoopEnded, LoopFeed};

@@ -8,7 +8,7 @@
 //! thread: it never waits for this thread, and this thread never waits for it.
 //!
 //! ```
-//! use rmd_loop::{Robot, RunLimit};
+//! use rmd_loop::{RunLimit, robot::Robot};
 //! use rmd_rig::{Placement, Rig, SimTime, sim};
 //! use rmd_ros2::RobotPort;
 //! use rmd_ros2::servo::{LoopFeed, ServoPort};
@@ -45,7 +45,7 @@ mod refusal;
 use std::time::{Duration, SystemTime};
 
 use rmd_bus::{Clock, Timestamp};
-use rmd_loop::{JointId, Robot};
+use rmd_loop::{JointId, robot::Robot};
 use rmd_servo::{JointTrajectory, JointTrajectoryPoint, ServoHandle, TrajectoryStart};
 
 pub use feed::{LoopEnded, LoopFeed};

@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 
 use common::{Client, LOOPBACK, drain, private_domain, wait_for};
 use rmd_loop::{
-    Commands, Controller, Fault, Feedback, Flow, Robot, RunLimit, StopReason, TickContext,
+    Commands, Controller, Fault, Feedback, Flow, RunLimit, StopReason, TickContext, robot::Robot,
 };
 use rmd_rig::{Placement, Rig, SimTime, sim};
 use rmd_ros2::msg;

@@ -10,7 +10,7 @@ use std::ops::ControlFlow;
 use std::time::Duration;
 
 use rmd_bus::VirtualClock;
-use rmd_loop::{LoopOutcome, Robot, RtLoop, Running, StopReason};
+use rmd_loop::{LoopOutcome, RtLoop, Running, StopReason, robot::Robot};
 use rmd_protocol::MotorId;
 use rmd_ros2::msg;
 use rmd_ros2::servo::{EstopAction, LoopFeed, ServoPort};

@@ -3,7 +3,7 @@
 //! Errors name the joint and the key.
 //!
 //! ```
-//! use rmd_loop::Robot;
+//! use rmd_loop::robot::Robot;
 //! use rmd_servo::{ServoConfig, StalePolicy};
 //!
 //! let robot = Robot::from_toml(r#"
@@ -45,7 +45,7 @@ pub mod file;
 use core::time::Duration;
 
 use rmd_loop::robot::{ExchangeKind, JointSpec};
-use rmd_loop::{CommandKind, JointId, Robot};
+use rmd_loop::{CommandKind, JointId, robot::Robot};
 
 pub use error::ServoConfigError;
 pub use file::{JointSettings, MAX_FILE_BYTES, ServoFile, ServoOptions, StalePolicy};

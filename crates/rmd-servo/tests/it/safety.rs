@@ -452,7 +452,7 @@ fn a_servo_disabled_at_start_waits_for_enable() {
 
 #[test]
 fn a_servo_configured_for_another_robot_halts_the_loop() {
-    use rmd_loop::Robot;
+    use rmd_loop::robot::Robot;
     use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
     use rmd_servo::{ServoConfig, ServoController};
     // Two joints named differently: the loop's robot has four.
@@ -479,7 +479,7 @@ fn a_servo_configured_for_another_robot_halts_the_loop() {
 
 /// The leg with the joint limits of the examples' leg in its robot description (degrees), its
 /// power-up windows centred on the pose `pose_deg`.
-fn limited_leg(pose_deg: [f64; 4]) -> rmd_loop::Robot {
+fn limited_leg(pose_deg: [f64; 4]) -> rmd_loop::robot::Robot {
     use rmd_loop::mapping::centred_zero_offset_deg;
     use rmd_loop::robot::Mounting;
     let limits = [(-25.0, 25.0), (-100.0, 40.0), (5.0, 165.0), (-110.0, 30.0)];

@@ -21,7 +21,7 @@ use std::process::ExitCode;
 
 use clap::Args;
 use rmd_bus::{CanBus, Clock, MonotonicClock, VirtualClock};
-use rmd_loop::{LoopOutcome, Robot, RtLoop, RunLimit};
+use rmd_loop::{LoopOutcome, RtLoop, RunLimit, robot::Robot};
 use serde_json::{Value, json};
 
 use super::flags;

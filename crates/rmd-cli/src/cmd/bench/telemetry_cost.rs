@@ -15,7 +15,7 @@ use std::process::ExitCode;
 
 use clap::Args;
 use rmd_bus::MonotonicClock;
-use rmd_loop::{Robot, RtLoop, RunLimit, StatsSummary};
+use rmd_loop::{RtLoop, RunLimit, robot::Robot, stats::StatsSummary};
 use rmd_rig::args::RealtimeArgs;
 use rmd_rig::args::duration::run_length;
 use rmd_rig::telemetry::{TelemetryOutputs, TelemetryReport, TelemetrySinks};

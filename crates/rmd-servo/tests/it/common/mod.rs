@@ -8,7 +8,9 @@ use std::sync::Once;
 
 use rmd_bus::VirtualClock;
 use rmd_loop::robot::{BusConfig, ExchangeKind, MotorConfig, RobotConfig};
-use rmd_loop::{LoopOutcome, Robot, RtLoop, Running, StopReason, TelemetryReceiver};
+use rmd_loop::{
+    LoopOutcome, RtLoop, Running, StopReason, robot::Robot, telemetry::TelemetryReceiver,
+};
 use rmd_protocol::MotorId;
 use rmd_servo::{ServoConfig, ServoController, ServoHandle, ServoState};
 use rmd_sim::{MotorSnapshot, SharedSimBus};

@@ -249,7 +249,7 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
     l.reply_deadline_us = Some((period.as_nanos() / 1000) as u64);
     l.missing_reply_fault_after = u32::MAX;
     l.health_rotation = false;
-    let robot = rmd_loop::Robot::try_from(config).map_err(|e| e.to_string())?;
+    let robot = rmd_loop::robot::Robot::try_from(config).map_err(|e| e.to_string())?;
     let expected_ticks = (args.duration.as_nanos() / period.as_nanos()) as u64;
     let requests = robot.buses()[0].requests_per_exchange() as usize;
     let frames_per_exchange = usize::from(args.motors) + requests;
@@ -332,7 +332,7 @@ fn run_trial(args: &RateArgs, buses: usize, rate_hz: f64) -> Result<Trial, Strin
 }
 
 fn run<B: CanBus, C: Clock + Clone + 'static>(
-    robot: rmd_loop::Robot,
+    robot: rmd_loop::robot::Robot,
     clock: C,
     buses: Vec<B>,
     controller: MovingTargetPd,
