@@ -20,7 +20,7 @@
 //!
 //! It runs off the loop's CPU when the loop is pinned (on the CPUs the loop was allowed before),
 //! one `SCHED_FIFO` priority above the loop when the loop is real-time
-//! ([`crate::os::supervisor_thread`]): a controller stuck in a busy loop at real-time priority
+//! ([`crate::os::place_supervisor`]): a controller stuck in a busy loop at real-time priority
 //! cannot keep it from running, and its looks never interrupt the loop's CPU.
 //!
 //! The supervisor never touches the loop thread's data: it reads a few atomics (the `watch`

@@ -1,6 +1,6 @@
 //! The small operating-system layer of the loop thread: CPU pinning, `SCHED_FIFO` priority,
 //! memory locking, stack pre-faulting, the timer slack, and the CPU wake-up latency request
-//! (`/dev/cpu_dma_latency`); where the loop's supervisor thread runs ([`supervisor_thread`]);
+//! (`/dev/cpu_dma_latency`); where the loop's supervisor thread runs ([`place_supervisor`]);
 //! and the loop thread's scheduler statistics, read by the supervisor ([`thread_stats`]).
 //! The only place in rmd-loop with `unsafe` code.
 //!
@@ -16,7 +16,7 @@ use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-pub mod supervisor_thread;
+mod supervisor_thread;
 pub mod thread_stats;
 
 pub use supervisor_thread::{SupervisorPlacement, SupervisorRequest, place_supervisor};

@@ -1,42 +1,5 @@
-//! The file form of a robot description: what a TOML file (or a builder in code) says, before
-//! it is checked. [`Robot::try_from`](crate::robot::Robot) turns it, once, into a validated
-//! [`Robot`](crate::robot::Robot); nothing else reads these types.
-//!
-//! ```toml
-//! [loop]
-//! rate_hz = 1000.0
-//! cpu = 1
-//! fifo_priority = 80
-//! spin_margin_us = 50
-//! cpu_dma_latency_us = 0   # the default with cpu or fifo_priority; "off" to leave it alone
-//!
-//! [[bus]]
-//! name = "leg"
-//! interface = "can0"     # a SocketCAN interface, or "sim" for simulated motors
-//! bitrate = 1000000
-//!
-//! [[bus.motor]]
-//! id = 1
-//! name = "hip"
-//! gear_ratio = 6.0
-//! current_limit_amps = 8.0
-//! torque_constant_nm_per_amp = 0.52
-//! position_min_deg = -30.0   # joint limits: torque past them is refused, 5 degrees further a fault
-//! position_max_deg = 120.0
-//! velocity_limit_dps = 360.0
-//! ```
-//!
-//! The same in code:
-//!
-//! ```
-//! use rmd_loop::robot::{BusConfig, MotorConfig, Robot, RobotConfig};
-//! let file = RobotConfig::new(1000.0).with_bus(
-//!     BusConfig::new("can0").with_motor(MotorConfig::new(1).name("hip").gear_ratio(6.0).current_limit(8.0)),
-//! );
-//! let robot = Robot::try_from(file)?;
-//! assert_eq!(robot.joint("hip")?.index(), 0);
-//! # Ok::<(), rmd_loop::robot::RobotError>(())
-//! ```
+//! The file form of a robot description, as written (serde, builders): [`RobotConfig`] and its
+//! parts.
 
 use core::time::Duration;
 use std::path::PathBuf;
@@ -582,7 +545,46 @@ impl Default for SafeStopConfig {
     }
 }
 
-/// A whole robot as written: the loop settings and its buses.
+/// A whole robot as written: the loop settings and its buses. The file form of a robot
+/// description: what a TOML file (or a builder in code) says, before it is checked.
+/// [`Robot::try_from`](crate::robot::Robot) turns it, once, into a validated
+/// [`Robot`](crate::robot::Robot); nothing else reads the file form.
+///
+/// ```toml
+/// [loop]
+/// rate_hz = 1000.0
+/// cpu = 1
+/// fifo_priority = 80
+/// spin_margin_us = 50
+/// cpu_dma_latency_us = 0   # the default with cpu or fifo_priority; "off" to leave it alone
+///
+/// [[bus]]
+/// name = "leg"
+/// interface = "can0"     # a SocketCAN interface, or "sim" for simulated motors
+/// bitrate = 1000000
+///
+/// [[bus.motor]]
+/// id = 1
+/// name = "hip"
+/// gear_ratio = 6.0
+/// current_limit_amps = 8.0
+/// torque_constant_nm_per_amp = 0.52
+/// position_min_deg = -30.0   # joint limits: torque past them is refused, 5 degrees further a fault
+/// position_max_deg = 120.0
+/// velocity_limit_dps = 360.0
+/// ```
+///
+/// The same in code:
+///
+/// ```
+/// use rmd_loop::robot::{BusConfig, MotorConfig, Robot, RobotConfig};
+/// let file = RobotConfig::new(1000.0).with_bus(
+///     BusConfig::new("can0").with_motor(MotorConfig::new(1).name("hip").gear_ratio(6.0).current_limit(8.0)),
+/// );
+/// let robot = Robot::try_from(file)?;
+/// assert_eq!(robot.joint("hip")?.index(), 0);
+/// # Ok::<(), rmd_loop::robot::RobotError>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RobotConfig {

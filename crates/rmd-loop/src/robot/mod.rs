@@ -1,6 +1,6 @@
 //! The robot description: its buses, its joints (one motor each) and the loop settings.
 //!
-//! A description is written as TOML (or built in code) in its [file form](mod@file), then
+//! A description is written as TOML (or built in code) in its [file form](RobotConfig), then
 //! converted once, with [`Robot::try_from`] or [`Robot::from_file`], into a [`Robot`] whose
 //! every value is checked and typed: motor ids are [`MotorId`]s (1..=32), encoder
 //! widths are [`EncoderWidth`](rmd_protocol::EncoderWidth)s, the rate is a
@@ -32,7 +32,7 @@
 mod bus;
 mod error;
 mod exchange;
-pub mod file;
+mod file;
 mod joint;
 mod limits;
 mod settings;
