@@ -47,7 +47,7 @@ use crate::supervisor::{SafetyPort, Supervisor};
 use crate::telemetry::{
     self, Published, TelemetryDelivery, TelemetryReceiver, TelemetrySample, TickTimes,
 };
-use crate::watch::{LoopPhase, Takeover};
+use crate::vitals::{LoopPhase, Takeover};
 
 /// How long the loop sleeps between tries when it waits for room in the telemetry mailbox
 /// ([`TelemetryDelivery::Wait`], virtual time only).
@@ -420,8 +420,8 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
                 parts, controller, reason, realtime, None, None, identified,
             )));
         }
-        parts.shared.watch.progress(parts.clock.now(), 0);
-        parts.shared.watch.set_phase(LoopPhase::Running);
+        parts.shared.vitals.progress(parts.clock.now(), 0);
+        parts.shared.vitals.set_phase(LoopPhase::Running);
         let supervisor = match ports {
             None => None,
             Some(ports) => {
@@ -458,7 +458,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> RtLoop<B, C, K> {
         };
         // The supervisor's start (waited for above) is no stall of the loop's.
         let progress_at = parts.clock.now();
-        parts.shared.watch.progress(progress_at, 0);
+        parts.shared.vitals.progress(progress_at, 0);
         Ok(Running {
             identified,
             progress_ns: progress_at.as_nanos(),
@@ -495,11 +495,11 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
 
     /// Runs one tick. Breaks with the reason the loop must stop, if it must.
     pub fn step(&mut self) -> ControlFlow<StopReason> {
-        self.parts.shared.watch.enter(TickStage::Waiting);
+        self.parts.shared.vitals.enter(TickStage::Waiting);
         let timing = self.scheduler.wait_next(&self.parts.clock);
-        let watch = &self.parts.shared.watch;
-        watch.progress(timing.woke, timing.index);
-        if watch.phase() != LoopPhase::Running {
+        let vitals = &self.parts.shared.vitals;
+        vitals.progress(timing.woke, timing.index);
+        if vitals.phase() != LoopPhase::Running {
             return ControlFlow::Break(StopReason::EmergencyStop); // replaced by the supervisor's
         }
         // Overslept past the stall bound, and the supervisor did not see it.
@@ -507,7 +507,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         if let Some(request) = self.parts.shared.stop.pending() {
             return ControlFlow::Break(request.into());
         }
-        self.parts.shared.watch.enter(TickStage::Exchange);
+        self.parts.shared.vitals.enter(TickStage::Exchange);
         let stats = &mut self.parts.stats;
         // Counted when it starts, so that a snapshot taken during the tick is consistent.
         stats.ticks += 1;
@@ -522,14 +522,14 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         if let Some(fault) = self.parts.limit_breach() {
             return ControlFlow::Break(StopReason::Fault(fault));
         }
-        self.parts.shared.watch.enter(TickStage::Controller);
+        self.parts.shared.vitals.enter(TickStage::Controller);
         self.run_controller(&timing)?;
-        self.parts.shared.watch.enter(TickStage::Bookkeeping);
+        self.parts.shared.vitals.enter(TickStage::Bookkeeping);
         self.parts.stage_commands();
         self.parts.publish(&timing, self.start);
         self.parts.shared.serve_snapshot(&self.parts.stats);
         let end = self.parts.clock.now();
-        self.parts.shared.watch.progress(end, timing.index);
+        self.parts.shared.vitals.progress(end, timing.index);
         // A tick longer than the stall bound that the supervisor did not end.
         self.stalled(timing.index, end)?;
         let work_ns = nanos_between(timing.woke, end);
@@ -591,11 +591,11 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         let sent_at = clock.now();
         for b in 0..exchange.links.len() {
             // Never after the supervisor took over (it may be sending motor-off right now).
-            if !shared.watch.begin_send() {
+            if !shared.vitals.begin_send() {
                 return Err(StopReason::EmergencyStop); // replaced by the supervisor's reason
             }
             let sent = exchange.send(b, Torque::Staged, timing.index, sent_at, stats);
-            shared.watch.end_send();
+            shared.vitals.end_send();
             sent.map_err(StopReason::Fault)?;
         }
         let deadline = timing.scheduled + robot.settings().reply_deadline;
@@ -679,8 +679,8 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
     /// Makes every motor safe, tells the controller, and builds the report. If the supervisor
     /// took over, its safe stop and its reason are the run's.
     pub fn finish(self, reason: StopReason) -> LoopOutcome<K> {
-        let watch = &self.parts.shared.watch;
-        let takeover = if watch.swap_phase(LoopPhase::Running, LoopPhase::Finishing) {
+        let vitals = &self.parts.shared.vitals;
+        let takeover = if vitals.swap_phase(LoopPhase::Running, LoopPhase::Finishing) {
             None
         } else {
             wait_for_takeover(&self.parts.shared, self.supervisor)
@@ -730,7 +730,7 @@ fn wait_for_takeover(shared: &LoopLink, supervisor: Option<JoinHandle<()>>) -> O
     if let Some(handle) = supervisor {
         let _ = handle.join();
     }
-    shared.watch.take_takeover()
+    shared.vitals.take_takeover()
 }
 
 impl<B, C> LoopParts<B, C> {
@@ -897,7 +897,7 @@ impl<B, C: Clock> LoopParts<B, C> {
                 // Nobody will make room, or the run is to end: stop waiting.
                 if !tx.has_receivers()
                     || self.shared.stop.pending().is_some()
-                    || self.shared.watch.phase() != LoopPhase::Running
+                    || self.shared.vitals.phase() != LoopPhase::Running
                 {
                     break false;
                 }

@@ -11,7 +11,7 @@ use crate::panics;
 use crate::protection::MotorProtection;
 use crate::report::{IdentifiedMotor, LoopReport, PanicReport, StopReason};
 use crate::safe_stop;
-use crate::watch::{LoopPhase, Takeover};
+use crate::vitals::{LoopPhase, Takeover};
 
 /// The result of a run: the report, and the controller back.
 #[derive(Debug)]
@@ -43,19 +43,19 @@ pub(crate) fn finish<B: CanBus, C: Clock, K: Controller>(
         Some(takeover) => takeover.report,
         None => {
             let ids: Vec<_> = parts.exchange.motors.iter().map(|m| m.id).collect();
-            let watch = &parts.shared.watch;
+            let vitals = &parts.shared.vitals;
             safe_stop::make_safe(
                 &parts.clock,
                 &mut parts.exchange.links,
                 &ids,
                 &parts.robot,
                 parts.robot.safe_stop(),
-                || watch.set_motors_off_sent(),
+                || vitals.set_motors_off_sent(),
             )
         }
     };
     let _ = catch_unwind(AssertUnwindSafe(|| controller.stop(&reason)));
-    parts.shared.watch.set_phase(LoopPhase::Finished);
+    parts.shared.vitals.set_phase(LoopPhase::Finished);
     parts.shared.set_running(false);
     // After the motors are safe: what the panic left (its backtrace is resolved only here).
     let panic = match &reason {

@@ -68,7 +68,7 @@ mod stopper;
 pub mod supervisor;
 pub mod telemetry;
 mod versions;
-mod watch;
+mod vitals;
 
 pub use commands::{Commands, MAX_SIGNALS, Rejection};
 pub use controller::{Controller, Flow, TickContext};

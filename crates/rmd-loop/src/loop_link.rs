@@ -7,7 +7,7 @@ use crossbeam_queue::ArrayQueue;
 
 use crate::stats::LoopStats;
 use crate::stop::StopSignal;
-use crate::watch::Watch;
+use crate::vitals::LoopVitals;
 
 /// The loop thread's link to its handles, stoppers and supervisor: the stop request, the
 /// running flag, the statistics snapshot exchange and what the supervisor watches.
@@ -21,7 +21,7 @@ pub(crate) struct LoopLink {
     /// Filled statistics buffers.
     pub(crate) snapshot_replies: ArrayQueue<Box<LoopStats>>,
     /// What the supervisor watches.
-    pub(crate) watch: Watch,
+    pub(crate) vitals: LoopVitals,
 }
 
 impl LoopLink {
@@ -31,7 +31,7 @@ impl LoopLink {
             running: AtomicBool::new(false),
             snapshot_requests: ArrayQueue::new(4),
             snapshot_replies: ArrayQueue::new(4),
-            watch: Watch::new(),
+            vitals: LoopVitals::new(),
         }
     }
 

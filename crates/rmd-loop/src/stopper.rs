@@ -40,6 +40,6 @@ impl Stopper {
     /// supervisor's): after this, exiting the process leaves no motor commanded to torque by
     /// this run, confirmed or not.
     pub fn motors_off_sent(&self) -> bool {
-        self.shared.watch.motors_off_sent()
+        self.shared.vitals.motors_off_sent()
     }
 }

@@ -23,7 +23,7 @@
 //! ([`crate::os::place_supervisor`]): a controller stuck in a busy loop at real-time priority
 //! cannot keep it from running, and its looks never interrupt the loop's CPU.
 //!
-//! The supervisor never touches the loop thread's data: it reads a few atomics (the `watch`
+//! The supervisor never touches the loop thread's data: it reads a few atomics (the `vitals`
 //! module) and sleeps in real time between looks.
 
 use core::time::Duration;
@@ -42,7 +42,7 @@ use crate::robot::Robot;
 use crate::safe_stop::make_safe;
 use crate::stall::{StallCause, StallEvidence};
 use crate::stop::StopRequest;
-use crate::watch::{LoopPhase, Takeover};
+use crate::vitals::{LoopPhase, Takeover};
 
 /// A second way onto one bus, for the supervisor: its own SocketCAN socket on the interface, or
 /// a shared handle to a simulated bus.
@@ -121,8 +121,8 @@ impl<C: Clock + 'static> Supervisor<C> {
         let own = ThreadStats::of_current_thread();
         loop {
             std::thread::sleep(look_every);
-            let watch = &self.shared.watch;
-            match watch.phase() {
+            let vitals = &self.shared.vitals;
+            match vitals.phase() {
                 LoopPhase::Starting => continue,
                 LoopPhase::Running => {}
                 LoopPhase::Finishing | LoopPhase::TakenOver | LoopPhase::Finished => return,
@@ -130,7 +130,7 @@ impl<C: Clock + 'static> Supervisor<C> {
             // The clock first, then the loop's last sign of life: progress after the clock was
             // read is never mistaken for a stall.
             let now = self.clock.now();
-            let (last, tick) = watch.last_progress();
+            let (last, tick) = vitals.last_progress();
             // How much longer than asked the supervisor itself slept: time it was not run.
             let late = (now - looked).saturating_sub(look_every);
             looked = now;
@@ -184,8 +184,8 @@ impl<C: Clock + 'static> Supervisor<C> {
         since: Option<Baseline>,
         now: Timestamp,
     ) -> StallCause {
-        let watch = &self.shared.watch;
-        let stage = watch.stage();
+        let vitals = &self.shared.vitals;
+        let stage = vitals.stage();
         let now_sample = self.stats.as_ref().and_then(ThreadStats::sample);
         let state = self.stats.as_ref().and_then(ThreadStats::state);
         let (window, over, supervisor_late) = match since {
@@ -214,8 +214,8 @@ impl<C: Clock + 'static> Supervisor<C> {
     /// Makes every motor safe through the supervisor's own ports, if the loop thread has not
     /// begun to do it.
     fn take_over(&mut self, action: Action) {
-        let watch = &self.shared.watch;
-        if !watch.swap_phase(LoopPhase::Running, LoopPhase::TakenOver) {
+        let vitals = &self.shared.vitals;
+        if !vitals.swap_phase(LoopPhase::Running, LoopPhase::TakenOver) {
             return; // the loop thread got there first: it makes the motors safe itself
         }
         // Claimed first, judged after: the loop thread, coming back, defers to this reason.
@@ -233,17 +233,17 @@ impl<C: Clock + 'static> Supervisor<C> {
                 cause: self.stall_cause(stalled, since, now),
             }),
         };
-        let watch = &self.shared.watch;
-        watch.wait_for_send();
+        let vitals = &self.shared.vitals;
+        vitals.wait_for_send();
         let mut report = make_safe(
             &self.clock,
             &mut self.links,
             &self.ids,
             &self.robot,
             self.robot.safe_stop(),
-            || watch.set_motors_off_sent(),
+            || vitals.set_motors_off_sent(),
         );
         report.by = SafeStopBy::Supervisor;
-        watch.put_takeover(Takeover { reason, report });
+        vitals.put_takeover(Takeover { reason, report });
     }
 }

@@ -1,5 +1,6 @@
-//! What the supervisor watches of the loop thread, and the handshake that keeps them from
-//! sending at the same time. Everything the loop thread touches here is a lock-free atomic.
+//! The loop thread's vital signs (what the supervisor watches of it), and the handshake that
+//! keeps the two from sending at the same time. Everything the loop thread touches here is a
+//! lock-free atomic.
 //!
 //! The loop's phase decides who may send. The loop moves `Running -> Finishing` and the
 //! supervisor `Running -> TakenOver`, each with a compare-and-swap, so exactly one of them makes
@@ -52,9 +53,10 @@ pub(crate) struct Takeover {
     pub(crate) report: SafeStopReport,
 }
 
-/// The loop thread's state as the supervisor sees it.
+/// The loop thread's vital signs as the supervisor sees them (its phase, last sign of life, tick
+/// and stage), the sending handshake and the takeover.
 #[derive(Debug)]
-pub(crate) struct Watch {
+pub(crate) struct LoopVitals {
     phase: AtomicU8,
     /// Loop-clock time (ns) of the last sign of life: a tick started or ended.
     last_progress_ns: AtomicU64,
@@ -69,7 +71,7 @@ pub(crate) struct Watch {
     takeover: Mutex<Option<Takeover>>,
 }
 
-impl Watch {
+impl LoopVitals {
     pub(crate) fn new() -> Self {
         Self {
             phase: AtomicU8::new(LoopPhase::Starting as u8),
