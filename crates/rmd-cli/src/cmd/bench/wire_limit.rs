@@ -27,9 +27,9 @@ use rmd_protocol::{MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS};
 use rmd_sim::{Node, Transmission};
 use serde_json::{Value, json};
 
-/// One exchange as it went over the wire.
+/// The timing of one exchange as it went over the wire.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub(crate) struct Exchange {
+pub(crate) struct ExchangeTiming {
     /// When the 0x280 frame started on the wire.
     pub(crate) start: Timestamp,
     /// 0x280 start to the end of the last reply's intermission (the bus is free again).
@@ -47,8 +47,12 @@ pub(crate) struct Exchange {
 /// The complete exchanges of a bus's trace: each 0x280 frame the host sent, or `motors` 0xA1
 /// requests it sent back to back, followed by exactly `motors` motor frames. This includes the
 /// loop's start-up probes and the zero-torque frames of its safe stop: select the ticks'
-/// exchanges by their [`start`](Exchange::start).
-pub(crate) fn exchanges(trace: &[Transmission], motors: usize, bitrate: u32) -> Vec<Exchange> {
+/// exchanges by their [`start`](ExchangeTiming::start).
+pub(crate) fn exchanges(
+    trace: &[Transmission],
+    motors: usize,
+    bitrate: u32,
+) -> Vec<ExchangeTiming> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < trace.len() {
@@ -111,7 +115,7 @@ pub(crate) fn exchanges(trace: &[Transmission], motors: usize, bitrate: u32) -> 
             .chain(replies.iter().copied())
             .collect();
         let bits: Vec<u32> = all.iter().map(|t| frame_bits(&t.frame)).collect();
-        out.push(Exchange {
+        out.push(ExchangeTiming {
             start: tx.start,
             cycle: replies[motors - 1].end - tx.start,
             frames: all.iter().map(|t| frame_duration(&t.frame, bitrate)).sum(),
@@ -139,7 +143,7 @@ fn interleaved(
     motors: usize,
     expected: usize,
     bitrate: u32,
-) -> Option<(Exchange, usize)> {
+) -> Option<(ExchangeTiming, usize)> {
     let (mut requests, mut replies) = (Vec::new(), Vec::new());
     for t in trace {
         // A 0x280 frame may open the exchange (a multi-torque bus beyond id 4).
@@ -165,7 +169,7 @@ fn interleaved(
     let bits: Vec<u32> = all.iter().map(|t| frame_bits(&t.frame)).collect();
     let cycle = replies[motors - 1].end - requests[0].start;
     let frames: Duration = all.iter().map(|t| frame_duration(&t.frame, bitrate)).sum();
-    let exchange = Exchange {
+    let exchange = ExchangeTiming {
         start: requests[0].start,
         cycle,
         frames,
@@ -200,7 +204,7 @@ pub(crate) struct WireLimit {
 impl WireLimit {
     /// The summary of `exchanges` (several buses: pass them all, the buses run in parallel and
     /// the slowest sets the limit). `None` without exchanges.
-    pub(crate) fn of(exchanges: &[Exchange]) -> Option<Self> {
+    pub(crate) fn of(exchanges: &[ExchangeTiming]) -> Option<Self> {
         let worst = exchanges.iter().max_by_key(|e| e.cycle)?;
         let total: Duration = exchanges.iter().map(|e| e.cycle).sum();
         Some(Self {
