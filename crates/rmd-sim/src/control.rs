@@ -40,16 +40,16 @@ pub(crate) const ANGLE_KP_PER_LSB: f64 = 0.3;
 /// The `iqPidKp` at which the current loop has the motor's nominal time constant.
 pub(crate) const NOMINAL_IQ_KP: f64 = 50.0;
 
-/// Physical gains of the three loops.
+/// Physical gains of the firmware's three loops.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub(crate) struct Gains {
+pub(crate) struct FirmwareGains {
     pub(crate) speed_kp: f64,
     pub(crate) speed_ki: f64,
     pub(crate) angle_kp: f64,
     pub(crate) current_time_constant_s: f64,
 }
 
-impl Gains {
+impl FirmwareGains {
     pub(crate) fn from_pid(pid: &PidParams, nominal_time_constant_s: f64) -> Self {
         Self {
             speed_kp: f64::from(pid.speed_pid_kp) * SPEED_KP_PER_LSB,
@@ -61,7 +61,7 @@ impl Gains {
     }
 }
 
-impl Gains {
+impl FirmwareGains {
     /// The speed loop's steady-state lag behind a reference ramping at 1 rad/s², in seconds:
     /// `(1 - weight) Kp / Ki` (independent of the inertia). Infinite without an integral.
     pub(crate) fn ramp_lag_s(&self, setpoint_weight: f64) -> f64 {
@@ -93,7 +93,7 @@ impl LoopState {
         speed: f64,
         current_a: f64,
         setpoint_weight: f64,
-        gains: &Gains,
+        gains: &FirmwareGains,
     ) -> Self {
         Self {
             speed_ref: speed,
@@ -121,7 +121,7 @@ pub(crate) fn speed_loop(
     reference: f64,
     measured: f64,
     setpoint_weight: f64,
-    gains: &Gains,
+    gains: &FirmwareGains,
     max_current_a: f64,
     dt: f64,
 ) -> f64 {
@@ -220,7 +220,7 @@ mod tests {
 
     #[test]
     fn the_speed_loop_clamps_and_does_not_wind_up() {
-        let gains = Gains {
+        let gains = FirmwareGains {
             speed_kp: 0.3,
             speed_ki: 20.0,
             angle_kp: 30.0,

@@ -45,8 +45,8 @@ use rmd_protocol::{
 
 use crate::config::{ClearErrorReply, FirmwareParams};
 use crate::control::{
-    Gains, LoopState, POSITION_MODE_SETPOINT_WEIGHT, SPEED_MODE_SETPOINT_WEIGHT, profile_step,
-    ramp, speed_loop,
+    FirmwareGains, LoopState, POSITION_MODE_SETPOINT_WEIGHT, SPEED_MODE_SETPOINT_WEIGHT,
+    profile_step, ramp, speed_loop,
 };
 use crate::encoder::Encoder;
 use crate::family::{FirmwareFamily, FirmwareTraps};
@@ -237,8 +237,8 @@ impl Firmware {
         self.rom.pid
     }
 
-    fn gains(&self) -> Gains {
-        Gains::from_pid(&self.ram.pid, self.nominal_current_time_constant_s)
+    fn gains(&self) -> FirmwareGains {
+        FirmwareGains::from_pid(&self.ram.pid, self.nominal_current_time_constant_s)
     }
 
     /// Whether the power stage is driven.
