@@ -8,7 +8,7 @@ use crate::support;
 use core::time::Duration;
 
 use nalgebra::Vector4;
-use rmd_demos::impedance::Gains;
+use rmd_demos::impedance::ImpedanceGains;
 use rmd_demos::leg::{self, JOINTS, LegModel};
 use rmd_demos::leg4::{self, Halt, SIGNALS, StepController};
 use rmd_demos::step_cycle::{StepCycle, StepParams, StepPhase};
@@ -35,7 +35,7 @@ fn description() -> RobotConfig {
 /// look at the motors) and the loop's telemetry.
 fn run_leg(
     controller_model: LegModel,
-    gains: Gains,
+    gains: ImpedanceGains,
     config: RobotConfig,
     seconds: f64,
 ) -> (
@@ -75,7 +75,8 @@ fn knee() -> usize {
 
 #[test]
 fn the_foot_tracks_the_step_cycle() {
-    let (out, mut bus, samples) = run_leg(LegModel::new(), Gains::new(), description(), 5.0);
+    let (out, mut bus, samples) =
+        run_leg(LegModel::new(), ImpedanceGains::new(), description(), 5.0);
     let r = &out.report;
     assert_eq!(r.stop_reason, StopReason::TickLimit, "{r}");
     assert_eq!(r.stats.ticks, 5000);
@@ -126,21 +127,21 @@ fn the_foot_tracks_the_step_cycle() {
 #[test]
 fn gravity_compensation_removes_the_sag() {
     let model = LegModel::new();
-    let mut without = Gains::new();
+    let mut without = ImpedanceGains::new();
     without.gravity_compensation = false;
     let run = |gains| {
         let (out, mut bus, _) = run_leg(model.clone(), gains, description(), 4.0);
         assert_motors_off(&mut bus);
         out.controller
     };
-    let with_bias = run(Gains::new()).stance_z_bias_m();
+    let with_bias = run(ImpedanceGains::new()).stance_z_bias_m();
     let without_bias = run(without).stance_z_bias_m();
     // The sag the model predicts at the middle of the stance: the impedance spring carries the
     // leg's weight, dz = (K^-1 J^-T tau_gravity)_z.
     let q = leg::rad(leg4::working_pose_deg(&model).unwrap());
     let (_, j) = model.foot_and_jacobian(&q);
     let force = j.transpose().try_inverse().unwrap() * model.gravity_torques(&q);
-    let predicted = force.component_div(&Gains::new().stiffness)[2];
+    let predicted = force.component_div(&ImpedanceGains::new().stiffness)[2];
     println!(
         "stance height error: {:.3} mm with, {:.3} mm without gravity compensation (predicted {:.3} mm)",
         with_bias * 1e3,
@@ -165,7 +166,7 @@ fn current_limits_hold_even_when_the_controller_asks_for_more() {
     let knee_limit = 0.5;
     let knee = knee();
     config.buses[0].motors[knee].current_limit_amps = knee_limit;
-    let (out, mut bus, samples) = run_leg(LegModel::new(), Gains::new(), config, 3.0);
+    let (out, mut bus, samples) = run_leg(LegModel::new(), ImpedanceGains::new(), config, 3.0);
     assert_eq!(samples.len(), 3000);
     let clamped = out.report.stats.motors[knee].counters.clamped_commands;
     assert!(clamped > 100, "clamped {clamped}");
@@ -187,7 +188,7 @@ fn a_joint_beyond_its_limit_stops_the_run_safely() {
     // The controller believes the knee may not bend beyond 80 degrees; the step needs ~100.
     let mut strict = LegModel::new();
     strict.limits[2].max_deg = 80.0;
-    let (out, mut bus, _) = run_leg(strict, Gains::new(), description(), 3.0);
+    let (out, mut bus, _) = run_leg(strict, ImpedanceGains::new(), description(), 3.0);
     assert_eq!(
         out.report.stop_reason,
         StopReason::ControllerHalted("a joint went beyond its limit")
@@ -211,7 +212,7 @@ fn a_joint_out_of_range_at_start_is_never_moved() {
     // The controller believes the knee must be above 70 degrees: it powers up at 60.
     let mut strict = LegModel::new();
     strict.limits[2].min_deg = 70.0;
-    let (out, mut bus, samples) = run_leg(strict, Gains::new(), description(), 3.0);
+    let (out, mut bus, samples) = run_leg(strict, ImpedanceGains::new(), description(), 3.0);
     assert!(matches!(
         out.controller.halt,
         Some(Halt::JointLimit { name: "knee", .. })
@@ -250,12 +251,13 @@ fn the_controller_needs_every_joint_with_a_torque_constant() {
     let model = LegModel::new();
     let cycle = leg4::plan_cycle(&model).unwrap();
     let renamed = Robot::from_toml(&ROBOT.replace("\"knee\"", "\"shin\"")).unwrap();
-    let err = StepController::new(&renamed, model.clone(), Gains::new(), cycle).unwrap_err();
+    let err =
+        StepController::new(&renamed, model.clone(), ImpedanceGains::new(), cycle).unwrap_err();
     assert!(err.to_string().contains("no joint named `knee`"), "{err}");
     let mut config = description();
     config.buses[0].motors[knee()].torque_constant_nm_per_amp = None;
     let robot = Robot::try_from(config).unwrap();
-    let err = StepController::new(&robot, model, Gains::new(), cycle).unwrap_err();
+    let err = StepController::new(&robot, model, ImpedanceGains::new(), cycle).unwrap_err();
     assert!(
         err.to_string()
             .contains("joint knee has no torque_constant"),

@@ -7,7 +7,7 @@ use crate::support;
 
 use core::time::Duration;
 
-use rmd_demos::impedance::Gains;
+use rmd_demos::impedance::ImpedanceGains;
 use rmd_demos::leg::{JOINTS, LegModel};
 use rmd_demos::leg4::{self, StepController};
 use rmd_demos::step_cycle::{StepCycle, StepParams};
@@ -37,7 +37,8 @@ fn step_cycle_on_v3(exchange: ExchangeKind) -> Vec<SimBus<VirtualClock>> {
         bus.record_trace(100_000);
     }
     let cycle = StepCycle::plan(StepParams::new(leg4::step_center(&LegModel::new()))).unwrap();
-    let controller = StepController::new(&robot, LegModel::new(), Gains::new(), cycle).unwrap();
+    let controller =
+        StepController::new(&robot, LegModel::new(), ImpedanceGains::new(), cycle).unwrap();
     let rt =
         RtLoop::unsupervised(robot, clock.clone(), buses.iter_mut().collect(), controller).unwrap();
     let out = rt.run(RunLimit::Duration(Duration::from_secs(5)));

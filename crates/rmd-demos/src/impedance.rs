@@ -19,7 +19,7 @@ use crate::leg::{JOINTS, LegJoints, LegModel};
 
 /// Stiffness and damping of the foot, and the joint-limit springs.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub struct Gains {
+pub struct ImpedanceGains {
     /// Stiffness along x, y, z (N/m) and about the pitch (N*m/rad).
     pub stiffness: Vector4<f64>,
     /// Damping along x, y, z (N*s/m) and about the pitch (N*m*s/rad).
@@ -32,7 +32,7 @@ pub struct Gains {
     pub limit_stiffness: f64,
 }
 
-impl Gains {
+impl ImpedanceGains {
     /// 3000 N/m and 60 N*s/m along the axes, 30 N*m/rad and 0.8 N*m*s/rad in pitch, gravity
     /// compensation on, 5 degree limit zones with 60 N*m/rad springs.
     pub fn new() -> Self {
@@ -46,7 +46,7 @@ impl Gains {
     }
 }
 
-impl Default for Gains {
+impl Default for ImpedanceGains {
     fn default() -> Self {
         Self::new()
     }
@@ -105,7 +105,7 @@ impl Output {
 /// The impedance law for one leg.
 pub fn impedance(
     model: &LegModel,
-    gains: &Gains,
+    gains: &ImpedanceGains,
     joints: &LegState,
     target: &Vector4<f64>,
     target_velocity: &Vector4<f64>,

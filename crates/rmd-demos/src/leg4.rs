@@ -27,7 +27,7 @@ use rmd_sim::SimConfig;
 use rmd_traj::TrajectoryError;
 
 use crate::error::DemoError;
-use crate::impedance::{self, ErrorStats, Gains, LegState};
+use crate::impedance::{self, ErrorStats, ImpedanceGains, LegState};
 use crate::leg::{self, JOINT_NAMES, JOINTS, LegJoints, LegModel};
 use crate::step_cycle::{StepCycle, StepParams, StepPhase};
 use crate::support::MotorExtremes;
@@ -143,10 +143,14 @@ pub fn plan_cycle(model: &LegModel) -> Result<StepCycle, DemoError> {
     Ok(cycle)
 }
 
-/// The example's gains ([`Gains::new`]) with the foot's stiffness (N/m) and damping (N*s/m)
+/// The example's gains ([`ImpedanceGains::new`]) with the foot's stiffness (N/m) and damping (N*s/m)
 /// along x, y and z, and gravity compensation on or off. Negative or non-finite values are
 /// errors.
-pub fn gains(gravity_compensation: bool, stiffness: f64, damping: f64) -> Result<Gains, DemoError> {
+pub fn gains(
+    gravity_compensation: bool,
+    stiffness: f64,
+    damping: f64,
+) -> Result<ImpedanceGains, DemoError> {
     for (name, value) in [("stiffness", stiffness), ("damping", damping)] {
         if !(value.is_finite() && value >= 0.0) {
             return Err(DemoError::Usage(format!(
@@ -154,7 +158,7 @@ pub fn gains(gravity_compensation: bool, stiffness: f64, damping: f64) -> Result
             )));
         }
     }
-    let mut gains = Gains::new();
+    let mut gains = ImpedanceGains::new();
     gains.gravity_compensation = gravity_compensation;
     for axis in 0..3 {
         gains.stiffness[axis] = stiffness;
@@ -196,7 +200,7 @@ impl fmt::Display for Halt {
 #[derive(Clone, Debug)]
 pub struct StepController {
     model: LegModel,
-    gains: Gains,
+    gains: ImpedanceGains,
     cycle: StepCycle,
     joints: LegJoints,
     t0: f64,
@@ -220,7 +224,7 @@ impl StepController {
     pub fn new(
         robot: &Robot,
         model: LegModel,
-        gains: Gains,
+        gains: ImpedanceGains,
         cycle: StepCycle,
     ) -> Result<Self, DemoError> {
         Ok(Self {

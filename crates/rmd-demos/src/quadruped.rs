@@ -23,7 +23,7 @@ use rmd_sim::SimConfig;
 use rmd_traj::{Input, Trajectory, TrajectoryError, calculate};
 
 use crate::error::DemoError;
-use crate::impedance::{self, ErrorStats, Gains, LegState};
+use crate::impedance::{self, ErrorStats, ImpedanceGains, LegState};
 use crate::leg::{self, JOINT_NAMES, JOINTS, LegJoints, LegModel};
 use crate::support::MotorExtremes;
 
@@ -179,7 +179,7 @@ impl fmt::Display for Halt {
 pub struct StandController {
     models: [LegModel; LEGS],
     legs: [LegJoints; LEGS],
-    gains: Gains,
+    gains: ImpedanceGains,
     stand_height_m: f64,
     input: Input<AXES>,
     plan: Trajectory<AXES>,
@@ -209,7 +209,7 @@ impl StandController {
         Ok(Self {
             legs: legs(robot)?,
             models,
-            gains: Gains::new(),
+            gains: ImpedanceGains::new(),
             stand_height_m,
             input,
             plan: Trajectory::EMPTY,
