@@ -97,9 +97,9 @@ pub enum FrameFilter {
     MultiTorque,
 }
 
-/// The kind of frame a rule is matched against.
+/// The kind of request a host frame is, as fault rules match it ([`FrameFilter::matches`]).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub(crate) enum FrameKind {
+pub(crate) enum RequestKind {
     Single(Command),
     Multi,
     /// Not a valid request.
@@ -107,13 +107,13 @@ pub(crate) enum FrameKind {
 }
 
 impl FrameFilter {
-    pub(crate) fn matches(self, kind: FrameKind) -> bool {
+    pub(crate) fn matches(self, kind: RequestKind) -> bool {
         match (self, kind) {
             (FrameFilter::Any, _) => true,
-            (FrameFilter::Command(c), FrameKind::Single(k)) => c == k,
-            (FrameFilter::MultiTorque, FrameKind::Multi) => true,
-            (FrameFilter::Command(_), FrameKind::Multi | FrameKind::Other)
-            | (FrameFilter::MultiTorque, FrameKind::Single(_) | FrameKind::Other) => false,
+            (FrameFilter::Command(c), RequestKind::Single(k)) => c == k,
+            (FrameFilter::MultiTorque, RequestKind::Multi) => true,
+            (FrameFilter::Command(_), RequestKind::Multi | RequestKind::Other)
+            | (FrameFilter::MultiTorque, RequestKind::Single(_) | RequestKind::Other) => false,
         }
     }
 }
@@ -351,7 +351,7 @@ impl<K> RuleState<K> {
     }
 
     /// Whether a request of kind `kind` that `motor` received matches the rule.
-    fn selects(&self, motor: MotorId, kind: FrameKind) -> bool {
+    fn selects(&self, motor: MotorId, kind: RequestKind) -> bool {
         self.motors.contains(motor) && self.frames.matches(kind)
     }
 
@@ -455,7 +455,7 @@ impl FaultEngine {
     pub(crate) fn on_motor_frame(
         &mut self,
         motor: MotorId,
-        kind: FrameKind,
+        kind: RequestKind,
         at: Timestamp,
     ) -> ReplyFaults {
         let m = usize::from(motor.get());
@@ -489,7 +489,7 @@ impl FaultEngine {
     /// (`None`: to no motor). Returns the first bus fault that triggers.
     pub(crate) fn on_host_frame(
         &mut self,
-        kind: FrameKind,
+        kind: RequestKind,
         motors: Option<MotorSet>,
         at: Timestamp,
     ) -> Option<BusFault> {
@@ -606,13 +606,13 @@ mod tests {
             .frames_window(2, 2);
         let mut engine = FaultEngine::new(&[rule], 7).unwrap();
         let t = Timestamp::ZERO;
-        let s2 = FrameKind::Single(Command::ReadStatus2);
+        let s2 = RequestKind::Single(Command::ReadStatus2);
         let drops: Vec<bool> = (0..6)
             .map(|_| {
                 // Other commands do not count.
                 assert!(
                     !engine
-                        .on_motor_frame(m(1), FrameKind::Single(Command::ReadStatus1), t)
+                        .on_motor_frame(m(1), RequestKind::Single(Command::ReadStatus1), t)
                         .drop
                 );
                 engine.on_motor_frame(m(1), s2, t).drop
@@ -630,7 +630,7 @@ mod tests {
             let mut e = FaultEngine::new(&[rule], seed).unwrap();
             (0..200)
                 .map(|_| {
-                    e.on_motor_frame(m(1), FrameKind::Multi, Timestamp::ZERO)
+                    e.on_motor_frame(m(1), RequestKind::Multi, Timestamp::ZERO)
                         .corrupt
                 })
                 .collect::<Vec<_>>()
@@ -669,7 +669,7 @@ mod tests {
         assert_eq!(e.next_environment_change(m(1), from), Some(until));
         assert_eq!(e.next_environment_change(m(1), until), None);
 
-        let k = FrameKind::Single(Command::ReadStatus1);
+        let k = RequestKind::Single(Command::ReadStatus1);
         e.on_motor_frame(m(2), k, Timestamp::ZERO);
         assert_eq!(
             e.environment(m(2), Timestamp::ZERO).temperature_floor_c,
@@ -753,8 +753,8 @@ mod tests {
             let mut at_motor = Vec::new();
             let mut at_host = Vec::new();
             for _ in 0..3 {
-                at_motor.push(e.on_motor_frame(m(1), FrameKind::Multi, t));
-                at_host.push(e.on_host_frame(FrameKind::Multi, None, t));
+                at_motor.push(e.on_motor_frame(m(1), RequestKind::Multi, t));
+                at_host.push(e.on_host_frame(RequestKind::Multi, None, t));
             }
             let env = e.environment(m(1), t);
             let (replies, physics, host) = match kind {
@@ -808,7 +808,7 @@ mod tests {
         assert!(e.has_bus_faults());
         let four = MotorSet::of(&[m(1), m(2), m(3), m(4)]);
         let got: Vec<_> = (0..5)
-            .map(|_| e.on_host_frame(FrameKind::Multi, Some(four), Timestamp::ZERO))
+            .map(|_| e.on_host_frame(RequestKind::Multi, Some(four), Timestamp::ZERO))
             .collect();
         assert_eq!(
             got,
@@ -824,7 +824,7 @@ mod tests {
         );
         // Motor faults never fire on host frames, bus faults never on motor frames.
         assert_eq!(
-            e.on_motor_frame(m(1), FrameKind::Multi, Timestamp::ZERO),
+            e.on_motor_frame(m(1), RequestKind::Multi, Timestamp::ZERO),
             ReplyFaults::default()
         );
     }
@@ -839,7 +839,7 @@ mod tests {
         let mut e = FaultEngine::new(&[rule], 0).unwrap();
         let got: Vec<bool> = [0, 9, 10, 11, 30, 40]
             .into_iter()
-            .map(|ms| e.on_host_frame(FrameKind::Multi, None, at(ms)).is_some())
+            .map(|ms| e.on_host_frame(RequestKind::Multi, None, at(ms)).is_some())
             .collect();
         assert_eq!(got, [false, false, true, true, false, false]);
         // Per motor, each motor's own first frames.
@@ -847,7 +847,7 @@ mod tests {
         let mut e = FaultEngine::new(&[rule], 0).unwrap();
         let drops: Vec<bool> = [(1, 5), (1, 12), (2, 13), (1, 14), (2, 15)]
             .into_iter()
-            .map(|(id, ms)| e.on_motor_frame(m(id), FrameKind::Multi, at(ms)).drop)
+            .map(|(id, ms)| e.on_motor_frame(m(id), RequestKind::Multi, at(ms)).drop)
             .collect();
         assert_eq!(drops, [false, true, true, false, false]);
     }

@@ -10,7 +10,7 @@ use rmd_protocol::{
 use crate::config::{SimConfig, SimMotorConfig, validate_motors};
 use crate::error::ConfigError;
 use crate::family::FirmwareFamily;
-use crate::fault::{FaultEngine, FaultRule, FrameKind, MotorSet, ReplyFaults};
+use crate::fault::{FaultEngine, FaultRule, MotorSet, ReplyFaults, RequestKind};
 use crate::motor::{MotorSnapshot, SimMotor};
 use crate::request::MotorRequest;
 
@@ -212,7 +212,7 @@ impl SimMotors {
             };
             let kind = match request {
                 MotorRequest::Single(_) => request.kind(),
-                _ => FrameKind::Multi,
+                _ => RequestKind::Multi,
             };
             let faults = self.faults.on_motor_frame(motor, kind, at);
             let sim = &mut self.motors[index];
@@ -388,15 +388,15 @@ fn emit(
 /// The kind of a host frame and the motors it addresses, for bus-fault rules.
 ///
 /// Bus-fault rules classify host frames as v1.61 reads them, whatever the motors' families.
-pub(crate) fn classify(frame: &CanFrame) -> (FrameKind, Option<MotorSet>) {
+pub(crate) fn classify(frame: &CanFrame) -> (RequestKind, Option<MotorSet>) {
     match Dialect::V161.decode_request(frame) {
         Ok(DecodedRequest::Single { motor, request }) => (
-            FrameKind::Single(request.command()),
+            RequestKind::Single(request.command()),
             Some(MotorSet::only(motor)),
         ),
-        Ok(DecodedRequest::Multi(_)) => (FrameKind::Multi, Some(MotorSet::MULTI_TORQUE)),
+        Ok(DecodedRequest::Multi(_)) => (RequestKind::Multi, Some(MotorSet::MULTI_TORQUE)),
         Ok(DecodedRequest::Broadcast(_) | DecodedRequest::Mit { .. }) | Err(_) => (
-            FrameKind::Other,
+            RequestKind::Other,
             MotorId::from_can_id(frame.id()).ok().map(MotorSet::only),
         ),
     }

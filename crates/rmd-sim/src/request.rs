@@ -4,7 +4,7 @@ use rmd_protocol::{
     CanFrame, Command, DecodedRequest, Dialect, MitCommand, ProtocolError, Request, ScaledCurrent,
 };
 
-use crate::fault::FrameKind;
+use crate::fault::RequestKind;
 
 /// A request to one motor.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -39,11 +39,11 @@ impl MotorRequest {
     }
 
     /// The frame kind fault rules see.
-    pub(crate) fn kind(&self) -> FrameKind {
+    pub(crate) fn kind(&self) -> RequestKind {
         match self {
-            Self::Single(r) => FrameKind::Single(r.command()),
-            Self::SlotTorque(_) => FrameKind::Multi,
-            Self::Mit(_) | Self::Unknown { .. } => FrameKind::Other,
+            Self::Single(r) => RequestKind::Single(r.command()),
+            Self::SlotTorque(_) => RequestKind::Multi,
+            Self::Mit(_) | Self::Unknown { .. } => RequestKind::Other,
         }
     }
 
