@@ -13,7 +13,7 @@ use crate::fault::DrillFault;
 
 /// How time passes for the controller while it hangs or works slowly.
 #[derive(Clone, Debug)]
-pub(crate) enum Pace {
+pub(crate) enum TimeBase {
     /// Real time: a hang sleeps, slow work keeps the CPU busy.
     Real,
     /// Virtual time: the controller moves the run's clock on; a hang does so a millisecond at a
@@ -22,24 +22,24 @@ pub(crate) enum Pace {
     Virtual(VirtualClock),
 }
 
-impl Pace {
+impl TimeBase {
     fn now(&self) -> Timestamp {
         match self {
-            Pace::Real => MonotonicClock.now(),
-            Pace::Virtual(clock) => clock.now(),
+            TimeBase::Real => MonotonicClock.now(),
+            TimeBase::Virtual(clock) => clock.now(),
         }
     }
 
     /// Lets `d` pass as work on the CPU would (short spans busy-wait in real time).
     fn work(&self, d: Duration) {
         match self {
-            Pace::Real => {
+            TimeBase::Real => {
                 let until = std::time::Instant::now() + d;
                 while std::time::Instant::now() < until {
                     core::hint::spin_loop();
                 }
             }
-            Pace::Virtual(clock) => clock.advance(d),
+            TimeBase::Virtual(clock) => clock.advance(d),
         }
     }
 
@@ -47,8 +47,8 @@ impl Pace {
     fn hang_step(&self, until: Timestamp) {
         let step = (until - self.now()).min(Duration::from_millis(1));
         match self {
-            Pace::Real => std::thread::sleep(step),
-            Pace::Virtual(clock) => {
+            TimeBase::Real => std::thread::sleep(step),
+            TimeBase::Virtual(clock) => {
                 clock.advance(step);
                 std::thread::sleep(Duration::from_micros(250));
             }
@@ -69,7 +69,7 @@ struct Injection {
 pub(crate) struct DrillController {
     targets: JointArray<f64>,
     injections: Vec<Injection>,
-    pace: Pace,
+    time: TimeBase,
     stopper: Arc<OnceLock<Stopper>>,
     nan: bool,
     slow: Duration,
@@ -81,7 +81,7 @@ impl DrillController {
     pub(crate) fn new(
         robot: &Robot,
         faults: impl IntoIterator<Item = (DrillFault, Timestamp)>,
-        pace: Pace,
+        time: TimeBase,
         stopper: Arc<OnceLock<Stopper>>,
     ) -> Self {
         Self {
@@ -95,7 +95,7 @@ impl DrillController {
                     done: false,
                 })
                 .collect(),
-            pace,
+            time,
             stopper,
             nan: false,
             slow: Duration::ZERO,
@@ -116,9 +116,9 @@ impl DrillController {
             match injection.fault {
                 DrillFault::ControllerHang(d) => {
                     let until = now + d;
-                    while self.pace.now() < until {
-                        self.pace.hang_step(until);
-                        self.operator(self.pace.now());
+                    while self.time.now() < until {
+                        self.time.hang_step(until);
+                        self.operator(self.time.now());
                     }
                 }
                 DrillFault::ControllerPanic => panic!("drill: the controller panics"),
@@ -176,7 +176,7 @@ impl Controller for DrillController {
         }
         self.inject(ctx.woke);
         if !self.slow.is_zero() {
-            self.pace.work(self.slow);
+            self.time.work(self.slow);
         }
         Flow::Continue
     }

@@ -7,7 +7,7 @@ use rmd_loop::RunLimit;
 use rmd_rig::telemetry::{TelemetryOutputs, TelemetryReport, TelemetrySinks, spawn_feed};
 use rmd_rig::{AnyClock, Placement, Rig, RigError, SharedSim, SimTime};
 
-use crate::controller::{DrillController, Pace};
+use crate::controller::{DrillController, TimeBase};
 use crate::fault::DrillFault;
 use crate::spec::DrillSpec;
 use crate::verdict::{Drill, judge};
@@ -79,13 +79,13 @@ pub fn run_with_telemetry(
     let rig = Rig::open(&robot, &placement, robot::sims(&robot, spec, start))?;
     let sims: Vec<SharedSim> = rig.buses.iter().filter_map(|b| b.sim().cloned()).collect();
     let clock = rig.clock.clone();
-    let pace = match &rig.clock {
-        AnyClock::Virtual(clock) => Pace::Virtual(clock.clone()),
-        AnyClock::Monotonic(_) => Pace::Real,
+    let time = match &rig.clock {
+        AnyClock::Virtual(clock) => TimeBase::Virtual(clock.clone()),
+        AnyClock::Monotonic(_) => TimeBase::Real,
     };
     let stopper = Arc::new(OnceLock::new());
     let faults = spec.faults.iter().map(|&(fault, at)| (fault, start + at));
-    let controller = DrillController::new(&robot, faults, pace, Arc::clone(&stopper));
+    let controller = DrillController::new(&robot, faults, time, Arc::clone(&stopper));
     let mut rt = rig.into_loop(robot, controller)?;
     // Only the drill sets it, once, here: it cannot be set already.
     let _ = stopper.set(rt.stopper());
