@@ -2,7 +2,7 @@
 //! `--csv`, `--mcap`, `--foxglove`) started as [`TelemetrySinks`] on the run's
 //! [`RunLayout`], fed the loop's samples on an ordinary thread (the
 //! runner's, or a thread of its own: [`spawn_feed`]), each turned into a
-//! [`TickRecord`](rmd_telemetry::TickRecord) by a [`Recorder`] and fanned out by
+//! [`TickRecord`](rmd_telemetry::TickRecord) by a [`RecordAssembler`] and fanned out by
 //! `rmd-telemetry`'s pipeline; a [`TelemetryReport`] at the end says what each sink got.
 //!
 //! What is lost where, and counted for whom:
@@ -63,7 +63,7 @@ use rmd_telemetry::{
 };
 
 pub use feed::{FeedThread, spawn_feed};
-pub use record::{Recorder, joint_record};
+pub use record::{RecordAssembler, joint_record};
 
 /// The sinks a run writes (the `--csv`, `--mcap` and `--foxglove` flags); all `None`: no
 /// telemetry at all.
@@ -129,7 +129,7 @@ pub fn run_layout(robot: &Robot, signals: &[String]) -> Result<RunLayout, Layout
 /// end with [`TelemetrySinks::finish`].
 pub struct TelemetrySinks {
     receiver: Option<TelemetryReceiver>,
-    recorder: Recorder,
+    assembler: RecordAssembler,
     producer: Producer,
     pipeline: rmd_telemetry::Pipeline,
     samples: u64,
@@ -203,7 +203,7 @@ impl TelemetrySinks {
         let (producer, pipeline) = builder.start()?;
         Ok(Some(Self {
             receiver: None,
-            recorder: Recorder::new(),
+            assembler: RecordAssembler::new(),
             producer,
             pipeline,
             samples: 0,
@@ -271,7 +271,7 @@ impl TelemetrySinks {
     /// Feeds one sample to the sinks (its record goes out when the next sample completes it).
     pub fn take(&mut self, sample: &TelemetrySample) {
         self.samples += 1;
-        if let Some(record) = self.recorder.push(sample) {
+        if let Some(record) = self.assembler.push(sample) {
             self.producer.push(&record);
         }
     }
@@ -289,7 +289,7 @@ impl TelemetrySinks {
     /// for every sink.
     pub fn finish(mut self, lost_in_loop: u64) -> TelemetryReport {
         self.pump(|_| {});
-        if let Some(record) = self.recorder.finish() {
+        if let Some(record) = self.assembler.finish() {
             self.producer.push(&record);
         }
         let mut stats = self.pipeline.shutdown();

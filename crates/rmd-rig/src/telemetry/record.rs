@@ -1,9 +1,9 @@
-//! The loop's samples as telemetry records: [`Recorder`] turns each
+//! The loop's samples as telemetry records: [`RecordAssembler`] turns each
 //! [`TelemetrySample`](rmd_loop::telemetry::TelemetrySample) into a [`TickRecord`], on the
 //! telemetry side (never on the loop thread).
 //!
 //! The loop publishes a tick's sample before the tick ends, so a sample carries the *previous*
-//! tick's work time and deadline count. The recorder holds each record until the next sample
+//! tick's work time and deadline count. The assembler holds each record until the next sample
 //! arrives and completes it from there: a record's `work_us`, `deadline_missed` and `misses` are
 //! its own tick's. When the next sample is not the next tick's (a sample was lost between the
 //! loop and the telemetry), or at the end of the run, they are unknown: `work_us` is NaN
@@ -20,7 +20,7 @@ fn us(ns: u64) -> f64 {
     ns as f64 * 1e-3
 }
 
-/// One joint of a sample as a telemetry record (rmd-rig's recorder and the Python package's
+/// One joint of a sample as a telemetry record (rmd-rig's record assembler and the Python package's
 /// both use this one). The reply's age is counted at `taken_at`, when the sample was taken
 /// (after the tick's replies were collected): ticks by the loop's freshness, microseconds since
 /// the reply was received. A joint whose motor never answered has no reply age.
@@ -83,22 +83,22 @@ pub(crate) fn record_of(sample: &TelemetrySample) -> TickRecord {
 ///
 /// ```
 /// use rmd_loop::telemetry::TelemetrySample;
-/// use rmd_rig::telemetry::Recorder;
+/// use rmd_rig::telemetry::RecordAssembler;
 ///
-/// let mut recorder = Recorder::new();
+/// let mut assembler = RecordAssembler::new();
 /// let mut sample = TelemetrySample::new(1, 0);
 /// sample.totals.ticks = 1;
-/// assert!(recorder.push(&sample).is_none(), "held until the next sample");
+/// assert!(assembler.push(&sample).is_none(), "held until the next sample");
 /// sample.tick = 1;
 /// sample.totals.ticks = 2;
 /// sample.times.previous_work_ns = 250_000;
-/// let first = recorder.push(&sample).unwrap();
+/// let first = assembler.push(&sample).unwrap();
 /// assert_eq!((first.tick, first.timing.work_us), (0, 250.0));
-/// let last = recorder.finish().unwrap();
+/// let last = assembler.finish().unwrap();
 /// assert!(last.timing.work_us.is_nan(), "nothing came after it");
 /// ```
 #[derive(Debug, Default)]
-pub struct Recorder {
+pub struct RecordAssembler {
     held: Option<Held>,
     lost: u64,
 }
@@ -110,8 +110,8 @@ struct Held {
     ticks: u64,
 }
 
-impl Recorder {
-    /// A recorder with nothing held.
+impl RecordAssembler {
+    /// An assembler with nothing held.
     pub fn new() -> Self {
         Self::default()
     }
@@ -253,29 +253,29 @@ mod tests {
 
     #[test]
     fn each_record_is_completed_by_the_next_tick_and_gaps_are_counted() {
-        let mut recorder = Recorder::new();
-        assert!(recorder.push(&sample(0, 0, 0)).is_none());
+        let mut assembler = RecordAssembler::new();
+        assert!(assembler.push(&sample(0, 0, 0)).is_none());
         // Tick 0 took 400 us and missed its deadline: tick 1's sample says so.
-        let r0 = recorder.push(&sample(1, 1, 400)).unwrap();
+        let r0 = assembler.push(&sample(1, 1, 400)).unwrap();
         assert_eq!(r0.tick, 0);
         assert_eq!(r0.timing.work_us, 400.0);
         assert!(r0.timing.deadline_missed);
         assert_eq!(r0.timing.misses, 1);
         // Tick 1 was on time.
-        let r1 = recorder.push(&sample(2, 1, 300)).unwrap();
+        let r1 = assembler.push(&sample(2, 1, 300)).unwrap();
         assert_eq!(
             (r1.timing.work_us, r1.timing.deadline_missed),
             (300.0, false)
         );
         assert_eq!(r1.timing.misses, 1);
         // Ticks 3 and 4 never came: tick 2's own work is unknown.
-        let r2 = recorder.push(&sample(5, 1, 200)).unwrap();
+        let r2 = assembler.push(&sample(5, 1, 200)).unwrap();
         assert_eq!(r2.tick, 2);
         assert!(r2.timing.work_us.is_nan() && !r2.timing.deadline_missed);
-        assert_eq!(recorder.lost(), 2);
-        let last = recorder.finish().unwrap();
+        assert_eq!(assembler.lost(), 2);
+        let last = assembler.finish().unwrap();
         assert_eq!(last.tick, 5);
         assert!(last.timing.work_us.is_nan());
-        assert!(recorder.finish().is_none());
+        assert!(assembler.finish().is_none());
     }
 }
