@@ -251,7 +251,7 @@ impl<'a> Runner<'a> {
             RunLimit::Duration(d) => Some((d.as_secs_f64() * rate_hz) as u64),
             RunLimit::Forever => None,
         };
-        let mut progress = progress::Progress::new(display, total_ticks, rate_hz);
+        let mut progress = progress::RunProgress::new(display, total_ticks, rate_hz);
         let started = Instant::now();
         let handle = rt.spawn(limit)?;
         let watch = signals.watch(handle.stopper());

@@ -18,9 +18,9 @@ pub enum Display {
     Quiet,
 }
 
-/// Shows a run's progress.
+/// The live display of a run's progress (see [`Display`]).
 #[derive(Debug)]
-pub(crate) struct Progress {
+pub(crate) struct RunProgress {
     display: Display,
     bar: Option<ProgressBar>,
     total_ticks: Option<u64>,
@@ -28,7 +28,7 @@ pub(crate) struct Progress {
     last_line: Option<Instant>,
 }
 
-impl Progress {
+impl RunProgress {
     pub(crate) fn new(display: Display, total_ticks: Option<u64>, rate_hz: f64) -> Self {
         let bar = (display == Display::Terminal).then(|| match total_ticks {
             Some(total) => {
