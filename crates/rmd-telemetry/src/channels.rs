@@ -8,7 +8,7 @@ use std::sync::Arc;
 use foxglove::{Context, PartialMetadata, RawChannel, Schema};
 
 use crate::health::Health;
-use crate::json::{self, LoopTimingMessage, MotorStates, Signals};
+use crate::json::{self, LoopTimingMessage, MotorStates, SignalsMessage};
 use crate::layout::RunLayout;
 use crate::record::TickRecord;
 use crate::ros2::{self, DiagnosticArray, Header, JointState, Time};
@@ -234,7 +234,11 @@ impl Channels {
         bytes += self.buffer.len();
 
         if let Some(signals) = &self.signals {
-            json::encode_json(&Signals { layout, record }, SIGNALS_TOPIC, &mut self.buffer)?;
+            json::encode_json(
+                &SignalsMessage { layout, record },
+                SIGNALS_TOPIC,
+                &mut self.buffer,
+            )?;
             signals.log_with_meta(&self.buffer, meta);
             bytes += self.buffer.len();
         }

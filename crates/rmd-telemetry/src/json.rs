@@ -96,12 +96,12 @@ impl LoopTimingMessage {
 }
 
 /// `/signals`: `{ "<signal>": value, ... }`.
-pub(crate) struct Signals<'a> {
+pub(crate) struct SignalsMessage<'a> {
     pub(crate) layout: &'a RunLayout,
     pub(crate) record: &'a TickRecord,
 }
 
-impl Serialize for Signals<'_> {
+impl Serialize for SignalsMessage<'_> {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let names = self.layout.signals();
         let mut map = serializer.serialize_map(Some(names.len()))?;
@@ -265,7 +265,7 @@ mod tests {
         record.timing.work_us = 42.0;
         let mut out = Vec::new();
         encode_json(
-            &Signals {
+            &SignalsMessage {
                 layout: &layout,
                 record: &record,
             },
