@@ -44,7 +44,7 @@ pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList<'_>) {
     });
     if search == Search::First {
         for (dir, frame) in dirs.into_iter().zip(frames.iter()) {
-            let mut sink = Sink {
+            let mut sink = CandidateSink {
                 out: &mut *out,
                 dir,
                 search,
@@ -59,7 +59,7 @@ pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList<'_>) {
     } else {
         // Closed forms first: with `Fastest` they bound the quartics' search.
         for (dir, frame) in dirs.into_iter().zip(frames.iter()) {
-            let mut sink = Sink {
+            let mut sink = CandidateSink {
                 out: &mut *out,
                 dir,
                 search,
@@ -68,7 +68,7 @@ pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList<'_>) {
             sink.run(frame, acc0_acc1);
         }
         for (dir, frame) in dirs.into_iter().zip(frames.iter()) {
-            let mut sink = Sink {
+            let mut sink = CandidateSink {
                 out: &mut *out,
                 dir,
                 search,
@@ -79,7 +79,7 @@ pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList<'_>) {
     if out.n == 0 {
         // Degenerate shapes where the general equations are 0/0.
         for (dir, frame) in dirs.into_iter().zip(frames.iter()) {
-            let mut sink = Sink {
+            let mut sink = CandidateSink {
                 out: &mut *out,
                 dir,
                 search: Search::First,
@@ -92,13 +92,13 @@ pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList<'_>) {
 }
 
 /// Receives candidates in a frame and stores them in the caller's frame.
-pub(crate) struct Sink<'a, 'b> {
+pub(crate) struct CandidateSink<'a, 'b> {
     pub(crate) out: &'a mut CandList<'b>,
     pub(crate) dir: Direction,
     pub(crate) search: Search,
 }
 
-impl Sink<'_, '_> {
+impl CandidateSink<'_, '_> {
     /// The duration a new candidate must beat to matter (`Fastest`), else +∞.
     pub(crate) fn bound(&self) -> f64 {
         if self.search == Search::Fastest {
@@ -155,7 +155,11 @@ impl Sink<'_, '_> {
     }
 
     /// Runs a type solver; true when the search should stop.
-    pub(crate) fn run(&mut self, pb: &Problem, f: fn(&Problem, &mut Sink<'_, '_>) -> bool) -> bool {
+    pub(crate) fn run(
+        &mut self,
+        pb: &Problem,
+        f: fn(&Problem, &mut CandidateSink<'_, '_>) -> bool,
+    ) -> bool {
         f(pb, self)
     }
 }
@@ -232,7 +236,7 @@ pub(crate) fn fall_from(
 }
 
 /// Cruise at `v_max` between two velocity changes.
-fn cruise(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
+fn cruise(pb: &Problem, sink: &mut CandidateSink<'_, '_>) -> bool {
     if !(pb.v_max > 0.0) {
         return false;
     }
@@ -265,7 +269,7 @@ fn cruise(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
 }
 
 /// Both acceleration plateaus, no cruise: quadratic in the first plateau's duration.
-fn acc0_acc1(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
+fn acc0_acc1(pb: &Problem, sink: &mut CandidateSink<'_, '_>) -> bool {
     let Problem {
         d,
         v0,
@@ -422,7 +426,7 @@ fn split_by_square(
 }
 
 /// `None`, `Acc0` and `Acc1` types: quartics.
-fn quartic_types(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
+fn quartic_types(pb: &Problem, sink: &mut CandidateSink<'_, '_>) -> bool {
     none_type(pb, sink) || acc0_type(pb, sink) || acc1_type(pb, sink)
 }
 
@@ -430,7 +434,7 @@ fn quartic_types(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
 /// acceleration change τ = j·t (its duration t); u = (τ + K/τ)/2, w = (K/τ − τ)/2 with
 /// K = u² − w². The quartics of the three types are written in τ (acceleration units), which
 /// makes their coefficients free of divisions.
-fn none_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
+fn none_type(pb: &Problem, sink: &mut CandidateSink<'_, '_>) -> bool {
     let Problem {
         d,
         v0,
@@ -495,7 +499,7 @@ fn none_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
 
 /// Plateau at `a_max` in phase 1, no cruise, no second plateau. Variable: the acceleration
 /// change τ = j·t of the ramp from `a_max` down to w = a_max − τ.
-fn acc0_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
+fn acc0_type(pb: &Problem, sink: &mut CandidateSink<'_, '_>) -> bool {
     let Problem {
         d,
         v0,
@@ -568,7 +572,7 @@ fn acc0_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
 
 /// Plateau at `a_min` in phase 5, no cruise, no first plateau. Variable: the acceleration
 /// change τ = j·t of the first ramp, u = a0 + τ.
-fn acc1_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
+fn acc1_type(pb: &Problem, sink: &mut CandidateSink<'_, '_>) -> bool {
     let Problem {
         d,
         v0,
@@ -651,7 +655,7 @@ fn acc1_type(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
 }
 
 /// Shapes where the general equations degenerate: a single ramp, or two ramps.
-fn degenerate(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
+fn degenerate(pb: &Problem, sink: &mut CandidateSink<'_, '_>) -> bool {
     let Problem {
         v0, a0, vf, af, j, ..
     } = *pb;

@@ -7,7 +7,7 @@
 
 use crate::cand::{Cand, CandList, Free, Problem, check, check_with};
 use crate::math::{abs, max, sqrt};
-use crate::position1::{Search, Sink};
+use crate::position1::{CandidateSink, Search};
 use crate::profile::{Direction, ProfileKind, ReachedLimits};
 
 const fn up_kind(limits: ReachedLimits) -> ProfileKind {
@@ -30,7 +30,7 @@ pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList<'_>) {
             Direction::Up => *pb,
             Direction::Down => pb.mirrored(),
         };
-        let mut sink = Sink {
+        let mut sink = CandidateSink {
             out: &mut *out,
             dir,
             search,
@@ -41,7 +41,7 @@ pub(crate) fn candidates(pb: &Problem, search: Search, out: &mut CandList<'_>) {
     }
 }
 
-fn up_profiles(pb: &Problem, sink: &mut Sink<'_, '_>) -> bool {
+fn up_profiles(pb: &Problem, sink: &mut CandidateSink<'_, '_>) -> bool {
     let Problem {
         v0,
         a0,
