@@ -4,7 +4,9 @@ use crate::block::{Block, make_block};
 use crate::brake::{Brake, position_brake, velocity_brake_for_velocity_interface};
 use crate::cand::{Cand, CandList, Free, MAX_CANDS, Problem, validate};
 use crate::error::TrajectoryError;
-use crate::input::{AxisInput, ControlInterface, DurationDiscretization, Options, Synchronization};
+use crate::input::{
+    AxisInput, ControlInterface, DurationDiscretization, Synchronization, TrajectoryOptions,
+};
 use crate::math::{Integrator, abs, fmod, max, snap_scale};
 use crate::position1::Search;
 use crate::position2::Pieces;
@@ -182,7 +184,7 @@ fn round_up(t: f64, period: f64) -> f64 {
 fn synchronize(
     plans: &[AxisPlan],
     axes_sync: &dyn Fn(usize) -> Synchronization,
-    opts: &Options,
+    opts: &TrajectoryOptions,
 ) -> Option<(f64, Option<(usize, Cand)>)> {
     let period = match opts.discretization {
         DurationDiscretization::Discrete { period } => Some(period),
@@ -300,7 +302,7 @@ fn phase_synchronize(
 /// The whole calculation over slices (one entry per axis).
 pub(crate) fn calculate(
     axes: &[AxisInput],
-    opts: &Options,
+    opts: &TrajectoryOptions,
     plans: &mut [AxisPlan],
     chosen: &mut [Option<Pieces>],
     out: &mut [AxisProfile],

@@ -142,8 +142,8 @@ impl<const N: usize> Input<N> {
     }
 
     /// The trajectory-wide options.
-    pub(crate) fn options(&self) -> Options {
-        Options {
+    pub(crate) fn options(&self) -> TrajectoryOptions {
+        TrajectoryOptions {
             control_interface: self.control_interface,
             synchronization: self.synchronization,
             discretization: self.duration_discretization,
@@ -163,14 +163,14 @@ impl<const N: usize> Input<N> {
 
 /// Trajectory-wide options, copied out of [`Input`].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Options {
+pub(crate) struct TrajectoryOptions {
     pub(crate) control_interface: ControlInterface,
     pub(crate) synchronization: Synchronization,
     pub(crate) discretization: DurationDiscretization,
     pub(crate) minimum_duration: Option<f64>,
 }
 
-impl Options {
+impl TrajectoryOptions {
     pub(crate) fn validate(&self) -> Result<(), TrajectoryError> {
         if let Some(t) = self.minimum_duration
             && !(t.is_finite() && t >= 0.0)
