@@ -421,7 +421,7 @@ impl LoopStats {
                 .motors
                 .iter()
                 .zip(&self.names)
-                .map(|(counters, name)| JointCounters {
+                .map(|(counters, name)| NamedMotorCounters {
                     joint: name.clone(),
                     counters: *counters,
                 })
@@ -431,9 +431,9 @@ impl LoopStats {
     }
 }
 
-/// One joint's counters, with its name.
+/// A motor's counters, with the name of its joint.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
-pub struct JointCounters {
+pub struct NamedMotorCounters {
     /// The joint's name.
     pub joint: String,
     /// Its motor's counters.
@@ -472,8 +472,8 @@ pub struct StatsSummary {
     pub work_us: Percentiles,
     /// What the loop adds per exchange (last reply to ready for the next frame), microseconds.
     pub loop_added_us: Percentiles,
-    /// Per-joint counters.
-    pub motors: Vec<JointCounters>,
+    /// Per-motor counters, each with its joint's name, in description order.
+    pub motors: Vec<NamedMotorCounters>,
     /// Per-bus counters.
     pub buses: Vec<BusCounters>,
 }
@@ -525,7 +525,7 @@ impl core::fmt::Display for StatsSummary {
                 self.unknown_joint_commands, self.unknown_signals
             )?;
         }
-        for JointCounters { joint, counters: m } in &self.motors {
+        for NamedMotorCounters { joint, counters: m } in &self.motors {
             writeln!(
                 f,
                 "{joint} (bus {} motor {}): missing {} late {} unexpected {} bad frames {} clamped {} rejected {} limited {} (longest gap {} ticks) status replies {} (missing {})",
