@@ -125,9 +125,9 @@ impl Default for NodeConfig {
     }
 }
 
-/// A configuration the node cannot run with.
+/// A [`NodeConfig`] the node cannot run with.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ConfigError {
+pub enum NodeConfigError {
     /// Not a valid ROS 2 namespace.
     #[error("namespace {0:?} is not a ROS 2 namespace: use \"/\" or \"/a/b\" (letters, digits, _)")]
     BadNamespace(String),
@@ -171,26 +171,26 @@ pub enum ConfigError {
 
 impl NodeConfig {
     /// The `joint_states` period, or why the rate is invalid.
-    pub fn joint_state_period(&self) -> Result<Duration, ConfigError> {
+    pub fn joint_state_period(&self) -> Result<Duration, NodeConfigError> {
         let hz = self.joint_state_rate_hz;
         if hz.is_finite() && hz > 0.0 && hz <= 10_000.0 {
             Ok(Duration::from_secs_f64(1.0 / hz))
         } else {
-            Err(ConfigError::BadRate(hz))
+            Err(NodeConfigError::BadRate(hz))
         }
     }
 
     /// Checks everything that can be checked without DDS.
-    pub fn check(&self) -> Result<(), ConfigError> {
+    pub fn check(&self) -> Result<(), NodeConfigError> {
         self.joint_state_period()?;
         if self.domain_id > 232 {
-            return Err(ConfigError::BadDomain(self.domain_id));
+            return Err(NodeConfigError::BadDomain(self.domain_id));
         }
         if self.diagnostics_period.is_zero() {
-            return Err(ConfigError::BadDiagnosticsPeriod);
+            return Err(NodeConfigError::BadDiagnosticsPeriod);
         }
         if self.acknowledge_within.is_zero() {
-            return Err(ConfigError::BadAcknowledgePeriod);
+            return Err(NodeConfigError::BadAcknowledgePeriod);
         }
         let l = &self.input_limits;
         for (value, name) in [
@@ -200,7 +200,7 @@ impl NodeConfig {
             (l.max_sample_bytes, "max_sample_bytes"),
         ] {
             if value == 0 {
-                return Err(ConfigError::ZeroInputLimit(name));
+                return Err(NodeConfigError::ZeroInputLimit(name));
             }
         }
         if let Some(address) = self.network {
@@ -220,24 +220,24 @@ impl NodeConfig {
         Ok(())
     }
 
-    pub(crate) fn node_name(&self) -> Result<ros2_client::NodeName, ConfigError> {
+    pub(crate) fn node_name(&self) -> Result<ros2_client::NodeName, NodeConfigError> {
         let ns_ok = self.namespace == "/"
             || (self.namespace.starts_with('/')
                 && self.namespace[1..].split('/').all(is_name_token));
         if !ns_ok {
-            return Err(ConfigError::BadNamespace(self.namespace.clone()));
+            return Err(NodeConfigError::BadNamespace(self.namespace.clone()));
         }
         if !is_name_token(&self.node_name) {
-            return Err(ConfigError::BadNodeName(self.node_name.clone()));
+            return Err(NodeConfigError::BadNodeName(self.node_name.clone()));
         }
         ros2_client::NodeName::new(&self.namespace, &self.node_name)
-            .map_err(|_| ConfigError::BadNodeName(self.node_name.clone()))
+            .map_err(|_| NodeConfigError::BadNodeName(self.node_name.clone()))
     }
 
     /// The absolute name of a topic (ROS 2 resolution against the namespace), e.g.
     /// `joint_states` in `/leg` is `/leg/joint_states`. The DDS topic is this with `rt`
     /// in front: `rt/leg/joint_states`.
-    pub fn resolve_topic(&self, topic: &str) -> Result<String, ConfigError> {
+    pub fn resolve_topic(&self, topic: &str) -> Result<String, NodeConfigError> {
         let absolute = if topic.starts_with('/') {
             topic.to_owned()
         } else if self.namespace == "/" {
@@ -248,19 +248,19 @@ impl NodeConfig {
         if absolute[1..].split('/').all(is_name_token) {
             Ok(absolute)
         } else {
-            Err(ConfigError::BadTopic(topic.to_owned()))
+            Err(NodeConfigError::BadTopic(topic.to_owned()))
         }
     }
 }
 
 /// The address is IPv4 and one of this host's: a UDP socket can be bound to it.
-fn check_local(address: IpAddr) -> Result<(), ConfigError> {
+fn check_local(address: IpAddr) -> Result<(), NodeConfigError> {
     if address.is_ipv6() {
-        return Err(ConfigError::Ipv6Network(address));
+        return Err(NodeConfigError::Ipv6Network(address));
     }
     std::net::UdpSocket::bind((address, 0))
         .map(drop)
-        .map_err(|e| ConfigError::NotLocal {
+        .map_err(|e| NodeConfigError::NotLocal {
             address,
             reason: e.to_string(),
         })
@@ -299,7 +299,7 @@ mod tests {
         for bad in ["", "/", "a//b", "1abc", "a b", "a__b", "x/"] {
             assert_eq!(
                 leg.resolve_topic(bad),
-                Err(ConfigError::BadTopic(bad.into())),
+                Err(NodeConfigError::BadTopic(bad.into())),
                 "{bad:?}"
             );
         }
@@ -317,37 +317,37 @@ mod tests {
         };
         assert_eq!(
             with(&|c| c.namespace = "leg".into()),
-            Err(ConfigError::BadNamespace("leg".into()))
+            Err(NodeConfigError::BadNamespace("leg".into()))
         );
         assert_eq!(
             with(&|c| c.namespace = "/leg/".into()),
-            Err(ConfigError::BadNamespace("/leg/".into()))
+            Err(NodeConfigError::BadNamespace("/leg/".into()))
         );
         assert!(with(&|c| c.namespace = "/leg/front_1".into()).is_ok());
         assert_eq!(
             with(&|c| c.node_name = "my-node".into()),
-            Err(ConfigError::BadNodeName("my-node".into()))
+            Err(NodeConfigError::BadNodeName("my-node".into()))
         );
         assert_eq!(
             with(&|c| c.domain_id = 233),
-            Err(ConfigError::BadDomain(233))
+            Err(NodeConfigError::BadDomain(233))
         );
         assert_eq!(
             with(&|c| c.joint_state_rate_hz = 0.0),
-            Err(ConfigError::BadRate(0.0))
+            Err(NodeConfigError::BadRate(0.0))
         );
         assert!(with(&|c| c.joint_state_rate_hz = f64::NAN).is_err());
         assert_eq!(
             with(&|c| c.diagnostics_period = Duration::ZERO),
-            Err(ConfigError::BadDiagnosticsPeriod)
+            Err(NodeConfigError::BadDiagnosticsPeriod)
         );
         assert_eq!(
             with(&|c| c.topics.enable = "e-stop".into()),
-            Err(ConfigError::BadTopic("e-stop".into()))
+            Err(NodeConfigError::BadTopic("e-stop".into()))
         );
         assert_eq!(
             with(&|c| c.acknowledge_within = Duration::ZERO),
-            Err(ConfigError::BadAcknowledgePeriod)
+            Err(NodeConfigError::BadAcknowledgePeriod)
         );
     }
 
@@ -364,7 +364,7 @@ mod tests {
         // TEST-NET-1 (RFC 5737): never an address of a host. Only bound to, never sent to.
         let err = with("192.0.2.1").unwrap_err();
         assert!(
-            matches!(err, ConfigError::NotLocal { address, .. } if address.to_string() == "192.0.2.1"),
+            matches!(err, NodeConfigError::NotLocal { address, .. } if address.to_string() == "192.0.2.1"),
             "{err:?}"
         );
         assert!(
@@ -373,7 +373,7 @@ mod tests {
         );
         assert_eq!(
             with("::1"),
-            Err(ConfigError::Ipv6Network("::1".parse().unwrap()))
+            Err(NodeConfigError::Ipv6Network("::1".parse().unwrap()))
         );
     }
 }

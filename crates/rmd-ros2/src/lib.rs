@@ -49,7 +49,7 @@ pub mod servo;
 mod stats;
 mod validate;
 
-pub use config::{ConfigError, InputLimits, NodeConfig, TopicNames};
+pub use config::{InputLimits, NodeConfig, NodeConfigError, TopicNames};
 pub use inbound::Oversize;
 pub use kind::RejectionKind;
 pub use node::{DdsNames, NodeError, Ros2Node};

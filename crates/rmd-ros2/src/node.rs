@@ -14,7 +14,7 @@ use ros2_client::{MessageTypeName, Name, NodeOptions, QosProfile};
 use serde::Serialize;
 
 use crate::config::InputLimits;
-use crate::config::{ConfigError, NodeConfig};
+use crate::config::{NodeConfig, NodeConfigError};
 use crate::diagnostics::diagnostic_array;
 use crate::inbound::{Inbound, InboundSeed, excerpt};
 use crate::kind::RejectionKind;
@@ -29,7 +29,7 @@ use crate::validate::Validator;
 pub enum NodeError {
     /// The configuration is invalid.
     #[error("invalid node configuration: {0}")]
-    Config(#[from] ConfigError),
+    Config(#[from] NodeConfigError),
     /// DDS could not create the participant, a topic, a reader or a writer.
     #[error("DDS setup failed ({what}): {reason}; check the domain id and the network interfaces")]
     Dds {
@@ -227,7 +227,7 @@ fn topic<M: RosMessage>(
     qos: &QosProfile,
 ) -> Result<ros2_client::dds::rustdds::Topic, NodeError> {
     let resolved = config.resolve_topic(name)?;
-    let name = Name::parse(&resolved).map_err(|_| ConfigError::BadTopic(name.to_owned()))?;
+    let name = Name::parse(&resolved).map_err(|_| NodeConfigError::BadTopic(name.to_owned()))?;
     node.create_topic(&name, MessageTypeName::new(M::PACKAGE, M::NAME), qos)
         .map_err(|e| dds_error(format!("topic {resolved}"))(&e))
 }
