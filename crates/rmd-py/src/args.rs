@@ -5,25 +5,21 @@
 use std::time::Duration;
 
 use pyo3::PyResult;
-use rmd_protocol::{Dialect, EncoderWidth, LkSeries, ProtocolFamily};
+use rmd_protocol::{Dialect, EncoderWidth, LkSeries, ProtocolFamily, V3Firmware};
 
 use crate::errors::ArgumentError;
 
-/// The dialect of `protocol` (`"v1.61"` or `"lk-v2.3x"`) and `lk_series` (`"mf"` / `"mg"`,
-/// required with `"lk-v2.3x"` only).
+/// The dialect of `protocol` (`"v1.61"`, `"lk-v2.3x"` or `"myactuator-v3"`) and `lk_series`
+/// (`"mf"` / `"mg"`, required with `"lk-v2.3x"` only). A MyActuator V3 dialect's firmware date
+/// is unknown: its motion-mode ranges are not used here.
 pub(crate) fn dialect(protocol: &str, lk_series: Option<&str>) -> Result<Dialect, String> {
     let family = match protocol.trim().parse::<ProtocolFamily>() {
-        Ok(family @ (ProtocolFamily::V161 | ProtocolFamily::LkV23x)) => family,
-        Ok(ProtocolFamily::MyActuatorV3) => {
-            return Err(
-                "rmd-rt does not speak myactuator-v3 (its 0x280 frame is a command to every \
-                 motor, not torque): expected v1.61 or lk-v2.3x"
-                    .to_owned(),
-            );
-        }
+        Ok(
+            family @ (ProtocolFamily::V161 | ProtocolFamily::LkV23x | ProtocolFamily::MyActuatorV3),
+        ) => family,
         _ => {
             return Err(format!(
-                "unknown protocol `{protocol}`: expected v1.61 or lk-v2.3x"
+                "unknown protocol `{protocol}`: expected v1.61, lk-v2.3x or myactuator-v3"
             ));
         }
     };
@@ -47,6 +43,7 @@ pub(crate) fn dialect(protocol: &str, lk_series: Option<&str>) -> Result<Dialect
             "lk_series=\"{}\" applies to LK-TECH motors: add protocol=\"lk-v2.3x\"",
             series.name()
         )),
+        (ProtocolFamily::MyActuatorV3, None) => Ok(Dialect::MyActuatorV3(V3Firmware::default())),
         (_, None) => Ok(Dialect::V161),
     }
 }

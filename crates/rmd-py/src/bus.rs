@@ -94,7 +94,7 @@ fn exchange_error(error: ExchangeError) -> PyErr {
         ExchangeError::NoReply { .. } => NoReplyError::new_err(error.to_string()),
         ExchangeError::Bus(_)
         | ExchangeError::BusOff { .. }
-        | ExchangeError::V3 { .. }
+        | ExchangeError::OtherFamily { .. }
         | ExchangeError::NotARequest(_)
         | ExchangeError::Interrupted => BusError::new_err(error.to_string()),
     }
@@ -241,7 +241,10 @@ impl NativeBus {
             }
             let replies = replies.map_err(exchange_error)?;
             match replies {
-                Replies::One(motor, reply) => reply_dict(py, motor.can_id(), &reply, self.width),
+                Replies::One(motor, reply) => {
+                    let can_id = self.policy.dialect.reply_id(motor);
+                    reply_dict(py, can_id, &reply, self.width)
+                }
                 Replies::Multi(replies) => {
                     let list = PyList::empty(py);
                     for (k, reply) in replies.iter().enumerate() {

@@ -1,19 +1,22 @@
 //! One request, its reply: the waiting of `Bus.request`, without Python.
 //!
 //! Whatever is queued is dropped first (stale replies), the request is sent, and replies are
-//! awaited until the timeout: a reply of the motor to that command ends the wait; frames of
-//! other motors are ignored; a reply to another command, or a malformed one, is remembered and
-//! reported if no good reply comes; an answer on `0x240 + id` (MyActuator V3 firmware, which
-//! rmd-rt does not drive) is its own error. After a timeout the request is sent again, up to
-//! `retries` times. Bus-off ends the exchange at once, and so does the caller's `interrupted`
-//! (asked at least every [`SIGNAL_CHECK`] of the bus clock while waiting: Ctrl-C).
+//! awaited until the timeout: a reply of the motor to that command, on its family's reply
+//! identifier (`0x140 + id` for v1.61 and LK-TECH, `0x240 + id` for MyActuator V3), ends the
+//! wait; frames of other motors are ignored; a reply to another command, or a malformed one, is
+//! remembered and reported if no good reply comes; an answer on the other families' identifier
+//! is a motor of another family than the bus was opened for, its own error. After a timeout the
+//! request is sent again, up to `retries` times. Bus-off ends the exchange at once, and so does
+//! the caller's `interrupted` (asked at least every [`SIGNAL_CHECK`] of the bus clock while
+//! waiting: Ctrl-C). A 0x280 frame is exchanged only where it is torque (v1.61, LK-TECH: the
+//! codec refuses to build one for MyActuator V3).
 
 use std::time::Duration;
 
 use rmd_bus::{BusError, BusEvent, BusMessage, CanBus, CanFrame, Clock, Received, Timestamp};
 use rmd_protocol::{
     Command, Dialect, FIRST_MOTOR_CAN_ID, MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS, MotorId, Reply,
-    V3_REPLY_BASE_ID,
+    SINGLE_MOTOR_BASE_ID, V3_REPLY_BASE_ID,
 };
 
 use crate::wait::SIGNAL_CHECK;
@@ -65,16 +68,21 @@ pub(crate) enum ExchangeError {
         /// The last unreadable answer, if any.
         last: Option<String>,
     },
-    /// A MyActuator V3 motor answered.
+    /// A motor answered on another family's reply identifier.
     #[error(
-        "motor {motor} answered on 0x{can_id:03X}: it runs MyActuator V3 firmware, which rmd-rt \
-         does not drive (its 0x280 frame is not a torque command)"
+        "motor {motor} answered on 0x{can_id:03X}, as {other} firmware does, but the bus speaks \
+         {dialect}: open it with protocol=\"{other_name}\"{lk}",
+        other = if *can_id >= V3_REPLY_BASE_ID { "MyActuator V3" } else { "v1.61 or LK-TECH" },
+        other_name = if *can_id >= V3_REPLY_BASE_ID { "myactuator-v3" } else { "v1.61" },
+        lk = if *can_id >= V3_REPLY_BASE_ID { "" } else { " (or \"lk-v2.3x\" with lk_series)" }
     )]
-    V3 {
+    OtherFamily {
         /// The motor.
         motor: MotorId,
         /// Where it answered.
         can_id: u16,
+        /// The bus's dialect.
+        dialect: Dialect,
     },
     /// The frame is not a request to a motor.
     #[error("0x{0:03X} is not a request to a motor (0x141..=0x160 or 0x280)")]
@@ -92,6 +100,15 @@ pub(crate) enum Replies {
     One(MotorId, Reply),
     /// Replies of motors 1..=4, in order.
     Multi([Option<Reply>; MULTI_TORQUE_MOTORS]),
+}
+
+/// The identifier `motor` would answer on in the other families than `dialect`'s: `0x240 + id`
+/// for a v1.61 or LK-TECH bus, `0x140 + id` for a MyActuator V3 one.
+fn other_family_reply_id(dialect: Dialect, motor: MotorId) -> u16 {
+    match dialect {
+        Dialect::V161 | Dialect::LkV23x(_) => V3_REPLY_BASE_ID + u16::from(motor.get()),
+        Dialect::MyActuatorV3(_) => SINGLE_MOTOR_BASE_ID + u16::from(motor.get()),
+    }
 }
 
 /// Drops whatever is queued.
@@ -160,13 +177,14 @@ pub(crate) fn exchange(
                 }
                 BusMessage::Event(_) => continue,
             };
-            if reply.id() == V3_REPLY_BASE_ID + u16::from(motor.get()) {
-                return Err(ExchangeError::V3 {
+            if reply.id() == other_family_reply_id(policy.dialect, motor) {
+                return Err(ExchangeError::OtherFamily {
                     motor,
                     can_id: reply.id(),
+                    dialect: policy.dialect,
                 });
             }
-            if reply.id() != frame.id() {
+            if reply.id() != policy.dialect.reply_id(motor) {
                 continue;
             }
             match policy.dialect.decode_reply_to(&reply, command) {

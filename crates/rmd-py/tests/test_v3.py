@@ -66,3 +66,22 @@ def test_a_v3_leg_in_motion_mode_runs_the_servos_law_in_its_motors(tmp_path):
         report = loop.stop()
     assert report["normal_stop"], report["stop_reason"]
     assert loop.simulator().all_safe()
+
+
+def test_a_bus_of_v3_motors_speaks_their_protocol_by_the_ground_truth():
+    bus = rmd_rt.Bus.simulated([1, 2], virtual_time=True, protocol="myactuator-v3")
+    reply = bus.read_status_1(2)
+    assert (reply["id"], reply["can_id"], reply["command"]) == (2, "0x242", "read-status-1")
+    # V3's torque command: 0.01 A per unit (V4.3 §2.19), answered on 0x240 + id.
+    assert rmd_rt.encode("torque", id=1, amps=1.0, protocol="myactuator-v3") == "141#A100000064000000"
+    reply = bus.torque(1, amps=1.0)
+    assert (reply["can_id"], reply["command"]) == ("0x241", "torque")
+    motor = [m for m in bus.simulator().motors() if m["id"] == 1][0]
+    assert motor["mode"] == "torque" and motor["energising"], motor
+    bus.motor_off(1)
+    motor = [m for m in bus.simulator().motors() if m["id"] == 1][0]
+    assert motor["mode"] == "off" and motor["safe"], motor
+    # A 0x280 frame is one command to every V3 motor, never torque: refused before sending.
+    with pytest.raises(rmd_rt.ProtocolError, match="0x280 .* not part of protocol myactuator-v3"):
+        bus.multi_torque(amps=[0.5, 0.5, 0.0, 0.0])
+    assert all(m["safe"] for m in bus.simulator().motors())

@@ -58,8 +58,9 @@ class Bus:
         retries: int = 2,
     ) -> "Bus":
         """Opens the SocketCAN interface ``iface`` (``"can0"``; it must be up at the motors'
-        bit rate). ``protocol`` is ``"v1.61"`` (GYEMS / MyActuator RMD) or ``"lk-v2.3x"``
-        (LK-TECH, with ``lk_series="mf"`` or ``"mg"``); ``encoder_bits`` the motors' encoder
+        bit rate). ``protocol`` is ``"v1.61"`` (GYEMS / MyActuator RMD), ``"lk-v2.3x"``
+        (LK-TECH, with ``lk_series="mf"`` or ``"mg"``) or ``"myactuator-v3"`` (MyActuator V3
+        firmware: replies on 0x240 + id, no 0x280 torque frame); ``encoder_bits`` the motors' encoder
         width (12..=18); ``timeout_s`` the wait for each reply; ``retries`` how often a
         request is sent again after a timeout."""
         native = _native.NativeBus.socketcan(
