@@ -24,7 +24,7 @@ use clap::{CommandFactory, FromArgMatches};
 #[command(name = "rmd", version, propagate_version = true)]
 pub(crate) struct Cli {
     #[command(subcommand)]
-    command: cmd::Command,
+    command: cmd::CliCommand,
 }
 
 /// `rmd`'s command line as clap builds it: [`Cli`] with an example in every command's help.

@@ -1,6 +1,6 @@
 //! The subcommands of `rmd`, one module (or folder) each, with its clap `Args` and a `run`
 //! function returning the exit code. To add a subcommand: a module here, a variant in
-//! [`Command`], a line in [`Command::run`].
+//! [`CliCommand`], a line in [`CliCommand::run`].
 
 mod accel;
 mod bench;
@@ -31,7 +31,7 @@ use clap::Subcommand;
 
 /// The subcommands.
 #[derive(Subcommand, Debug)]
-pub(crate) enum Command {
+pub(crate) enum CliCommand {
     /// Encode one command as a CAN frame, printed as candump's compact `ID#DATA`.
     Encode(encode::EncodeArgs),
     /// Decode frames (candump compact, -L log or default text) into JSON lines.
@@ -83,34 +83,34 @@ pub(crate) enum Command {
     Completions(completions::CompletionsArgs),
 }
 
-impl Command {
+impl CliCommand {
     /// Runs the subcommand.
     pub(crate) fn run(self) -> ExitCode {
         match self {
-            Command::Encode(args) => encode::run(args),
-            Command::Drill(args) => drill::run(args),
-            Command::Decode(args) => decode::run(args),
-            Command::Sim(args) => sim::run(args),
-            Command::Scan(args) => scan::run(args),
-            Command::Status(args) => status::run(args),
-            Command::Pid(args) => pid::run(args),
-            Command::Accel(args) => accel::run(args),
-            Command::Encoder(args) => encoder::run(args),
-            Command::Zero(args) => zero::run(args),
-            Command::Off(args) => power::run(power::Action::Off, args),
-            Command::Stop(args) => power::run(power::Action::Stop, args),
-            Command::Run(args) => power::run(power::Action::Run, args),
-            Command::Watchdog(args) => watchdog::run(args),
-            Command::Move(args) => motion::run(args),
-            Command::Torque(args) => drive::run_torque(args),
-            Command::Speed(args) => drive::run_speed(args),
-            Command::Monitor(args) => monitor::run(args),
-            Command::Log(args) => log::run(args),
-            Command::Replay(args) => replay::run(args),
-            Command::Bench(args) => bench::run(args),
-            Command::Ros2(args) => ros2::run(args),
-            Command::Traj(args) => traj::run(args),
-            Command::Completions(args) => completions::run(args),
+            CliCommand::Encode(args) => encode::run(args),
+            CliCommand::Drill(args) => drill::run(args),
+            CliCommand::Decode(args) => decode::run(args),
+            CliCommand::Sim(args) => sim::run(args),
+            CliCommand::Scan(args) => scan::run(args),
+            CliCommand::Status(args) => status::run(args),
+            CliCommand::Pid(args) => pid::run(args),
+            CliCommand::Accel(args) => accel::run(args),
+            CliCommand::Encoder(args) => encoder::run(args),
+            CliCommand::Zero(args) => zero::run(args),
+            CliCommand::Off(args) => power::run(power::Action::Off, args),
+            CliCommand::Stop(args) => power::run(power::Action::Stop, args),
+            CliCommand::Run(args) => power::run(power::Action::Run, args),
+            CliCommand::Watchdog(args) => watchdog::run(args),
+            CliCommand::Move(args) => motion::run(args),
+            CliCommand::Torque(args) => drive::run_torque(args),
+            CliCommand::Speed(args) => drive::run_speed(args),
+            CliCommand::Monitor(args) => monitor::run(args),
+            CliCommand::Log(args) => log::run(args),
+            CliCommand::Replay(args) => replay::run(args),
+            CliCommand::Bench(args) => bench::run(args),
+            CliCommand::Ros2(args) => ros2::run(args),
+            CliCommand::Traj(args) => traj::run(args),
+            CliCommand::Completions(args) => completions::run(args),
         }
     }
 }
