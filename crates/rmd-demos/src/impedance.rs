@@ -84,7 +84,7 @@ impl LegState {
 
 /// What the impedance law computed in one tick.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub struct Output {
+pub struct ImpedanceOutput {
     /// Joint torques to command, N*m.
     pub torque: Vector4<f64>,
     /// The foot's task coordinates (m, rad).
@@ -95,7 +95,7 @@ pub struct Output {
     pub beyond_limit: Option<usize>,
 }
 
-impl Output {
+impl ImpedanceOutput {
     /// Distance from the foot to `target` in x, y, z, m.
     pub fn position_error_m(&self, target: &Vector4<f64>) -> f64 {
         (target - self.foot).fixed_rows::<3>(0).norm()
@@ -109,7 +109,7 @@ pub fn impedance(
     joints: &LegState,
     target: &Vector4<f64>,
     target_velocity: &Vector4<f64>,
-) -> Output {
+) -> ImpedanceOutput {
     let (foot, jacobian): (Vector4<f64>, Matrix4<f64>) = model.foot_and_jacobian(&joints.q);
     let foot_velocity = jacobian * joints.qd;
     let force = gains.stiffness.component_mul(&(target - foot))
@@ -138,7 +138,7 @@ pub fn impedance(
             torque[i] -= gains.limit_stiffness * into_high;
         }
     }
-    Output {
+    ImpedanceOutput {
         torque,
         foot,
         foot_velocity,
