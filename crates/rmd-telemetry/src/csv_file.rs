@@ -6,7 +6,7 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 
 use crate::layout::RunLayout;
-use crate::output::{Output, Units};
+use crate::output::{SealableOutput, Units};
 use crate::record::TickRecord;
 use crate::sink::{Sink, SinkError};
 
@@ -50,8 +50,8 @@ const LOOP_COLUMNS: [&str; 4] = [
 pub struct CsvSink {
     name: String,
     path: PathBuf,
-    writer: csv::Writer<Output>,
-    output: Output,
+    writer: csv::Writer<SealableOutput>,
+    output: SealableOutput,
     /// Line breaks of the header row (a name may hold one, quoted).
     header_lines: u64,
     /// Rows accepted.
@@ -74,7 +74,7 @@ impl CsvSink {
         let path = path.as_ref().to_owned();
         let file = File::create(&path)
             .map_err(|e| SinkError::io(format!("creating {}", path.display()), e))?;
-        let output = Output::file(file, Units::Lines);
+        let output = SealableOutput::file(file, Units::Lines);
         // The csv writer buffers (8 KiB) and writes whole buffers: the output marks row ends.
         let mut writer = csv::Writer::from_writer(output.clone());
         let mut header = vec!["time_s".to_owned(), "tick".to_owned()];

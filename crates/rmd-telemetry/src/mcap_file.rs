@@ -11,7 +11,7 @@ use foxglove::{Context, McapCompression, McapWriteOptions, McapWriterHandle};
 
 use crate::channels::Channels;
 use crate::layout::RunLayout;
-use crate::output::{Output, Units};
+use crate::output::{SealableOutput, Units};
 use crate::record::TickRecord;
 use crate::sink::{Sink, SinkError};
 
@@ -87,8 +87,8 @@ pub struct McapSink {
     name: String,
     path: PathBuf,
     channels: Channels,
-    writer: Option<McapWriterHandle<Output>>,
-    output: Output,
+    writer: Option<McapWriterHandle<SealableOutput>>,
+    output: SealableOutput,
     // Keeps the channels' context alive as long as the sink.
     _context: Arc<Context>,
     chunk_size: u64,
@@ -118,7 +118,12 @@ impl McapSink {
         let path = path.as_ref().to_owned();
         let file = File::create(&path)
             .map_err(|e| SinkError::io(format!("creating {}", path.display()), e))?;
-        Self::with_output(Output::file(file, Units::Marked), path, layout, options)
+        Self::with_output(
+            SealableOutput::file(file, Units::Marked),
+            path,
+            layout,
+            options,
+        )
     }
 
     /// Writes the MCAP stream to `writer` (a buffer, a pipe with seeking, a custom file) instead
@@ -135,7 +140,7 @@ impl McapSink {
         options: McapOptions,
     ) -> Result<Self, SinkError> {
         Self::with_output(
-            Output::writer(Box::new(writer), Units::Marked),
+            SealableOutput::writer(Box::new(writer), Units::Marked),
             label.into(),
             layout,
             options,
@@ -143,7 +148,7 @@ impl McapSink {
     }
 
     fn with_output(
-        output: Output,
+        output: SealableOutput,
         path: PathBuf,
         layout: &RunLayout,
         options: McapOptions,

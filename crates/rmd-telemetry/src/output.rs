@@ -1,8 +1,8 @@
 //! A sink's output, known readable up to a mark: every byte a file sink writes goes through
-//! [`Output`], which remembers where the last complete unit (an MCAP chunk with its index, a CSV
-//! row) ends. When a write fails (a full disk, a revoked device), the sink cuts the output back
-//! to that mark and ends it properly ([`Output::seal`]): what it holds stays readable, and the
-//! sink knows exactly which records that is.
+//! [`SealableOutput`], which remembers where the last complete unit (an MCAP chunk with its
+//! index, a CSV row) ends. When a write fails (a full disk, a revoked device), the sink cuts the
+//! output back to that mark and ends it properly ([`SealableOutput::seal`]): what it holds stays
+//! readable, and the sink knows exactly which records that is.
 //!
 //! Invariants: `mark <= position`; bytes before `mark` are complete units; once sealed, nothing
 //! more reaches the target (every write fails), so no buffered remainder lands after the seal.
@@ -35,7 +35,7 @@ impl<T: Write + Seek + ?Sized> WriteSeek for T {}
 /// How the mark moves.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub(crate) enum Units {
-    /// Only where the sink says ([`Output::mark_here`]): after a flush that ended an MCAP chunk.
+    /// Only where the sink says ([`SealableOutput::mark_here`]): after a flush that ended an MCAP chunk.
     Marked,
     /// After every line break that reached the target (a CSV file: one row per line).
     Lines,
@@ -60,9 +60,9 @@ struct State {
 /// The shared handle on an output: one for the writer that fills it (a `Write + Seek`), one for
 /// the sink that marks and seals it.
 #[derive(Clone)]
-pub(crate) struct Output(Arc<Mutex<State>>);
+pub(crate) struct SealableOutput(Arc<Mutex<State>>);
 
-impl Output {
+impl SealableOutput {
     fn new(target: Target, units: Units) -> Self {
         Self(Arc::new(Mutex::new(State {
             target,
@@ -145,7 +145,7 @@ fn sealed_error() -> io::Error {
     io::Error::other("the output was ended after an earlier write error")
 }
 
-impl Write for Output {
+impl Write for SealableOutput {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
         let mut state = self.state();
         if state.sealed {
@@ -175,7 +175,7 @@ impl Write for Output {
     }
 }
 
-impl Seek for Output {
+impl Seek for SealableOutput {
     fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
         let mut state = self.state();
         if state.sealed {
@@ -221,7 +221,7 @@ mod tests {
     #[test]
     fn lines_mark_the_last_complete_row_and_the_seal_cuts_back_to_it() {
         let file = tempfile::tempfile().unwrap();
-        let mut output = Output::file(file.try_clone().unwrap(), Units::Lines);
+        let mut output = SealableOutput::file(file.try_clone().unwrap(), Units::Lines);
         output.write_all(b"a,b\n1,2\n3,").unwrap();
         assert_eq!(output.lines(), 2);
         output.seal(b"").unwrap();
@@ -239,7 +239,7 @@ mod tests {
             data: Cursor::new(Vec::new()),
             room: 10,
         };
-        let mut output = Output::writer(Box::new(room), Units::Marked);
+        let mut output = SealableOutput::writer(Box::new(room), Units::Marked);
         output.write_all(b"head").unwrap();
         output.mark_here();
         assert!(output.write_all(b"0123456789").is_err());
