@@ -16,7 +16,7 @@ use rmd_bus::{CanBus, MonotonicClock};
 use rmd_protocol::{Dialect, EncoderWidth};
 
 use crate::cmd::decode::mcap::McapFrames;
-use crate::cmd::decode::{Ended, Mode, Output, decode_all};
+use crate::cmd::decode::{DecodeOutput, Ended, Mode, decode_all};
 use crate::output::errln;
 use crate::output::report::CliError;
 
@@ -109,10 +109,10 @@ impl FramesMcap {
             Mode::Auto,
             self.width,
             dialect,
-            Output::Mcap(mcap),
+            DecodeOutput::Mcap(mcap),
         );
         let Ended::Done {
-            out: Output::Mcap(mcap),
+            out: DecodeOutput::Mcap(mcap),
             ..
         } = ended
         else {

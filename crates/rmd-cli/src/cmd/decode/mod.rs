@@ -123,18 +123,18 @@ enum Slot {
 }
 
 /// Where decoded frames go.
-pub(crate) enum Output<'a> {
+pub(crate) enum DecodeOutput<'a> {
     /// One JSON object per line on stdout.
     Json(BufWriter<StdoutLock<'a>>),
     /// An MCAP file.
     Mcap(McapFrames),
 }
 
-impl Output<'_> {
+impl DecodeOutput<'_> {
     fn write(&mut self, line: &CandumpLine, value: &Value) -> Result<(), WriteError> {
         match self {
-            Output::Json(out) => writeln!(out, "{value}").map_err(WriteError::from_io),
-            Output::Mcap(mcap) => mcap
+            DecodeOutput::Json(out) => writeln!(out, "{value}").map_err(WriteError::from_io),
+            DecodeOutput::Mcap(mcap) => mcap
                 .write(line, value)
                 .map_err(|e| WriteError::Failed(io::Error::other(e))),
         }
@@ -142,15 +142,15 @@ impl Output<'_> {
 
     fn flush(&mut self) -> Result<(), WriteError> {
         match self {
-            Output::Json(out) => out.flush().map_err(WriteError::from_io),
-            Output::Mcap(_) => Ok(()),
+            DecodeOutput::Json(out) => out.flush().map_err(WriteError::from_io),
+            DecodeOutput::Mcap(_) => Ok(()),
         }
     }
 }
 
 /// Prints decoded lines in input order as their roles are decided.
 pub(crate) struct Printer<'a> {
-    out: Output<'a>,
+    out: DecodeOutput<'a>,
     held: VecDeque<Held>,
     pairing: LookAhead,
     v3_pairing: V3Pairing,
@@ -242,11 +242,14 @@ impl Printer<'_> {
 /// How reading and decoding a whole input ended.
 pub(crate) enum Ended<'a> {
     /// Every line was read; `failed`: some line could not be decoded (reported on stderr).
-    Done { out: Output<'a>, failed: bool },
+    Done { out: DecodeOutput<'a>, failed: bool },
     /// Writing stopped on an error; `failed` as above.
     Write { error: WriteError, failed: bool },
     /// Reading failed at a line (what was decoded before is written).
-    Read { out: Output<'a>, message: String },
+    Read {
+        out: DecodeOutput<'a>,
+        message: String,
+    },
 }
 
 /// Reads `input` line by line, decodes each frame as `mode` says, and writes the objects to
@@ -256,7 +259,7 @@ pub(crate) fn decode_all<'a>(
     mode: Mode,
     width: EncoderWidth,
     dialect: Dialect,
-    out: Output<'a>,
+    out: DecodeOutput<'a>,
 ) -> Ended<'a> {
     let mut printer = Printer {
         out,
@@ -333,7 +336,7 @@ pub(crate) fn run(args: DecodeArgs) -> ExitCode {
         },
     };
     let out = match &args.mcap {
-        None => Output::Json(BufWriter::new(io::stdout().lock())),
+        None => DecodeOutput::Json(BufWriter::new(io::stdout().lock())),
         Some(path) => {
             let source = args
                 .file
@@ -347,7 +350,7 @@ pub(crate) fn run(args: DecodeArgs) -> ExitCode {
                     ("encoder_bits", args.encoder_bits.bits().to_string()),
                 ],
             ) {
-                Ok(mcap) => Output::Mcap(mcap),
+                Ok(mcap) => DecodeOutput::Mcap(mcap),
                 Err(message) => return report::failure(message),
             }
         }
@@ -369,10 +372,10 @@ pub(crate) fn run(args: DecodeArgs) -> ExitCode {
 }
 
 /// Closes the output: an MCAP file gets its summary, and stderr says what it holds.
-fn finish(out: Output<'_>) -> Result<(), String> {
+fn finish(out: DecodeOutput<'_>) -> Result<(), String> {
     match out {
-        Output::Json(_) => Ok(()),
-        Output::Mcap(mcap) => {
+        DecodeOutput::Json(_) => Ok(()),
+        DecodeOutput::Mcap(mcap) => {
             let summary = mcap.finish()?;
             errln!("{summary}");
             Ok(())
