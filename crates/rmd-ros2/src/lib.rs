@@ -57,5 +57,5 @@ pub use port::{
     Enable, JointIndex, JointInfo, JointLimits, LoopEnd, LoopTiming, MotorDiagnostics, PortError,
     RobotDiagnostics, RobotPort, RobotState, Setpoint, Setpoints, Trajectory, TrajectoryPoint,
 };
-pub use stats::{Input, NodeStats};
+pub use stats::{InputTopic, NodeStats};
 pub use validate::{CommandMode, MessageField, MessageRejection, Validator};

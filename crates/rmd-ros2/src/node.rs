@@ -21,7 +21,7 @@ use crate::kind::RejectionKind;
 use crate::msg::{self, RosMessage};
 use crate::port::{Enable, RobotPort};
 use crate::qos;
-use crate::stats::{Counters, Input, NodeStats};
+use crate::stats::{Counters, InputTopic, NodeStats};
 use crate::validate::Validator;
 
 /// Why the node could not start or did not stop cleanly.
@@ -433,7 +433,7 @@ impl<P: RobotPort> Worker<P> {
                 }
                 Ok(Some((Inbound(Ok(m)), _))) => match self.validator.joint_command(&m) {
                     Ok(s) => match self.port.send_setpoints(&s) {
-                        Ok(()) => self.counters.accepted(Input::JointCommands),
+                        Ok(()) => self.counters.accepted(InputTopic::JointCommands),
                         Err(e) => self.reject(e.kind(), format!("joint_commands: {e}")),
                     },
                     Err(r) => self.reject(r.kind(), format!("joint_commands: {r}")),
@@ -453,7 +453,7 @@ impl<P: RobotPort> Worker<P> {
                 }
                 Ok(Some((Inbound(Ok(m)), _))) => match self.validator.trajectory(&m) {
                     Ok(t) => match self.port.send_trajectory(&t) {
-                        Ok(()) => self.counters.accepted(Input::JointTrajectory),
+                        Ok(()) => self.counters.accepted(InputTopic::JointTrajectory),
                         Err(e) => self.reject(e.kind(), format!("joint_trajectory: {e}")),
                     },
                     Err(r) => self.reject(r.kind(), format!("joint_trajectory: {r}")),
@@ -478,7 +478,7 @@ impl<P: RobotPort> Worker<P> {
                         Enable::Estop
                     };
                     match self.port.set_enable(enable) {
-                        Ok(()) => self.counters.accepted(Input::Enable),
+                        Ok(()) => self.counters.accepted(InputTopic::Enable),
                         Err(e) => self.reject(e.kind(), format!("enable: {e}")),
                     }
                 }

@@ -7,7 +7,7 @@ use crate::kind::RejectionKind;
 
 /// Which input topic a rejection or an acceptance came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Input {
+pub enum InputTopic {
     /// `joint_commands`.
     JointCommands,
     /// `joint_trajectory`.
@@ -38,7 +38,7 @@ impl Counters {
         self.publish_errors.fetch_add(1, Ordering::Relaxed);
     }
 
-    pub(crate) fn accepted(&self, input: Input) {
+    pub(crate) fn accepted(&self, input: InputTopic) {
         self.accepted[input as usize].fetch_add(1, Ordering::Relaxed);
     }
 
@@ -52,9 +52,9 @@ impl Counters {
             joint_states_published: load(&self.joint_states),
             diagnostics_published: load(&self.diagnostics),
             publish_errors: load(&self.publish_errors),
-            commands_accepted: load(&self.accepted[Input::JointCommands as usize]),
-            trajectories_accepted: load(&self.accepted[Input::JointTrajectory as usize]),
-            enables_accepted: load(&self.accepted[Input::Enable as usize]),
+            commands_accepted: load(&self.accepted[InputTopic::JointCommands as usize]),
+            trajectories_accepted: load(&self.accepted[InputTopic::JointTrajectory as usize]),
+            enables_accepted: load(&self.accepted[InputTopic::Enable as usize]),
             rejections: RejectionKind::ALL.map(|k| (k, load(&self.rejected[k.index()]))),
         }
     }
@@ -101,7 +101,7 @@ mod tests {
         c.joint_state_published();
         c.joint_state_published();
         c.diagnostics_published();
-        c.accepted(Input::JointTrajectory);
+        c.accepted(InputTopic::JointTrajectory);
         c.rejected(RejectionKind::NotFinite);
         c.rejected(RejectionKind::NotFinite);
         c.rejected(RejectionKind::PortRefused);
