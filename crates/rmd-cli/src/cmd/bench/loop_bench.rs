@@ -54,7 +54,7 @@ use rmd_rig::telemetry::{TelemetryReport, TelemetrySinks};
     lost), /motor_states, /loop_timing and /diagnostics; --foxglove [ADDR] serves the same \
     channels live while it runs; --csv FILE one row per tick (docs/telemetry.md)."
 )]
-pub(crate) struct LoopArgs {
+pub(crate) struct LoopBenchArgs {
     /// Motors per bus, 1..=8 (ids 1..=N on every bus; beyond 4 driven per motor, or with
     /// `--exchange multi-torque` the 0x280 frame for ids 1..=4 and 0xA1 requests beyond).
     #[arg(long, default_value = "4", value_parser = flags::motors)]
@@ -100,7 +100,7 @@ pub(crate) struct LoopArgs {
 }
 
 /// Runs `rmd bench loop`.
-pub(crate) fn run(args: LoopArgs) -> ExitCode {
+pub(crate) fn run(args: LoopBenchArgs) -> ExitCode {
     let family = sim_family(&args);
     let outcome = if args.virtual_time {
         let clock = VirtualClock::new();
@@ -171,7 +171,7 @@ pub(crate) fn run(args: LoopArgs) -> ExitCode {
 }
 
 /// The simulated motors' firmware of `--sim-firmware`.
-fn sim_family(args: &LoopArgs) -> rmd_sim::FirmwareFamily {
+fn sim_family(args: &LoopBenchArgs) -> rmd_sim::FirmwareFamily {
     super::sim_family(args.sim_firmware)
 }
 
@@ -182,7 +182,7 @@ fn show_deg(v: Option<f64>) -> String {
     )
 }
 
-fn bench_json(args: &LoopArgs, controller: &MovingTargetPd) -> Value {
+fn bench_json(args: &LoopBenchArgs, controller: &MovingTargetPd) -> Value {
     json!({
         "motors_per_bus": args.motors,
         "buses": args.buses,
@@ -213,7 +213,7 @@ type Ran = (LoopOutcome<MovingTargetPd>, Option<TelemetryReport>, bool);
 fn run_on<C: Clock + Clone + 'static, B: CanBus + Send + 'static>(
     clock: C,
     buses: Vec<B>,
-    args: &LoopArgs,
+    args: &LoopBenchArgs,
 ) -> Result<Ran, Failure> {
     let mut config = robot::robot_for(
         args.rate,

@@ -40,7 +40,7 @@ pub(crate) struct BenchArgs {
 enum BenchCommand {
     /// Run the real-time loop with a PD position controller on simulated motors and print its
     /// report (latency percentiles, deadline misses, missing replies).
-    Loop(loop_bench::LoopArgs),
+    Loop(loop_bench::LoopBenchArgs),
     /// Measure the loop timer's wake latency alone (no bus, no controller), like cyclictest.
     Jitter(jitter::JitterArgs),
     /// Find, per bus count, the highest rate with at most 0.1% of ticks missed by the loop (not
