@@ -18,7 +18,7 @@ use crate::args;
 use crate::errors::{
     ArgumentError, BusError, ConfigError, NoReplyError, ProtocolError, RomWriteNotConfirmed, guard,
 };
-use crate::exchange::{ExchangeError, Policy, Replies, exchange};
+use crate::exchange::{ExchangeError, Replies, RequestPolicy, exchange};
 use crate::process::Owner;
 use crate::protocol::{build_frame, command_name, writes_rom};
 use crate::sim::{SimBusView, Simulator};
@@ -41,7 +41,7 @@ struct Link {
 pub(crate) struct NativeBus {
     owner: Owner,
     link: Mutex<Link>,
-    policy: Policy,
+    policy: RequestPolicy,
     width: EncoderWidth,
     sim: Option<SharedSim>,
     /// What to check when a motor does not answer.
@@ -54,7 +54,7 @@ fn policy(
     lk_series: Option<&str>,
     timeout_s: f64,
     retries: i64,
-) -> PyResult<Policy> {
+) -> PyResult<RequestPolicy> {
     let dialect = args::dialect(protocol, lk_series).map_err(ConfigError::new_err)?;
     let timeout = args::seconds("timeout_s", timeout_s, MAX_TIMEOUT_S)?;
     if timeout.is_zero() {
@@ -68,7 +68,7 @@ fn policy(
         .ok_or_else(|| {
             ArgumentError::new_err(format!("retries = {retries}: must be 0..={MAX_RETRIES}"))
         })?;
-    Ok(Policy {
+    Ok(RequestPolicy {
         timeout,
         retries,
         dialect,

@@ -21,9 +21,9 @@ use rmd_protocol::{
 
 use crate::wait::SIGNAL_CHECK;
 
-/// How long to wait, how often to try, which dialect to read.
+/// How a `Bus.request` waits: how long, how often to try, which dialect to read.
 #[derive(Copy, Clone, Debug)]
-pub(crate) struct Policy {
+pub(crate) struct RequestPolicy {
     /// Wait for the reply after each send.
     pub(crate) timeout: Duration,
     /// Sends after the first one.
@@ -147,7 +147,7 @@ pub(crate) fn exchange(
     bus: &mut impl CanBus,
     clock: &impl Clock,
     frame: &CanFrame,
-    policy: &Policy,
+    policy: &RequestPolicy,
     advice: &str,
     interrupted: &mut impl FnMut() -> bool,
 ) -> Result<Replies, ExchangeError> {
@@ -207,7 +207,7 @@ fn exchange_multi(
     bus: &mut impl CanBus,
     clock: &impl Clock,
     frame: &CanFrame,
-    policy: &Policy,
+    policy: &RequestPolicy,
     advice: &str,
     attempts: u32,
     interrupted: &mut impl FnMut() -> bool,
