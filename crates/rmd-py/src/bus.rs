@@ -18,7 +18,7 @@ use crate::args;
 use crate::errors::{
     ArgumentError, BusError, ConfigError, NoReplyError, ProtocolError, RomWriteNotConfirmed, guard,
 };
-use crate::exchange::{ExchangeError, Replies, RequestPolicy, exchange};
+use crate::exchange::{Replies, RequestError, RequestPolicy, exchange};
 use crate::process::Owner;
 use crate::protocol::{build_frame, command_name, writes_rom};
 use crate::sim::{SimBusView, Simulator};
@@ -89,14 +89,14 @@ fn reply_dict<'py>(
     Ok(pythonize::pythonize(py, &value)?)
 }
 
-fn exchange_error(error: ExchangeError) -> PyErr {
+fn request_error(error: RequestError) -> PyErr {
     match error {
-        ExchangeError::NoReply { .. } => NoReplyError::new_err(error.to_string()),
-        ExchangeError::Bus(_)
-        | ExchangeError::BusOff { .. }
-        | ExchangeError::OtherFamily { .. }
-        | ExchangeError::NotARequest(_)
-        | ExchangeError::Interrupted => BusError::new_err(error.to_string()),
+        RequestError::NoReply { .. } => NoReplyError::new_err(error.to_string()),
+        RequestError::Bus(_)
+        | RequestError::BusOff { .. }
+        | RequestError::OtherFamily { .. }
+        | RequestError::NotARequest(_)
+        | RequestError::Interrupted => BusError::new_err(error.to_string()),
     }
 }
 
@@ -239,7 +239,7 @@ impl NativeBus {
             if let Some(error) = raised {
                 return Err(error); // Ctrl-C: KeyboardInterrupt
             }
-            let replies = replies.map_err(exchange_error)?;
+            let replies = replies.map_err(request_error)?;
             match replies {
                 Replies::One(motor, reply) => {
                     let can_id = self.policy.dialect.reply_id(motor);
@@ -291,7 +291,7 @@ impl NativeBus {
         &self,
         frame: &CanFrame,
         interrupted: &mut impl FnMut() -> bool,
-    ) -> Result<Replies, ExchangeError> {
+    ) -> Result<Replies, RequestError> {
         let mut link = self.link.lock().unwrap_or_else(PoisonError::into_inner);
         let Link { bus, clock } = &mut *link;
         exchange(bus, &*clock, frame, &self.policy, &self.advice, interrupted)

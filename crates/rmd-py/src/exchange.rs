@@ -32,9 +32,9 @@ pub(crate) struct RequestPolicy {
     pub(crate) dialect: Dialect,
 }
 
-/// Why an exchange failed.
+/// Why a `Bus.request` failed.
 #[derive(Debug, thiserror::Error)]
-pub(crate) enum ExchangeError {
+pub(crate) enum RequestError {
     /// The bus refused the frame or failed.
     #[error("{0}")]
     Bus(#[from] BusError),
@@ -125,14 +125,14 @@ fn recv(
     clock: &impl Clock,
     deadline: Timestamp,
     interrupted: &mut impl FnMut() -> bool,
-) -> Result<Option<Received>, ExchangeError> {
+) -> Result<Option<Received>, RequestError> {
     loop {
         let slice_end = deadline.min(clock.now() + SIGNAL_CHECK);
         if let Some(received) = bus.recv_until(slice_end)? {
             return Ok(Some(received));
         }
         if interrupted() {
-            return Err(ExchangeError::Interrupted);
+            return Err(RequestError::Interrupted);
         }
         if clock.now() >= deadline {
             return Ok(None);
@@ -150,18 +150,18 @@ pub(crate) fn exchange(
     policy: &RequestPolicy,
     advice: &str,
     interrupted: &mut impl FnMut() -> bool,
-) -> Result<Replies, ExchangeError> {
+) -> Result<Replies, RequestError> {
     let attempts = policy.retries.saturating_add(1);
     if frame.id() == MULTI_TORQUE_CAN_ID {
         return exchange_multi(bus, clock, frame, policy, advice, attempts, interrupted);
     }
     let motor =
-        MotorId::from_can_id(frame.id()).map_err(|_| ExchangeError::NotARequest(frame.id()))?;
+        MotorId::from_can_id(frame.id()).map_err(|_| RequestError::NotARequest(frame.id()))?;
     let command = frame
         .data()
         .first()
         .and_then(|&code| Command::from_code(code))
-        .ok_or(ExchangeError::NotARequest(frame.id()))?;
+        .ok_or(RequestError::NotARequest(frame.id()))?;
     let mut last = None;
     for _ in 0..attempts {
         drain(bus, clock)?;
@@ -171,14 +171,14 @@ pub(crate) fn exchange(
             let reply = match received.message {
                 BusMessage::Frame(reply) => reply,
                 BusMessage::Event(BusEvent::BusOff) => {
-                    return Err(ExchangeError::BusOff {
+                    return Err(RequestError::BusOff {
                         motor: motor.to_string(),
                     });
                 }
                 BusMessage::Event(_) => continue,
             };
             if reply.id() == other_family_reply_id(policy.dialect, motor) {
-                return Err(ExchangeError::OtherFamily {
+                return Err(RequestError::OtherFamily {
                     motor,
                     can_id: reply.id(),
                     dialect: policy.dialect,
@@ -193,7 +193,7 @@ pub(crate) fn exchange(
             }
         }
     }
-    Err(ExchangeError::NoReply {
+    Err(RequestError::NoReply {
         motor: motor.to_string(),
         command: command.name(),
         timeout: policy.timeout,
@@ -211,7 +211,7 @@ fn exchange_multi(
     advice: &str,
     attempts: u32,
     interrupted: &mut impl FnMut() -> bool,
-) -> Result<Replies, ExchangeError> {
+) -> Result<Replies, RequestError> {
     let mut last = None;
     for _ in 0..attempts {
         let mut replies: [Option<Reply>; MULTI_TORQUE_MOTORS] = Default::default();
@@ -225,7 +225,7 @@ fn exchange_multi(
             let reply = match received.message {
                 BusMessage::Frame(reply) => reply,
                 BusMessage::Event(BusEvent::BusOff) => {
-                    return Err(ExchangeError::BusOff {
+                    return Err(RequestError::BusOff {
                         motor: "1..=4".to_owned(),
                     });
                 }
@@ -244,7 +244,7 @@ fn exchange_multi(
             return Ok(Replies::Multi(replies));
         }
     }
-    Err(ExchangeError::NoReply {
+    Err(RequestError::NoReply {
         motor: "1..=4".to_owned(),
         command: "multi-torque",
         timeout: policy.timeout,
