@@ -18,7 +18,7 @@ use crate::args;
 use crate::errors::{
     ArgumentError, BusError, ConfigError, NoReplyError, ProtocolError, RomWriteNotConfirmed, guard,
 };
-use crate::exchange::{Replies, RequestError, RequestPolicy, exchange};
+use crate::exchange::{RequestError, RequestPolicy, RequestReplies, exchange};
 use crate::process::Owner;
 use crate::protocol::{build_frame, command_name, writes_rom};
 use crate::sim::{SimBusView, Simulator};
@@ -241,11 +241,11 @@ impl NativeBus {
             }
             let replies = replies.map_err(request_error)?;
             match replies {
-                Replies::One(motor, reply) => {
+                RequestReplies::One(motor, reply) => {
                     let can_id = self.policy.dialect.reply_id(motor);
                     reply_dict(py, can_id, &reply, self.width)
                 }
-                Replies::Multi(replies) => {
+                RequestReplies::Multi(replies) => {
                     let list = PyList::empty(py);
                     for (k, reply) in replies.iter().enumerate() {
                         match reply {
@@ -291,7 +291,7 @@ impl NativeBus {
         &self,
         frame: &CanFrame,
         interrupted: &mut impl FnMut() -> bool,
-    ) -> Result<Replies, RequestError> {
+    ) -> Result<RequestReplies, RequestError> {
         let mut link = self.link.lock().unwrap_or_else(PoisonError::into_inner);
         let Link { bus, clock } = &mut *link;
         exchange(bus, &*clock, frame, &self.policy, &self.advice, interrupted)

@@ -92,10 +92,10 @@ pub(crate) enum RequestError {
     Interrupted,
 }
 
-/// The replies of one exchange: one motor's, or motors 1..=4 of a 0x280 frame (`None` for a
+/// The replies to one `Bus.request`: one motor's, or motors 1..=4 of a 0x280 frame (`None` for a
 /// motor that did not answer).
 #[derive(Debug)]
-pub(crate) enum Replies {
+pub(crate) enum RequestReplies {
     /// The motor's reply.
     One(MotorId, Reply),
     /// Replies of motors 1..=4, in order.
@@ -150,7 +150,7 @@ pub(crate) fn exchange(
     policy: &RequestPolicy,
     advice: &str,
     interrupted: &mut impl FnMut() -> bool,
-) -> Result<Replies, RequestError> {
+) -> Result<RequestReplies, RequestError> {
     let attempts = policy.retries.saturating_add(1);
     if frame.id() == MULTI_TORQUE_CAN_ID {
         return exchange_multi(bus, clock, frame, policy, advice, attempts, interrupted);
@@ -188,7 +188,7 @@ pub(crate) fn exchange(
                 continue;
             }
             match policy.dialect.decode_reply_to(&reply, command) {
-                Ok((_, decoded)) => return Ok(Replies::One(motor, decoded)),
+                Ok((_, decoded)) => return Ok(RequestReplies::One(motor, decoded)),
                 Err(error) => last = Some(error.to_string()),
             }
         }
@@ -211,7 +211,7 @@ fn exchange_multi(
     advice: &str,
     attempts: u32,
     interrupted: &mut impl FnMut() -> bool,
-) -> Result<Replies, RequestError> {
+) -> Result<RequestReplies, RequestError> {
     let mut last = None;
     for _ in 0..attempts {
         let mut replies: [Option<Reply>; MULTI_TORQUE_MOTORS] = Default::default();
@@ -241,7 +241,7 @@ fn exchange_multi(
             }
         }
         if replies.iter().any(Option::is_some) {
-            return Ok(Replies::Multi(replies));
+            return Ok(RequestReplies::Multi(replies));
         }
     }
     Err(RequestError::NoReply {
