@@ -43,21 +43,26 @@ side_by_side() {
   return "$failed"
 }
 
-# The Rust tests (unit, integration, property), once, with every core busy: the real-time ones
-# must hold on a loaded machine, the stricter test of timing (with `cargo nextest`
-# when it is installed, else `cargo test`).
-took ./tests/under-load.sh
-# Then, side by side (each holds on a loaded machine, and most of each is waiting: on a VM, a
-# network, a 10 Hz loop):
-# - the doc tests (nextest does not run them);
-# - the Python package: built and installed in a venv the script creates, then its pytest suite;
-# - telemetry against independent readers (Python mcap + mcap-ros2-support, jsonschema, a
-#   websockets client on loopback), installed by the script into a venv (see docs/telemetry.md);
-# - the tests that need a real Linux CAN stack: natively when this machine has a usable vcan0 and
-#   root, otherwise in a small qemu VM on Debian's stock kernel (see docs/socketcan.md);
-# - `rmd ros2` against an independent DDS (Cyclone DDS's Python binding, in a venv the script
-#   makes), in a private network namespace (see docs/ros2.md).
+# The Rust tests (unit, integration, property; with `cargo nextest` when it is installed, else
+# `cargo test`), built first on a quiet machine, then run once beside every other suite: the doc
+# tests; the Python package (built and installed in a venv the script creates, then its pytest
+# suite); telemetry against independent readers (Python mcap + mcap-ros2-support, jsonschema, a
+# websockets client on loopback, in a venv the script makes; see docs/telemetry.md); the tests
+# that need a real Linux CAN stack (natively when this machine has a usable vcan0 and root,
+# otherwise in a small qemu VM on Debian's stock kernel that emulates its CPU; see
+# docs/socketcan.md); `rmd ros2` against an independent DDS (Cyclone DDS's Python binding, in a
+# private network namespace; see docs/ros2.md). Those builds, installs and the emulated VM keep
+# every core busy while the Rust tests run: their real-time tests assert only what holds on a
+# loaded machine. (`tests/under-load.sh` runs them under a synthetic load of N busy processes
+# per core.)
+if cargo nextest --version >/dev/null 2>&1; then
+  rust_tests="cargo nextest run --workspace"
+else
+  rust_tests="cargo test --workspace"
+fi
+took $rust_tests --no-run
 took side_by_side \
+  "$rust_tests --no-fail-fast" \
   "cargo test --workspace --doc" \
   ./tests/python/run.sh \
   ./tests/telemetry/run.sh \
