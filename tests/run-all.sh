@@ -55,15 +55,19 @@ side_by_side() {
 # every core busy while the Rust tests run: their real-time tests assert only what holds on a
 # loaded machine. (`tests/under-load.sh` runs them under a synthetic load of N busy processes
 # per core.)
+# shellcheck source=tests/workspace-build.sh
+source tests/workspace-build.sh
 if cargo nextest --version >/dev/null 2>&1; then
-  rust_tests="cargo nextest run --workspace"
+  # (Its default filter leaves the kernel test binaries to tests/vcan/run.sh.)
+  rust_tests="cargo nextest run ${RMD_WORKSPACE[*]}"
 else
+  # Without the kernel tests' features (cargo test would run them): a tree of its own.
   rust_tests="cargo test --workspace"
 fi
 took $rust_tests --no-run
 took side_by_side \
   "$rust_tests --no-fail-fast" \
-  "cargo test --workspace --doc" \
+  "cargo test ${RMD_WORKSPACE[*]} --doc" \
   ./tests/python/run.sh \
   ./tests/telemetry/run.sh \
   ./tests/vcan/run.sh \

@@ -22,6 +22,8 @@
 # Usage: ./tests/python/run.sh [pytest args...]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
+# shellcheck source=tests/workspace-build.sh
+source tests/workspace-build.sh
 
 target_dir="${CARGO_TARGET_DIR:-target}"
 case "$target_dir" in /*) ;; *) target_dir="$PWD/$target_dir" ;; esac
@@ -78,7 +80,7 @@ wheel=$(echo "$wheels"/rmd_rt-*.whl)
 test -f "$wheel"
 say "built $(basename "$wheel") ($(du -k "$wheel" | cut -f1) KiB)"
 
-cargo build --quiet -p rmd-cli
+cargo build --quiet "${RMD_WORKSPACE[@]}" --bins --examples
 export RMD_BIN="$target_dir/debug/rmd"
 test -x "$RMD_BIN"
 export RMD_WHEEL="$wheel"

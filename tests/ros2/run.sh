@@ -16,6 +16,8 @@
 # Usage: ./tests/ros2/run.sh [pytest args...]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
+# shellcheck source=tests/workspace-build.sh
+source tests/workspace-build.sh
 root=$(pwd)
 
 venv="$root/target/ros2-venv"
@@ -29,7 +31,7 @@ if [[ ! -x "$venv/bin/python" ]] || ! cmp -s "$req" "$stamp"; then
   cp "$req" "$stamp"
 fi
 
-cargo build --quiet -p rmd-cli
+cargo build --quiet "${RMD_WORKSPACE[@]}" --bins --examples
 target="${CARGO_TARGET_DIR:-$root/target}"
 rmd="$target/debug/rmd"
 

@@ -10,6 +10,8 @@
 # Usage: ./tests/telemetry/run.sh [pytest args...]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
+# shellcheck source=tests/workspace-build.sh
+source tests/workspace-build.sh
 
 target_dir="${CARGO_TARGET_DIR:-target}"
 case "$target_dir" in /*) ;; *) target_dir="$PWD/$target_dir" ;; esac
@@ -24,9 +26,7 @@ if ! [ -x "$venv/bin/python" ] || ! cmp -s "$requirements" "$venv/requirements.t
   cp "$requirements" "$venv/requirements.txt"
 fi
 
-cargo build --quiet -p rmd-telemetry --example telemetry_synth
-cargo build --quiet -p rmd-cli --bin rmd
-cargo build --quiet --example pd_hold
+cargo build --quiet "${RMD_WORKSPACE[@]}" --bins --examples
 export TELEMETRY_SYNTH="$target_dir/debug/examples/telemetry_synth"
 export RMD_BIN="$target_dir/debug/rmd"
 export PD_HOLD_BIN="$target_dir/debug/examples/pd_hold"

@@ -13,14 +13,41 @@ set -euo pipefail
 # shellcheck source=tests/vcan/lib.sh
 source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
 cd "$VCAN_REPO"
+# shellcheck source=tests/workspace-build.sh
+source tests/workspace-build.sh
 
-# The kernel test suites: `cargo test` selections, one per line. A suite whose package has
-# binaries (e.g. the `rmd` CLI) gets them copied into the VM at the same path, so
-# CARGO_BIN_EXE_<name> works there too.
+# The kernel test suites: a package and its test target. A suite whose package has binaries
+# (e.g. the `rmd` CLI) gets them copied into the VM at the same path, so CARGO_BIN_EXE_<name>
+# works there too.
 SUITES=(
-  "-p rmd-bus --features kernel-tests --test socketcan"
-  "-p rmd-cli --features kernel-tests --test vcan"
+  "rmd-bus socketcan"
+  "rmd-cli vcan"
 )
+
+# The executables of package $1 (its crates/ folder) that a line of cargo's JSON messages on
+# stdin reports: $2 = test, the test target named $3; $2 = bin, its binaries (not their unit-test
+# harnesses).
+executables() {
+  python3 -c '
+import json, sys
+package, kind, name = sys.argv[1], sys.argv[2], sys.argv[3:]
+for line in sys.stdin:
+    try:
+        m = json.loads(line)
+    except ValueError:
+        continue
+    if m.get("reason") != "compiler-artifact" or not m.get("executable"):
+        continue
+    if not m["manifest_path"].endswith("/crates/" + package + "/Cargo.toml"):
+        continue
+    t = m["target"]
+    if kind not in t["kind"] or (name and t["name"] != name[0]):
+        continue
+    if kind == "bin" and m["profile"]["test"]:
+        continue
+    print(m["executable"])
+' "$@"
+}
 
 mode="${RMD_VCAN_MODE:-auto}"
 if [ "$mode" = auto ]; then
@@ -34,26 +61,17 @@ vcan_log "running the kernel tests ($mode)"
 
 start=$SECONDS
 failed=0
+# Built as every test script builds (tests/workspace-build.sh): after the Rust tests' build,
+# nothing is compiled again.
+json="$(cargo test "${RMD_WORKSPACE[@]}" --no-run --message-format=json-render-diagnostics)"
 for suite in "${SUITES[@]}"; do
-  # shellcheck disable=SC2086 # the suite is a list of cargo arguments
-  json="$(cargo test $suite --no-run --message-format=json-render-diagnostics)"
-  tests=()
-  bins=()
-  while IFS= read -r line; do
-    executable="$(sed -n 's/.*"executable":"\([^"]*\)".*/\1/p' <<<"$line")"
-    [ -n "$executable" ] || continue
-    # The target's kind tells a test harness from a binary (both have `"test":true` in their
-    # target, since binaries are testable by default).
-    if grep -q '"kind":\["bin"\]' <<<"$line"; then
-      bins+=("$executable")
-    else
-      tests+=("$executable")
-    fi
-  done < <(grep '"reason":"compiler-artifact"' <<<"$json")
-  [ ${#tests[@]} -gt 0 ] || vcan_die "cargo built no test binary for: $suite"
+  read -r package target <<<"$suite"
+  mapfile -t tests < <(executables "$package" test "$target" <<<"$json")
+  mapfile -t bins < <(executables "$package" bin <<<"$json")
+  [ ${#tests[@]} -gt 0 ] || vcan_die "cargo built no test binary $target of $package"
 
   for test in "${tests[@]}"; do
-    vcan_log "$(basename "$test") ($suite)"
+    vcan_log "$(basename "$test") ($package, test $target)"
     if [ "$mode" = native ]; then
       "$test" "$@" || failed=1
     else

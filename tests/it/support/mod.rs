@@ -1,30 +1,13 @@
-//! Running an example's binary from its test: built once per test process with cargo (through
-//! `escargot`; a no-op when `cargo test` already built the examples, which it does), then run
-//! like a user would, with its exit status, standard output and standard error.
+//! Running an example's binary from its test: built once per test process with cargo (see
+//! [`rmd_test_support::example`]: a no-op after a workspace test build, which builds the examples),
+//! then run like a user would, with its exit status, standard output and standard error.
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
-use std::sync::{Mutex, PoisonError};
-
-/// Examples built so far in this process, by name.
-static BUILT: Mutex<Vec<(String, PathBuf)>> = Mutex::new(Vec::new());
 
 /// The example `name`'s executable, built (in this test's profile) if needed.
 pub(crate) fn example(name: &str) -> PathBuf {
-    let mut built = BUILT.lock().unwrap_or_else(PoisonError::into_inner);
-    if let Some((_, path)) = built.iter().find(|(n, _)| n == name) {
-        return path.clone();
-    }
-    let manifest = Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml");
-    let run = escargot::CargoBuild::new()
-        .manifest_path(manifest)
-        .example(name)
-        .current_release()
-        .run()
-        .unwrap_or_else(|e| panic!("building example {name}: {e}"));
-    let path = run.path().to_path_buf();
-    built.push((name.to_string(), path.clone()));
-    path
+    rmd_test_support::example(name).unwrap_or_else(|e| panic!("building example {name}: {e}"))
 }
 
 /// What one run of an example did.

@@ -52,24 +52,6 @@ fn documents() -> Vec<PathBuf> {
     docs
 }
 
-/// The example `name`'s executable, built (in this test's profile) if needed.
-fn example(name: &str) -> Result<PathBuf, String> {
-    static BUILT: Mutex<Vec<(String, PathBuf)>> = Mutex::new(Vec::new());
-    let mut built = BUILT.lock().unwrap_or_else(PoisonError::into_inner);
-    if let Some((_, path)) = built.iter().find(|(n, _)| n == name) {
-        return Ok(path.clone());
-    }
-    let run = escargot::CargoBuild::new()
-        .manifest_path(repository().join("Cargo.toml"))
-        .example(name)
-        .current_release()
-        .run()
-        .map_err(|e| format!("building example {name}: {e}"))?;
-    let path = run.path().to_path_buf();
-    built.push((name.to_owned(), path.clone()));
-    Ok(path)
-}
-
 /// The command the checker runs for a printed one: `cargo run [--release] -p rmd-cli -- ARGS`
 /// is `rmd ARGS` (this test's build of the tool), `cargo run [--release] --example NAME [--
 /// ARGS]` the example's build in this test's profile; then the `SHORTER` arguments.
@@ -95,7 +77,8 @@ fn as_run(printed: &str) -> Result<String, String> {
                             program = program.or(Some("rmd".to_owned()));
                         }
                         ("--example", name) => {
-                            program = Some(format!("'{}'", example(name)?.display()));
+                            program =
+                                Some(format!("'{}'", rmd_test_support::example(name)?.display()));
                         }
                         _ => return Err(format!("`cargo run {token} {value}`: not known here")),
                     }
