@@ -132,6 +132,9 @@ pub struct ServoController {
     halt: Option<&'static str>,
     dropped: u64,
     signals: usize,
+    /// Loop time of the previous update, s: a velocity reference advances by the loop time
+    /// between two updates (more than the period when the loop skipped ticks).
+    previous_s: Option<f64>,
 }
 
 impl ServoController {
@@ -180,6 +183,7 @@ impl ServoController {
             halt: None,
             dropped: 0,
             signals: joints.min(MAX_SIGNALS),
+            previous_s: None,
             config,
         };
         (controller, handle)
@@ -690,7 +694,12 @@ impl Controller for ServoController {
         self.sync_control(now, fb);
         self.take_messages(now, fb);
         self.start_due(now, fb);
-        let dt = ctx.dt();
+        // The loop time since the previous update: the period, or more after skipped ticks (a
+        // velocity setpoint is a speed in loop time, whatever the loop could not run).
+        let dt = self
+            .previous_s
+            .map_or(ctx.dt(), |previous| (now - previous).max(0.0));
+        self.previous_s = Some(now);
         for (id, f) in fb.iter() {
             self.run_joint(id, f, now, dt, cmd);
         }

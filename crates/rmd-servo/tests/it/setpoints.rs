@@ -4,6 +4,7 @@
 use crate::common;
 
 use common::{Bench, JOINTS, SERVO};
+use rmd_bus::Clock;
 use rmd_servo::{ServoMode, Setpoint};
 
 #[test]
@@ -119,6 +120,35 @@ fn velocity_setpoints_are_tracked_and_stop_at_the_position_limit() {
     bench.handle.set_velocity("knee", -0.5, 0.0).unwrap();
     bench.run_s(0.3);
     assert!(bench.truth_rad(2) < 0.4, "{}", bench.truth_rad(2));
+}
+
+/// A velocity setpoint is a speed in loop time: when the host runs the loop late and it skips
+/// ticks, the joint still turns at that speed (its reference advances by the time since the
+/// previous tick, not by one period).
+#[test]
+fn velocity_setpoints_keep_their_speed_when_the_loop_skips_ticks() {
+    let mut bench = Bench::new(SERVO, [0.0; 4]);
+    bench.handle.set_velocity("knee", 0.4, 0.0).unwrap();
+    bench.run_s(0.2);
+    let period = bench.robot.settings().period.get();
+    let (knee0, t0) = (bench.truth_rad(2), bench.clock.now());
+    for _ in 0..100 {
+        // Each tick runs three periods late: the loop skips the two it missed.
+        bench.clock.sleep_until(bench.clock.now() + period * 3);
+        bench.step(1);
+    }
+    assert!(
+        bench.outcome.is_none(),
+        "{:?}",
+        bench.outcome.map(|o| o.report)
+    );
+    let elapsed = (bench.clock.now() - t0).as_secs_f64();
+    let speed = (bench.truth_rad(2) - knee0) / elapsed;
+    assert!(elapsed > 0.35, "only {elapsed} s of loop time passed");
+    assert!(
+        (speed - 0.4).abs() < 0.04,
+        "knee at {speed} rad/s over {elapsed} s"
+    );
 }
 
 #[test]

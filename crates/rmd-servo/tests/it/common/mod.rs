@@ -79,6 +79,8 @@ pub struct Bench {
     pub outcome: Option<LoopOutcome<ServoController>>,
     /// The loop's telemetry (every tick: feedback, commands, the servo's user signals).
     pub telemetry: TelemetryReceiver,
+    /// The loop's clock (virtual time: the test may move it on, as a stalled host would).
+    pub clock: VirtualClock,
 }
 
 static HOOK: Once = Once::new();
@@ -111,7 +113,8 @@ impl Bench {
         let bus = rmd_rig::open::sim_buses(&clock, sims).unwrap().remove(0);
         let bus = SharedSimBus::new(bus);
         let mut rt =
-            RtLoop::unsupervised(robot.clone(), clock, vec![bus.clone()], controller).unwrap();
+            RtLoop::unsupervised(robot.clone(), clock.clone(), vec![bus.clone()], controller)
+                .unwrap();
         let telemetry = rt.telemetry();
         let running = match rt.start() {
             Ok(running) => running,
@@ -129,6 +132,7 @@ impl Bench {
             robot,
             outcome: None,
             telemetry,
+            clock,
         };
         bench.step(1);
         bench
