@@ -115,11 +115,13 @@ impl Default for WaitOn<'_> {
 impl<'a> WaitOn<'a> {
     /// The next item arrives at `at`; the wait sleeps until `spin` before it, then busy-waits
     /// (zero: sleeps all the way).
+    #[inline]
     pub fn arrival(at: Timestamp, spin: Duration) -> Self {
         Self::default().with_arrival(at, spin)
     }
 
     /// The same, and the next item arrives at `at` (see [`arrival`](Self::arrival)).
+    #[inline]
     pub fn with_arrival(self, at: Timestamp, spin: Duration) -> Self {
         Self {
             arrival_ns: at.as_nanos().min(NO_ARRIVAL - 1),

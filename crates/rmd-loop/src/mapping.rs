@@ -87,6 +87,7 @@ impl EncoderUnwrapper {
     }
 
     /// [`update`](Self::update) with the time since the previous reading in nanoseconds.
+    #[inline]
     pub fn update_ns(&mut self, encoder: u16, speed_dps: f64, elapsed_ns: u64) -> f64 {
         let n = self.counts_per_turn;
         // A turn is a power of two of counts: masks are the remainders, without dividing.

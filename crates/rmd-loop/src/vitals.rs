@@ -125,6 +125,7 @@ impl LoopVitals {
 
     /// Called by the loop thread before it sends: whether it may (the supervisor has not taken
     /// over). If it may, [`end_send`](Self::end_send) must follow the send.
+    #[inline]
     pub(crate) fn begin_send(&self) -> bool {
         self.sending.store(true, Ordering::SeqCst);
         if self.phase() == LoopPhase::Running {

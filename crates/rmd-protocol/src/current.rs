@@ -51,6 +51,7 @@ impl ScaledCurrent {
     }
 
     /// A value from a raw integer, clamped into the scale's range.
+    #[inline]
     pub fn saturating(raw: i64, scale: CurrentScale) -> Self {
         Self {
             raw: raw.clamp(i64::from(scale.min_raw()), i64::from(scale.max_raw())) as i16,
