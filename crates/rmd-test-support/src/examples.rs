@@ -70,24 +70,15 @@ fn build() -> Result<BTreeMap<String, PathBuf>, String> {
 
 /// The name and executable of an example that a line of cargo's JSON messages reports built.
 fn example_artifact(line: &str) -> Option<(String, PathBuf)> {
-    if !line.contains(r#""reason":"compiler-artifact""#) || !line.contains(r#""kind":["example"]"#)
-    {
-        return None;
-    }
-    let target = &line[line.find(r#""target":{"#)?..];
-    let name = string_field(target, "name")?;
-    let executable = string_field(line, "executable")?;
-    Some((name.to_owned(), PathBuf::from(executable)))
-}
-
-/// The first string field `key` of a JSON text (cargo writes names and paths without escapes
-/// on Linux, unless a path holds a quote or a backslash: such a value is not taken).
-fn string_field<'a>(json: &'a str, key: &str) -> Option<&'a str> {
-    let start = json.find(&format!("\"{key}\":\""))? + key.len() + 4;
-    let value = &json[start..];
-    let end = value.find('"')?;
-    let value = &value[..end];
-    (!value.ends_with('\\')).then_some(value)
+    let message: serde_json::Value = serde_json::from_str(line).ok()?;
+    let target = &message["target"];
+    let is_example = message["reason"] == "compiler-artifact"
+        && target["kind"]
+            .as_array()
+            .is_some_and(|kinds| kinds.iter().any(|kind| kind == "example"));
+    let name = target["name"].as_str()?;
+    let executable = message["executable"].as_str()?;
+    is_example.then(|| (name.to_owned(), PathBuf::from(executable)))
 }
 
 #[cfg(test)]
