@@ -27,11 +27,21 @@ atexit.register(after_rmd_rt)
 
 import rmd_rt
 
-loop = rmd_rt.Robot.from_toml({leg4!r}).start(sim=True, virtual_time=True)
+# The velocity setpoint never goes stale: virtual time runs tens of times faster than the wall
+# clock, so a few ms of a loaded host between two lines here are a stale timeout's worth of loop
+# time, and a stale knee brakes to a hold, its torque passing through zero on the way.
+loop = rmd_rt.Robot.from_toml({leg4!r}).start(
+    sim=True, virtual_time=True, servo_toml='[defaults]\\nstale_policy = "never"\\n'
+)
 sim = loop.simulator()
-loop.set_velocity("knee", 0.4)
-loop.sleep(0.1)
-print("BEFORE " + json.dumps(sim.motors()), flush=True)
+loop.set_velocity("knee", 0.2)
+# Energised within 2 s of loop time (how soon depends on the start-up, not on the exit).
+for _ in range(200):
+    loop.sleep(0.01)
+    before = sim.motors()
+    if [m for m in before if m["joint"] == "knee"][0]["energising"]:
+        break
+print("BEFORE " + json.dumps(before), flush=True)
 {ending}
 """
 
