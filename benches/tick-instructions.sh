@@ -100,8 +100,8 @@ count() {
   local buses=$1 ticks=$2 out="$work/callgrind.$1.$2"
   valgrind --tool=callgrind --callgrind-out-file="$out" \
     --collect-atstart=no --toggle-collect='rmd_tick_bench::measured_ticks' \
-    "$exe" --buses "$buses" --warm-up "$warm_up" --ticks "$ticks" >"$work/run.log" 2>&1 || {
-    cat "$work/run.log" >&2
+    "$exe" --buses "$buses" --warm-up "$warm_up" --ticks "$ticks" >"$work/run.$1.$2.log" 2>&1 || {
+    cat "$work/run.$1.$2.log" >&2
     echo "tick-instructions: the run of $buses bus(es) x 4, $ticks ticks failed" >&2
     exit 1
   }
@@ -155,8 +155,13 @@ declare -A ir_short ir_long per_tick ns_min ns_median
 for buses in "${configs[@]}"; do
   name="${buses}x4"
   log "counting $name (two runs under callgrind) ..."
-  ir_short[$name]=$(count "$buses" "$short")
+  # The two runs side by side (callgrind runs a program on one CPU; what it counts does not
+  # depend on what else runs).
+  count "$buses" "$short" >"$work/ir.short" &
+  short_run=$!
   ir_long[$name]=$(count "$buses" "$long")
+  wait "$short_run"
+  ir_short[$name]=$(<"$work/ir.short")
   per_tick[$name]=$(awk -v a="${ir_short[$name]}" -v b="${ir_long[$name]}" -v n=$((long - short)) \
     'BEGIN { printf "%.1f", (b - a) / n }')
   if [[ -n "$annotate" ]]; then
