@@ -74,6 +74,7 @@ pub struct MonotonicClock;
 
 #[cfg(target_os = "linux")]
 impl Clock for MonotonicClock {
+    #[inline]
     fn now(&self) -> Timestamp {
         // CLOCK_MONOTONIC cannot fail on Linux for a valid clock id; fall back to the epoch
         // rather than panic if it ever does.
@@ -104,6 +105,7 @@ impl Clock for MonotonicClock {
 }
 
 #[cfg(target_os = "linux")]
+#[inline]
 fn timespec_to_timestamp(ts: nix::sys::time::TimeSpec) -> Timestamp {
     let secs = ts.tv_sec().max(0) as u64;
     let nanos = ts.tv_nsec().max(0) as u64;
