@@ -171,10 +171,12 @@ impl VirtualClock {
 }
 
 impl Clock for VirtualClock {
+    #[inline]
     fn now(&self) -> Timestamp {
         Timestamp::from_nanos(self.nanos.load(Ordering::Acquire))
     }
 
+    #[inline]
     fn sleep_until(&self, deadline: Timestamp) {
         self.nanos.fetch_max(deadline.as_nanos(), Ordering::AcqRel);
     }
