@@ -84,6 +84,7 @@ impl LoopVitals {
         }
     }
 
+    #[inline]
     pub(crate) fn phase(&self) -> LoopPhase {
         LoopPhase::from_u8(self.phase.load(Ordering::SeqCst))
     }
@@ -100,6 +101,7 @@ impl LoopVitals {
     }
 
     /// A sign of life of the loop thread at `now`, in `tick`.
+    #[inline]
     pub(crate) fn progress(&self, now: Timestamp, tick: u64) {
         self.tick.store(tick, Ordering::Relaxed);
         self.last_progress_ns
@@ -108,6 +110,7 @@ impl LoopVitals {
 
     /// The loop thread enters `stage` of its tick (a relaxed store: the supervisor only reads
     /// it to say where a stall happened).
+    #[inline]
     pub(crate) fn enter(&self, stage: TickStage) {
         self.stage.store(stage as u8, Ordering::Relaxed);
     }
@@ -136,6 +139,7 @@ impl LoopVitals {
         }
     }
 
+    #[inline]
     pub(crate) fn end_send(&self) {
         // Release is enough here (a plain store on x86, not a locked one): the supervisor that
         // reads `false` sees the send completed. Only `begin_send`'s store-then-load needs

@@ -128,6 +128,7 @@ impl TelemetrySample {
     }
 
     /// Every joint, to fill in.
+    #[inline]
     pub fn joints_mut(&mut self) -> &mut [JointSample] {
         &mut self.joints[..self.joint_count]
     }
@@ -138,6 +139,7 @@ impl TelemetrySample {
     }
 
     /// The user signals, to fill in.
+    #[inline]
     pub fn signals_mut(&mut self) -> &mut [f64] {
         &mut self.signals[..self.signal_count]
     }
