@@ -85,8 +85,9 @@ pub fn robot_at(buses: usize, rate_hz: f64) -> Robot {
 /// A bus that answers each 0x280 frame with the pre-encoded 0xA1 replies of motors 1..=4, the
 /// first [`TURNAROUND`] after it and then one every [`REPLY_GAP`] (virtual time: the receive
 /// moves the clock to each arrival); a status request (0x9A, the health rotation) sent after a
-/// 0x280 frame adds its motor's pre-encoded status reply after that frame's four. It keeps only when each frame was sent: its own work per
-/// frame is small beside the loop's, which is what the benchmark measures. No allocation.
+/// 0x280 frame adds its motor's pre-encoded status reply after that frame's four. It keeps only
+/// when each frame was sent and when the next reply arrives: its own work per frame is small
+/// beside the loop's, which is what the benchmark measures. No allocation.
 #[derive(Debug)]
 pub struct CannedBus {
     clock: VirtualClock,
@@ -103,6 +104,9 @@ pub struct CannedBus {
     len: usize,
     /// Replies to the oldest frame already received.
     taken: usize,
+    /// While a frame is pending, when the next reply arrives (ns): the oldest frame's send time,
+    /// plus [`TURNAROUND`], plus a [`REPLY_GAP`] for each of its replies already received.
+    next_ns: u64,
 }
 
 impl CannedBus {
@@ -141,15 +145,13 @@ impl CannedBus {
             head: 0,
             len: 0,
             taken: 0,
+            next_ns: 0,
         }
     }
 
     /// When the next reply arrives.
     fn first_arrival(&self) -> Option<Timestamp> {
-        (self.len > 0).then(|| {
-            let gaps = self.taken as u64 * REPLY_GAP.as_nanos() as u64;
-            Timestamp::from_nanos(self.sent_ns[self.head] + TURNAROUND.as_nanos() as u64 + gaps)
-        })
+        (self.len > 0).then_some(Timestamp::from_nanos(self.next_ns))
     }
 }
 
@@ -164,8 +166,12 @@ impl CanBus for CannedBus {
                 return Err(BusError::TxQueueFull);
             }
             let slot = (self.head + self.len) % PENDING_FRAMES;
-            self.sent_ns[slot] = self.clock.now().as_nanos();
+            let now_ns = self.clock.now().as_nanos();
+            self.sent_ns[slot] = now_ns;
             self.owed[slot] = MOTORS as usize;
+            if self.len == 0 {
+                self.next_ns = now_ns + TURNAROUND.as_nanos() as u64;
+            }
             self.len += 1;
         } else if frame.data().first() == Some(&STATUS1) && self.len > 0 {
             // The newest frame's replies are followed by this motor's status reply.
@@ -199,6 +205,9 @@ impl CanBus for CannedBus {
             self.taken = 0;
             self.head = (self.head + 1) % PENDING_FRAMES;
             self.len -= 1;
+            self.next_ns = self.sent_ns[self.head] + TURNAROUND.as_nanos() as u64;
+        } else {
+            self.next_ns += REPLY_GAP.as_nanos() as u64;
         }
         Ok(Some(Received {
             at,
