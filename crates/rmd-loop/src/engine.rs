@@ -27,6 +27,7 @@ use rmd_protocol::ScaledCurrent;
 use crate::bus_link::BusLink;
 use crate::commands::{Commands, MAX_SIGNALS, MotionSlots, Rejections};
 use crate::controller::{Controller, Flow, TickContext};
+use crate::exchange::frames::set_torque_slot;
 use crate::exchange::{Exchange, Torque};
 use crate::feedback::Feedback;
 use crate::finish::{self, LoopOutcome};
@@ -819,12 +820,8 @@ impl<B, C> LoopParts<B, C> {
             // Both forms, unconditionally (cheaper than asking which the bus sends): a
             // `per-motor` bus's staged 0x280 slots are never sent.
             motor.staged = iq;
-            if let Some(slot) = exchange
-                .staged
-                .get_mut(motor.at.bus)
-                .and_then(|slots| slots.get_mut(motor.slot))
-            {
-                *slot = iq;
+            if let Some(slots) = exchange.staged.get_mut(motor.at.bus) {
+                set_torque_slot(slots, motor.slot, iq);
             }
         }
         if !self.command_motion.is_empty() {

@@ -2,14 +2,16 @@
 //! what each motor's reply looks like, decided once per motor ([`ReplyExpectation`]).
 
 use rmd_protocol::{
-    CanFrame, Command, CurrentScale, Dialect, MULTI_TORQUE_MOTORS, MotorId, MultiTorque, Request,
-    ScaledCurrent, Status2, V3_MOTION_REPLY_BASE_ID,
+    CanFrame, Command, CurrentScale, Dialect, MULTI_TORQUE_CAN_ID, MULTI_TORQUE_MOTORS, MotorId,
+    MultiTorque, Request, ScaledCurrent, Status2, V3_MOTION_REPLY_BASE_ID,
 };
 
 use crate::robot::JointSpec;
 
-/// One bus's torque commands, by slot (motor id - 1), each in its motor's command scale.
-pub(crate) type TorqueSlots = [ScaledCurrent; MULTI_TORQUE_MOTORS];
+/// One bus's torque commands as the data of its 0x280 frame: slot `i` (motor id `i + 1`) holds
+/// its motor's raw command, in that motor's command scale, little-endian in bytes `2i..2i + 2`
+/// (the layout of [`MultiTorque::to_data`]).
+pub(crate) type TorqueSlots = [u8; 8];
 
 /// No torque current (raw 0 is 0 A in every dialect).
 const ZERO_IQ: ScaledCurrent = match ScaledCurrent::new(0, CurrentScale::V161_IQ_CONTROL) {
@@ -18,11 +20,25 @@ const ZERO_IQ: ScaledCurrent = match ScaledCurrent::new(0, CurrentScale::V161_IQ
 };
 
 /// Zero torque for every motor of a bus.
-pub(crate) const ZERO_TORQUE: TorqueSlots = [ZERO_IQ; MULTI_TORQUE_MOTORS];
+pub(crate) const ZERO_TORQUE: TorqueSlots =
+    MultiTorque::new([ZERO_IQ; MULTI_TORQUE_MOTORS]).to_data();
+
+/// Puts `iq` in slot `slot` of `slots` (as [`MultiTorque::to_data`] does); a slot beyond the
+/// frame's four is left alone.
+#[inline]
+pub(crate) fn set_torque_slot(slots: &mut TorqueSlots, slot: usize, iq: ScaledCurrent) {
+    if let Some(bytes) = slots.get_mut(2 * slot..2 * slot + 2) {
+        bytes.copy_from_slice(&iq.raw().to_le_bytes());
+    }
+}
 
 /// The 0x280 frame carrying `slots`.
+#[inline]
 pub(crate) fn torque_frame(slots: &TorqueSlots) -> CanFrame {
-    MultiTorque::new(*slots).encode()
+    match CanFrame::with_data(MULTI_TORQUE_CAN_ID, *slots) {
+        Ok(frame) => frame,
+        Err(_) => unreachable!("0x280 is a standard CAN id"),
+    }
 }
 
 /// The 0xA1 torque request of `iq` to `motor` in its `dialect` (`0x140 + id`). `iq` is in the
@@ -96,6 +112,31 @@ impl ReplyExpectation {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn staged_slots_make_the_frame_multi_torque_encodes() {
+        let scales = [
+            CurrentScale::V161_IQ_CONTROL,
+            CurrentScale::LK_MF_IQ_CONTROL,
+            CurrentScale::LK_MG_IQ_CONTROL,
+            CurrentScale::MYACTUATOR_V3_IQ_CONTROL,
+        ];
+        for raw in [0i64, 1, -1, 255, -256, 1000, -2000, 2000, 2048, -2048] {
+            let iq: [ScaledCurrent; MULTI_TORQUE_MOTORS] = core::array::from_fn(|i| {
+                ScaledCurrent::saturating(raw * (i as i64 - 1), scales[i])
+            });
+            let mut slots = ZERO_TORQUE;
+            for (slot, iq) in iq.iter().enumerate() {
+                set_torque_slot(&mut slots, slot, *iq);
+            }
+            set_torque_slot(&mut slots, MULTI_TORQUE_MOTORS, iq[0]);
+            assert_eq!(torque_frame(&slots), MultiTorque::new(iq).encode(), "{raw}");
+        }
+        assert_eq!(
+            torque_frame(&ZERO_TORQUE),
+            MultiTorque::new([ZERO_IQ; MULTI_TORQUE_MOTORS]).encode()
+        );
+    }
     use crate::robot::{BusConfig, MotorConfig, Robot, RobotConfig};
     use rmd_protocol::{LkSeries, MotorId};
 
