@@ -16,7 +16,6 @@ impl<B> Exchange<B> {
         let mut all_fresh = true;
         for (m, (motor, feedback)) in self.motors.iter_mut().zip(&self.feedback).enumerate() {
             motor.end_tick(feedback);
-            let at = motor.at;
             if feedback.is_fresh() {
                 motor.consecutive_missing = 0;
             } else {
@@ -30,7 +29,7 @@ impl<B> Exchange<B> {
                     .max(u64::from(motor.consecutive_missing));
                 if motor.consecutive_missing >= fault_after {
                     return Err(Fault::NoFreshFeedback {
-                        at,
+                        at: motor.at,
                         ticks: motor.consecutive_missing,
                     });
                 }
@@ -39,7 +38,10 @@ impl<B> Exchange<B> {
             if let Some(limit) = motor.temperature_limit
                 && celsius >= limit
             {
-                return Err(Fault::OverTemperature { at, celsius });
+                return Err(Fault::OverTemperature {
+                    at: motor.at,
+                    celsius,
+                });
             }
         }
         Ok(all_fresh)

@@ -74,6 +74,7 @@ impl TelemetrySender {
     /// Fills a box with `fill` and queues it. With `overwrite`, a full channel loses its oldest
     /// sample; without, a full channel leaves `fill` uncalled and returns
     /// [`Published::NotQueued`].
+    #[inline(always)]
     pub(crate) fn publish(
         &mut self,
         overwrite: bool,
