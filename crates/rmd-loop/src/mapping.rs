@@ -19,14 +19,15 @@ use crate::robot::{JointSpec, Mounting};
 /// Beyond this magnitude every `f64` is an integer (2^52).
 const ALL_INTEGERS: f64 = 4_503_599_627_370_496.0;
 
-/// The integer nearest to `x`, halves away from zero, for `x` within +-2^52 (beyond, the nearest
-/// of +-2^52); NaN gives 0. Inline arithmetic: without SSE4.1 (the x86-64 baseline)
-/// `f64::round` is a library call.
+/// The integer nearest to `x` clamped into `min..=max`, halves away from zero; NaN gives 0.
+/// `min..=max` lies within +-2^52 (where every `f64` step is at most 1, so the result is exact).
+/// Inline arithmetic: without SSE4.1 (the x86-64 baseline) `f64::round` is a library call.
 #[inline]
-pub(crate) fn nearest_integer(x: f64) -> i64 {
+pub(crate) fn nearest_integer_within(x: f64, min: f64, max: f64) -> i64 {
+    debug_assert!(-ALL_INTEGERS <= min && min <= max && max <= ALL_INTEGERS);
     // Within +-2^52 `t` and `t as f64` are exact, so `frac` is the exact fractional part, and
     // nothing below overflows. `as` gives 0 for NaN.
-    let x = x.clamp(-ALL_INTEGERS, ALL_INTEGERS);
+    let x = x.clamp(min, max);
     let t = x as i64;
     let frac = x - t as f64;
     t + i64::from(frac >= 0.5) - i64::from(frac <= -0.5)
@@ -103,7 +104,7 @@ impl EncoderUnwrapper {
                 // The whole number of turns k that puts raw + k*n closest to the prediction.
                 let expected = if expected.is_finite() { expected } else { 0.0 };
                 let turns = (expected - raw as f64) * self.turns_per_count;
-                let k = nearest_integer(turns.clamp(-1e9, 1e9));
+                let k = nearest_integer_within(turns, -1e9, 1e9);
                 self.counts = self.counts.saturating_add(raw + k * n);
             }
         }
@@ -262,7 +263,7 @@ mod tests {
     const MS: Duration = Duration::from_millis(1);
 
     #[test]
-    fn nearest_integer_rounds_halves_away_from_zero() {
+    fn nearest_integer_within_rounds_halves_away_from_zero() {
         for (x, n) in [
             (0.5, 1),
             (-0.5, -1),
@@ -278,11 +279,25 @@ mod tests {
             (f64::NAN, 0),
             (4503599627370495.0, 4503599627370495),
         ] {
-            assert_eq!(nearest_integer(x), n, "{x}");
+            assert_eq!(
+                nearest_integer_within(x, -ALL_INTEGERS, ALL_INTEGERS),
+                n,
+                "{x}"
+            );
         }
         for i in -1000..1000 {
             let x = f64::from(i) * 0.37;
-            assert_eq!(nearest_integer(x), x.round() as i64, "{x}");
+            assert_eq!(
+                nearest_integer_within(x, -ALL_INTEGERS, ALL_INTEGERS),
+                x.round() as i64,
+                "{x}"
+            );
+            let clamped = x.clamp(-100.0, 150.0);
+            assert_eq!(
+                nearest_integer_within(x, -100.0, 150.0),
+                clamped.round() as i64,
+                "{x}"
+            );
         }
     }
 

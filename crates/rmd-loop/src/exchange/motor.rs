@@ -17,7 +17,7 @@ use crate::feedback::{
     Freshness, JointFeedback, JointSide, MotorSide, RawMotion, RawReply, RawStatus,
 };
 use crate::joint::JointId;
-use crate::mapping::{EncoderUnwrapper, JointMap, nearest_integer};
+use crate::mapping::{EncoderUnwrapper, JointMap, nearest_integer_within};
 use crate::motion::{MotionMap, zero_torque};
 use crate::report::MotorRef;
 use crate::robot::{ExchangeKind, JointSpec};
@@ -66,7 +66,7 @@ impl CommandScale {
     /// the joint's current limit; and whether the limit changed it.
     #[inline]
     pub(crate) fn limited_raw(&self, amps: f64) -> (i64, bool) {
-        let raw = nearest_integer((amps * self.raw_per_amp).clamp(self.min_raw, self.max_raw));
+        let raw = nearest_integer_within(amps * self.raw_per_amp, self.min_raw, self.max_raw);
         let limit = i64::from(self.limit_raw);
         let limited = raw.clamp(-limit, limit);
         (limited, limited != raw)
