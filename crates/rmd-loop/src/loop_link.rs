@@ -45,11 +45,18 @@ impl LoopLink {
     }
 
     /// Fills one waiting snapshot buffer with `stats` (on the loop thread, between ticks).
+    #[inline]
     pub(crate) fn serve_snapshot(&self, stats: &LoopStats) {
         // Most ticks nobody asked: two loads rather than a pop's compare-and-swap attempt.
-        if self.snapshot_requests.is_empty() {
-            return;
+        if !self.snapshot_requests.is_empty() {
+            self.fill_snapshot(stats);
         }
+    }
+
+    /// [`serve_snapshot`](Self::serve_snapshot) once a request is waiting (out of line: most
+    /// ticks have none).
+    #[inline(never)]
+    fn fill_snapshot(&self, stats: &LoopStats) {
         if let Some(mut buffer) = self.snapshot_requests.pop() {
             buffer.copy_from(stats);
             // The reply queue has room for every request buffer; if a reader abandoned its

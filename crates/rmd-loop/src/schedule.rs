@@ -230,6 +230,7 @@ impl Scheduler {
     }
 
     /// Records that the current tick's work ended at `end` and applies the overrun policy.
+    #[inline]
     pub fn end_tick(&mut self, end: Timestamp) -> TickEnd {
         let missed_deadline = end > self.scheduled(self.current + 1);
         if missed_deadline {
