@@ -819,7 +819,7 @@ impl<B, C> LoopParts<B, C> {
             *amps = iq.amps();
             // Both forms, unconditionally (cheaper than asking which the bus sends): a
             // `per-motor` bus's staged 0x280 slots are never sent.
-            motor.staged = iq;
+            motor.staged = iq.raw();
             if let Some(slots) = exchange.staged.get_mut(motor.at.bus) {
                 set_torque_slot(slots, motor.slot, iq);
             }

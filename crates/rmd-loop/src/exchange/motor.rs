@@ -7,11 +7,11 @@ use core::time::Duration;
 
 use rmd_bus::Timestamp;
 use rmd_protocol::{
-    CanFrame, CurrentScale, Dialect, MitCommand, MitFeedback, MitRanges, MotorId, Request,
-    ScaledCurrent, Status2, StatusPosition,
+    CanFrame, CurrentScale, Dialect, MitCommand, MitFeedback, MitRanges, MotorId, Request, Status2,
+    StatusPosition,
 };
 
-use super::frames::{ReplyExpectation, zero_iq};
+use super::frames::ReplyExpectation;
 use super::pending::{PendingRequests, RESYNC_AFTER, min_round_trip};
 use crate::feedback::{
     Freshness, JointFeedback, JointSide, MotorSide, RawMotion, RawReply, RawStatus,
@@ -131,10 +131,10 @@ pub(crate) struct MotorLink {
     pub(crate) slot: usize,
     /// The dialect of its requests (the per-motor 0xA1).
     pub(crate) dialect: Dialect,
-    /// The torque command staged for its next request, in its dialect's command scale (a
-    /// `per-motor` bus sends it as its own 0xA1; a `multi-torque` bus sends its slot of the
-    /// bus's staged 0x280 frame).
-    pub(crate) staged: ScaledCurrent,
+    /// The raw torque command staged for its next request, in [`CommandScale::scale`] (its
+    /// dialect's command scale; a `per-motor` bus sends it as its own 0xA1; a `multi-torque` bus
+    /// sends its slot of the bus's staged 0x280 frame).
+    pub(crate) staged: i16,
     /// The largest encoder reading its width allows.
     max_encoder: u16,
     pub(crate) map: JointMap,
@@ -193,7 +193,7 @@ impl MotorLink {
             command: CommandScale::new(joint),
             slot: joint.slot(),
             dialect: joint.dialect,
-            staged: zero_iq(joint.dialect),
+            staged: 0,
             max_encoder: joint.encoder.max_value(),
             map: JointMap::from_spec(joint),
             unwrapper: EncoderUnwrapper::new(joint.encoder),

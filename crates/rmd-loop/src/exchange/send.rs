@@ -3,7 +3,7 @@
 //! reply is collected.
 
 use rmd_bus::{BusError, CanBus, Timestamp};
-use rmd_protocol::MULTI_TORQUE_MOTORS;
+use rmd_protocol::{MULTI_TORQUE_MOTORS, ScaledCurrent};
 
 use super::Exchange;
 use super::frames::{ZERO_TORQUE, torque_frame, torque_request, zero_iq};
@@ -141,7 +141,7 @@ fn send_own_request<B: CanBus>(
     at: Timestamp,
 ) -> Result<(), BusError> {
     let iq = match torque {
-        Torque::Staged => motor.staged,
+        Torque::Staged => ScaledCurrent::saturating(i64::from(motor.staged), motor.command.scale),
         Torque::Zero => zero_iq(motor.dialect),
     };
     bus.send(&torque_request(motor.dialect, motor.id, iq))?;
