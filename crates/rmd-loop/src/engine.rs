@@ -612,7 +612,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
         if !all_fresh {
             return Ok(None);
         }
-        if let Some(last) = collected.last_reply {
+        if let Some(last) = collected.last_reply() {
             // Same tick: from this tick's send to the last reply. Pipelined: the replies answer
             // the previous tick, so use the tracked round trip of the slowest motor.
             let rtt_ns = if max_age == 0 {
@@ -623,7 +623,7 @@ impl<B: CanBus, C: Clock + Clone + 'static, K: Controller> Running<B, C, K> {
             stats.round_trip.record_nanos(rtt_ns);
             times.round_trip_ns = Some(rtt_ns);
         }
-        Ok(collected.last_reply)
+        Ok(collected.last_reply())
     }
 
     fn run_controller(&mut self, timing: &TickTiming) -> ControlFlow<StopReason> {

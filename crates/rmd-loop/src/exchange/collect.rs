@@ -23,8 +23,10 @@ use crate::stats::LoopStats;
 /// the motors that answered fresh.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
 pub(crate) struct Collected {
-    /// When the newest fresh reply came.
-    pub(crate) last_reply: Option<Timestamp>,
+    /// When the newest fresh reply came, ns (meaningful once `any` is set).
+    last_reply_ns: u64,
+    /// Whether a fresh reply came.
+    any: bool,
     /// The longest tracked round trip of the motors that answered fresh, ns.
     pub(crate) rtt_max_ns: u64,
 }
@@ -32,8 +34,15 @@ pub(crate) struct Collected {
 impl Collected {
     #[inline]
     pub(super) fn add(&mut self, at: Timestamp, round_trip_ns: u64) {
-        self.last_reply = self.last_reply.max(Some(at));
+        self.last_reply_ns = self.last_reply_ns.max(at.as_nanos());
+        self.any = true;
         self.rtt_max_ns = self.rtt_max_ns.max(round_trip_ns);
+    }
+
+    /// When the newest fresh reply came, if one did.
+    #[inline]
+    pub(crate) fn last_reply(&self) -> Option<Timestamp> {
+        self.any.then(|| Timestamp::from_nanos(self.last_reply_ns))
     }
 }
 
