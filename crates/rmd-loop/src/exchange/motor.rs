@@ -141,8 +141,9 @@ pub(crate) struct MotorLink {
     unwrapper: EncoderUnwrapper,
     pub(crate) temperature_limit: Option<f64>,
     pub(crate) pending: PendingRequests,
-    /// When the last reply came, ns.
-    last_reply_ns: Option<u64>,
+    /// When the last reply came, ns; `u64::MAX` before the first (so that the time since it,
+    /// a saturating difference, is 0 until there is one).
+    last_reply_ns: u64,
     ticks_since_reply: u32,
     pub(crate) consecutive_missing: u32,
     /// When this tick's newest late reply came, if it was timed like a newer request's reply.
@@ -199,7 +200,7 @@ impl MotorLink {
             unwrapper: EncoderUnwrapper::new(joint.encoder),
             temperature_limit: joint.temperature_limit_celsius,
             pending: PendingRequests::new(),
-            last_reply_ns: None,
+            last_reply_ns: u64::MAX,
             ticks_since_reply: 0,
             consecutive_missing: 0,
             late_fits_next: None,
@@ -352,9 +353,7 @@ impl MotorLink {
         let at_ns = at.as_nanos();
         // Values of late replies still update the state (they are newer than what we have, and
         // the encoder unwrapping needs every reading), but the feedback is not marked fresh.
-        let elapsed_ns = self
-            .last_reply_ns
-            .map_or(0, |last| at_ns.saturating_sub(last));
+        let elapsed_ns = at_ns.saturating_sub(self.last_reply_ns);
         let (motor_deg, speed_dps, raw_position) = match reading {
             Reading::Encoder(raw) => {
                 let speed_dps = status.speed.dps();
@@ -398,7 +397,7 @@ impl MotorLink {
         motor: MotorSide,
         raw: RawReply,
     ) {
-        self.last_reply_ns = Some(at.as_nanos());
+        self.last_reply_ns = at.as_nanos();
         self.ticks_since_reply = 0;
         feedback.joint = JointSide {
             angle_deg: self.map.joint_angle_deg(motor.angle_deg),
