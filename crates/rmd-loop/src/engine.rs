@@ -884,22 +884,22 @@ impl<B, C: Clock> LoopParts<B, C> {
                 .signals_mut()
                 .copy_from_slice(&self.signals[..self.signal_count]);
         };
-        let delivered = match *delivery {
-            TelemetryDelivery::Overwrite => tx.publish(true, fill) == Published::Queued,
-            TelemetryDelivery::Wait => loop {
-                // `fill` is called only when the sample is queued.
-                if tx.publish(false, fill) == Published::Queued {
-                    break true;
-                }
-                // Nobody will make room, or the run is to end: stop waiting.
-                if !tx.has_receivers()
-                    || self.shared.stop.pending().is_some()
-                    || self.shared.vitals.phase() != LoopPhase::Running
-                {
-                    break false;
-                }
-                std::thread::sleep(TELEMETRY_WAIT);
-            },
+        // Overwriting, one publish; waiting, until the sample is queued (`fill` is called only
+        // then). One call site: `fill` inlines into it.
+        let overwrite = *delivery == TelemetryDelivery::Overwrite;
+        let delivered = loop {
+            if tx.publish(overwrite, fill) == Published::Queued {
+                break true;
+            }
+            // Nobody will make room, or the run is to end: stop waiting.
+            if overwrite
+                || !tx.has_receivers()
+                || self.shared.stop.pending().is_some()
+                || self.shared.vitals.phase() != LoopPhase::Running
+            {
+                break false;
+            }
+            std::thread::sleep(TELEMETRY_WAIT);
         };
         if !delivered {
             self.stats.telemetry_drops += 1;

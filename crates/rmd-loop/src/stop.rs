@@ -66,6 +66,7 @@ impl StopSignal {
     }
 
     /// The pending request, if any.
+    #[inline]
     pub(crate) fn pending(&self) -> Option<StopRequest> {
         StopRequest::from_code(self.0.load(Ordering::Acquire))
     }
