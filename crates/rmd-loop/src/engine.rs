@@ -880,9 +880,12 @@ impl<B, C: Clock> LoopParts<B, C> {
                 slot.feedback = *feedback;
                 slot.command_amps = *amps;
             }
-            sample
-                .signals_mut()
-                .copy_from_slice(&self.signals[..self.signal_count]);
+            // (Without signals, no call to copy nothing.)
+            if self.signal_count > 0 {
+                sample
+                    .signals_mut()
+                    .copy_from_slice(&self.signals[..self.signal_count]);
+            }
         };
         // Overwriting, one publish; waiting, until the sample is queued (`fill` is called only
         // then). One call site: `fill` inlines into it.
