@@ -739,12 +739,14 @@ impl<B, C> LoopParts<B, C> {
     /// one is the fault that ends the run.
     fn count_rejections(&mut self) -> Option<Fault> {
         let r = &self.rejections;
+        // An undeclared signal index is counted on every tick it happens, but it is no command:
+        // it neither sets `first` nor faults.
+        self.stats.unknown_signals += u64::from(r.unknown_signal);
         let (joint, reason) = r.first?;
         for (counters, count) in self.stats.motors.iter_mut().zip(r.per_joint) {
             counters.rejected_commands += u64::from(count);
         }
         self.stats.unknown_joint_commands += u64::from(r.unknown_joint);
-        self.stats.unknown_signals += u64::from(r.unknown_signal);
         match self.robot.settings().rejected_command {
             RejectedCommandPolicy::Fault => Some(Fault::RejectedCommand { joint, reason }),
             RejectedCommandPolicy::Zero => None,

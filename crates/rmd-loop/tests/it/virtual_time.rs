@@ -913,3 +913,39 @@ fn on_a_link_slower_than_the_period_each_status_reply_answers_its_own_request() 
         );
     }
 }
+
+/// Holds every joint at zero torque and writes a signal the controller never declared.
+struct UndeclaredSignal;
+
+impl rmd_loop::Controller for UndeclaredSignal {
+    fn update(
+        &mut self,
+        _: &rmd_loop::TickContext,
+        fb: &rmd_loop::Feedback<'_>,
+        cmd: &mut rmd_loop::Commands<'_>,
+    ) -> rmd_loop::Flow {
+        for (joint, _) in fb.iter() {
+            cmd.set_current(joint, 0.0);
+        }
+        cmd.set_signal(3, 1.0);
+        rmd_loop::Flow::Continue
+    }
+}
+
+#[test]
+fn an_undeclared_signal_is_counted_on_ticks_without_rejected_commands() {
+    let (out, mut bus) = run_leg(1, &[], UndeclaredSignal, 200);
+    let r = &out.report;
+    assert_eq!(r.stop_reason, StopReason::TickLimit);
+    assert_eq!(r.stats.unknown_signals, 200);
+    assert_eq!(r.stats.unknown_joint_commands, 0);
+    assert!(
+        r.stats
+            .motors
+            .iter()
+            .all(|m| m.counters.rejected_commands == 0),
+        "{:?}",
+        r.stats.motors
+    );
+    assert_safe(&mut bus, 4);
+}
