@@ -42,8 +42,6 @@ pub struct EncoderUnwrapper {
     counts_per_turn: i64,
     /// Counts per degree per nanosecond at 1 deg/s: `counts_per_turn / 360 / 1e9`.
     counts_per_dps_ns: f64,
-    /// `1 / counts_per_turn` (exact: a power of two).
-    turns_per_count: f64,
     /// `360 / counts_per_turn` (exact).
     degrees_per_count: f64,
     last: Option<u16>,
@@ -60,7 +58,6 @@ impl EncoderUnwrapper {
         Self {
             counts_per_turn,
             counts_per_dps_ns: n / 360.0 / 1e9,
-            turns_per_count: 1.0 / n,
             degrees_per_count: 360.0 / n,
             last: None,
             counts: 0,
@@ -101,11 +98,19 @@ impl EncoderUnwrapper {
                 // (An hour between readings is as good as forever: the count is then a guess.)
                 let elapsed_ns = elapsed_ns.min(HOUR_NS) as i64 as f64;
                 let expected = speed_dps * elapsed_ns * self.counts_per_dps_ns;
-                // The whole number of turns k that puts raw + k*n closest to the prediction.
-                let expected = if expected.is_finite() { expected } else { 0.0 };
-                let turns = (expected - raw as f64) * self.turns_per_count;
-                let k = nearest_integer_within(turns, -1e9, 1e9);
-                self.counts = self.counts.saturating_add(raw + k * n);
+                // The prediction in whole counts (toward zero; NaN and infinities predict no
+                // motion; beyond +-2^52 counts it is a guess anyway, and nothing below
+                // overflows).
+                let e = if expected.is_finite() {
+                    expected.clamp(-ALL_INTEGERS, ALL_INTEGERS) as i64
+                } else {
+                    0
+                };
+                // The count congruent to raw (mod n) closest to the prediction: the one in
+                // e - n/2 .. e + n/2.
+                let half = n / 2;
+                let delta = e + ((raw - e + half) & mask) - half;
+                self.counts = self.counts.saturating_add(delta);
             }
         }
         self.last = Some(encoder);
