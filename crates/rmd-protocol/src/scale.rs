@@ -40,13 +40,39 @@ use crate::round::round_half_away;
 /// The scale also names the protocol field it belongs to (`iq_control` for commands, `iq` for
 /// replies), so that errors name the field and a command scale is never mistaken for a reply
 /// scale even where the numbers agree.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+#[derive(Copy, Clone, Debug)]
 pub struct CurrentScale {
     field: Field,
     milliamps: u32,
     per_raw: u32,
     min_raw: i16,
     max_raw: i16,
+    /// `milliamps / per_raw`, worked out once (it follows from the two: equality and hashing
+    /// leave it out). Exact in binary for every scale here (`per_raw` a power of two, or
+    /// dividing `milliamps`), so `amps` equals `raw * milliamps / per_raw / 1000` to the bit.
+    milliamps_per_raw: f64,
+}
+
+/// Scales are equal when their field, numbers and range are.
+impl PartialEq for CurrentScale {
+    fn eq(&self, other: &Self) -> bool {
+        self.same_as(*other)
+    }
+}
+
+impl Eq for CurrentScale {}
+
+impl core::hash::Hash for CurrentScale {
+    fn hash<H: core::hash::Hasher>(&self, state: &mut H) {
+        (
+            self.field,
+            self.milliamps,
+            self.per_raw,
+            self.min_raw,
+            self.max_raw,
+        )
+            .hash(state);
+    }
 }
 
 impl CurrentScale {
@@ -94,12 +120,14 @@ impl CurrentScale {
         min_raw: i16,
         max_raw: i16,
     ) -> Self {
+        let per_raw = if per_raw == 0 { 1 } else { per_raw };
         Self {
             field,
             milliamps,
-            per_raw: if per_raw == 0 { 1 } else { per_raw },
+            per_raw,
             min_raw,
             max_raw,
+            milliamps_per_raw: milliamps as f64 / per_raw as f64,
         }
     }
 
@@ -129,8 +157,9 @@ impl CurrentScale {
     }
 
     /// The current a raw value means, A (not range-checked).
+    #[inline]
     pub fn amps(self, raw: i16) -> f64 {
-        f64::from(raw) * f64::from(self.milliamps) / f64::from(self.per_raw) / 1000.0
+        f64::from(raw) * self.milliamps_per_raw / 1000.0
     }
 
     /// The raw value nearest to `amps` (half away from zero), unclamped; NaN gives 0.
@@ -185,6 +214,47 @@ mod tests {
         assert_eq!(CurrentScale::MYACTUATOR_V3_IQ.amps(-100), -1.0);
         // Command and reply scales of one family are distinct values (they name their field).
         assert_ne!(CurrentScale::LK_MG_IQ_CONTROL, CurrentScale::LK_MG_IQ);
+    }
+
+    #[test]
+    fn amps_are_raw_times_milliamps_over_per_raw_over_1000_to_the_bit() {
+        for scale in [
+            CurrentScale::V161_IQ_CONTROL,
+            CurrentScale::V161_IQ,
+            CurrentScale::LK_MF_IQ_CONTROL,
+            CurrentScale::LK_MF_IQ,
+            CurrentScale::LK_MG_IQ_CONTROL,
+            CurrentScale::LK_MG_IQ,
+            CurrentScale::MYACTUATOR_V3_IQ_CONTROL,
+            CurrentScale::MYACTUATOR_V3_IQ,
+        ] {
+            for raw in scale.min_raw()..=scale.max_raw() {
+                let exact =
+                    f64::from(raw) * f64::from(scale.milliamps) / f64::from(scale.per_raw) / 1000.0;
+                assert_eq!(scale.amps(raw).to_bits(), exact.to_bits(), "{scale} {raw}");
+            }
+        }
+    }
+
+    #[test]
+    fn equal_numbers_are_equal_scales_with_equal_hashes() {
+        extern crate std;
+        use core::hash::BuildHasher;
+        let state = std::hash::RandomState::new();
+        let hash = |s: CurrentScale| state.hash_one(s);
+        let built = CurrentScale::new(Field::Iq, 33_000, 2048, -2048, 2048);
+        assert_eq!(built, CurrentScale::V161_IQ);
+        assert_eq!(CurrentScale::LK_MG_IQ, CurrentScale::V161_IQ);
+        assert_eq!(hash(built), hash(CurrentScale::V161_IQ));
+        // A zero `per_raw` is taken as 1.
+        assert_eq!(
+            CurrentScale::new(Field::Iq, 10, 0, i16::MIN, i16::MAX),
+            CurrentScale::MYACTUATOR_V3_IQ
+        );
+        assert_ne!(
+            built,
+            CurrentScale::new(Field::Iq, 33_000, 2048, -2047, 2048)
+        );
     }
 
     #[test]
