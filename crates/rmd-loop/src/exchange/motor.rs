@@ -150,8 +150,9 @@ pub(crate) struct MotorLink {
     late_fits_next: Option<Timestamp>,
     /// Consecutive ticks ending with such a reply (see [`RESYNC_AFTER`]).
     late_streak: u32,
-    /// Estimated round trip (request sent to reply received), ns; `None` until the first reply.
-    round_trip_ns: Option<u64>,
+    /// Estimated round trip (request sent to reply received), ns, at most
+    /// [`MAX_ROUND_TRIP_NS`]; [`NO_ROUND_TRIP`] until the first fresh reply.
+    round_trip_ns: u64,
     /// The shortest physical round trip on its bus (see [`min_round_trip`]), ns.
     min_round_trip_ns: u64,
     /// Its status request (0x9A in its dialect), encoded once (`None`: its dialect could not
@@ -205,7 +206,7 @@ impl MotorLink {
             consecutive_missing: 0,
             late_fits_next: None,
             late_streak: 0,
-            round_trip_ns: None,
+            round_trip_ns: NO_ROUND_TRIP,
             min_round_trip_ns: duration_ns(min_round_trip(bitrate)),
             status_request: status_request(joint.dialect, joint.motor),
             status_pending: StatusPending::default(),
@@ -222,19 +223,19 @@ impl MotorLink {
 
     /// The estimated round trip, once a reply measured one.
     pub(crate) fn round_trip(&self) -> Option<Duration> {
-        self.round_trip_ns.map(Duration::from_nanos)
+        self.round_trip_ns().map(Duration::from_nanos)
     }
 
     /// [`round_trip`](Self::round_trip) in nanoseconds.
     #[inline]
     pub(crate) fn round_trip_ns(&self) -> Option<u64> {
-        self.round_trip_ns
+        (self.round_trip_ns != NO_ROUND_TRIP).then_some(self.round_trip_ns)
     }
 
     /// Forgets the round trip measured so far (it may span a stall: the next reply measures it
     /// afresh).
     pub(crate) fn forget_round_trip(&mut self) {
-        self.round_trip_ns = None;
+        self.round_trip_ns = NO_ROUND_TRIP;
     }
 
     /// Marks the end of a tick's collection: after [`RESYNC_AFTER`] ticks in a row whose newest
@@ -267,14 +268,15 @@ impl MotorLink {
     /// Folds one measured round trip into the estimate (moving average, weight 1/8).
     #[inline]
     fn track_round_trip(&mut self, sample_ns: u64) {
-        self.round_trip_ns = Some(match self.round_trip_ns {
-            None => sample_ns,
-            Some(rtt) => {
-                // Round trips are far below 2^62 ns (146 years): the difference fits an i64.
-                let delta = (sample_ns.min(MAX_ROUND_TRIP_NS) as i64 - rtt as i64) / 8;
-                rtt.saturating_add_signed(delta)
-            }
-        });
+        let sample = sample_ns.min(MAX_ROUND_TRIP_NS) as i64;
+        let rtt = self.round_trip_ns;
+        // The estimate and the sample both lie in 0..=MAX_ROUND_TRIP_NS (far below 2^62): the
+        // difference fits an i64, and the average stays in that range.
+        self.round_trip_ns = if rtt == NO_ROUND_TRIP {
+            sample as u64
+        } else {
+            (rtt as i64 + (sample - rtt as i64) / 8) as u64
+        };
     }
 
     /// Matches a reply received at `at` during `tick` to its request (replies up to `max_age`
@@ -563,6 +565,9 @@ enum Reading {
 
 /// The longest round trip the estimate takes in (one hour): anything longer is no reply.
 const MAX_ROUND_TRIP_NS: u64 = 3_600_000_000_000;
+
+/// The round trip of a motor no fresh reply has measured yet (above any measured one).
+const NO_ROUND_TRIP: u64 = u64::MAX;
 
 /// `d` in nanoseconds, saturating.
 fn duration_ns(d: Duration) -> u64 {
