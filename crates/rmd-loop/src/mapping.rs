@@ -25,13 +25,17 @@ const ALL_INTEGERS: f64 = 4_503_599_627_370_496.0;
 #[inline]
 pub(crate) fn nearest_integer_within(x: f64, min: f64, max: f64) -> i64 {
     debug_assert!(-ALL_INTEGERS <= min && min <= max && max <= ALL_INTEGERS);
-    // Within +-2^52 `t` and `t as f64` are exact, so `frac` is the exact fractional part, and
-    // nothing below overflows. `as` gives 0 for NaN.
+    // Adding the largest double below one half, with x's sign, then truncating, rounds halves
+    // away from zero and nothing else: at a fraction of exactly one half the sum is a tie that
+    // rounds to the even neighbour, the next integer; below one half it stays below the next
+    // integer. Exact within +-2^52 (where the spacing of doubles is at most 1). `as` gives 0 for
+    // NaN (which `clamp` passes through).
     let x = x.clamp(min, max);
-    let t = x as i64;
-    let frac = x - t as f64;
-    t + i64::from(frac >= 0.5) - i64::from(frac <= -0.5)
+    (x + BELOW_HALF.copysign(x)) as i64
 }
+
+/// The largest `f64` below 0.5.
+const BELOW_HALF: f64 = 0.499_999_999_999_999_94;
 
 /// An hour in nanoseconds.
 const HOUR_NS: u64 = 3_600_000_000_000;
@@ -283,6 +287,13 @@ mod tests {
             (-1e300, -(1 << 52)),
             (f64::NAN, 0),
             (4503599627370495.0, 4503599627370495),
+            (4503599627370495.5, 4503599627370496),
+            (2251799813685248.5, 2251799813685249),
+            (2251799813685249.5, 2251799813685250),
+            (-2251799813685249.5, -2251799813685250),
+            (1.5000000000000002, 2),
+            (2.4999999999999996, 2),
+            (-2.4999999999999996, -2),
         ] {
             assert_eq!(
                 nearest_integer_within(x, -ALL_INTEGERS, ALL_INTEGERS),
@@ -383,6 +394,17 @@ mod tests {
                 let reading = truth.rem_euclid(16384) as u16;
                 let got = u.update(reading, speed, MS);
                 prop_assert!((got - truth as f64 * 360.0 / 16384.0).abs() < 1e-6);
+            }
+        }
+
+        /// Rounding agrees with the library's `round` (halves away from zero) for any double
+        /// within +-2^52, and for halves and their neighbours.
+        #[test]
+        fn nearest_integer_is_the_librarys_round(x in -ALL_INTEGERS..=ALL_INTEGERS, n in -(1i64 << 40)..(1i64 << 40)) {
+            prop_assert_eq!(nearest_integer_within(x, -ALL_INTEGERS, ALL_INTEGERS), x.round() as i64);
+            let half = n as f64 + 0.5;
+            for y in [half, half.next_down(), half.next_up(), -half, -half.next_down()] {
+                prop_assert_eq!(nearest_integer_within(y, -ALL_INTEGERS, ALL_INTEGERS), y.round() as i64, "{}", y);
             }
         }
 
