@@ -8,8 +8,13 @@
 //! SocketCAN and on threaded simulators. Telemetry is published to a receiver nobody drains (the
 //! mailbox overwrites), as with a live display that fell behind.
 //!
-//! `benches/tick.rs` times this scenario with criterion; `benches/tick-instructions.sh` counts
-//! its instructions per tick under callgrind with this crate's `tick-instructions` binary.
+//! The per-motor scenario ([`per_motor_loop`]) is the same on buses of MyActuator V3 motors,
+//! which have no packed torque frame: one 0xA1 request per motor and tick, each answered by its
+//! motor ([`CannedMotorBus`]).
+//!
+//! `benches/tick.rs` times the loop-alone scenario with criterion; `benches/tick-instructions.sh`
+//! counts both scenarios' instructions per tick under callgrind with this crate's
+//! `tick-instructions` binary.
 //!
 //! ```
 //! let (mut rt, _telemetry) = rmd_tick_bench::loop_alone(2);
@@ -24,14 +29,15 @@ use std::time::Duration;
 use rmd_bus::{
     BusError, BusMessage, CanBus, Clock, Readiness, Received, Timestamp, VirtualClock, WaitOn,
 };
-use rmd_loop::robot::{BusConfig, MotorConfig, RobotConfig};
+use rmd_loop::robot::{BusConfig, ExchangeKind, MotorConfig, RobotConfig};
 use rmd_loop::{
     Commands, Controller, Feedback, Flow, RtLoop, Running, TickContext, robot::Robot,
     telemetry::TelemetryReceiver,
 };
 use rmd_protocol::{
-    CanFrame, Dialect, EncoderValue, ErrorState, Iq, MULTI_TORQUE_CAN_ID, MotorId, Reply, Speed,
-    Status1, Status2, StatusPosition, Temperature, V161Status1, Voltage,
+    CanFrame, Dialect, EncoderValue, ErrorState, Iq, MULTI_TORQUE_CAN_ID, MotorId, OutputAngle,
+    Reply, SINGLE_MOTOR_BASE_ID, ScaledCurrent, Speed, Status1, Status2, StatusPosition,
+    Temperature, V161Status1, Voltage,
 };
 
 /// Loop rate of the scenario.
@@ -71,10 +77,21 @@ pub fn robot(buses: usize) -> Robot {
 
 /// [`robot`] at `rate_hz`; at [`HEALTH_RATE_HZ`] every bus also carries the health rotation.
 pub fn robot_at(buses: usize, rate_hz: f64) -> Robot {
+    robot_of(buses, rate_hz, MOTORS, |bus| bus)
+}
+
+/// A robot at `rate_hz` of `buses` buses (`bench0`, ...) of motors 1..=`motors`, each bus as
+/// `configure` makes it.
+fn robot_of(
+    buses: usize,
+    rate_hz: f64,
+    motors: u8,
+    configure: impl Fn(BusConfig) -> BusConfig,
+) -> Robot {
     let mut robot = RobotConfig::new(rate_hz);
     for b in 0..buses {
-        let mut bus = BusConfig::new(&format!("bench{b}"));
-        for id in 1..=MOTORS {
+        let mut bus = configure(BusConfig::new(&format!("bench{b}")));
+        for id in 1..=motors {
             bus = bus.with_motor(MotorConfig::new(id));
         }
         robot = robot.with_bus(bus);
@@ -218,16 +235,169 @@ impl CanBus for CannedBus {
     /// Like a SocketCAN socket or a threaded simulator, it can be waited on with other buses:
     /// the loop collects from all of them at once (the path real runs take).
     fn readiness(&mut self) -> Readiness<'_> {
-        match self.first_arrival() {
-            Some(at) if at <= self.clock.now() => Readiness::Ready,
-            Some(at) => Readiness::Pending(WaitOn::arrival(at, Duration::ZERO)),
-            None => Readiness::Pending(WaitOn::default()),
-        }
+        readiness_of(&self.clock, self.first_arrival())
+    }
+}
+
+/// A canned bus's readiness when its next reply arrives at `next`.
+#[inline(always)]
+fn readiness_of(clock: &VirtualClock, next: Option<Timestamp>) -> Readiness<'static> {
+    match next {
+        Some(at) if at <= clock.now() => Readiness::Ready,
+        Some(at) => Readiness::Pending(WaitOn::arrival(at, Duration::ZERO)),
+        None => Readiness::Pending(WaitOn::default()),
     }
 }
 
 /// The loop of the scenario.
 pub type LoopAlone = Running<CannedBus, VirtualClock, NoOp>;
+
+/// Motors on each bus of the per-motor scenario: MyActuator V3 motors, ids 1..=3, the most a bus
+/// drives one request at a time at [`RATE_HZ`] (the robot description refuses four).
+pub const PER_MOTOR_MOTORS: u8 = 3;
+
+/// Requests a [`CannedMotorBus`] holds replies for (more are refused, as a full transmit queue).
+const PENDING_REQUESTS: usize = 2 * PER_MOTOR_MOTORS as usize;
+
+/// DATA\[0\] of a torque request (0xA1).
+const TORQUE_REQUEST: u8 = 0xA1;
+
+/// A robot of `buses` buses of [`PER_MOTOR_MOTORS`] MyActuator V3 motors each (ids 1..=3), on the
+/// per-motor exchange (one 0xA1 request per motor and tick: V3 has no packed torque frame), at
+/// [`RATE_HZ`].
+pub fn per_motor_robot(buses: usize) -> Robot {
+    robot_of(buses, RATE_HZ, PER_MOTOR_MOTORS, |bus| {
+        bus.protocol("myactuator-v3")
+            .exchange(ExchangeKind::PerMotor)
+    })
+}
+
+/// A bus of motors driven per motor: it answers each motor's 0xA1 torque request with that
+/// motor's pre-encoded reply (in the motors' dialect), [`TURNAROUND`] after the request and at
+/// least [`REPLY_GAP`] after the reply before it (virtual time, as [`CannedBus`]). Other frames
+/// are taken and not answered. No allocation.
+#[derive(Debug)]
+pub struct CannedMotorBus {
+    clock: VirtualClock,
+    replies: [CanFrame; PER_MOTOR_MOTORS as usize],
+    /// When each request not answered yet was sent (ns), oldest first (a ring)...
+    sent_ns: [u64; PENDING_REQUESTS],
+    /// ... and whose reply it asks for (index into `replies`).
+    motor: [usize; PENDING_REQUESTS],
+    head: usize,
+    len: usize,
+    /// While a request is pending, when its reply arrives (ns).
+    next_ns: u64,
+}
+
+impl CannedMotorBus {
+    /// A bus on `clock` for motors 1..=[`PER_MOTOR_MOTORS`] of `dialect`, nothing pending.
+    pub fn new(clock: VirtualClock, dialect: Dialect) -> Self {
+        let replies = core::array::from_fn(|i| {
+            let motor = MotorId::new(i as u8 + 1).expect("ids 1..=3 are valid");
+            let status = Status2 {
+                temperature: Temperature::saturating(30),
+                iq: ScaledCurrent::saturating(40 * i as i64 - 60, dialect.iq_scale()),
+                speed: Speed::saturating(12 - 5 * i as i64),
+                position: StatusPosition::OutputDegrees(
+                    OutputAngle::new(90 * i as i64 - 45).expect("a small angle"),
+                ),
+            };
+            dialect
+                .encode_reply(motor, &Reply::Torque(status))
+                .expect("a torque reply encodes")
+        });
+        Self {
+            clock,
+            replies,
+            sent_ns: [0; PENDING_REQUESTS],
+            motor: [0; PENDING_REQUESTS],
+            head: 0,
+            len: 0,
+            next_ns: 0,
+        }
+    }
+
+    /// When the next reply arrives.
+    fn first_arrival(&self) -> Option<Timestamp> {
+        (self.len > 0).then_some(Timestamp::from_nanos(self.next_ns))
+    }
+}
+
+impl CanBus for CannedMotorBus {
+    // Inlined into the loop, as the canned bus's (see there).
+    #[inline(always)]
+    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        let first = SINGLE_MOTOR_BASE_ID + 1;
+        let motor = usize::from(frame.id().wrapping_sub(first));
+        if motor < usize::from(PER_MOTOR_MOTORS) && frame.data().first() == Some(&TORQUE_REQUEST) {
+            if self.len == PENDING_REQUESTS {
+                return Err(BusError::TxQueueFull);
+            }
+            let slot = (self.head + self.len) % PENDING_REQUESTS;
+            let now_ns = self.clock.now().as_nanos();
+            self.sent_ns[slot] = now_ns;
+            self.motor[slot] = motor;
+            if self.len == 0 {
+                self.next_ns = now_ns + TURNAROUND.as_nanos() as u64;
+            }
+            self.len += 1;
+        }
+        Ok(())
+    }
+
+    // The wait for the arrival is `CannedBus`'s written out again: one helper for both, even
+    // inlined, changed how the compiler laid out both scenarios' loops (+18 to +58 instructions
+    // a tick, tick-instructions.sh).
+    #[inline(always)]
+    fn recv_until(&mut self, deadline: Timestamp) -> Result<Option<Received>, BusError> {
+        let Some(at) = self.first_arrival() else {
+            self.clock.sleep_until(deadline);
+            return Ok(None);
+        };
+        if at > self.clock.now() {
+            if at > deadline {
+                self.clock.sleep_until(deadline);
+                return Ok(None);
+            }
+            self.clock.sleep_until(at);
+        }
+        let reply = self.replies[self.motor[self.head]];
+        self.head = (self.head + 1) % PENDING_REQUESTS;
+        self.len -= 1;
+        // The next reply: its turnaround after its request, behind this one on the wire.
+        self.next_ns = (self.sent_ns[self.head] + TURNAROUND.as_nanos() as u64)
+            .max(at.as_nanos() + REPLY_GAP.as_nanos() as u64);
+        Ok(Some(Received {
+            at,
+            message: BusMessage::Frame(reply),
+        }))
+    }
+
+    /// Waited on with other buses, as [`CannedBus`].
+    fn readiness(&mut self) -> Readiness<'_> {
+        readiness_of(&self.clock, self.first_arrival())
+    }
+}
+
+/// The loop of the per-motor scenario.
+pub type PerMotorLoop = Running<CannedMotorBus, VirtualClock, NoOp>;
+
+/// A started loop over `buses` canned buses of [`PER_MOTOR_MOTORS`] MyActuator V3 motors each,
+/// driven per motor, publishing telemetry to the returned receiver (keep it alive).
+// `#[inline]`: compiled in the crate that calls it (the `tick-instructions` binary), with the
+// loop of this scenario, not beside the loop-alone scenario's in this crate, whose compiled code
+// (and instruction count) would change with a second loop instantiated next to it.
+#[inline]
+pub fn per_motor_loop(buses: usize) -> (PerMotorLoop, TelemetryReceiver) {
+    let robot = per_motor_robot(buses);
+    let dialect = robot.joints()[0].dialect;
+    let clock = VirtualClock::new();
+    let canned = (0..buses)
+        .map(|_| CannedMotorBus::new(clock.clone(), dialect))
+        .collect();
+    started(robot, clock, canned)
+}
 
 /// A started loop over `buses` canned buses publishing telemetry to the returned receiver (keep
 /// it alive: without a receiver nothing is published).
@@ -299,6 +469,89 @@ mod tests {
         }
         // Nothing more; the receive waited until its deadline.
         assert_eq!(clock.now(), Timestamp::from_nanos(10_000_000));
+    }
+
+    #[test]
+    fn each_torque_request_is_answered_by_its_motors_reply_in_turn() {
+        let clock = VirtualClock::new();
+        let dialect = per_motor_robot(1).joints()[0].dialect;
+        let mut bus = CannedMotorBus::new(clock.clone(), dialect);
+        let request = |id: u8| {
+            let motor = MotorId::new(id).unwrap();
+            let iq = ScaledCurrent::saturating(0, dialect.iq_control_scale());
+            dialect
+                .encode(motor, &rmd_protocol::Request::Torque { iq_control: iq })
+                .unwrap()
+        };
+        // Motors 3 and 1, then a frame it does not answer (a status request), then motor 2.
+        bus.send(&request(3)).unwrap();
+        bus.send(&request(1)).unwrap();
+        bus.send(
+            &dialect
+                .encode(
+                    MotorId::new(2).unwrap(),
+                    &rmd_protocol::Request::ReadStatus1,
+                )
+                .unwrap(),
+        )
+        .unwrap();
+        clock.sleep_until(Timestamp::from_nanos(400_000));
+        bus.send(&request(2)).unwrap();
+        let mut got = Vec::new();
+        while let Some(r) = bus.recv_until(Timestamp::from_nanos(10_000_000)).unwrap() {
+            let BusMessage::Frame(f) = r.message else {
+                panic!("{:?}", r.message)
+            };
+            let (_, Reply::Torque(status)) = dialect.decode_reply(&f).unwrap() else {
+                panic!("{f:?}")
+            };
+            got.push((r.at.as_nanos() / 1_000, f.id(), status.position));
+        }
+        let angle = |deg: i64| StatusPosition::OutputDegrees(OutputAngle::new(deg).unwrap());
+        assert_eq!(
+            got,
+            [
+                // Its turnaround after the request, then behind the one before on the wire.
+                (250, dialect.reply_id(MotorId::new(3).unwrap()), angle(135)),
+                (370, dialect.reply_id(MotorId::new(1).unwrap()), angle(-45)),
+                (650, dialect.reply_id(MotorId::new(2).unwrap()), angle(45)),
+            ]
+        );
+        // Six requests outstanding fill its queue.
+        for _ in 0..PENDING_REQUESTS {
+            bus.send(&request(1)).unwrap();
+        }
+        assert_eq!(bus.send(&request(1)), Err(BusError::TxQueueFull));
+    }
+
+    #[test]
+    fn the_per_motor_scenario_gets_every_reply_fresh() {
+        let robot = per_motor_robot(2);
+        assert!(
+            robot
+                .joints()
+                .iter()
+                .all(|j| j.dialect.family() == rmd_protocol::ProtocolFamily::MyActuatorV3)
+        );
+        let (mut rt, telemetry) = per_motor_loop(2);
+        for _ in 0..1000 {
+            assert!(rt.step().is_continue());
+        }
+        let stats = rt.stats().summary();
+        assert_eq!(stats.missing_replies + stats.late_replies, 0, "{stats}");
+        assert_eq!(stats.motors.len(), 6);
+        for m in &stats.motors {
+            let c = &m.counters;
+            assert_eq!((c.unexpected_replies, c.bad_frames), (0, 0), "{m:?}");
+        }
+        // The replies' values reach the feedback: motor 2 of each bus reports +45 degrees at
+        // its output (no gearbox: the rotor's angle too).
+        let sample = telemetry.latest().expect("a telemetry sample");
+        for bus in 0..2 {
+            let feedback = &sample.joints()[bus * 3 + 1].feedback;
+            assert!(feedback.freshness.is_fresh(), "{feedback:?}");
+            assert_eq!(feedback.motor.angle_deg, 45.0, "{feedback:?}");
+        }
     }
 
     #[test]
