@@ -156,7 +156,9 @@ impl CurrentScale {
         f64::from(self.max_raw) * self.amps_per_lsb()
     }
 
-    /// The current a raw value means, A (not range-checked).
+    /// The current a raw value means, A (not range-checked): `raw * (milliamps / per_raw) /
+    /// 1000`, the same to the bit as `raw * milliamps / per_raw / 1000` wherever the quotient is
+    /// exact in binary (every scale of the protocols).
     #[inline]
     pub fn amps(self, raw: i16) -> f64 {
         f64::from(raw) * self.milliamps_per_raw / 1000.0
