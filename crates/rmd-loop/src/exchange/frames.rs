@@ -112,6 +112,8 @@ impl ReplyExpectation {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::robot::{BusConfig, MotorConfig, Robot, RobotConfig};
+    use rmd_protocol::{LkSeries, MotorId};
 
     #[test]
     fn staged_slots_make_the_frame_multi_torque_encodes() {
@@ -137,8 +139,6 @@ mod tests {
             MultiTorque::new([ZERO_IQ; MULTI_TORQUE_MOTORS]).encode()
         );
     }
-    use crate::robot::{BusConfig, MotorConfig, Robot, RobotConfig};
-    use rmd_protocol::{LkSeries, MotorId};
 
     fn joint(dialect: &str, series: Option<&str>) -> JointSpec {
         let motor = MotorConfig::new(3).protocol(dialect, series);
