@@ -45,13 +45,25 @@ def wait_until(what, predicate, timeout=TIMEOUT, poll=0.02):
     raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
 
+def raised_priority():
+    """`nice -n -15` where allowed (root): the tests run side by side with every other suite, and
+    the motors are simulated in real time. At normal priority on that loaded machine the loop
+    thread can be left unscheduled for tens of milliseconds while a simulated motor goes on with
+    its last torque, and the loop's guard then rightly ends the run (a joint past its velocity
+    limit). What is tested here is DDS, not the host's scheduler. (A higher weight, not
+    SCHED_FIFO: the node's threads still share the CPU with each other.) `nice` execs the
+    node, so the process is the node's."""
+    return ["nice", "-n", "-15"] if os.geteuid() == 0 else []
+
+
 class Rmd:
-    """`rmd ros2` as a process: the report comes as JSON on stdout when it ends."""
+    """`rmd ros2` as a process (at `raised_priority` where allowed): the report comes as JSON on
+    stdout when it ends."""
 
     def __init__(self, *extra, namespace, domain, network="127.0.0.1"):
         binary = os.environ["RMD_BIN"]
         self.proc = subprocess.Popen(
-            [binary, "ros2", "--robot", ROBOT, "--sim", "--servo", SERVO,
+            [*raised_priority(), binary, "ros2", "--robot", ROBOT, "--sim", "--servo", SERVO,
              "--namespace", namespace, "--domain-id", str(domain), "--network", network,
              "--diagnostics-period", "300ms", "--json", *extra],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
