@@ -1,8 +1,17 @@
 //! Lock-free mailboxes between ordinary threads and the real-time loop.
 //!
 //! A mailbox is a bounded, lock-free queue (crossbeam's `ArrayQueue`) allocated once; sending and
-//! receiving never allocate, lock or block, so either end may sit on the real-time thread. Use one
-//! to send setpoints or parameters to a controller, and receive the loop's telemetry from another.
+//! receiving never allocate, lock or make a system call, so either end may sit on the real-time
+//! thread. Use one to send setpoints or parameters to a controller, and receive the loop's
+//! telemetry from another.
+//!
+//! Lock-free is not wait-free: an operation that meets another thread's operation half done on
+//! the same slot (a value claimed but not yet written, or taken but not yet released) waits for
+//! it to finish, spinning and then yielding. That is a few instructions of the other thread, as
+//! long as it runs; when it is kept from running (a thread at normal priority on a loaded machine,
+//! while the loop thread runs under SCHED_FIFO, where yielding gives way only to its own
+//! priority), the wait lasts until it runs again. The loop's supervisor ends a tick held past its
+//! stall bound.
 //!
 //! ```
 //! use rmd_loop::mailbox::mailbox;

@@ -1,7 +1,7 @@
 //! The link between the servo's handles and its controller on the loop thread: the atomics they
 //! share (the enable level with its epoch, the estop latch, whether the servo runs, the
-//! handle's refusal counters) and the messages the handles queue. Neither side ever waits for
-//! the other.
+//! handle's refusal counters) and the messages the handles queue. Neither side waits for the
+//! other (but for a mailbox operation half done on the same slot: see `rmd_loop::mailbox`).
 
 use core::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};
 

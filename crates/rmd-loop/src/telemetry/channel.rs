@@ -7,7 +7,8 @@
 //! robot's joints and queues it (when the receivers have fallen behind, the oldest queued box is
 //! pushed out: that sample is overwritten, and its box goes back to `free`); a receiver takes
 //! one, copies the sample out on its own thread and gives the box back. Only pointers cross the
-//! mailboxes: no allocation, no lock, no wait on the loop's side.
+//! mailboxes: no allocation, no lock, no system call on the loop's side (and no wait, but for a
+//! receiver's operation half done on the same slot: see [`crate::mailbox`]).
 
 use super::TelemetrySample;
 use crate::mailbox::{Receiver, Sender, mailbox};
